@@ -1,0 +1,31 @@
+//! Geometric kernels shared by every rayspace engine.
+//!
+//! Everything here is a plain `Copy` value or a function over slices, so that a GPU backend can
+//! mirror it 1:1: rays, the one ray–triangle kernel all engines use ([`tri::intersect`]), the
+//! ray–box slab test, spheres and cones (the two halves of a ray-space hierarchy node), the
+//! conservative node tests, and the minimal enclosing ball used to cull meshes.
+
+pub mod aabb;
+pub mod cone;
+pub mod miniball;
+pub mod ray;
+pub mod rng;
+pub mod sphere;
+pub mod tri;
+
+pub use aabb::Aabb;
+pub use cone::Cone;
+pub use glam::{Mat3, Mat4, Quat, Vec3};
+pub use ray::Ray;
+pub use rng::Pcg32;
+pub use sphere::Sphere;
+pub use tri::{intersect, TriHit};
+
+/// Sentinel for "no triangle" in u32 triangle-id buffers.
+pub const NO_HIT: u32 = u32::MAX;
+
+/// True when every component of `v` is finite (not NaN, not ±inf).
+#[inline]
+pub fn finite3(v: Vec3) -> bool {
+    v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
+}

@@ -1,0 +1,313 @@
+//! The ray–triangle kernel shared by every engine, plus triangle helpers.
+//!
+//! The test is the watertight algorithm of Woop, Benthin & Wald, "Watertight Ray/Triangle
+//! Intersection" (JCGT 2013). It is used instead of plain Möller–Trumbore because it guarantees
+//! what the renderer needs: a ray through an edge or vertex shared by two triangles of a closed
+//! mesh hits at least one of them. The 2-D edge functions of a shared edge are computed from the
+//! same sheared vertex values, so they are exact negations of each other and cannot both reject
+//! (with an f64 fallback when one is exactly zero, as in the paper). Back faces are not culled.
+//!
+//! Every engine calls [`intersect`] with a [`RayPre`] so hit records for the same ray and
+//! triangle are bit-identical across engines.
+
+use crate::ray::Ray;
+use glam::Vec3;
+
+/// A hit: distance along the ray and barycentrics (u, v) of vertices 1 and 2
+/// (the point is `(1-u-v)·v0 + u·v1 + v·v2`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriHit {
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// Per-ray constants of the watertight test (the shear that maps the ray to +z).
+#[derive(Clone, Copy, Debug)]
+pub struct RayPre {
+    pub org: Vec3,
+    pub kx: usize,
+    pub ky: usize,
+    pub kz: usize,
+    pub sx: f32,
+    pub sy: f32,
+    pub sz: f32,
+    pub t_min: f32,
+    pub t_max: f32,
+}
+
+impl RayPre {
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.dir;
+        let ad = d.abs();
+        // kz: the dimension where |d| is largest; kx, ky the others, swapped for d[kz] < 0 to
+        // keep the winding (irrelevant here, since we do not cull, but kept as in the paper).
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z {
+                0
+            } else {
+                2
+            }
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let sz = 1.0 / d[kz];
+        RayPre {
+            org: ray.org,
+            kx,
+            ky,
+            kz,
+            sx: d[kx] * sz,
+            sy: d[ky] * sz,
+            sz,
+            t_min: ray.t_min,
+            t_max: ray.t_max,
+        }
+    }
+}
+
+/// Intersect a ray with the triangle (a, b, c). Returns the hit when `t_min < t < t_max`.
+#[inline]
+pub fn intersect(r: &RayPre, a: Vec3, b: Vec3, c: Vec3) -> Option<TriHit> {
+    let a = a - r.org;
+    let b = b - r.org;
+    let c = c - r.org;
+    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
+    let ax = a[kx] - r.sx * a[kz];
+    let ay = a[ky] - r.sy * a[kz];
+    let bx = b[kx] - r.sx * b[kz];
+    let by = b[ky] - r.sy * b[kz];
+    let cx = c[kx] - r.sx * c[kz];
+    let cy = c[ky] - r.sy * c[kz];
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        // Exactly on an edge in single precision: decide in double precision so that the two
+        // triangles sharing the edge agree (§3 of the paper).
+        let (ax, ay, bx, by, cx, cy) = (
+            ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
+        );
+        u = (cx * by - cy * bx) as f32;
+        v = (ax * cy - ay * cx) as f32;
+        w = (bx * ay - by * ax) as f32;
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    let az = r.sz * a[kz];
+    let bz = r.sz * b[kz];
+    let cz = r.sz * c[kz];
+    let t_scaled = u * az + v * bz + w * cz;
+    let inv = 1.0 / det;
+    let t = t_scaled * inv;
+    if !(t > r.t_min && t < r.t_max) {
+        return None;
+    }
+    Some(TriHit {
+        t,
+        u: v * inv,
+        v: w * inv,
+    })
+}
+
+/// Twice the area of the triangle (the length of the edge cross product).
+#[inline]
+pub fn double_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    (b - a).cross(c - a).length()
+}
+
+/// Unit geometric normal (right-handed winding); zero for degenerate triangles.
+#[inline]
+pub fn geometric_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    (b - a).cross(c - a).normalize_or_zero()
+}
+
+/// True when the triangle has positive, finite area (the loaders drop the rest).
+#[inline]
+pub fn is_degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
+    let n = (b - a).cross(c - a);
+    let l2 = n.length_squared();
+    !(l2 > 0.0 && l2.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Pcg32;
+    use proptest::prelude::*;
+
+    fn v3() -> impl Strategy<Value = Vec3> {
+        (-10.0f32..10.0, -10.0f32..10.0, -10.0f32..10.0).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    fn pre(o: Vec3, d: Vec3) -> RayPre {
+        RayPre::new(&Ray::new(o, d, 0.0, f32::INFINITY))
+    }
+
+    #[test]
+    fn simple_hit_and_barycentrics() {
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        let h = intersect(&pre(Vec3::new(0.25, 0.5, 1.0), -Vec3::Z), a, b, c).unwrap();
+        assert!((h.t - 1.0).abs() < 1e-6);
+        assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6);
+        // Back face also hits (no culling).
+        assert!(intersect(&pre(Vec3::new(0.25, 0.25, -1.0), Vec3::Z), a, b, c).is_some());
+        // Outside.
+        assert!(intersect(&pre(Vec3::new(0.75, 0.75, 1.0), -Vec3::Z), a, b, c).is_none());
+        // Behind the origin.
+        assert!(intersect(&pre(Vec3::new(0.25, 0.25, 1.0), Vec3::Z), a, b, c).is_none());
+        // Parallel to the plane.
+        assert!(intersect(&pre(Vec3::new(-1.0, 0.2, 0.0), Vec3::X), a, b, c).is_none());
+    }
+
+    #[test]
+    fn t_range_is_open() {
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        let o = Vec3::new(0.2, 0.2, 2.0);
+        let mut r = Ray::new(o, -Vec3::Z, 0.0, 2.0);
+        assert!(
+            intersect(&RayPre::new(&r), a, b, c).is_none(),
+            "t == t_max is excluded"
+        );
+        r.t_max = 2.5;
+        r.t_min = 2.0;
+        assert!(
+            intersect(&RayPre::new(&r), a, b, c).is_none(),
+            "t == t_min is excluded"
+        );
+        r.t_min = 1.5;
+        assert!(intersect(&RayPre::new(&r), a, b, c).is_some());
+    }
+
+    /// An icosahedron: a closed mesh whose edges and vertices are each shared.
+    fn icosahedron(scale: f32, offset: Vec3) -> Vec<[Vec3; 3]> {
+        let t = (1.0 + 5.0f32.sqrt()) / 2.0;
+        let v = [
+            (-1.0, t, 0.0),
+            (1.0, t, 0.0),
+            (-1.0, -t, 0.0),
+            (1.0, -t, 0.0),
+            (0.0, -1.0, t),
+            (0.0, 1.0, t),
+            (0.0, -1.0, -t),
+            (0.0, 1.0, -t),
+            (t, 0.0, -1.0),
+            (t, 0.0, 1.0),
+            (-t, 0.0, -1.0),
+            (-t, 0.0, 1.0),
+        ]
+        .map(|(x, y, z)| Vec3::new(x, y, z) * scale + offset);
+        let f = [
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        f.iter().map(|i| [v[i[0]], v[i[1]], v[i[2]]]).collect()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(512))]
+
+        /// Rays from inside a closed mesh towards points on its shared edges and vertices
+        /// always hit some triangle: no ray slips through a crack.
+        #[test]
+        fn closed_mesh_is_watertight(
+            scale in 0.01f32..1000.0,
+            off in v3(),
+            inner in (-0.3f32..0.3, -0.3f32..0.3, -0.3f32..0.3),
+            face in 0usize..20,
+            edge in 0usize..3,
+            s in 0.0f32..=1.0,
+        ) {
+            let off = off * scale;
+            let mesh = icosahedron(scale, off);
+            let org = off + Vec3::new(inner.0, inner.1, inner.2) * scale;
+            let f = mesh[face];
+            // A point on an edge (s = 0 or 1 gives a vertex), computed in float.
+            let target = f[edge] * (1.0 - s) + f[(edge + 1) % 3] * s;
+            let d = (target - org).normalize();
+            let r = pre(org, d);
+            let hit = mesh.iter().any(|t| intersect(&r, t[0], t[1], t[2]).is_some());
+            prop_assert!(hit);
+        }
+
+        /// A hit point reconstructed from (u, v) lies on the ray at distance t.
+        #[test]
+        fn hit_is_consistent(a in v3(), b in v3(), c in v3(), o in v3(), wu in 0.01f32..0.98, wv in 0.01f32..0.98) {
+            prop_assume!(!is_degenerate(a, b, c));
+            prop_assume!(wu + wv < 0.99);
+            let p = a * (1.0 - wu - wv) + b * wu + c * wv;
+            prop_assume!((p - o).length() > 1e-2);
+            let d = (p - o).normalize();
+            // Skip near-grazing configurations, where t is ill-conditioned.
+            let n = geometric_normal(a, b, c);
+            prop_assume!(n.dot(d).abs() > 0.05);
+            let h = intersect(&pre(o, d), a, b, c);
+            prop_assert!(h.is_some());
+            let h = h.unwrap();
+            let q = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
+            let scale = a.abs().max(b.abs()).max(c.abs()).max(o.abs()).max_element().max(1.0);
+            prop_assert!((q - (o + d * h.t)).length() < 1e-3 * scale);
+            prop_assert!((h.t - (p - o).length()).abs() < 1e-3 * scale);
+        }
+
+        /// A ray that misses the plane's triangle by a clear margin is rejected.
+        #[test]
+        fn clear_miss(a in v3(), b in v3(), c in v3(), o in v3(), wu in 1.05f32..3.0, wv in -1.0f32..1.0) {
+            prop_assume!(!is_degenerate(a, b, c));
+            prop_assume!(double_area(a, b, c) > 1.0);
+            // Barycentric weight of vertex 0 is 1 - wu - wv < -0.05: outside.
+            let p = a * (1.0 - wu - wv) + b * wu + c * wv;
+            prop_assume!((p - o).length() > 1e-2);
+            let d = (p - o).normalize();
+            let n = geometric_normal(a, b, c);
+            prop_assume!(n.dot(d).abs() > 0.05);
+            let w0 = 1.0 - wu - wv;
+            prop_assume!(w0 < -0.05 || wv < -0.05);
+            prop_assert!(intersect(&pre(o, d), a, b, c).is_none());
+        }
+    }
+
+    #[test]
+    fn random_rays_inside_closed_mesh_always_hit() {
+        let mut rng = Pcg32::new(7, 1);
+        let mesh = icosahedron(3.0, Vec3::new(1.0, 2.0, 3.0));
+        for _ in 0..20_000 {
+            let o = Vec3::new(1.0, 2.0, 3.0) + rng.unit_vector() * rng.range(0.0, 2.0);
+            let r = pre(o, rng.unit_vector());
+            assert!(mesh
+                .iter()
+                .any(|t| intersect(&r, t[0], t[1], t[2]).is_some()));
+        }
+    }
+}
