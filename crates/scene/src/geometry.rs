@@ -1,0 +1,99 @@
+//! The flattened, world-space view of a scene that every engine consumes.
+//!
+//! Flat buffers of plain `Copy` values indexed by u32 triangle id, grouped by mesh so that
+//! mesh `m` owns the contiguous range `mesh_first[m] .. mesh_first[m + 1]`.
+
+use crate::model::Scene;
+use geom::{Aabb, Mat3, Sphere, Vec3};
+use rayon::prelude::*;
+
+#[derive(Clone, Debug, Default)]
+pub struct Geometry {
+    /// World-space vertices of each triangle.
+    pub tris: Vec<[Vec3; 3]>,
+    /// World-space unit vertex normals of each triangle.
+    pub normals: Vec<[Vec3; 3]>,
+    /// Material id of each triangle.
+    pub material: Vec<u32>,
+    /// Mesh id of each triangle.
+    pub mesh: Vec<u32>,
+    /// Prefix offsets: mesh m owns triangles `mesh_first[m] .. mesh_first[m+1]`.
+    pub mesh_first: Vec<u32>,
+    /// Object-space minimal bounding sphere of each mesh (thesis §3.2.1), precomputed once.
+    pub mesh_local_sphere: Vec<Sphere>,
+    /// World-space culling sphere of each mesh: the local sphere updated by the mesh
+    /// transform (thesis §3.2.2), never recomputed from the vertices.
+    pub mesh_sphere: Vec<Sphere>,
+    pub bounds: Aabb,
+}
+
+impl Geometry {
+    pub fn from_scene(scene: &Scene) -> Geometry {
+        let mut g = Geometry::default();
+        g.mesh_first.push(0);
+        for (mi, m) in scene.meshes.iter().enumerate() {
+            let xf = m.transform;
+            let nxf = Mat3::from_mat4(xf).inverse().transpose();
+            let world: Vec<Vec3> = m
+                .positions
+                .par_iter()
+                .map(|p| xf.transform_point3(*p))
+                .collect();
+            let wn: Vec<Vec3> = m
+                .normals
+                .par_iter()
+                .map(|n| (nxf * *n).normalize_or(Vec3::Y))
+                .collect();
+            for (t, &mat) in m.triangles.iter().zip(&m.materials) {
+                let [a, b, c] = t.map(|i| i as usize);
+                g.tris.push([world[a], world[b], world[c]]);
+                g.normals.push([wn[a], wn[b], wn[c]]);
+                g.material.push(mat);
+                g.mesh.push(mi as u32);
+            }
+            g.mesh_first.push(g.tris.len() as u32);
+            let local = m.local_bound().unwrap_or_default();
+            g.mesh_local_sphere.push(local);
+            g.mesh_sphere.push(local.transformed(&xf));
+        }
+        g.bounds = Aabb::from_points(g.tris.iter().flatten().copied());
+        g
+    }
+
+    pub fn len(&self) -> usize {
+        self.tris.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.tris.is_empty()
+    }
+
+    pub fn mesh_count(&self) -> usize {
+        self.mesh_first.len().saturating_sub(1)
+    }
+
+    /// Geometric unit normal of triangle `t`.
+    #[inline]
+    pub fn geometric_normal(&self, t: u32) -> Vec3 {
+        let [a, b, c] = self.tris[t as usize];
+        geom::tri::geometric_normal(a, b, c)
+    }
+
+    /// Interpolated shading normal (thesis eqs. 3.17–3.18: barycentric weights of the hit).
+    #[inline]
+    pub fn shading_normal(&self, t: u32, u: f32, v: f32) -> Vec3 {
+        let [n0, n1, n2] = self.normals[t as usize];
+        let n = (n0 * (1.0 - u - v) + n1 * u + n2 * v).normalize_or_zero();
+        if n == Vec3::ZERO {
+            self.geometric_normal(t)
+        } else {
+            n
+        }
+    }
+
+    #[inline]
+    pub fn point(&self, t: u32, u: f32, v: f32) -> Vec3 {
+        let [a, b, c] = self.tris[t as usize];
+        a * (1.0 - u - v) + b * u + c * v
+    }
+}

@@ -1,0 +1,255 @@
+//! glTF 2.0 loading (`.gltf` with external or embedded buffers, `.glb`) through the `gltf` crate.
+//!
+//! Every mesh instance in the default scene becomes one of our meshes, with the node's world
+//! transform. Materials map from metallic–roughness to Blinn-Phong:
+//! diffuse = base·(1 − metallic), specular = lerp(0.04, base, metallic),
+//! shininess = 2/α² − 2 with α = roughness² (the Beckmann–Phong correspondence),
+//! reflectivity = metallic·(1 − roughness); blended alpha becomes transparency.
+//! A perspective camera in the file is used; otherwise the camera frames the bounds.
+
+use crate::error::SceneError;
+use crate::model::{smooth_normals, LoadReport, Material, Mesh, Scene};
+use crate::obj::auto_camera_and_light;
+use geom::{Mat4, Vec3};
+use std::collections::HashMap;
+use std::path::Path;
+
+fn convert(m: &gltf::Material) -> Material {
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, a] = pbr.base_color_factor();
+    let base = Vec3::new(r, g, b);
+    let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+    let rough = pbr.roughness_factor().clamp(0.0, 1.0);
+    let alpha = (rough * rough).max(1e-3);
+    let transparency = if m.alpha_mode() == gltf::material::AlphaMode::Blend {
+        (1.0 - a).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    Material {
+        name: m.name().unwrap_or("gltf-material").to_string(),
+        diffuse: base * (1.0 - metallic),
+        specular: Vec3::splat(0.04).lerp(base, metallic),
+        shininess: (2.0 / (alpha * alpha) - 2.0).clamp(1.0, 2048.0),
+        reflectivity: metallic * (1.0 - rough),
+        transparency,
+        ior: if transparency > 0.0 { 1.5 } else { 1.0 },
+        emission: Vec3::from_array(m.emissive_factor()),
+    }
+}
+
+pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
+    let t0 = std::time::Instant::now();
+    let bad = |msg: String| SceneError::invalid(path, msg);
+    if !path.exists() {
+        return Err(SceneError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::open(path).map_err(|e| bad(format!("glTF: {e}")))?;
+    let buffers = gltf::import_buffers(&document, path.parent(), blob)
+        .map_err(|e| bad(format!("glTF buffers: {e}")))?;
+    let mut report = LoadReport {
+        source: Some(path.to_path_buf()),
+        ..Default::default()
+    };
+    let mut materials = vec![Material::default()];
+    let mut mat_ids: HashMap<Option<usize>, u32> = HashMap::new();
+    let mut meshes = Vec::new();
+    let mut camera = None;
+    let gscene = document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+        .ok_or_else(|| bad("glTF file has no scene".into()))?;
+    let mut stack: Vec<(gltf::Node, Mat4)> = gscene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    while let Some((node, parent)) = stack.pop() {
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        for c in node.children() {
+            stack.push((c, world));
+        }
+        if let (Some(cam), None) = (node.camera(), &camera) {
+            if let gltf::camera::Projection::Perspective(p) = cam.projection() {
+                let eye = world.transform_point3(Vec3::ZERO);
+                let fwd = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
+                let up = world.transform_vector3(Vec3::Y).normalize_or(Vec3::Y);
+                camera = Some(crate::Camera {
+                    eye,
+                    target: eye + fwd,
+                    up,
+                    vfov: p.yfov().to_degrees(),
+                });
+            }
+        }
+        let Some(mesh) = node.mesh() else { continue };
+        for (pi, prim) in mesh.primitives().enumerate() {
+            let what = format!("mesh '{}' primitive {pi}", mesh.name().unwrap_or("?"));
+            if prim.mode() != gltf::mesh::Mode::Triangles {
+                report.notes.push(format!(
+                    "{what}: mode {:?} skipped (only triangles are rendered)",
+                    prim.mode()
+                ));
+                continue;
+            }
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+            let pos: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| bad(format!("{what}: no positions")))?
+                .map(Vec3::from_array)
+                .collect();
+            if let Some(p) = pos.iter().find(|p| !geom::finite3(**p)) {
+                return Err(bad(format!("{what}: non-finite vertex {p}")));
+            }
+            let idx: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..pos.len() as u32).collect(),
+            };
+            if let Some(i) = idx.iter().find(|&&i| i as usize >= pos.len()) {
+                return Err(bad(format!(
+                    "{what}: index {i} out of range ({} vertices)",
+                    pos.len()
+                )));
+            }
+            let tris: Vec<[u32; 3]> = idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let normals = match reader.read_normals() {
+                Some(n) => n
+                    .map(|v| Vec3::from_array(v).normalize_or(Vec3::Y))
+                    .collect::<Vec<_>>(),
+                None => {
+                    report.normals_computed += pos.len();
+                    smooth_normals(&pos, &tris)
+                }
+            };
+            if normals.len() != pos.len() {
+                return Err(bad(format!(
+                    "{what}: {} normals for {} vertices",
+                    normals.len(),
+                    pos.len()
+                )));
+            }
+            let mat = *mat_ids.entry(prim.material().index()).or_insert_with(|| {
+                match prim.material().index() {
+                    None => 0,
+                    Some(_) => {
+                        materials.push(convert(&prim.material()));
+                        materials.len() as u32 - 1
+                    }
+                }
+            });
+            let mut m = Mesh::new(
+                format!("{}#{pi}", mesh.name().unwrap_or("mesh")),
+                pos,
+                tris,
+                mat,
+            );
+            m.normals = normals;
+            m.transform = world;
+            report.degenerate_skipped += m.remove_degenerate();
+            if !m.triangles.is_empty() {
+                meshes.push(m);
+            }
+        }
+    }
+    report.load_seconds = t0.elapsed().as_secs_f64();
+    let mut scene = Scene {
+        name: path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        meshes,
+        materials,
+        lights: Vec::new(),
+        camera: crate::Camera {
+            eye: Vec3::Z,
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov: 45.0,
+        },
+        background: Vec3::new(0.1, 0.1, 0.12),
+        report,
+    };
+    auto_camera_and_light(&mut scene);
+    if let Some(c) = camera {
+        scene.camera = c;
+    }
+    Ok(scene)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A minimal glTF with one quad (two triangles, indexed, embedded base64 buffer), a node
+    /// transform (translation by (0, 0, −5)) and a metallic material.
+    pub fn quad_gltf() -> String {
+        let mut bytes = Vec::new();
+        for p in [
+            [0.0f32, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ] {
+            for v in p {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        for i in [0u16, 1, 2, 0, 2, 3] {
+            bytes.extend_from_slice(&i.to_le_bytes());
+        }
+        let b64 = base64_encode(&bytes);
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+            "nodes":[{{"mesh":0,"translation":[0,0,-5]}}],
+            "meshes":[{{"name":"quad","primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"material":0}}]}}],
+            "materials":[{{"name":"metal","pbrMetallicRoughness":{{"baseColorFactor":[1,0.5,0.2,1],"metallicFactor":1.0,"roughnessFactor":0.2}}}}],
+            "accessors":[
+              {{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+              {{"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}}],
+            "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":12}}],
+            "buffers":[{{"byteLength":60,"uri":"data:application/octet-stream;base64,{b64}"}}]}}"#
+        )
+    }
+
+    fn base64_encode(data: &[u8]) -> String {
+        const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut s = String::new();
+        for c in data.chunks(3) {
+            let n = (c[0] as u32) << 16
+                | (*c.get(1).unwrap_or(&0) as u32) << 8
+                | *c.get(2).unwrap_or(&0) as u32;
+            for k in 0..4 {
+                if k <= c.len() {
+                    s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
+                } else {
+                    s.push('=');
+                }
+            }
+        }
+        s
+    }
+
+    #[test]
+    fn loads_quad_with_transform_and_material() {
+        let d = std::env::temp_dir().join(format!("rayspace-gltf-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let p = d.join("quad.gltf");
+        std::fs::write(&p, quad_gltf()).unwrap();
+        let s = load_gltf_scene(&p).unwrap();
+        s.validate().unwrap();
+        assert_eq!(s.triangle_count(), 2);
+        let b = s.bounds();
+        assert!((b.min.z + 5.0).abs() < 1e-6 && (b.max.x - 1.0).abs() < 1e-6);
+        let m = &s.materials[s.meshes[0].materials[0] as usize];
+        assert_eq!(m.name, "metal");
+        assert!(m.diffuse.length() < 1e-6, "fully metallic: no diffuse");
+        assert!(m.reflectivity > 0.7 && m.shininess > 100.0);
+        // Malformed files name the file.
+        let bad = d.join("bad.gltf");
+        std::fs::write(&bad, "{\"asset\": ").unwrap();
+        let e = crate::load(bad.to_str().unwrap(), &Default::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bad.gltf"), "{e}");
+    }
+}

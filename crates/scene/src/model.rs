@@ -1,0 +1,368 @@
+//! Scene model types.
+
+use crate::error::SceneError;
+use geom::{finite3, miniball, tri, Mat4, Sphere, Vec3};
+use std::path::PathBuf;
+
+/// A Blinn-Phong material with Whitted-style reflection and refraction weights.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub diffuse: Vec3,
+    pub specular: Vec3,
+    pub shininess: f32,
+    /// Weight of the mirror reflection (0 = none).
+    pub reflectivity: f32,
+    /// Weight of the refracted ray (0 = opaque).
+    pub transparency: f32,
+    /// Index of refraction of the material (the outside is 1).
+    pub ior: f32,
+    pub emission: Vec3,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: "default".into(),
+            diffuse: Vec3::splat(0.7),
+            specular: Vec3::splat(0.2),
+            shininess: 32.0,
+            reflectivity: 0.0,
+            transparency: 0.0,
+            ior: 1.0,
+            emission: Vec3::ZERO,
+        }
+    }
+}
+
+impl Material {
+    pub fn diffuse(name: &str, c: Vec3) -> Self {
+        Material {
+            name: name.into(),
+            diffuse: c,
+            ..Default::default()
+        }
+    }
+    pub fn mirror(name: &str, tint: Vec3, reflectivity: f32) -> Self {
+        Material {
+            name: name.into(),
+            diffuse: tint,
+            specular: Vec3::splat(0.5),
+            shininess: 64.0,
+            reflectivity,
+            ..Default::default()
+        }
+    }
+    pub fn glass(name: &str, ior: f32) -> Self {
+        Material {
+            name: name.into(),
+            diffuse: Vec3::splat(0.02),
+            specular: Vec3::splat(0.8),
+            shininess: 128.0,
+            reflectivity: 0.1,
+            transparency: 0.88,
+            ior,
+            emission: Vec3::ZERO,
+        }
+    }
+}
+
+/// A point light with the thesis's attenuation 1 / (c + l·d + q·d²) (eq. 3.19c).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub position: Vec3,
+    pub color: Vec3,
+    pub intensity: f32,
+    /// (constant, linear, quadratic).
+    pub attenuation: [f32; 3],
+}
+
+impl Light {
+    pub fn white(position: Vec3, intensity: f32) -> Self {
+        Light {
+            position,
+            color: Vec3::ONE,
+            intensity,
+            attenuation: [1.0, 0.0, 0.0],
+        }
+    }
+}
+
+/// A pinhole camera. `vfov` is the vertical field of view in degrees.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub vfov: f32,
+}
+
+impl Camera {
+    /// Orthonormal basis (right, up, forward) of the view.
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        let f = (self.target - self.eye).normalize();
+        let r = f.cross(self.up).normalize();
+        let u = r.cross(f);
+        (r, u, f)
+    }
+
+    /// A camera that frames `bounds` from a pleasant three-quarter view.
+    pub fn framing(bounds: &geom::Aabb) -> Camera {
+        let c = bounds.center();
+        let radius = (bounds.diagonal() * 0.5).max(1e-3);
+        let vfov: f32 = 45.0;
+        let dist = radius / (vfov.to_radians() * 0.5).sin() * 1.05;
+        let dir = Vec3::new(0.35, 0.3, 1.0).normalize();
+        Camera {
+            eye: c + dir * dist,
+            target: c,
+            up: Vec3::Y,
+            vfov,
+        }
+    }
+}
+
+/// A named triangle mesh in its own object space, placed by `transform`.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Per-vertex normals (same length as `positions`).
+    pub normals: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Per-triangle index into [`Scene::materials`].
+    pub materials: Vec<u32>,
+    pub transform: Mat4,
+}
+
+impl Mesh {
+    /// A mesh with smooth area-weighted normals computed from its triangles.
+    pub fn new(
+        name: impl Into<String>,
+        positions: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        material: u32,
+    ) -> Mesh {
+        let normals = smooth_normals(&positions, &triangles);
+        let materials = vec![material; triangles.len()];
+        Mesh {
+            name: name.into(),
+            positions,
+            normals,
+            triangles,
+            materials,
+            transform: Mat4::IDENTITY,
+        }
+    }
+
+    /// Minimal bounding sphere of the vertices actually used, in object space (thesis §3.2.1).
+    pub fn local_bound(&self) -> Option<Sphere> {
+        let mut used = vec![false; self.positions.len()];
+        for t in &self.triangles {
+            for &i in t {
+                used[i as usize] = true;
+            }
+        }
+        let pts: Vec<Vec3> = self
+            .positions
+            .iter()
+            .zip(&used)
+            .filter(|(_, u)| **u)
+            .map(|(p, _)| *p)
+            .collect();
+        miniball::minimal_ball(&pts)
+    }
+
+    /// Drop zero-area (and non-finite) triangles; returns how many were dropped.
+    pub fn remove_degenerate(&mut self) -> usize {
+        let before = self.triangles.len();
+        let pos = &self.positions;
+        let keep: Vec<bool> = self
+            .triangles
+            .iter()
+            .map(|t| {
+                !tri::is_degenerate(pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize])
+            })
+            .collect();
+        let mut k = keep.iter();
+        self.triangles.retain(|_| *k.next().unwrap());
+        let mut k = keep.iter();
+        self.materials.retain(|_| *k.next().unwrap());
+        before - self.triangles.len()
+    }
+}
+
+/// Area-weighted vertex normals (the unnormalised face normal's length is twice the area).
+pub fn smooth_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for t in triangles {
+        let (a, b, c) = (
+            positions[t[0] as usize],
+            positions[t[1] as usize],
+            positions[t[2] as usize],
+        );
+        let fnrm = (b - a).cross(c - a);
+        if finite3(fnrm) {
+            for &i in t {
+                n[i as usize] += fnrm;
+            }
+        }
+    }
+    n.iter().map(|v| v.normalize_or(Vec3::Y)).collect()
+}
+
+/// What a loader noticed and handled (printed by the CLI).
+#[derive(Clone, Debug, Default)]
+pub struct LoadReport {
+    pub source: Option<PathBuf>,
+    pub degenerate_skipped: usize,
+    pub normals_computed: usize,
+    pub load_seconds: f64,
+    pub notes: Vec<String>,
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    pub camera: Camera,
+    pub background: Vec3,
+    pub report: LoadReport,
+}
+
+impl Scene {
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.triangles.len()).sum()
+    }
+
+    /// World-space bounds of all triangles.
+    pub fn bounds(&self) -> geom::Aabb {
+        let mut b = geom::Aabb::EMPTY;
+        for m in &self.meshes {
+            for t in &m.triangles {
+                for &i in t {
+                    b.grow(m.transform.transform_point3(m.positions[i as usize]));
+                }
+            }
+        }
+        b
+    }
+
+    /// Check the invariants engines rely on: at least one triangle, finite coordinates,
+    /// valid indices and material ids, invertible transforms, sane camera and lights.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let path = self
+            .report
+            .source
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(&self.name));
+        if self.triangle_count() == 0 {
+            let detail = if self.report.degenerate_skipped > 0 {
+                format!(
+                    " ({} degenerate triangles were skipped)",
+                    self.report.degenerate_skipped
+                )
+            } else {
+                String::new()
+            };
+            return Err(SceneError::Empty { path, detail });
+        }
+        if self.triangle_count() > u32::MAX as usize / 2 {
+            return Err(SceneError::invalid(&path, "more than 2^31 triangles"));
+        }
+        for m in &self.meshes {
+            let det = m.transform.determinant();
+            if !(det.is_finite() && det.abs() > 1e-30)
+                || !m.transform.to_cols_array().iter().all(|v| v.is_finite())
+            {
+                return Err(SceneError::invalid(
+                    &path,
+                    format!("mesh '{}': transform is singular or not finite", m.name),
+                ));
+            }
+            if let Some(p) = m.positions.iter().find(|p| !finite3(**p)) {
+                return Err(SceneError::invalid(
+                    &path,
+                    format!("mesh '{}': non-finite vertex {p}", m.name),
+                ));
+            }
+            if m.normals.len() != m.positions.len() || m.materials.len() != m.triangles.len() {
+                return Err(SceneError::invalid(
+                    &path,
+                    format!("mesh '{}': attribute counts disagree", m.name),
+                ));
+            }
+            for t in &m.triangles {
+                if t.iter().any(|&i| i as usize >= m.positions.len()) {
+                    return Err(SceneError::invalid(
+                        &path,
+                        format!("mesh '{}': vertex index out of range", m.name),
+                    ));
+                }
+            }
+            if m.materials
+                .iter()
+                .any(|&i| i as usize >= self.materials.len())
+            {
+                return Err(SceneError::invalid(
+                    &path,
+                    format!("mesh '{}': material id out of range", m.name),
+                ));
+            }
+        }
+        let c = &self.camera;
+        let f = c.target - c.eye;
+        if !(finite3(c.eye) && finite3(c.target) && finite3(c.up))
+            || f.length() <= 0.0
+            || f.cross(c.up).length() <= 1e-6 * f.length() * c.up.length()
+        {
+            return Err(SceneError::invalid(&path, "camera: eye, target and up must be finite, eye ≠ target, up not parallel to the view"));
+        }
+        if !(c.vfov > 0.0 && c.vfov < 180.0) {
+            return Err(SceneError::invalid(
+                &path,
+                format!("camera: fov {} is not in (0, 180) degrees", c.vfov),
+            ));
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            let a = l.attenuation;
+            if !finite3(l.position)
+                || !finite3(l.color)
+                || !l.intensity.is_finite()
+                || a.iter().any(|v| !v.is_finite() || *v < 0.0)
+                || a.iter().all(|v| *v == 0.0)
+            {
+                return Err(SceneError::invalid(&path, format!("light {i}: position, colour, intensity must be finite and attenuation non-negative, not all zero")));
+            }
+        }
+        for m in &self.materials {
+            let vals = [m.shininess, m.reflectivity, m.transparency, m.ior];
+            if !vals.iter().all(|v| v.is_finite())
+                || !finite3(m.diffuse)
+                || !finite3(m.specular)
+                || !finite3(m.emission)
+                || m.ior <= 0.0
+            {
+                return Err(SceneError::invalid(
+                    &path,
+                    format!("material '{}': values must be finite and ior > 0", m.name),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Append another scene's meshes and materials (material ids are rebased).
+    pub fn append_meshes(&mut self, mut meshes: Vec<Mesh>, materials: Vec<Material>) {
+        let base = self.materials.len() as u32;
+        for m in &mut meshes {
+            for id in &mut m.materials {
+                *id += base;
+            }
+        }
+        self.materials.extend(materials);
+        self.meshes.extend(meshes);
+    }
+}

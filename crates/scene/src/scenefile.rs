@@ -1,0 +1,390 @@
+//! TOML scene files: compose meshes (files, shapes or built-in scenes), transforms, material
+//! overrides, lights and the camera.
+//!
+//! ```toml
+//! background = [0.1, 0.1, 0.15]
+//! [camera]                       # optional: framed automatically when absent
+//! eye = [0, 1, 5]
+//! target = [0, 1, 0]
+//! up = [0, 1, 0]                 # optional
+//! fov = 45                       # vertical, degrees
+//! [[lights]]                     # optional: one automatic light when absent
+//! position = [2, 4, 3]
+//! color = [1, 1, 1]
+//! intensity = 1.0
+//! attenuation = [1, 0, 0]        # constant, linear, quadratic
+//! [[meshes]]
+//! file = "bunny.obj"             # relative to this file; or shape = "sphere" | "box" | "plane" | "torus"; or builtin = "cornell"
+//! split = "groups"               # groups | materials | single (OBJ only)
+//! translate = [0, 0, 0]
+//! rotate = [0, 45, 0]            # Euler XYZ, degrees
+//! scale = 1.0                    # or [sx, sy, sz]
+//! material = { diffuse = [0.8, 0.2, 0.2], reflectivity = 0.3 }   # overrides, any subset
+//! ```
+
+use crate::error::SceneError;
+use crate::model::{Camera, Light, LoadReport, Material, Scene};
+use crate::{builtin, gltf_load, obj, shapes, MeshSplit};
+use geom::{Mat4, Quat, Vec3};
+use serde::Deserialize;
+use std::path::Path;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    name: Option<String>,
+    background: Option<[f32; 3]>,
+    camera: Option<CameraDef>,
+    #[serde(default)]
+    lights: Vec<LightDef>,
+    #[serde(default)]
+    meshes: Vec<MeshDef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraDef {
+    eye: [f32; 3],
+    target: [f32; 3],
+    up: Option<[f32; 3]>,
+    fov: Option<f32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightDef {
+    position: [f32; 3],
+    color: Option<[f32; 3]>,
+    intensity: Option<f32>,
+    attenuation: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Scale {
+    Uniform(f32),
+    Axes([f32; 3]),
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct MaterialDef {
+    diffuse: Option<[f32; 3]>,
+    specular: Option<[f32; 3]>,
+    shininess: Option<f32>,
+    reflectivity: Option<f32>,
+    transparency: Option<f32>,
+    ior: Option<f32>,
+    emission: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshDef {
+    name: Option<String>,
+    file: Option<String>,
+    shape: Option<String>,
+    builtin: Option<String>,
+    split: Option<String>,
+    /// Shape detail: subdivision level for spheres, grid size for planes.
+    detail: Option<u32>,
+    translate: Option<[f32; 3]>,
+    rotate: Option<[f32; 3]>,
+    scale: Option<Scale>,
+    material: Option<MaterialDef>,
+}
+
+impl MaterialDef {
+    fn apply(&self, m: &mut Material) {
+        let v = |a: [f32; 3]| Vec3::from_array(a);
+        if let Some(x) = self.diffuse {
+            m.diffuse = v(x)
+        }
+        if let Some(x) = self.specular {
+            m.specular = v(x)
+        }
+        if let Some(x) = self.emission {
+            m.emission = v(x)
+        }
+        if let Some(x) = self.shininess {
+            m.shininess = x
+        }
+        if let Some(x) = self.reflectivity {
+            m.reflectivity = x
+        }
+        if let Some(x) = self.transparency {
+            m.transparency = x
+        }
+        if let Some(x) = self.ior {
+            m.ior = x
+        }
+    }
+}
+
+pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
+    let t0 = std::time::Instant::now();
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    })?;
+    parse_scene_file(&text, path, t0)
+}
+
+fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<Scene, SceneError> {
+    let file: File = toml::from_str(text).map_err(|e| {
+        // toml's message spans several lines (a source excerpt); keep the first line, with
+        // the line number computed from the span.
+        let line = e
+            .span()
+            .map(|s| {
+                text.as_bytes()[..s.start.min(text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count()
+                    + 1
+            })
+            .unwrap_or(0);
+        SceneError::Parse {
+            path: path.to_path_buf(),
+            line,
+            msg: e.message().to_string(),
+        }
+    })?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut report = LoadReport {
+        source: Some(path.to_path_buf()),
+        ..Default::default()
+    };
+    let mut scene = Scene {
+        name: file.name.clone().unwrap_or_else(|| {
+            path.file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        }),
+        meshes: Vec::new(),
+        materials: Vec::new(),
+        lights: Vec::new(),
+        camera: Camera {
+            eye: Vec3::Z,
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov: 45.0,
+        },
+        background: file
+            .background
+            .map(Vec3::from_array)
+            .unwrap_or(Vec3::new(0.1, 0.1, 0.12)),
+        report: LoadReport::default(),
+    };
+    if file.meshes.is_empty() {
+        return Err(SceneError::invalid(path, "no [[meshes]] entries"));
+    }
+    for (i, def) in file.meshes.iter().enumerate() {
+        let what = format!("meshes[{i}]");
+        let bad = |msg: String| SceneError::invalid(path, format!("{what}: {msg}"));
+        let sources =
+            def.file.is_some() as u32 + def.shape.is_some() as u32 + def.builtin.is_some() as u32;
+        if sources != 1 {
+            return Err(bad("give exactly one of file, shape or builtin".into()));
+        }
+        let split: MeshSplit = match &def.split {
+            Some(s) => s.parse().map_err(bad)?,
+            None => MeshSplit::Groups,
+        };
+        let (mut meshes, mut materials) = if let Some(f) = &def.file {
+            let p = base.join(f);
+            let ext = p
+                .extension()
+                .and_then(|e| e.to_str())
+                .unwrap_or("")
+                .to_ascii_lowercase();
+            match ext.as_str() {
+                "obj" => obj::load_obj_meshes(&p, split, &mut report)?,
+                "gltf" | "glb" => {
+                    let s = gltf_load::load_gltf_scene(&p)?;
+                    report.degenerate_skipped += s.report.degenerate_skipped;
+                    (s.meshes, s.materials)
+                }
+                _ => {
+                    return Err(bad(format!(
+                        "unsupported mesh file '{f}' (expected .obj, .gltf or .glb)"
+                    )))
+                }
+            }
+        } else if let Some(b) = &def.builtin {
+            let s =
+                builtin::by_name(b).ok_or_else(|| bad(format!("unknown built-in scene '{b}'")))?;
+            (s.meshes, s.materials)
+        } else {
+            let shape = def.shape.as_deref().unwrap_or("");
+            let detail = def.detail;
+            let m = match shape {
+                "sphere" => {
+                    shapes::icosphere("sphere", Vec3::ZERO, 1.0, detail.unwrap_or(3).min(7), 0)
+                }
+                "box" => shapes::cuboid("box", Vec3::splat(-1.0), Vec3::ONE, false, 0),
+                "plane" => shapes::quad_grid(
+                    "plane",
+                    Vec3::new(-1.0, 0.0, -1.0),
+                    Vec3::Z * 2.0,
+                    Vec3::X * 2.0,
+                    detail.unwrap_or(1).clamp(1, 1024),
+                    0,
+                ),
+                "torus" => shapes::torus("torus", Vec3::ZERO, 1.0, 0.35, 48, 16, 0),
+                _ => {
+                    return Err(bad(format!(
+                        "unknown shape '{shape}' (expected sphere, box, plane or torus)"
+                    )))
+                }
+            };
+            (vec![m], vec![Material::default()])
+        };
+        if let Some(md) = &def.material {
+            for m in &mut materials {
+                md.apply(m);
+            }
+        }
+        let t = def.translate.map(Vec3::from_array).unwrap_or(Vec3::ZERO);
+        let r = def
+            .rotate
+            .map(|a| {
+                Quat::from_euler(
+                    glam::EulerRot::XYZ,
+                    a[0].to_radians(),
+                    a[1].to_radians(),
+                    a[2].to_radians(),
+                )
+            })
+            .unwrap_or(Quat::IDENTITY);
+        let s = match def.scale {
+            Some(Scale::Uniform(s)) => Vec3::splat(s),
+            Some(Scale::Axes(a)) => Vec3::from_array(a),
+            None => Vec3::ONE,
+        };
+        if !(s.cmpgt(Vec3::ZERO).all() && s.is_finite()) {
+            return Err(bad(format!("scale {s} must be positive and finite")));
+        }
+        let xf = Mat4::from_scale_rotation_translation(s, r, t);
+        for m in &mut meshes {
+            m.transform = xf * m.transform;
+            if let Some(n) = &def.name {
+                m.name = format!("{n}/{}", m.name);
+            }
+        }
+        scene.append_meshes(meshes, materials);
+    }
+    scene.report = report;
+    scene.report.source = Some(path.to_path_buf());
+    match &file.camera {
+        Some(c) => {
+            scene.camera = Camera {
+                eye: Vec3::from_array(c.eye),
+                target: Vec3::from_array(c.target),
+                up: c.up.map(Vec3::from_array).unwrap_or(Vec3::Y),
+                vfov: c.fov.unwrap_or(45.0),
+            };
+        }
+        None => obj::auto_camera_and_light(&mut scene),
+    }
+    if !file.lights.is_empty() {
+        scene.lights = file
+            .lights
+            .iter()
+            .map(|l| Light {
+                position: Vec3::from_array(l.position),
+                color: l.color.map(Vec3::from_array).unwrap_or(Vec3::ONE),
+                intensity: l.intensity.unwrap_or(1.0),
+                attenuation: l.attenuation.unwrap_or([1.0, 0.0, 0.0]),
+            })
+            .collect();
+    } else if file.camera.is_some() {
+        let (_, up, _) = scene.camera.basis();
+        scene.lights = vec![Light::white(
+            scene.camera.eye + up * scene.bounds().diagonal() * 0.3,
+            1.0,
+        )];
+    }
+    scene.report.load_seconds = t0.elapsed().as_secs_f64();
+    Ok(scene)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn load_str(text: &str, name: &str) -> Result<Scene, SceneError> {
+        let d = std::env::temp_dir().join(format!("rayspace-toml-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        crate::load(p.to_str().unwrap(), &Default::default())
+    }
+
+    #[test]
+    fn composes_files_shapes_and_builtins() {
+        let s = load_str(
+            r#"
+background = [0, 0, 0]
+[camera]
+eye = [0, 0, 10]
+target = [0, 0, 0]
+fov = 40
+[[lights]]
+position = [0, 5, 5]
+intensity = 2.0
+[[meshes]]
+file = "tri.obj"
+translate = [1, 2, 3]
+scale = 2.0
+material = { reflectivity = 0.5, diffuse = [1, 0, 0] }
+[[meshes]]
+shape = "sphere"
+detail = 1
+scale = [1, 2, 1]
+[[meshes]]
+builtin = "cornell"
+"#,
+            "ok.toml",
+        )
+        .unwrap();
+        assert_eq!(s.triangle_count(), 1 + 80 + 812);
+        assert_eq!(s.lights.len(), 1);
+        assert_eq!(s.lights[0].intensity, 2.0);
+        let m0 = &s.materials[s.meshes[0].materials[0] as usize];
+        assert_eq!(m0.reflectivity, 0.5);
+        assert_eq!(m0.diffuse, Vec3::X);
+        let p = s.meshes[0].transform.transform_point3(Vec3::X);
+        assert_eq!(p, Vec3::new(3.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn errors_name_file_and_line() {
+        let e = load_str("[camera]\neye = [0, 0, 1]\ntarget = [0, 0, 0]\nbogus = 3\n[[meshes]]\nshape = \"box\"\n", "unknown.toml").unwrap_err().to_string();
+        assert!(e.contains("unknown.toml:4:") && e.contains("bogus"), "{e}");
+        let e = load_str("[[meshes]]\nshape = \"box\"\nscale = 0\n", "scale.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("scale.toml") && e.contains("scale"), "{e}");
+        let e = load_str("[[meshes]]\nfile = \"missing.obj\"\n", "missing.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing.obj"), "{e}");
+        let e = load_str("[[meshes]]\nshape = \"cube\"\n", "shape.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("meshes[0]") && e.contains("cube"), "{e}");
+        let e = load_str("[[meshes]\n", "syntax.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("syntax.toml:1:"), "{e}");
+        let e = load_str(
+            "[camera]\neye = [0, 0, 0]\ntarget = [0, 0, 0]\n[[meshes]]\nshape = \"box\"\n",
+            "cam.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("cam.toml") && e.contains("camera"), "{e}");
+    }
+}
