@@ -1,1 +1,10 @@
+//! Object-space engines behind [`render::Tracer`].
+//!
+//! [`BruteForce`] tests every ray against every triangle with the shared watertight kernel.
+//! It is the oracle: every other engine must return the same closest hits (same triangle,
+//! bit-identical t and barycentrics, because all use [`geom::intersect`]) and the same
+//! any-hit booleans.
 
+pub mod brute;
+
+pub use brute::BruteForce;

@@ -50,10 +50,22 @@ fn scene(
 /// The closed mirror room (thesis CORNELL): 6 walls × 50 + glass icosphere 320 + torus 192.
 pub fn cornell() -> Scene {
     let materials = vec![
-        Material::mirror("wall-white", Vec3::splat(0.45), 0.5),
-        Material::mirror("wall-red", Vec3::new(0.55, 0.1, 0.08), 0.45),
-        Material::mirror("wall-green", Vec3::new(0.1, 0.45, 0.12), 0.45),
-        Material::mirror("wall-blue", Vec3::new(0.15, 0.2, 0.5), 0.45),
+        Material {
+            specular: Vec3::splat(0.15),
+            ..Material::mirror("wall-white", Vec3::splat(0.3), 0.5)
+        },
+        Material {
+            specular: Vec3::splat(0.15),
+            ..Material::mirror("wall-red", Vec3::new(0.45, 0.06, 0.05), 0.45)
+        },
+        Material {
+            specular: Vec3::splat(0.15),
+            ..Material::mirror("wall-green", Vec3::new(0.06, 0.35, 0.08), 0.45)
+        },
+        Material {
+            specular: Vec3::splat(0.15),
+            ..Material::mirror("wall-blue", Vec3::new(0.1, 0.14, 0.4), 0.45)
+        },
         Material {
             name: "torus".into(),
             diffuse: Vec3::new(0.85, 0.6, 0.15),
@@ -304,7 +316,7 @@ pub fn stadium() -> Scene {
             true,
             0,
         ),
-        torus_knot("knot", Vec3::ZERO, 1.0, 2.0, 3.0, 256, 6, 1),
+        torus_knot("knot", Vec3::ZERO, 1.0, (2.0, 3.0), 256, 6, 1),
         quad_grid(
             "pad",
             Vec3::new(-3.0, -1.49, -3.0),

@@ -274,8 +274,9 @@ impl Scene {
         }
         for m in &self.meshes {
             let det = m.transform.determinant();
-            if !(det.is_finite() && det.abs() > 1e-30)
-                || !m.transform.to_cols_array().iter().all(|v| v.is_finite())
+            if !(det.is_finite()
+                && det.abs() > 1e-30
+                && m.transform.to_cols_array().iter().all(|v| v.is_finite()))
             {
                 return Err(SceneError::invalid(
                     &path,

@@ -137,7 +137,6 @@ pub fn load_obj_meshes(
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let base = path.parent().unwrap_or(Path::new("."));
     let mtl_errors = std::cell::RefCell::new(Vec::new());

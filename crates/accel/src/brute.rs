@@ -1,0 +1,67 @@
+//! The brute-force engine: every ray against every triangle, parallel over rays.
+
+use geom::tri::RayPre;
+use geom::{intersect, Vec3};
+use rayon::prelude::*;
+use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use scene::Geometry;
+
+/// Triangles in one flat array; nothing else.
+pub struct BruteForce {
+    tris: Vec<[Vec3; 3]>,
+}
+
+impl BruteForce {
+    pub fn new(geo: &Geometry) -> Self {
+        BruteForce {
+            tris: geo.tris.clone(),
+        }
+    }
+
+    /// Closest hit (smallest t, ties to the smallest id) or any hit of one ray; returns the
+    /// record and the number of triangle tests made.
+    #[inline]
+    pub fn trace_one(tris: &[[Vec3; 3]], ray: &geom::Ray, mode: TraceMode) -> (Hit, u64) {
+        let mut pre = RayPre::new(ray);
+        let mut best = Hit::MISS;
+        for (i, t) in tris.iter().enumerate() {
+            if let Some(h) = intersect(&pre, t[0], t[1], t[2]) {
+                best = Hit {
+                    tri: i as u32,
+                    t: h.t,
+                    u: h.u,
+                    v: h.v,
+                };
+                if mode == TraceMode::Any {
+                    return (best, i as u64 + 1);
+                }
+                // Later triangles must be strictly closer: ties keep the smaller id.
+                pre.t_max = h.t;
+            }
+        }
+        (best, tris.len() as u64)
+    }
+}
+
+impl Tracer for BruteForce {
+    fn name(&self) -> &str {
+        "brute"
+    }
+
+    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+        assert_eq!(hits.len(), rays.len(), "one hit record per ray");
+        let tests: u64 = hits
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(64)
+            .map(|(i, out)| {
+                let (h, n) = Self::trace_one(&self.tris, &rays.ray(i), mode);
+                *out = h;
+                n
+            })
+            .sum();
+        stats.rays += rays.len() as u64;
+        stats.ray_tri_tests += tests;
+        stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
+    }
+}

@@ -1,0 +1,199 @@
+//! The ray batch every engine consumes, and per-ray hit records.
+
+use geom::{Ray, Vec3, NO_HIT};
+
+/// What a ray is for. Stored as `u8` in batches; the ray-space hierarchies hash by kind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[repr(u8)]
+pub enum RayKind {
+    Primary = 0,
+    Shadow = 1,
+    Reflection = 2,
+    Refraction = 3,
+}
+
+impl RayKind {
+    pub const ALL: [RayKind; 4] = [
+        RayKind::Primary,
+        RayKind::Shadow,
+        RayKind::Reflection,
+        RayKind::Refraction,
+    ];
+
+    pub fn from_u8(k: u8) -> RayKind {
+        match k {
+            1 => RayKind::Shadow,
+            2 => RayKind::Reflection,
+            3 => RayKind::Refraction,
+            _ => RayKind::Primary,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Primary => "primary",
+            RayKind::Shadow => "shadow",
+            RayKind::Reflection => "reflection",
+            RayKind::Refraction => "refraction",
+        }
+    }
+}
+
+/// A structure-of-arrays batch of rays. All vectors have the same length.
+#[derive(Clone, Debug, Default)]
+pub struct RayBatch {
+    pub org: Vec<Vec3>,
+    pub dir: Vec<Vec3>,
+    pub t_min: Vec<f32>,
+    pub t_max: Vec<f32>,
+    /// [`RayKind`] as u8.
+    pub kind: Vec<u8>,
+    /// Pixel index (y · width + x) the ray contributes to.
+    pub pixel: Vec<u32>,
+    /// Light index for shadow rays (0 otherwise).
+    pub light: Vec<u32>,
+    /// Colour weight of the ray's contribution to its pixel.
+    pub throughput: Vec<Vec3>,
+    /// Whitted recursion depth of the surface that spawned the ray.
+    pub depth: Vec<u8>,
+}
+
+impl RayBatch {
+    pub fn with_capacity(n: usize) -> Self {
+        RayBatch {
+            org: Vec::with_capacity(n),
+            dir: Vec::with_capacity(n),
+            t_min: Vec::with_capacity(n),
+            t_max: Vec::with_capacity(n),
+            kind: Vec::with_capacity(n),
+            pixel: Vec::with_capacity(n),
+            light: Vec::with_capacity(n),
+            throughput: Vec::with_capacity(n),
+            depth: Vec::with_capacity(n),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.org.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.org.is_empty()
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub fn push(
+        &mut self,
+        ray: Ray,
+        kind: RayKind,
+        pixel: u32,
+        light: u32,
+        throughput: Vec3,
+        depth: u8,
+    ) {
+        self.org.push(ray.org);
+        self.dir.push(ray.dir);
+        self.t_min.push(ray.t_min);
+        self.t_max.push(ray.t_max);
+        self.kind.push(kind as u8);
+        self.pixel.push(pixel);
+        self.light.push(light);
+        self.throughput.push(throughput);
+        self.depth.push(depth);
+    }
+
+    /// A batch of plain rays (kind, pixel and weights left neutral).
+    pub fn from_rays(rays: &[Ray], kind: RayKind) -> Self {
+        let mut b = RayBatch::with_capacity(rays.len());
+        for (i, r) in rays.iter().enumerate() {
+            b.push(*r, kind, i as u32, 0, Vec3::ONE, 0);
+        }
+        b
+    }
+
+    #[inline]
+    pub fn ray(&self, i: usize) -> Ray {
+        Ray {
+            org: self.org[i],
+            dir: self.dir[i],
+            t_min: self.t_min[i],
+            t_max: self.t_max[i],
+        }
+    }
+
+    /// Rays per kind, indexed by `RayKind as usize`.
+    pub fn count_by_kind(&self) -> [u64; 4] {
+        let mut c = [0u64; 4];
+        for &k in &self.kind {
+            c[(k as usize).min(3)] += 1;
+        }
+        c
+    }
+
+    /// Check the invariants engines rely on: equal lengths, finite origins, finite non-zero
+    /// directions, t_min ≤ t_max and no NaN bounds.
+    pub fn validate(&self) -> Result<(), String> {
+        let n = self.org.len();
+        let lens = [
+            self.dir.len(),
+            self.t_min.len(),
+            self.t_max.len(),
+            self.kind.len(),
+            self.pixel.len(),
+            self.light.len(),
+            self.throughput.len(),
+            self.depth.len(),
+        ];
+        if lens.iter().any(|&l| l != n) {
+            return Err("ray batch arrays have different lengths".into());
+        }
+        for i in 0..n {
+            let (o, d) = (self.org[i], self.dir[i]);
+            if !geom::finite3(o) || !geom::finite3(d) || d == Vec3::ZERO {
+                return Err(format!(
+                    "ray {i}: origin {o} / direction {d} must be finite and the direction non-zero"
+                ));
+            }
+            if self.t_min[i].is_nan() || self.t_max[i].is_nan() || self.t_min[i] > self.t_max[i] {
+                return Err(format!(
+                    "ray {i}: bad t range [{}, {}]",
+                    self.t_min[i], self.t_max[i]
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The result for one ray: the triangle hit (or [`NO_HIT`]), its distance and barycentrics
+/// (u, v) of vertices 1 and 2.
+///
+/// Closest-hit queries return the smallest t, ties broken by the smallest triangle id, so that
+/// every engine returns bit-identical records. Any-hit queries return some hit in range.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub tri: u32,
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+}
+
+impl Hit {
+    pub const MISS: Hit = Hit {
+        tri: NO_HIT,
+        t: f32::INFINITY,
+        u: 0.0,
+        v: 0.0,
+    };
+
+    #[inline]
+    pub fn is_hit(&self) -> bool {
+        self.tri != NO_HIT
+    }
+
+    /// True when (t, tri) is closer than the current record under the tie rule.
+    #[inline]
+    pub fn closer(&self, t: f32, tri: u32) -> bool {
+        t < self.t || (t == self.t && tri < self.tri)
+    }
+}

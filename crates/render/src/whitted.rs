@@ -1,0 +1,194 @@
+//! The batched Whitted loop of the hybrid renderer (thesis chapter 3, Figure 3.1).
+//!
+//! rasterize → G-buffer → surfaces; then per generation: shadow rays (any hit) → shade;
+//! reflection/refraction rays (closest hit) → next generation's surfaces; up to `bounces`
+//! generations. Every batch goes to the same [`Tracer`], so engines are compared on identical
+//! rays. Contributions are accumulated in a fixed order, so images are bit-reproducible.
+
+use crate::batch::{Hit, RayBatch};
+use crate::raster::{default_near, rasterize, GBuffer, RasterStats};
+use crate::secondary::{bounce_rays, shadow_rays, Surfaces};
+use crate::shade;
+use crate::stats::RenderStats;
+use crate::tracer::{TraceMode, Tracer};
+use crate::view::View;
+use geom::Vec3;
+use rayon::prelude::*;
+use scene::{Geometry, Scene};
+use std::time::Instant;
+
+/// Largest accepted image side and bounce count (the CLI validates against these).
+pub const MAX_SIDE: u32 = 16384;
+pub const MAX_BOUNCES: u32 = 16;
+
+#[derive(Clone, Copy, Debug)]
+pub struct RenderOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Reflection/refraction generations after the rasterized one.
+    pub bounces: u32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 512,
+            height: 512,
+            bounces: 3,
+        }
+    }
+}
+
+/// Receives stage names while a render runs (the CLI shows them on a progress bar).
+pub trait Progress: Sync {
+    fn stage(&self, name: &str);
+}
+
+impl Progress for () {
+    fn stage(&self, _: &str) {}
+}
+
+/// The result of a render: linear RGB pixels, the G-buffer and the statistics.
+pub struct Rendered {
+    pub pixels: Vec<Vec3>,
+    pub gbuffer: GBuffer,
+    pub raster: RasterStats,
+    pub stats: RenderStats,
+}
+
+fn timed<T>(stats: &mut RenderStats, phase: &str, f: impl FnOnce() -> T) -> T {
+    let t0 = Instant::now();
+    let r = f();
+    stats.add_phase(phase, t0.elapsed().as_secs_f64());
+    r
+}
+
+fn trace(
+    tracer: &dyn Tracer,
+    rays: &RayBatch,
+    mode: TraceMode,
+    stats: &mut RenderStats,
+) -> Vec<Hit> {
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let t0 = Instant::now();
+    tracer.trace(rays, mode, &mut hits, &mut stats.trace);
+    stats.add_phase("trace", t0.elapsed().as_secs_f64());
+    let [p, s, rl, rf] = rays.count_by_kind();
+    stats.rays_primary_traced += p;
+    stats.rays_shadow += s;
+    stats.rays_reflection += rl;
+    stats.rays_refraction += rf;
+    hits
+}
+
+pub fn render(
+    scene: &Scene,
+    geo: &Geometry,
+    tracer: &dyn Tracer,
+    opts: &RenderOptions,
+    progress: &dyn Progress,
+) -> Rendered {
+    let view = View::new(&scene.camera, opts.width, opts.height);
+    let lights = &scene.lights;
+    let mut stats = RenderStats {
+        scene: scene.name.clone(),
+        engine: tracer.name().to_string(),
+        width: opts.width,
+        height: opts.height,
+        triangles: geo.len() as u64,
+        meshes: geo.mesh_count() as u64,
+        lights: lights.len() as u64,
+        bounces: opts.bounces,
+        ..Default::default()
+    };
+    progress.stage("rasterize");
+    let (gb, raster) = timed(&mut stats, "rasterize", || {
+        rasterize(geo, &scene.materials, &view, default_near(geo))
+    });
+    let npix = (opts.width * opts.height) as usize;
+    let mut pixels: Vec<Vec3> = gb
+        .tri
+        .iter()
+        .map(|&t| {
+            if t == geom::NO_HIT {
+                scene.background
+            } else {
+                Vec3::ZERO
+            }
+        })
+        .collect();
+    let mut surfaces = timed(&mut stats, "ray creation", || {
+        Surfaces::from_gbuffer(&gb, geo, view.eye)
+    });
+    stats.covered_pixels = surfaces.len() as u64;
+    debug_assert_eq!(pixels.len(), npix);
+    let mut generation = 0u32;
+    loop {
+        // Shadows of this generation's surfaces, then local shading.
+        progress.stage(&format!("shadow rays, generation {generation}"));
+        let shadows = timed(&mut stats, "ray creation", || {
+            shadow_rays(&surfaces, lights)
+        });
+        let occl = if shadows.is_empty() {
+            Vec::new()
+        } else {
+            trace(tracer, &shadows, TraceMode::Any, &mut stats)
+        };
+        progress.stage(&format!("shading, generation {generation}"));
+        timed(&mut stats, "shading", || {
+            let nl = lights.len();
+            let local: Vec<Vec3> = (0..surfaces.len())
+                .into_par_iter()
+                .map(|i| {
+                    let visible: Vec<bool> = (0..nl).map(|l| !occl[i * nl + l].is_hit()).collect();
+                    let m = &scene.materials[surfaces.material[i] as usize];
+                    shade::local(&surfaces, i, m, lights, &visible) * surfaces.throughput[i]
+                })
+                .collect();
+            for (i, c) in local.into_iter().enumerate() {
+                pixels[surfaces.pixel[i] as usize] += c;
+            }
+        });
+        if generation >= opts.bounces {
+            break;
+        }
+        progress.stage(&format!("secondary rays, generation {}", generation + 1));
+        let rays = timed(&mut stats, "ray creation", || {
+            bounce_rays(&surfaces, &scene.materials)
+        });
+        if rays.is_empty() {
+            break;
+        }
+        let hits = trace(tracer, &rays, TraceMode::Closest, &mut stats);
+        surfaces = timed(&mut stats, "shading", || {
+            for (i, h) in hits.iter().enumerate() {
+                if !h.is_hit() {
+                    pixels[rays.pixel[i] as usize] += scene.background * rays.throughput[i];
+                }
+            }
+            Surfaces::from_hits(&rays, &hits, geo)
+        });
+        generation += 1;
+    }
+    stats.total_tests = stats.trace.total_tests();
+    stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
+    Rendered {
+        pixels,
+        gbuffer: gb,
+        raster,
+        stats,
+    }
+}
+
+/// Trace primary rays through every pixel centre (closest hit): the reference the
+/// rasterizer is checked against, and the `primary` ray kind of the evaluation.
+pub fn trace_primary(
+    view: &View,
+    tracer: &dyn Tracer,
+) -> (RayBatch, Vec<Hit>, crate::stats::TraceStats) {
+    let rays = view.primary_rays();
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut st = Default::default();
+    tracer.trace(&rays, TraceMode::Closest, &mut hits, &mut st);
+    (rays, hits, st)
+}

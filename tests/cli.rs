@@ -1,0 +1,181 @@
+//! The command line: a good render writes a PNG and JSON; bad input gets a one-line error
+//! naming the file, line or option, a non-zero exit, and never a panic.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_rayspace"))
+}
+
+fn tmp(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rayspace-cli-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Run with `args`; expect failure with a one-line message containing every `needle`.
+fn fails(args: &[&str], needles: &[&str]) {
+    let out = bin().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{args:?} should fail");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: '{n}' not in: {err}");
+    }
+    if !args.iter().any(|a| a.starts_with("--"))
+        || args
+            .iter()
+            .any(|a| a.ends_with(".obj") || a.ends_with(".toml") || a.ends_with(".gltf"))
+    {
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert_eq!(lines.len(), 1, "{args:?}: one line expected: {err}");
+    }
+}
+
+#[test]
+fn render_writes_png_and_stats() {
+    let d = tmp("ok");
+    let png = d.join("a.png");
+    let json = d.join("a.json");
+    let out = bin()
+        .args([
+            "render",
+            "spheres",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--bounces",
+            "1",
+            "--out",
+            png.to_str().unwrap(),
+            "--stats",
+            json.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("| rasterize |") && stdout.contains("brute force (rays x triangles)"),
+        "{stdout}"
+    );
+    let img = image::open(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (40, 30));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(v["total_tests"].as_u64().unwrap() > 0);
+    assert!(v["brute_force_tests"].as_u64().unwrap() >= v["total_tests"].as_u64().unwrap());
+    assert_eq!(v["engine"], "brute");
+    // Same command again: identical image bytes.
+    let png2 = d.join("b.png");
+    let out = bin()
+        .args([
+            "render",
+            "spheres",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--bounces",
+            "1",
+            "--out",
+            png2.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert_eq!(std::fs::read(&png).unwrap(), std::fs::read(&png2).unwrap());
+}
+
+fn write(d: &Path, name: &str, text: &str) -> String {
+    let p = d.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+#[test]
+fn bad_files() {
+    let d = tmp("bad");
+    let out = d.join("x.png");
+    let o = out.to_str().unwrap();
+    fails(
+        &["render", "/nonexistent/scene.obj", "--out", o],
+        &["/nonexistent/scene.obj"],
+    );
+    fails(
+        &["render", "no-such-scene", "--out", o],
+        &["no-such-scene", "cornell"],
+    );
+    let p = write(&d, "nan.obj", "v 0 0 0\nv 1 0 0\nv 0 NaN 0\nf 1 2 3\n");
+    fails(&["render", &p, "--out", o], &["nan.obj:3:", "non-finite"]);
+    let p = write(&d, "idx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+    fails(&["render", &p, "--out", o], &["idx.obj:4:", "out of range"]);
+    let p = write(&d, "empty.obj", "# nothing here\n");
+    fails(&["render", &p, "--out", o], &["empty.obj", "no triangles"]);
+    let p = write(&d, "flat.obj", "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n");
+    fails(
+        &["render", &p, "--out", o],
+        &["flat.obj", "no triangles", "degenerate"],
+    );
+    let p = write(&d, "bad.toml", "[[meshes]]\nshape = \"box\"\nwat = 1\n");
+    fails(&["render", &p, "--out", o], &["bad.toml:3:", "wat"]);
+    let p = write(&d, "bad.gltf", "{ not json");
+    fails(&["render", &p, "--out", o], &["bad.gltf"]);
+    let p = write(&d, "scene.txt", "hello");
+    fails(&["render", &p, "--out", o], &["scene.txt", "unsupported"]);
+    fails(
+        &["render", "cornell", "--out", "/nonexistent-dir/x.png"],
+        &["--out", "/nonexistent-dir"],
+    );
+    // A directory where a file is expected.
+    fails(&["render", d.to_str().unwrap(), "--out", o], &[]);
+}
+
+#[test]
+fn bad_options() {
+    fails(&["render", "cornell", "--width", "0"], &["--width"]);
+    fails(&["render", "cornell", "--height", "100000"], &["--height"]);
+    fails(&["render", "cornell", "--width", "abc"], &["--width"]);
+    fails(&["render", "cornell", "--bounces", "99"], &["--bounces"]);
+    fails(
+        &["render", "cornell", "--engine", "warp"],
+        &["--engine", "warp"],
+    );
+    fails(&["render", "cornell", "--meshes", "blobs"], &["--meshes"]);
+}
+
+#[test]
+fn degenerate_triangles_are_skipped_and_reported() {
+    let d = tmp("deg");
+    let p = write(
+        &d,
+        "deg.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n",
+    );
+    let png = d.join("deg.png");
+    let out = bin()
+        .args([
+            "render",
+            &p,
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--out",
+            png.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 degenerate triangles skipped"));
+}
