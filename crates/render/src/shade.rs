@@ -66,7 +66,7 @@ mod tests {
             attenuation: [1.0, 0.5, 0.25],
         };
         // att = 1 / (1 + 1 + 1) at distance 2; diffuse and specular factors are 1.
-        let c = local(&s, 0, &m, &[l.clone()], &[true]);
+        let c = local(&s, 0, &m, std::slice::from_ref(&l), &[true]);
         assert!((c - Vec3::new(0.5 / 3.0, 0.25 / 3.0, 0.0)).length() < 1e-6);
         assert_eq!(local(&s, 0, &m, &[l], &[false]), Vec3::ZERO);
     }
