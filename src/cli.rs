@@ -29,8 +29,109 @@ enum Command {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Engine {
+    /// Coherent ray-space hierarchy (hashed, sorted rays; mesh culling).
+    Crsh,
+    /// Roger et al.'s ray hierarchy (screen-ordered rays).
+    Rah,
     /// Every ray against every triangle (the oracle).
     Brute,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum HashArg {
+    /// The thesis's typed 32-bit hash.
+    Thesis,
+    /// 64-bit 5-D Morton code of origin and direction.
+    Morton64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum UnionArg {
+    Exact,
+    Thesis,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum NodeTestArg {
+    Rah,
+    Exact,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum OnOff {
+    On,
+    Off,
+}
+
+/// Options of the ray-space hierarchies (CRSH, RAH).
+#[derive(Args, Clone, Debug)]
+struct RshArgs {
+    /// Children per hierarchy node.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(2..=64))]
+    branching: u32,
+    /// Hierarchy levels above the leaves (0: up to one root per ray kind).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=16))]
+    levels: u32,
+    /// CRSH ray hash.
+    #[arg(long, value_enum, default_value_t = HashArg::Thesis)]
+    hash: HashArg,
+    /// Sphere and cone union formulas.
+    #[arg(long, value_enum, default_value_t = UnionArg::Exact)]
+    union: UnionArg,
+    /// Node-triangle test.
+    #[arg(long = "node-test", value_enum, default_value_t = NodeTestArg::Rah)]
+    node_test: NodeTestArg,
+    /// Cull by per-mesh bounding spheres at the top level (default: on for crsh, off for rah).
+    #[arg(long = "mesh-culling", value_enum)]
+    mesh_culling: Option<OnOff>,
+    /// Most (node, triangle) pairs per buffer; larger levels are processed in batches.
+    #[arg(long = "pair-budget", default_value_t = rsh::engine::DEFAULT_PAIR_BUDGET as u64, value_parser = clap::value_parser!(u64).range(1024..=(1u64 << 31)))]
+    pair_budget: u64,
+}
+
+impl Default for RshArgs {
+    fn default() -> Self {
+        RshArgs {
+            branching: 8,
+            levels: 2,
+            hash: HashArg::Thesis,
+            union: UnionArg::Exact,
+            node_test: NodeTestArg::Rah,
+            mesh_culling: None,
+            pair_budget: rsh::engine::DEFAULT_PAIR_BUDGET as u64,
+        }
+    }
+}
+
+impl RshArgs {
+    fn config(&self, method: rsh::Method) -> rsh::RshConfig {
+        let base = match method {
+            rsh::Method::Crsh => rsh::RshConfig::crsh(),
+            rsh::Method::Rah => rsh::RshConfig::rah(),
+        };
+        rsh::RshConfig {
+            branching: self.branching,
+            levels: self.levels,
+            hash: match self.hash {
+                HashArg::Thesis => rsh::HashKind::Thesis,
+                HashArg::Morton64 => rsh::HashKind::Morton64,
+            },
+            union: match self.union {
+                UnionArg::Exact => rsh::Union::Exact,
+                UnionArg::Thesis => rsh::Union::Thesis,
+            },
+            node_test: match self.node_test {
+                NodeTestArg::Rah => rsh::NodeTest::Rah,
+                NodeTestArg::Exact => rsh::NodeTest::Exact,
+            },
+            mesh_culling: self
+                .mesh_culling
+                .map(|m| m == OnOff::On)
+                .unwrap_or(base.mesh_culling),
+            pair_budget: self.pair_budget as usize,
+            ..base
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -55,8 +156,10 @@ struct RenderArgs {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=MAX_BOUNCES as i64))]
     bounces: u32,
     /// Tracing engine.
-    #[arg(long, value_enum, default_value_t = Engine::Brute)]
+    #[arg(long, value_enum, default_value_t = Engine::Crsh)]
     engine: Engine,
+    #[command(flatten)]
+    rsh: RshArgs,
     /// How OBJ files are cut into meshes (the unit of bounding-sphere culling).
     #[arg(long, value_enum, default_value_t = Split::Groups)]
     meshes: Split,
@@ -75,7 +178,8 @@ impl Default for RenderArgs {
             width: 512,
             height: 512,
             bounces: 3,
-            engine: Engine::Brute,
+            engine: Engine::Crsh,
+            rsh: RshArgs::default(),
             meshes: Split::Groups,
             out: PathBuf::from("rayspace.png"),
             stats: None,
@@ -83,10 +187,18 @@ impl Default for RenderArgs {
     }
 }
 
-pub fn make_engine(engine: Engine, geo: &Geometry) -> Box<dyn Tracer> {
-    match engine {
+fn make_engine(engine: Engine, rsh_args: &RshArgs, geo: &Geometry) -> Result<Box<dyn Tracer>> {
+    Ok(match engine {
         Engine::Brute => Box::new(accel::BruteForce::new(geo)),
-    }
+        Engine::Crsh => Box::new(
+            rsh::RshEngine::new(geo, rsh_args.config(rsh::Method::Crsh))
+                .map_err(anyhow::Error::msg)?,
+        ),
+        Engine::Rah => Box::new(
+            rsh::RshEngine::new(geo, rsh_args.config(rsh::Method::Rah))
+                .map_err(anyhow::Error::msg)?,
+        ),
+    })
 }
 
 struct Bar(ProgressBar);
@@ -155,7 +267,7 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
         },
     );
     let t1 = Instant::now();
-    let engine = make_engine(a.engine, &geo);
+    let engine = make_engine(a.engine, &a.rsh, &geo)?;
     let build_s = t1.elapsed().as_secs_f64();
     let bar = progress_bar();
     let opts = RenderOptions {

@@ -71,7 +71,7 @@ fn render_writes_png_and_stats() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert!(v["total_tests"].as_u64().unwrap() > 0);
     assert!(v["brute_force_tests"].as_u64().unwrap() >= v["total_tests"].as_u64().unwrap());
-    assert_eq!(v["engine"], "brute");
+    assert_eq!(v["engine"], "crsh");
     // Same command again: identical image bytes.
     let png2 = d.join("b.png");
     let out = bin()
@@ -148,6 +148,13 @@ fn bad_options() {
         &["--engine", "warp"],
     );
     fails(&["render", "cornell", "--meshes", "blobs"], &["--meshes"]);
+    fails(&["render", "cornell", "--branching", "1"], &["--branching"]);
+    fails(&["render", "cornell", "--levels", "99"], &["--levels"]);
+    fails(
+        &["render", "cornell", "--pair-budget", "10"],
+        &["--pair-budget"],
+    );
+    fails(&["render", "cornell", "--hash", "sha256"], &["--hash"]);
 }
 
 #[test]

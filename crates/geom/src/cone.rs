@@ -63,11 +63,13 @@ impl Cone {
         angle: PI,
     };
 
-    /// The degenerate cone of a single direction (a leaf of the hierarchy).
+    /// The cone of a single direction (a leaf of the hierarchy), with the angle padding
+    /// every computed cone gets, so the same direction rounded differently (renormalised,
+    /// say) still lies inside.
     pub fn from_dir(d: Vec3) -> Cone {
         Cone {
             axis: d,
-            angle: 0.0,
+            angle: pad_angle(0.0),
         }
     }
 
@@ -149,6 +151,31 @@ impl Cone {
     }
 }
 
+/// A node's cone in the form the tests use: axis, sin α and cos α precomputed once per node
+/// (no trigonometry per node–triangle test), and whether it is wide (α ≥ 90°).
+#[derive(Clone, Copy, Debug)]
+pub struct ConeSc {
+    pub axis: Vec3,
+    pub sin: f32,
+    pub cos: f32,
+    pub wide: bool,
+    /// α ≥ π: every direction.
+    pub full: bool,
+}
+
+impl From<&Cone> for ConeSc {
+    fn from(k: &Cone) -> Self {
+        let (sin, cos) = k.angle.sin_cos();
+        ConeSc {
+            axis: k.axis,
+            sin,
+            cos,
+            wide: k.is_wide(),
+            full: k.angle >= PI,
+        }
+    }
+}
+
 /// The RAH node test (Roger et al. 2007; thesis eq. 3.16): does the node (origin sphere `s`,
 /// cone `k`) possibly reach the ball `(p, d)`? With H the projection of P on the axis:
 /// accept iff |C − H|·tan α + (d + r)/cos α ≥ |P − H|.
@@ -158,17 +185,26 @@ impl Cone {
 /// ball farther than r + L + d from the centre cannot be reached.
 #[inline]
 pub fn node_hits_sphere_rah(s: &Sphere, k: &Cone, p: Vec3, d: f32, max_len: f32) -> bool {
-    if k.is_wide() {
+    rah_test(s.center, s.radius, &ConeSc::from(k), p, d, max_len)
+}
+
+/// [`node_hits_sphere_rah`] with the cone's sine and cosine precomputed.
+#[inline]
+pub fn rah_test(c: Vec3, r: f32, k: &ConeSc, p: Vec3, d: f32, max_len: f32) -> bool {
+    if k.wide {
         return true;
     }
-    let cp = p - s.center;
-    if cp.length() > s.radius + max_len + d {
+    let cp = p - c;
+    let len = cp.length();
+    if len > (r + max_len + d) * (1.0 + 1e-5) {
         return false;
     }
     let along = cp.dot(k.axis);
-    let h = s.center + k.axis * along;
-    let (sin, cos) = k.angle.sin_cos();
-    along.abs() * (sin / cos) + (d + s.radius) / cos >= (p - h).length()
+    let radial = (cp - k.axis * along).length();
+    // |C − H|·tan α + (d + r)/cos α ≥ |P − H|, multiplied through by cos α > 0; the slack of
+    // 1e-5 of the distance absorbs the rounding of this f32 evaluation, so a ball touching
+    // the cone's boundary is never rejected by rounding.
+    along.abs() * k.sin + (d + r) + 1e-5 * len >= radial * k.cos
 }
 
 /// Exact variant: distance from P to the infinite solid cone with apex C ≤ d + r (the node's
@@ -176,29 +212,35 @@ pub fn node_hits_sphere_rah(s: &Sphere, k: &Cone, p: Vec3, d: f32, max_len: f32)
 /// for wide cones up to α < π.
 #[inline]
 pub fn node_hits_sphere_exact(s: &Sphere, k: &Cone, p: Vec3, d: f32, max_len: f32) -> bool {
-    let v = p - s.center;
+    exact_test(s.center, s.radius, &ConeSc::from(k), p, d, max_len)
+}
+
+/// [`node_hits_sphere_exact`] with the cone's sine and cosine precomputed (no trigonometry:
+/// the angle comparisons are done on cosines).
+#[inline]
+pub fn exact_test(c: Vec3, r: f32, k: &ConeSc, p: Vec3, d: f32, max_len: f32) -> bool {
+    let v = p - c;
     let len = v.length();
-    let reach = d + s.radius;
-    if len > s.radius + max_len + d {
+    let reach = d + r;
+    if len > (r + max_len + d) * (1.0 + 1e-5) {
         return false;
     }
-    if k.angle >= PI || len <= reach {
+    if k.full || len <= reach {
         return true;
     }
     let a = v.dot(k.axis);
-    let b = (v - k.axis * a).length();
-    // Angle of v from the axis versus α: inside the cone → distance 0.
-    let phi = b.atan2(a);
-    if phi <= k.angle {
+    // Inside the cone: angle(v, axis) ≤ α ⟺ a ≥ |v| cos α (slack for rounding).
+    if a >= len * k.cos - 1e-5 * len {
         return true;
     }
-    let dist = if phi >= k.angle + FRAC_PI_2 {
-        len // The apex is the closest point.
+    let dist = if !k.wide && a <= -len * k.sin {
+        // Angle ≥ α + 90°: the apex is the closest point.
+        len
     } else {
-        let (sin, cos) = k.angle.sin_cos();
-        b * cos - a * sin // Distance to the cone's surface line.
+        let b = (v - k.axis * a).length();
+        b * k.cos - a * k.sin // Distance to the cone's surface line.
     };
-    dist <= reach * (1.0 + 4.0 * f32::EPSILON) + 1e-6 * len
+    dist <= reach * (1.0 + 4.0 * f32::EPSILON) + 1e-5 * len
 }
 
 #[cfg(test)]

@@ -56,6 +56,9 @@ pub struct RayBatch {
     pub throughput: Vec<Vec3>,
     /// Whitted recursion depth of the surface that spawned the ray.
     pub depth: Vec<u8>,
+    /// Width of the image that `pixel` indexes (pixel = y · width + x), or 0 when the rays
+    /// have no screen layout (ray files, random rays). RAH groups rays by screen position.
+    pub width: u32,
 }
 
 impl RayBatch {
@@ -70,6 +73,7 @@ impl RayBatch {
             light: Vec::with_capacity(n),
             throughput: Vec::with_capacity(n),
             depth: Vec::with_capacity(n),
+            width: 0,
         }
     }
 

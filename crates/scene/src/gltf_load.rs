@@ -44,7 +44,7 @@ pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
     if !path.exists() {
         return Err(SceneError::Io {
             path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            cause: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         });
     }
     let gltf::Gltf { document, blob } =

@@ -129,7 +129,7 @@ pub fn load_obj_meshes(
 ) -> Result<(Vec<Mesh>, Vec<Material>), SceneError> {
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
         path: path.to_path_buf(),
-        source: e,
+        cause: e,
     })?;
     validate_obj(&text, path)?;
     let opts = tobj::LoadOptions {

@@ -125,7 +125,7 @@ pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
         path: path.to_path_buf(),
-        source: e,
+        cause: e,
     })?;
     parse_scene_file(&text, path, t0)
 }
@@ -192,7 +192,13 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
             None => MeshSplit::Groups,
         };
         let (mut meshes, mut materials) = if let Some(f) = &def.file {
-            let p = base.join(f);
+            // `scenes:REL` names a file in the shared scenes directory ($RAYSPACE_SCENES).
+            let p = match f.strip_prefix("scenes:") {
+                Some(rel) => crate::scenes_dir()
+                    .ok_or_else(|| bad(format!("'{f}': no scenes directory (set RAYSPACE_SCENES or provide ../shared/scenes)")))?
+                    .join(rel),
+                None => base.join(f),
+            };
             let ext = p
                 .extension()
                 .and_then(|e| e.to_str())

@@ -1,0 +1,225 @@
+//! CRSH and RAH as engines of [`render::Tracer`]: one node type, one builder, one traversal;
+//! they differ only where the papers differ (leaf order, mesh culling, defaults).
+
+use crate::build::{build, Union};
+use crate::hash::{HashBits, HashKind};
+use crate::order::{leaf_order, Grouping};
+use crate::traverse::{Counters, NodeTest, SceneData, Traversal};
+use geom::tri::RayPre;
+use geom::{intersect, Aabb, Sphere, Vec3};
+use rayon::prelude::*;
+use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use scene::Geometry;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// Which paper's method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Reis 2015: hashed, compressed, sorted rays; mesh-sphere culling at the top.
+    Crsh,
+    /// Roger et al. 2007: rays in screen order; no culling at the top.
+    Rah,
+}
+
+#[derive(Clone, Debug)]
+pub struct RshConfig {
+    pub method: Method,
+    /// Children per node (thesis: 8 or 16; RAH's pyramid: 4).
+    pub branching: u32,
+    /// Levels above the leaves (thesis: 2–4); 0 builds up to one root per ray kind.
+    pub levels: u32,
+    /// CRSH's hash (ignored by RAH).
+    pub hash: HashKind,
+    pub hash_bits: HashBits,
+    pub union: Union,
+    pub node_test: NodeTest,
+    /// Test top nodes against per-mesh bounding spheres first.
+    pub mesh_culling: bool,
+    /// Most (node, triangle) pairs held in one buffer.
+    pub pair_budget: usize,
+}
+
+/// Default pair budget: 2^24 pairs (128 MiB for the two u32 arrays of one buffer).
+pub const DEFAULT_PAIR_BUDGET: usize = 1 << 24;
+
+impl RshConfig {
+    pub fn crsh() -> Self {
+        RshConfig {
+            method: Method::Crsh,
+            branching: 8,
+            levels: 2,
+            hash: HashKind::Thesis,
+            hash_bits: HashBits::default(),
+            union: Union::Exact,
+            node_test: NodeTest::Rah,
+            mesh_culling: true,
+            pair_budget: DEFAULT_PAIR_BUDGET,
+        }
+    }
+
+    pub fn rah() -> Self {
+        RshConfig {
+            method: Method::Rah,
+            mesh_culling: false,
+            ..Self::crsh()
+        }
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        if !(2..=64).contains(&self.branching) {
+            return Err(format!(
+                "branching factor {} is not in 2..=64",
+                self.branching
+            ));
+        }
+        if self.levels > 16 {
+            return Err(format!("{} levels is more than 16", self.levels));
+        }
+        if self.pair_budget < 1024 {
+            return Err(format!("pair budget {} is below 1024", self.pair_budget));
+        }
+        self.hash_bits.validate()
+    }
+}
+
+/// The engine: per-triangle bounding spheres and the mesh spheres, built once per scene
+/// (per frame for dynamic scenes); the ray hierarchy is built per trace call.
+pub struct RshEngine {
+    cfg: RshConfig,
+    tris: Vec<[Vec3; 3]>,
+    tri_center: Vec<Vec3>,
+    tri_radius: Vec<f32>,
+    mesh_first: Vec<u32>,
+    mesh_sphere: Vec<Sphere>,
+    bounds: Aabb,
+}
+
+const KIND: [&str; 4] = ["PR", "SH", "RE", "RF"];
+
+impl RshEngine {
+    pub fn new(geo: &Geometry, cfg: RshConfig) -> Result<Self, String> {
+        cfg.validate()?;
+        let spheres: Vec<Sphere> = geo
+            .tris
+            .par_iter()
+            .map(|t| Sphere::of_triangle(t[0], t[1], t[2]))
+            .collect();
+        Ok(RshEngine {
+            cfg,
+            tris: geo.tris.clone(),
+            tri_center: spheres.iter().map(|s| s.center).collect(),
+            tri_radius: spheres.iter().map(|s| s.radius).collect(),
+            mesh_first: geo.mesh_first.clone(),
+            mesh_sphere: geo.mesh_sphere.clone(),
+            bounds: geo.bounds,
+        })
+    }
+
+    pub fn config(&self) -> &RshConfig {
+        &self.cfg
+    }
+}
+
+impl Tracer for RshEngine {
+    fn name(&self) -> &str {
+        match self.cfg.method {
+            Method::Crsh => "crsh",
+            Method::Rah => "rah",
+        }
+    }
+
+    fn trace(&self, rays: &RayBatch, _mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+        assert_eq!(hits.len(), rays.len(), "one hit record per ray");
+        let n = rays.len();
+        stats.rays += n as u64;
+        if n == 0 {
+            return;
+        }
+        let grouping = match self.cfg.method {
+            Method::Crsh => Grouping::Hash(self.cfg.hash),
+            Method::Rah => Grouping::Screen,
+        };
+        let order = leaf_order(rays, grouping, &self.bounds, &self.cfg.hash_bits, stats);
+        let t0 = Instant::now();
+        let h = build(
+            rays,
+            order,
+            self.cfg.branching as usize,
+            self.cfg.levels,
+            self.cfg.union,
+        );
+        stats.time("hierarchy creation", t0.elapsed().as_secs_f64());
+        let pre: Vec<RayPre> = (0..n)
+            .into_par_iter()
+            .map(|i| RayPre::new(&rays.ray(i)))
+            .collect();
+        let best: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(u64::MAX)).collect();
+        let trav = Traversal {
+            h: &h,
+            scene: SceneData {
+                tris: &self.tris,
+                tri_center: &self.tri_center,
+                tri_radius: &self.tri_radius,
+                mesh_first: &self.mesh_first,
+                mesh_sphere: &self.mesh_sphere,
+            },
+            pre: &pre,
+            best: &best,
+            test: self.cfg.node_test,
+            mesh_culling: self.cfg.mesh_culling,
+            budget: self.cfg.pair_budget,
+        };
+        let mut c = Counters::default();
+        let t1 = Instant::now();
+        if !self.tris.is_empty() {
+            trav.run(&mut c);
+        }
+        let total = t1.elapsed().as_secs_f64();
+        stats.time("traversal", total - c.final_seconds);
+        stats.time("final tests", c.final_seconds);
+        // Records: recompute the winner with the shared kernel (bit-identical to brute force).
+        hits.par_iter_mut().enumerate().for_each(|(i, out)| {
+            let b = best[i].load(Ordering::Relaxed);
+            *out = if b == u64::MAX {
+                Hit::MISS
+            } else {
+                let tri = b as u32;
+                let [a, bb, cc] = self.tris[tri as usize];
+                let h = intersect(&pre[i], a, bb, cc).expect("the recorded hit repeats");
+                Hit {
+                    tri,
+                    t: h.t,
+                    u: h.u,
+                    v: h.v,
+                }
+            };
+        });
+        stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
+        for (li, (t, hh)) in c.tests.iter().zip(&c.hits).enumerate() {
+            for k in 0..4 {
+                if t[k] > 0 {
+                    stats.count(&format!("L{} {} tests", li + 1, KIND[k]), t[k]);
+                    stats.count(&format!("L{} {} hits", li + 1, KIND[k]), hh[k]);
+                }
+                stats.node_tri_tests += t[k];
+            }
+        }
+        for (name, &n) in KIND.iter().zip(&c.final_tests) {
+            if n > 0 {
+                stats.count(&format!("final {name} tests"), n);
+            }
+            stats.ray_tri_tests += n;
+        }
+        if self.cfg.mesh_culling {
+            stats.count("mesh-sphere tests", c.mesh_tests);
+            stats.count("mesh-sphere passes", c.mesh_passes);
+        }
+        stats.count("triangle batches", c.batches);
+        stats.count("budget splits", c.splits);
+        stats.count(
+            "top nodes",
+            h.levels.last().map(|l| l.len() as u64).unwrap_or(0),
+        );
+    }
+}

@@ -1,0 +1,221 @@
+//! Ray hashing (thesis §3.2.3) and the screen-space keys of RAH.
+//!
+//! ## 32-bit thesis hash ([`HashKind::Thesis`]); bit 31 is the most significant
+//! ```text
+//! all rays      [31:30] ray kind (0 primary, 1 shadow, 2 reflection, 3 refraction)
+//! shadow        [29 : 30-L] light index (L = light_bits, wraps modulo 2^L)
+//!               [low 2·S bits] direction from the light: quantised spherical (θ, φ),
+//!                              S bits each, interleaved (2-D Morton)
+//! other rays    [29 : 30-3·O] origin: 3-D Morton of the origin quantised to 2^O cells per
+//!                              axis of the scene box
+//!               [low 2·D bits] direction: quantised (θ, φ), D bits each, interleaved
+//! ```
+//! The thesis keeps light index above direction for shadows (so rays sort by light first)
+//! and origin plus direction for the other rays; it does not fix how θ and φ share their
+//! bits, so they are interleaved here to keep both angles coherent in a node.
+//!
+//! ## 64-bit 5-D Morton hash ([`HashKind::Morton64`])
+//! `[63:62]` kind, then 60 bits interleaving origin x, y, z and direction θ, φ at 12 bits each
+//! (the thesis's future work: one code that weighs origin and direction alike). A shadow ray's
+//! origin is its light, so shadows still group by light.
+//!
+//! ## RAH screen key
+//! `[31:30]` kind, `[29:26]` light, `[25:0]` Z-order (Morton) of the pixel (x, y): the layout
+//! of RAH's ray textures, whose 2×2 pyramid is exactly consecutive runs of this order.
+
+use geom::{Aabb, Vec3};
+use render::{RayBatch, RayKind};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HashKind {
+    /// The thesis's typed 32-bit hash.
+    Thesis,
+    /// A 64-bit 5-D Morton code of origin and direction.
+    Morton64,
+}
+
+/// Bit budgets of the 32-bit hash (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HashBits {
+    pub light: u32,
+    /// Bits per angle for shadow rays.
+    pub shadow_dir: u32,
+    /// Bits per axis of the origin for reflection/refraction rays.
+    pub origin: u32,
+    /// Bits per angle for reflection/refraction rays.
+    pub dir: u32,
+}
+
+impl Default for HashBits {
+    fn default() -> Self {
+        HashBits {
+            light: 4,
+            shadow_dir: 13,
+            origin: 5,
+            dir: 7,
+        }
+    }
+}
+
+impl HashBits {
+    /// Check the budgets fit 30 bits below the kind.
+    pub fn validate(&self) -> Result<(), String> {
+        let s = self.light + 2 * self.shadow_dir;
+        let o = 3 * self.origin + 2 * self.dir;
+        if s > 30 || o > 30 {
+            return Err(format!(
+                "hash bit budgets exceed 30 bits (shadow uses {s}, other rays {o})"
+            ));
+        }
+        if self.shadow_dir == 0 || self.dir == 0 {
+            return Err("hash direction bits must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// Spread the low 16 bits of `v` to even bit positions.
+#[inline]
+pub fn part1by1(v: u32) -> u32 {
+    let mut x = v & 0xffff;
+    x = (x | (x << 8)) & 0x00ff_00ff;
+    x = (x | (x << 4)) & 0x0f0f_0f0f;
+    x = (x | (x << 2)) & 0x3333_3333;
+    x = (x | (x << 1)) & 0x5555_5555;
+    x
+}
+
+/// Spread the low 10 bits of `v` to every third bit.
+#[inline]
+pub fn part1by2(v: u32) -> u32 {
+    let mut x = v & 0x3ff;
+    x = (x | (x << 16)) & 0x0300_00ff;
+    x = (x | (x << 8)) & 0x0300_f00f;
+    x = (x | (x << 4)) & 0x030c_30c3;
+    x = (x | (x << 2)) & 0x0924_9249;
+    x
+}
+
+/// Interleave 5 coordinates of up to 12 bits each into a 60-bit Morton code.
+#[inline]
+pub fn morton5(c: [u32; 5]) -> u64 {
+    let mut out = 0u64;
+    for bit in 0..12 {
+        for (k, v) in c.iter().enumerate() {
+            out |= (((v >> bit) & 1) as u64) << (bit * 5 + k as u32);
+        }
+    }
+    out
+}
+
+/// Quantise `x ∈ [0, 1]` to `bits` bits.
+#[inline]
+fn quant(x: f32, bits: u32) -> u32 {
+    let n = (1u32 << bits) as f32;
+    ((x * n) as u32).min((1u32 << bits) - 1)
+}
+
+/// Spherical coordinates of a unit direction, each normalised to [0, 1]:
+/// θ = acos(z) / π, φ = (atan2(y, x) + π) / 2π.
+#[inline]
+pub fn spherical01(d: Vec3) -> (f32, f32) {
+    let theta = d.z.clamp(-1.0, 1.0).acos() * std::f32::consts::FRAC_1_PI;
+    let phi = (d.y.atan2(d.x) + std::f32::consts::PI) * (0.5 * std::f32::consts::FRAC_1_PI);
+    (theta.clamp(0.0, 1.0), phi.clamp(0.0, 1.0))
+}
+
+#[inline]
+fn unit_in_box(p: Vec3, b: &Aabb) -> Vec3 {
+    let e = b.extent().max(Vec3::splat(1e-30));
+    ((p - b.min) / e).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+/// The 32-bit thesis hash of ray `i`.
+#[inline]
+pub fn thesis_key(rays: &RayBatch, i: usize, scene: &Aabb, bits: &HashBits) -> u32 {
+    let kind = rays.kind[i] as u32 & 3;
+    let (t, p) = spherical01(rays.dir[i]);
+    let payload = if kind == RayKind::Shadow as u32 {
+        let light = rays.light[i] & ((1u32 << bits.light) - 1);
+        let dir = part1by1(quant(t, bits.shadow_dir)) << 1 | part1by1(quant(p, bits.shadow_dir));
+        light << (2 * bits.shadow_dir) | dir
+    } else {
+        let u = unit_in_box(rays.org[i], scene);
+        let o = bits.origin;
+        let org =
+            part1by2(quant(u.x, o)) << 2 | part1by2(quant(u.y, o)) << 1 | part1by2(quant(u.z, o));
+        let dir = part1by1(quant(t, bits.dir)) << 1 | part1by1(quant(p, bits.dir));
+        org << (2 * bits.dir) | dir
+    };
+    kind << 30 | payload
+}
+
+/// The 64-bit 5-D Morton hash of ray `i`.
+#[inline]
+pub fn morton64_key(rays: &RayBatch, i: usize, scene: &Aabb) -> u64 {
+    let kind = rays.kind[i] as u64 & 3;
+    let u = unit_in_box(rays.org[i], scene);
+    let (t, p) = spherical01(rays.dir[i]);
+    let c = [
+        quant(u.x, 12),
+        quant(u.y, 12),
+        quant(u.z, 12),
+        quant(t, 12),
+        quant(p, 12),
+    ];
+    kind << 62 | morton5(c)
+}
+
+/// RAH's key: kind, light, pixel Z-order (identity order within a kind when the batch has no
+/// screen layout).
+#[inline]
+pub fn screen_key(rays: &RayBatch, i: usize) -> u32 {
+    let kind = rays.kind[i] as u32 & 3;
+    let light = rays.light[i] & 15;
+    let z = if rays.width > 0 {
+        let (x, y) = (rays.pixel[i] % rays.width, rays.pixel[i] / rays.width);
+        (part1by1(y & 0x1fff) << 1 | part1by1(x & 0x1fff)) & 0x03ff_ffff
+    } else {
+        0
+    };
+    kind << 30 | light << 26 | z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_spreads() {
+        assert_eq!(part1by1(0b1011), 0b1000101);
+        assert_eq!(part1by2(0b11), 0b1001);
+        assert_eq!(morton5([1, 0, 0, 0, 0]), 1);
+        assert_eq!(morton5([0, 0, 0, 0, 1]), 1 << 4);
+        assert_eq!(morton5([2, 0, 0, 0, 0]), 1 << 5);
+        assert_eq!(morton5([0xfff; 5]), (1u64 << 60) - 1);
+    }
+
+    #[test]
+    fn keys_keep_kinds_apart_and_lights_ordered() {
+        let mut b = RayBatch::default();
+        let r = geom::Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0);
+        b.push(r, RayKind::Shadow, 0, 3, Vec3::ONE, 0);
+        b.push(r, RayKind::Shadow, 0, 1, Vec3::ONE, 0);
+        b.push(r, RayKind::Reflection, 0, 0, Vec3::ONE, 0);
+        let bx = Aabb::new(Vec3::splat(-1.0), Vec3::ONE);
+        let bits = HashBits::default();
+        let k: Vec<u32> = (0..3).map(|i| thesis_key(&b, i, &bx, &bits)).collect();
+        assert!(k[1] < k[0], "light 1 sorts before light 3");
+        assert!(k[0] < k[2], "shadow rays before reflection rays");
+        assert_eq!(k[2] >> 30, 2);
+        let m: Vec<u64> = (0..3).map(|i| morton64_key(&b, i, &bx)).collect();
+        assert_eq!(m[2] >> 62, 2);
+        assert!(HashBits::default().validate().is_ok());
+        assert!(HashBits {
+            origin: 8,
+            ..Default::default()
+        }
+        .validate()
+        .is_err());
+    }
+}

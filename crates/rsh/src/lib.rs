@@ -1,0 +1,19 @@
+//! Ray-space hierarchies: the thesis's Coherent Ray-Space Hierarchy (CRSH, Reis 2015, §3.2)
+//! and Roger et al.'s RAH (2007), as engines of [`render::Tracer`].
+//!
+//! Per trace call: order the rays ([`order`]: CRSH hashes, compresses, sorts and
+//! decompresses; RAH uses screen order), build a sphere-cone hierarchy bottom-up
+//! ([`build`]), push the scene's triangles top-down through it as (node, triangle) pairs
+//! ([`traverse`]) and finish with exact ray–triangle tests. Every step is a flat,
+//! data-parallel pass built on `par`.
+
+pub mod build;
+pub mod engine;
+pub mod hash;
+pub mod order;
+pub mod traverse;
+
+pub use build::Union;
+pub use engine::{Method, RshConfig, RshEngine};
+pub use hash::{HashBits, HashKind};
+pub use traverse::NodeTest;

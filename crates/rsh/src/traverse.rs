@@ -1,0 +1,330 @@
+//! Top-down traversal (thesis §3.2.8) and the final tests (§3.2.9).
+//!
+//! Top level: every top node is tested against every mesh's bounding sphere (§3.2.1–3.2.2);
+//! the triangles of the meshes that pass become (node, triangle) candidates. Then, level by
+//! level: each pair's triangle bounding sphere is tested against its node (eq. 3.16, or the
+//! exact sphere–cone test), survivors are compacted (`par::compact_pairs`) and expanded to the
+//! node's children. Pairs surviving level 1 give (ray, triangle) exact tests: closest hit per
+//! ray by an atomic minimum over (t, triangle id) — the tie rule of the brute-force oracle —
+//! so the result does not depend on the order the pairs are processed in.
+//!
+//! Memory is bounded by `pair_budget` (pairs per buffer): the top-level candidates are made
+//! for node chunks × triangle batches (RAH's scene batches) that fit it, and a level whose
+//! expansion would exceed it is processed in halves, depth first. No pair is ever dropped.
+
+use crate::build::{Hierarchy, Level};
+use geom::cone::{exact_test, rah_test};
+use geom::tri::RayPre;
+use geom::{intersect, Sphere, Vec3};
+use par::{compact_pairs, exclusive_scan};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NodeTest {
+    /// Roger et al.'s test (thesis eq. 3.16); wide cones pass.
+    Rah,
+    /// Exact distance from the triangle sphere's centre to the node's cone.
+    Exact,
+}
+
+/// Scene data the traversal reads.
+pub struct SceneData<'a> {
+    pub tris: &'a [[Vec3; 3]],
+    pub tri_center: &'a [Vec3],
+    pub tri_radius: &'a [f32],
+    pub mesh_first: &'a [u32],
+    pub mesh_sphere: &'a [Sphere],
+}
+
+/// Counts by level (index 0 = level 1) and ray kind.
+#[derive(Clone, Debug, Default)]
+pub struct Counters {
+    pub tests: Vec<[u64; 4]>,
+    pub hits: Vec<[u64; 4]>,
+    pub final_tests: [u64; 4],
+    pub mesh_tests: u64,
+    pub mesh_passes: u64,
+    pub batches: u64,
+    pub splits: u64,
+    pub final_seconds: f64,
+}
+
+pub struct Traversal<'a> {
+    pub h: &'a Hierarchy,
+    pub scene: SceneData<'a>,
+    pub pre: &'a [RayPre],
+    pub best: &'a [AtomicU64],
+    pub test: NodeTest,
+    pub mesh_culling: bool,
+    pub budget: usize,
+}
+
+/// (t, triangle) packed so that the u64 order is (smallest t, then smallest id): positive
+/// f32 bit patterns order like the floats.
+#[inline]
+pub fn pack(t: f32, tri: u32) -> u64 {
+    (t.to_bits() as u64) << 32 | tri as u64
+}
+
+#[inline]
+fn node_test(test: NodeTest, level: &Level, node: usize, p: Vec3, d: f32) -> bool {
+    let k = level.cone_sc(node);
+    let (c, r, l) = (level.center[node], level.radius[node], level.max_t[node]);
+    match test {
+        NodeTest::Rah => rah_test(c, r, &k, p, d, l),
+        NodeTest::Exact => exact_test(c, r, &k, p, d, l),
+    }
+}
+
+fn add4(a: [u64; 4], b: [u64; 4]) -> [u64; 4] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]]
+}
+
+impl Traversal<'_> {
+    pub fn run(&self, c: &mut Counters) {
+        let nl = self.h.levels.len();
+        c.tests = vec![[0; 4]; nl];
+        c.hits = vec![[0; 4]; nl];
+        if nl == 0 {
+            return;
+        }
+        let top = &self.h.levels[nl - 1];
+        let nt = top.len();
+        let nm = self.scene.mesh_first.len() - 1;
+        // Mesh culling at the top level: pass[node · nm + mesh].
+        let pass: Vec<u8> = if self.mesh_culling {
+            c.mesh_tests += (nt * nm) as u64;
+            (0..nt * nm)
+                .into_par_iter()
+                .map(|i| {
+                    let s = &self.scene.mesh_sphere[i % nm];
+                    node_test(self.test, top, i / nm, s.center, s.radius) as u8
+                })
+                .collect()
+        } else {
+            vec![1; nt * nm]
+        };
+        c.mesh_passes += pass.iter().map(|&p| p as u64).sum::<u64>();
+        // Node chunks × triangle batches whose candidate count fits the budget.
+        let node_chunk = nt.min(self.budget).max(1);
+        for n0 in (0..nt).step_by(node_chunk) {
+            let n1 = (n0 + node_chunk).min(nt);
+            let mut per_mesh = vec![0u64; nm];
+            for n in n0..n1 {
+                for m in 0..nm {
+                    per_mesh[m] += pass[n * nm + m] as u64;
+                }
+            }
+            let ntri = self.scene.tris.len();
+            let mut t0 = 0;
+            while t0 < ntri {
+                // Grow the batch triangle by triangle while its candidates fit.
+                let mut t1 = t0;
+                let mut load = 0u64;
+                let mut m = self.mesh_of(t0);
+                while t1 < ntri {
+                    while self.scene.mesh_first[m + 1] as usize <= t1 {
+                        m += 1;
+                    }
+                    let cost = per_mesh[m];
+                    if load + cost > self.budget as u64 && t1 > t0 {
+                        break;
+                    }
+                    load += cost;
+                    t1 += 1;
+                }
+                self.top_batch(n0..n1, t0..t1, &pass, nm, c);
+                t0 = t1;
+            }
+        }
+    }
+
+    fn mesh_of(&self, t: usize) -> usize {
+        self.scene.mesh_first.partition_point(|&f| f as usize <= t) - 1
+    }
+
+    /// Candidates (node, triangle) for a node range and triangle range, node-major.
+    fn top_batch(
+        &self,
+        nodes: std::ops::Range<usize>,
+        tris: std::ops::Range<usize>,
+        pass: &[u8],
+        nm: usize,
+        c: &mut Counters,
+    ) {
+        c.batches += 1;
+        let (m0, m1) = (self.mesh_of(tris.start), self.mesh_of(tris.end - 1));
+        let mf = self.scene.mesh_first;
+        let overlap = |m: usize| {
+            let a = (mf[m] as usize).max(tris.start);
+            let b = (mf[m + 1] as usize).min(tris.end);
+            a..b.max(a)
+        };
+        let counts: Vec<u32> = nodes
+            .clone()
+            .into_par_iter()
+            .map(|n| {
+                (m0..=m1)
+                    .filter(|&m| pass[n * nm + m] != 0)
+                    .map(|m| overlap(m).len() as u32)
+                    .sum()
+            })
+            .collect();
+        let mut offs = vec![0u32; counts.len()];
+        let total = exclusive_scan(&counts, &mut offs) as usize;
+        if total == 0 {
+            return;
+        }
+        let mut pn = vec![0u32; total];
+        let mut pt = vec![0u32; total];
+        {
+            let (wn, wt) = (Shared(pn.as_mut_ptr()), Shared(pt.as_mut_ptr()));
+            nodes
+                .clone()
+                .into_par_iter()
+                .zip(offs.par_iter())
+                .for_each(|(n, &o)| {
+                    let mut k = o as usize;
+                    for m in m0..=m1 {
+                        if pass[n * nm + m] == 0 {
+                            continue;
+                        }
+                        for t in overlap(m) {
+                            // SAFETY: node n owns [offs[n], offs[n] + counts[n]) by the exclusive scan.
+                            unsafe {
+                                wn.write(k, n as u32);
+                                wt.write(k, t as u32);
+                            }
+                            k += 1;
+                        }
+                    }
+                });
+        }
+        let nl = self.h.levels.len();
+        self.process(nl - 1, pn, pt, c);
+    }
+
+    /// Test the pairs at level index `li`, compact the survivors, then expand or finish.
+    fn process(&self, li: usize, nodes: Vec<u32>, tris: Vec<u32>, c: &mut Counters) {
+        let level = &self.h.levels[li];
+        let s = &self.scene;
+        let flags: Vec<u8> = nodes
+            .par_iter()
+            .zip(tris.par_iter())
+            .map(|(&n, &t)| {
+                node_test(
+                    self.test,
+                    level,
+                    n as usize,
+                    s.tri_center[t as usize],
+                    s.tri_radius[t as usize],
+                ) as u8
+            })
+            .collect();
+        let (tests, hits) = nodes
+            .par_iter()
+            .zip(flags.par_iter())
+            .fold(
+                || ([0u64; 4], [0u64; 4]),
+                |(mut t, mut h), (&n, &f)| {
+                    let k = level.kind[n as usize] as usize & 3;
+                    t[k] += 1;
+                    h[k] += f as u64;
+                    (t, h)
+                },
+            )
+            .reduce(|| ([0; 4], [0; 4]), |a, b| (add4(a.0, b.0), add4(a.1, b.1)));
+        c.tests[li] = add4(c.tests[li], tests);
+        c.hits[li] = add4(c.hits[li], hits);
+        let m = hits.iter().sum::<u64>() as usize;
+        let (mut sn, mut st) = (vec![0u32; m], vec![0u32; m]);
+        compact_pairs(&nodes, &tris, &flags, &mut sn, &mut st);
+        drop((nodes, tris, flags));
+        if li == 0 {
+            let t0 = Instant::now();
+            self.final_tests(&sn, &st, c);
+            c.final_seconds += t0.elapsed().as_secs_f64();
+        } else {
+            self.expand(li, sn, st, c);
+        }
+    }
+
+    /// Children of the survivors at level index `li` → pairs at `li − 1` (in halves when
+    /// they would not fit the budget).
+    fn expand(&self, li: usize, sn: Vec<u32>, st: Vec<u32>, c: &mut Counters) {
+        let level = &self.h.levels[li];
+        let counts: Vec<u32> = sn
+            .par_iter()
+            .map(|&n| level.first[n as usize + 1] - level.first[n as usize])
+            .collect();
+        let total: u64 = counts.iter().map(|&x| x as u64).sum();
+        if total > self.budget as u64 && sn.len() > 1 {
+            c.splits += 1;
+            let h = sn.len() / 2;
+            self.expand(li, sn[..h].to_vec(), st[..h].to_vec(), c);
+            self.expand(li, sn[h..].to_vec(), st[h..].to_vec(), c);
+            return;
+        }
+        let mut offs = vec![0u32; counts.len()];
+        exclusive_scan(&counts, &mut offs);
+        let total = total as usize;
+        let (mut cn, mut ct) = (vec![0u32; total], vec![0u32; total]);
+        {
+            let (wn, wt) = (Shared(cn.as_mut_ptr()), Shared(ct.as_mut_ptr()));
+            (0..sn.len()).into_par_iter().for_each(|j| {
+                let n = sn[j] as usize;
+                for (k, child) in level.children(n).enumerate() {
+                    // SAFETY: survivor j owns [offs[j], offs[j] + counts[j]).
+                    unsafe {
+                        wn.write(offs[j] as usize + k, child as u32);
+                        wt.write(offs[j] as usize + k, st[j]);
+                    }
+                }
+            });
+        }
+        drop((sn, st));
+        self.process(li - 1, cn, ct, c);
+    }
+
+    /// Level-1 survivors: every ray of the node against the triangle (§3.2.9).
+    fn final_tests(&self, sn: &[u32], st: &[u32], c: &mut Counters) {
+        let l1 = &self.h.levels[0];
+        let order = &self.h.order;
+        let tests = sn
+            .par_iter()
+            .zip(st.par_iter())
+            .with_min_len(64)
+            .fold(
+                || [0u64; 4],
+                |mut acc, (&n, &t)| {
+                    let [a, b, cc] = self.scene.tris[t as usize];
+                    let leaves = l1.children(n as usize);
+                    acc[l1.kind[n as usize] as usize & 3] += leaves.len() as u64;
+                    for &r in &order[leaves] {
+                        if let Some(hit) = intersect(&self.pre[r as usize], a, b, cc) {
+                            self.best[r as usize].fetch_min(pack(hit.t, t), Ordering::Relaxed);
+                        }
+                    }
+                    acc
+                },
+            )
+            .reduce(|| [0; 4], add4);
+        c.final_tests = add4(c.final_tests, tests);
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Shared(*mut u32);
+unsafe impl Send for Shared {}
+unsafe impl Sync for Shared {}
+
+impl Shared {
+    /// # Safety
+    /// In bounds, and no other task writes index `i` during the pass.
+    #[inline]
+    unsafe fn write(&self, i: usize, v: u32) {
+        unsafe { self.0.add(i).write(v) }
+    }
+}

@@ -1,0 +1,284 @@
+//! CRSH and RAH return exactly the brute-force engine's hits: on every built-in scene's
+//! Whitted batches for every (b, d) in {4, 8, 16} × {1, 2, 3, 4} and both engines, and on
+//! random scenes and rays (proptest).
+//!
+//! Closest-hit records are compared bit for bit (all engines share one ray–triangle kernel
+//! and the tie rule "smallest t, then smallest triangle id"), so the stated t tolerance is 0.
+//! Any-hit results are compared as booleans.
+
+use accel::BruteForce;
+use geom::{Pcg32, Ray, Vec3};
+use proptest::prelude::*;
+use render::whitted::{render, RenderOptions};
+use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
+use rsh::{HashKind, NodeTest, RshConfig, RshEngine, Union};
+use scene::{builtin, Geometry};
+use std::sync::Mutex;
+
+/// Records every batch the renderer traces, answered by brute force.
+struct Recorder {
+    inner: BruteForce,
+    batches: Mutex<Vec<(RayBatch, TraceMode, Vec<Hit>)>>,
+}
+
+impl Tracer for Recorder {
+    fn name(&self) -> &str {
+        "recorder"
+    }
+    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+        self.inner.trace(rays, mode, hits, stats);
+        self.batches
+            .lock()
+            .unwrap()
+            .push((rays.clone(), mode, hits.to_vec()));
+    }
+}
+
+fn compare(engine: &RshEngine, rays: &RayBatch, mode: TraceMode, expect: &[Hit], what: &str) {
+    let mut got = vec![Hit::MISS; rays.len()];
+    engine.trace(rays, mode, &mut got, &mut TraceStats::default());
+    for (i, (g, e)) in got.iter().zip(expect).enumerate() {
+        match mode {
+            TraceMode::Closest => assert_eq!(g, e, "{what}: ray {i} {:?}", rays.ray(i)),
+            TraceMode::Any => {
+                assert_eq!(g.is_hit(), e.is_hit(), "{what}: ray {i} {:?}", rays.ray(i))
+            }
+        }
+    }
+}
+
+#[test]
+fn builtin_scenes_all_configs_match_brute_force() {
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let rec = Recorder {
+            inner: BruteForce::new(&geo),
+            batches: Mutex::new(Vec::new()),
+        };
+        render(
+            &s,
+            &geo,
+            &rec,
+            &RenderOptions {
+                width: 40,
+                height: 30,
+                bounces: 2,
+            },
+            &(),
+        );
+        let batches = rec.batches.into_inner().unwrap();
+        assert!(
+            batches.len() >= 3,
+            "{name}: shadow and secondary batches were traced"
+        );
+        for base in [RshConfig::crsh(), RshConfig::rah()] {
+            for b in [4u32, 8, 16] {
+                for d in [1u32, 2, 3, 4] {
+                    let cfg = RshConfig {
+                        branching: b,
+                        levels: d,
+                        ..base.clone()
+                    };
+                    let e = RshEngine::new(&geo, cfg.clone()).unwrap();
+                    for (k, (rays, mode, hits)) in batches.iter().enumerate() {
+                        compare(
+                            &e,
+                            rays,
+                            *mode,
+                            hits,
+                            &format!("{name} {:?} {b}/{d} batch {k}", cfg.method),
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn variants_match_brute_force() {
+    // Hash, union, node test, culling, the full pyramid and a tiny pair budget (forcing
+    // triangle batches and split expansions) on the office and cornell scenes.
+    for name in ["office", "cornell"] {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let rec = Recorder {
+            inner: BruteForce::new(&geo),
+            batches: Mutex::new(Vec::new()),
+        };
+        render(
+            &s,
+            &geo,
+            &rec,
+            &RenderOptions {
+                width: 32,
+                height: 32,
+                bounces: 2,
+            },
+            &(),
+        );
+        let batches = rec.batches.into_inner().unwrap();
+        let variants = [
+            RshConfig {
+                hash: HashKind::Morton64,
+                ..RshConfig::crsh()
+            },
+            RshConfig {
+                union: Union::Thesis,
+                ..RshConfig::crsh()
+            },
+            RshConfig {
+                node_test: NodeTest::Exact,
+                ..RshConfig::crsh()
+            },
+            RshConfig {
+                mesh_culling: false,
+                ..RshConfig::crsh()
+            },
+            RshConfig {
+                mesh_culling: true,
+                ..RshConfig::rah()
+            },
+            RshConfig {
+                branching: 4,
+                levels: 0,
+                ..RshConfig::rah()
+            },
+            RshConfig {
+                pair_budget: 1024,
+                ..RshConfig::crsh()
+            },
+            RshConfig {
+                branching: 2,
+                levels: 6,
+                pair_budget: 1500,
+                ..RshConfig::rah()
+            },
+        ];
+        for cfg in variants {
+            let e = RshEngine::new(&geo, cfg.clone()).unwrap();
+            for (k, (rays, mode, hits)) in batches.iter().enumerate() {
+                compare(&e, rays, *mode, hits, &format!("{name} {cfg:?} batch {k}"));
+            }
+        }
+    }
+}
+
+#[test]
+fn tiny_budget_forces_batches_and_keeps_every_pair() {
+    let s = builtin::office(7);
+    let geo = Geometry::from_scene(&s);
+    let rays = {
+        let mut rng = Pcg32::new(3, 3);
+        let r: Vec<Ray> = (0..3000)
+            .map(|_| {
+                Ray::new(
+                    Vec3::new(
+                        rng.range(-9.0, 9.0),
+                        rng.range(0.1, 3.0),
+                        rng.range(-9.0, 9.0),
+                    ),
+                    rng.unit_vector(),
+                    0.0,
+                    f32::INFINITY,
+                )
+            })
+            .collect();
+        RayBatch::from_rays(&r, RayKind::Reflection)
+    };
+    let mut expect = vec![Hit::MISS; rays.len()];
+    BruteForce::new(&geo).trace(
+        &rays,
+        TraceMode::Closest,
+        &mut expect,
+        &mut TraceStats::default(),
+    );
+    let e = RshEngine::new(
+        &geo,
+        RshConfig {
+            pair_budget: 1024,
+            ..RshConfig::crsh()
+        },
+    )
+    .unwrap();
+    let mut got = vec![Hit::MISS; rays.len()];
+    let mut st = TraceStats::default();
+    e.trace(&rays, TraceMode::Closest, &mut got, &mut st);
+    assert_eq!(got, expect);
+    assert!(
+        st.counters["triangle batches"] > 1,
+        "the budget forced triangle batches"
+    );
+    assert!(
+        st.counters["budget splits"] > 0,
+        "the budget forced split expansions"
+    );
+}
+
+fn random_case(seed: u64, ntri: usize, nray: usize) -> (Geometry, RayBatch) {
+    let mut rng = Pcg32::new(seed, 1);
+    let mut s = builtin::soup(ntri, seed);
+    // A few degenerate (zero-area) triangles must not disturb any engine.
+    if let Some(m) = s.meshes.first_mut() {
+        let p = m.positions[0];
+        m.positions.extend_from_slice(&[p, p, p + Vec3::X]);
+        m.normals.extend_from_slice(&[Vec3::Y; 3]);
+        let b = m.positions.len() as u32 - 3;
+        m.triangles.push([b, b + 1, b + 2]);
+        m.materials.push(0);
+    }
+    let geo = Geometry::from_scene(&s);
+    let mut batch = RayBatch::default();
+    for i in 0..nray {
+        let inside = rng.next_f32() < 0.5;
+        let org = if inside {
+            Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            )
+        } else {
+            rng.unit_vector() * rng.range(2.0, 6.0)
+        };
+        let mut dir = if inside || rng.next_f32() < 0.3 {
+            rng.unit_vector()
+        } else {
+            (-org + rng.unit_vector() * 0.8).normalize()
+        };
+        if i % 17 == 0 {
+            dir = [Vec3::X, -Vec3::Y, Vec3::new(-0.0, 0.0, 1.0)][i % 3];
+        }
+        let kind = [RayKind::Shadow, RayKind::Reflection, RayKind::Refraction][i % 3];
+        let t_max = if rng.next_f32() < 0.3 {
+            rng.range(0.0, 3.0)
+        } else {
+            f32::INFINITY
+        };
+        batch.push(
+            Ray::new(org, dir, 0.0, t_max),
+            kind,
+            i as u32,
+            (i % 2) as u32,
+            Vec3::ONE,
+            0,
+        );
+    }
+    batch.width = 37;
+    (geo, batch)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    #[test]
+    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>()) {
+        let (geo, rays) = random_case(seed, ntri, nray);
+        let base = if rah { RshConfig::rah() } else { RshConfig::crsh() };
+        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, ..base };
+        let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
+        let mut expect = vec![Hit::MISS; rays.len()];
+        BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
+        compare(&RshEngine::new(&geo, cfg).unwrap(), &rays, mode, &expect, "random");
+    }
+}
