@@ -46,11 +46,35 @@ impl TraceStats {
         *self.phases.entry(name.to_string()).or_default() += secs;
     }
 
+    /// Per-level rows (level, kind, tests, hits) from counters named `L<n> <KIND> tests|hits`,
+    /// top level first, as in the thesis's tables.
+    pub fn level_table(&self) -> Vec<(u32, String, u64, u64)> {
+        let mut rows: Vec<(u32, String, u64, u64)> = Vec::new();
+        for (k, &v) in &self.counters {
+            let mut it = k.split(' ');
+            let (Some(l), Some(kind), Some(what), None) = (it.next(), it.next(), it.next(), it.next()) else { continue };
+            let Some(level) = l.strip_prefix('L').and_then(|n| n.parse::<u32>().ok()) else { continue };
+            if what != "tests" {
+                continue;
+            }
+            let hits = self.counters.get(&format!("L{level} {kind} hits")).copied().unwrap_or(0);
+            rows.push((level, kind.to_string(), v, hits));
+        }
+        rows.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+        rows
+    }
+
     /// All intersection tests as the thesis counts them (§4.4): node–triangle tests of every
     /// hierarchy level plus the final ray–triangle tests.
     pub fn total_tests(&self) -> u64 {
         self.ray_tri_tests + self.node_tri_tests
     }
+}
+
+fn is_level_counter(k: &str) -> bool {
+    let mut it = k.split(' ');
+    matches!((it.next(), it.next(), it.next()), (Some(l), Some(_), Some("tests" | "hits")) if l.starts_with('L') && l[1..].parse::<u32>().is_ok())
+        || (k.starts_with("final ") && k.ends_with(" tests"))
 }
 
 /// Everything a render reports (printed as a table by the CLI; `--stats` writes it as JSON).
@@ -135,8 +159,11 @@ impl RenderStats {
         for (n, v) in rows {
             s += &format!("| {n} | {v} |\n");
         }
+        let levels = self.trace.level_table();
         for (k, v) in &self.trace.counters {
-            s += &format!("| {k} | {v} |\n");
+            if levels.is_empty() || !is_level_counter(k) {
+                s += &format!("| {k} | {v} |\n");
+            }
         }
         s += &format!("| total tests | {} |\n", self.total_tests);
         s += &format!(
@@ -147,6 +174,17 @@ impl RenderStats {
             "| total as % of brute force | {:.3} % |\n",
             pct(self.total_tests, self.brute_force_tests)
         );
+        if !levels.is_empty() {
+            s += "\n| level | kind | tests | hits | misses |\n|---|---|---:|---:|---:|\n";
+            for (level, kind, tests, hits) in &levels {
+                s += &format!("| {level} | {kind} | {tests} | {hits} | {} |\n", tests - hits);
+            }
+            for (k, v) in &self.trace.counters {
+                if let Some(kind) = k.strip_prefix("final ").and_then(|r| r.strip_suffix(" tests")) {
+                    s += &format!("| final (ray-triangle) | {kind} | {v} | | |\n");
+                }
+            }
+        }
         if !self.trace.phases.is_empty() {
             s += "\n| engine phase | time (ms) |\n|---|---:|\n";
             for (n, t) in &self.trace.phases {
