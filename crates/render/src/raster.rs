@@ -411,28 +411,32 @@ pub fn rasterize(
             }
         }
     }
-    // 4. Resolve the surface attributes.
-    let attrs: Vec<(Vec3, Vec3, Vec3, [f32; 4])> = gb
-        .tri
-        .par_iter()
-        .zip(gb.bary.par_iter())
-        .map(|(&t, &[u, v])| {
-            if t == NO_HIT {
-                return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, [0.0; 4]);
+    // 4. Resolve the surface attributes, one pass writing all four arrays.
+    gb.position = vec![Vec3::ZERO; w * h];
+    gb.normal = vec![Vec3::ZERO; w * h];
+    gb.diffuse = vec![Vec3::ZERO; w * h];
+    gb.specular = vec![[0.0; 4]; w * h];
+    let (tri, bary) = (&gb.tri, &gb.bary);
+    gb.position
+        .par_chunks_mut(w)
+        .zip(gb.normal.par_chunks_mut(w))
+        .zip(gb.diffuse.par_chunks_mut(w))
+        .zip(gb.specular.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(y, (((pos, nrm), dif), spe))| {
+            for x in 0..w {
+                let t = tri[y * w + x];
+                if t == NO_HIT {
+                    continue;
+                }
+                let [u, v] = bary[y * w + x];
+                let m = &materials[geo.material[t as usize] as usize];
+                pos[x] = geo.point(t, u, v);
+                nrm[x] = geo.shading_normal(t, u, v);
+                dif[x] = m.diffuse;
+                spe[x] = [m.specular.x, m.specular.y, m.specular.z, m.shininess];
             }
-            let m = &materials[geo.material[t as usize] as usize];
-            (
-                geo.point(t, u, v),
-                geo.shading_normal(t, u, v),
-                m.diffuse,
-                [m.specular.x, m.specular.y, m.specular.z, m.shininess],
-            )
-        })
-        .collect();
-    gb.position = attrs.iter().map(|a| a.0).collect();
-    gb.normal = attrs.iter().map(|a| a.1).collect();
-    gb.diffuse = attrs.iter().map(|a| a.2).collect();
-    gb.specular = attrs.iter().map(|a| a.3).collect();
+        });
     (gb, stats)
 }
 

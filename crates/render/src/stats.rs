@@ -52,12 +52,22 @@ impl TraceStats {
         let mut rows: Vec<(u32, String, u64, u64)> = Vec::new();
         for (k, &v) in &self.counters {
             let mut it = k.split(' ');
-            let (Some(l), Some(kind), Some(what), None) = (it.next(), it.next(), it.next(), it.next()) else { continue };
-            let Some(level) = l.strip_prefix('L').and_then(|n| n.parse::<u32>().ok()) else { continue };
+            let (Some(l), Some(kind), Some(what), None) =
+                (it.next(), it.next(), it.next(), it.next())
+            else {
+                continue;
+            };
+            let Some(level) = l.strip_prefix('L').and_then(|n| n.parse::<u32>().ok()) else {
+                continue;
+            };
             if what != "tests" {
                 continue;
             }
-            let hits = self.counters.get(&format!("L{level} {kind} hits")).copied().unwrap_or(0);
+            let hits = self
+                .counters
+                .get(&format!("L{level} {kind} hits"))
+                .copied()
+                .unwrap_or(0);
             rows.push((level, kind.to_string(), v, hits));
         }
         rows.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
@@ -177,10 +187,16 @@ impl RenderStats {
         if !levels.is_empty() {
             s += "\n| level | kind | tests | hits | misses |\n|---|---|---:|---:|---:|\n";
             for (level, kind, tests, hits) in &levels {
-                s += &format!("| {level} | {kind} | {tests} | {hits} | {} |\n", tests - hits);
+                s += &format!(
+                    "| {level} | {kind} | {tests} | {hits} | {} |\n",
+                    tests - hits
+                );
             }
             for (k, v) in &self.trace.counters {
-                if let Some(kind) = k.strip_prefix("final ").and_then(|r| r.strip_suffix(" tests")) {
+                if let Some(kind) = k
+                    .strip_prefix("final ")
+                    .and_then(|r| r.strip_suffix(" tests"))
+                {
                     s += &format!("| final (ray-triangle) | {kind} | {v} | | |\n");
                 }
             }
