@@ -75,6 +75,10 @@ struct RshArgs {
     /// CRSH ray hash.
     #[arg(long, value_enum, default_value_t = HashArg::Thesis)]
     hash: HashArg,
+    /// Bit budgets of the 32-bit thesis hash: LIGHT,SHADOW_DIR,ORIGIN,DIR (bits for the light
+    /// index, per angle of shadow directions, per axis of origins, per angle of other rays).
+    #[arg(long = "hash-bits", default_value = "4,13,5,7", value_parser = parse_hash_bits)]
+    hash_bits: rsh::HashBits,
     /// Sphere and cone union formulas.
     #[arg(long, value_enum, default_value_t = UnionArg::Exact)]
     union: UnionArg,
@@ -95,6 +99,7 @@ impl Default for RshArgs {
             branching: 8,
             levels: 2,
             hash: HashArg::Thesis,
+            hash_bits: rsh::HashBits::default(),
             union: UnionArg::Exact,
             node_test: NodeTestArg::Rah,
             mesh_culling: None,
@@ -116,6 +121,7 @@ impl RshArgs {
                 HashArg::Thesis => rsh::HashKind::Thesis,
                 HashArg::Morton64 => rsh::HashKind::Morton64,
             },
+            hash_bits: self.hash_bits,
             union: match self.union {
                 UnionArg::Exact => rsh::Union::Exact,
                 UnionArg::Thesis => rsh::Union::Thesis,
@@ -185,6 +191,31 @@ impl Default for RenderArgs {
             stats: None,
         }
     }
+}
+
+fn parse_hash_bits(s: &str) -> Result<rsh::HashBits, String> {
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<u32>()
+                .map_err(|_| format!("'{x}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    let [light, shadow_dir, origin, dir] = v[..] else {
+        return Err(format!(
+            "expected 4 comma-separated numbers, got {}",
+            v.len()
+        ));
+    };
+    let b = rsh::HashBits {
+        light,
+        shadow_dir,
+        origin,
+        dir,
+    };
+    b.validate()?;
+    Ok(b)
 }
 
 fn make_engine(engine: Engine, rsh_args: &RshArgs, geo: &Geometry) -> Result<Box<dyn Tracer>> {

@@ -155,6 +155,14 @@ fn bad_options() {
         &["--pair-budget"],
     );
     fails(&["render", "cornell", "--hash", "sha256"], &["--hash"]);
+    fails(
+        &["render", "cornell", "--hash-bits", "4,13,9,7"],
+        &["--hash-bits", "30 bits"],
+    );
+    fails(
+        &["render", "cornell", "--hash-bits", "4,13"],
+        &["--hash-bits"],
+    );
 }
 
 #[test]

@@ -270,18 +270,19 @@ pub fn sort_pairs<K: RadixKey>(
     // A power-of-two block length, so the destination block of an index is a shift.
     let bl = n.div_ceil(nb).next_power_of_two();
     let nb = n.div_ceil(bl);
-    let all: Vec<Digit> = (0..bits.div_ceil(RADIX_BITS))
-        .map(|p| {
-            let shift = p * RADIX_BITS;
-            Digit {
-                shift,
-                mask: (1u32 << (bits - shift).min(RADIX_BITS)) - 1,
-            }
-        })
-        .collect();
+    // At most 8 digits (64-bit keys): fixed arrays, so a warm call allocates nothing.
+    let nd = bits.div_ceil(RADIX_BITS) as usize;
+    let mut all = [Digit { shift: 0, mask: 0 }; 8];
+    for (p, dg) in all.iter_mut().enumerate().take(nd) {
+        let shift = p as u32 * RADIX_BITS;
+        *dg = Digit {
+            shift,
+            mask: (1u32 << (bits - shift).min(RADIX_BITS)) - 1,
+        };
+    }
+    let all = &all[..nd];
     // One sweep: per-block histograms of every digit.
-    let nd = all.len();
-    scratch.hist.resize(nb * BUCKETS * nd.max(1), 0);
+    scratch.hist.resize(nb * BUCKETS * nd, 0);
     scratch
         .hist
         .par_chunks_mut(BUCKETS * nd)
@@ -295,29 +296,31 @@ pub fn sort_pairs<K: RadixKey>(
             }
         });
     // Passes whose digit is the same for every key move nothing.
-    let live: Vec<usize> = (0..nd)
-        .filter(|&j| {
-            (0..BUCKETS).all(|d| {
-                (0..nb)
-                    .map(|b| scratch.hist[b * BUCKETS * nd + j * BUCKETS + d] as usize)
-                    .sum::<usize>()
-                    != n
-            })
-        })
-        .collect();
+    let mut live_buf = [0usize; 8];
+    let mut nlive = 0;
+    for j in 0..nd {
+        let constant = (0..BUCKETS).any(|d| {
+            (0..nb)
+                .map(|b| scratch.hist[b * BUCKETS * nd + j * BUCKETS + d] as usize)
+                .sum::<usize>()
+                == n
+        });
+        if !constant {
+            live_buf[nlive] = j;
+            nlive += 1;
+        }
+    }
+    let live = &live_buf[..nlive];
     if live.is_empty() {
         return;
     }
-    // The first live pass's per-block histograms, compacted to nb × 256.
+    // Keep the first live pass's per-block histograms, moved to the front (nb × 256).
     let first = live[0];
-    let mut hist = vec![0u32; nb * BUCKETS];
     for b in 0..nb {
-        hist[b * BUCKETS..(b + 1) * BUCKETS].copy_from_slice(
-            &scratch.hist
-                [b * BUCKETS * nd + first * BUCKETS..b * BUCKETS * nd + (first + 1) * BUCKETS],
-        );
+        let src = (b * nd + first) * BUCKETS;
+        scratch.hist.copy_within(src..src + BUCKETS, b * BUCKETS);
     }
-    scratch.hist = hist;
+    scratch.hist.truncate(nb * BUCKETS);
     scratch.a.resize(n, Item::default());
     scratch.b.resize(n, Item::default());
     scratch.partial.resize(nb * nb * BUCKETS, 0);
