@@ -35,6 +35,59 @@ pub enum Engine {
     Rah,
     /// Every ray against every triangle (the oracle).
     Brute,
+    /// Irregular grid (Pérard-Gayot et al. 2017).
+    Grid,
+    /// Two-level grid (the irregular grid's initial cells, Kalojanov et al. 2011).
+    Grid2l,
+}
+
+/// Options of the irregular grid (paper defaults).
+#[derive(Args, Clone, Debug)]
+struct GridArgs {
+    /// Top-level density λ₁.
+    #[arg(long = "grid-top-density", default_value_t = 0.12)]
+    top_density: f32,
+    /// Second-level (octree) density λ₂.
+    #[arg(long = "grid-leaf-density", default_value_t = 2.4)]
+    leaf_density: f32,
+    /// Merging stops when a round keeps at least this fraction of the cells.
+    #[arg(long = "grid-alpha", default_value_t = 0.995)]
+    alpha: f32,
+    /// Cell merging (grid only).
+    #[arg(long = "grid-merge", value_enum, default_value_t = OnOff::On)]
+    merge: OnOff,
+    /// Cell expansion passes (grid only; 3 for static scenes, 1 for dynamic).
+    #[arg(long = "grid-expansion", default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=16))]
+    expansion: u32,
+    /// Largest octree depth per top-level cell.
+    #[arg(long = "grid-max-depth", default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=8))]
+    max_depth: u32,
+}
+
+impl Default for GridArgs {
+    fn default() -> Self {
+        GridArgs {
+            top_density: 0.12,
+            leaf_density: 2.4,
+            alpha: 0.995,
+            merge: OnOff::On,
+            expansion: 3,
+            max_depth: 6,
+        }
+    }
+}
+
+impl GridArgs {
+    fn config(&self, two_level: bool) -> accel::GridConfig {
+        accel::GridConfig {
+            top_density: self.top_density,
+            leaf_density: self.leaf_density,
+            alpha: self.alpha,
+            merge: !two_level && self.merge == OnOff::On,
+            expansion_passes: if two_level { 0 } else { self.expansion },
+            max_depth: self.max_depth,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -166,6 +219,8 @@ struct RenderArgs {
     engine: Engine,
     #[command(flatten)]
     rsh: RshArgs,
+    #[command(flatten)]
+    grid: GridArgs,
     /// How OBJ files are cut into meshes (the unit of bounding-sphere culling).
     #[arg(long, value_enum, default_value_t = Split::Groups)]
     meshes: Split,
@@ -186,6 +241,7 @@ impl Default for RenderArgs {
             bounces: 3,
             engine: Engine::Crsh,
             rsh: RshArgs::default(),
+            grid: GridArgs::default(),
             meshes: Split::Groups,
             out: PathBuf::from("rayspace.png"),
             stats: None,
@@ -218,8 +274,35 @@ fn parse_hash_bits(s: &str) -> Result<rsh::HashBits, String> {
     Ok(b)
 }
 
-fn make_engine(engine: Engine, rsh_args: &RshArgs, geo: &Geometry) -> Result<Box<dyn Tracer>> {
+fn make_engine(
+    engine: Engine,
+    rsh_args: &RshArgs,
+    grid_args: &GridArgs,
+    geo: &Geometry,
+) -> Result<Box<dyn Tracer>> {
     Ok(match engine {
+        Engine::Grid | Engine::Grid2l => {
+            let g = accel::GridEngine::new(geo, &grid_args.config(engine == Engine::Grid2l))
+                .map_err(|e| {
+                    anyhow::anyhow!(
+                        "--engine {}: {e}",
+                        if engine == Engine::Grid {
+                            "grid"
+                        } else {
+                            "grid2l"
+                        }
+                    )
+                })?;
+            let (c, r, v) = g.grid.memory();
+            let b = &g.grid.build;
+            println!(
+                "{}: {} cells (initial {}), {} references, top grid {:?}, virtual grid {:?}; memory cells {} B, references {} B, voxel map {} B; build ms: references {:.1}, octrees {:.1}, voxel map {:.1}, merge {:.1} ({} rounds), expansion {:.1}",
+                if engine == Engine::Grid { "irregular grid" } else { "two-level grid" },
+                g.grid.cells(), b.initial_cells, g.grid.refs.len(), g.grid.top_dims, g.grid.dims, c, r, v,
+                b.top_refs_seconds * 1e3, b.octree_seconds * 1e3, b.voxel_map_seconds * 1e3, b.merge_seconds * 1e3, b.merge_rounds, b.expand_seconds * 1e3
+            );
+            Box::new(g)
+        }
         Engine::Brute => Box::new(accel::BruteForce::new(geo)),
         Engine::Crsh => Box::new(
             rsh::RshEngine::new(geo, rsh_args.config(rsh::Method::Crsh))
@@ -298,7 +381,7 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
         },
     );
     let t1 = Instant::now();
-    let engine = make_engine(a.engine, &a.rsh, &geo)?;
+    let engine = make_engine(a.engine, &a.rsh, &a.grid, &geo)?;
     let build_s = t1.elapsed().as_secs_f64();
     let bar = progress_bar();
     let opts = RenderOptions {

@@ -1,4 +1,4 @@
-//! Object-space engines behind [`render::Tracer`].
+//! Object-space engines behind [`render::Tracer`]: brute force and the irregular grid.
 //!
 //! [`BruteForce`] tests every ray against every triangle with the shared watertight kernel.
 //! It is the oracle: every other engine must return the same closest hits (same triangle,
@@ -6,5 +6,7 @@
 //! any-hit booleans.
 
 pub mod brute;
+pub mod grid;
 
 pub use brute::BruteForce;
+pub use grid::{GridConfig, GridEngine};

@@ -204,3 +204,119 @@ mod tests {
         assert!(b.contains(Vec3::new(1.0, 0.0, 3.0)));
     }
 }
+
+/// Exact triangle–box overlap by the separating axis theorem (Akenine-Möller 2001): the box
+/// axes, the triangle normal and the 9 edge cross products. Touching counts as overlapping.
+pub fn tri_overlaps_box(b: &Aabb, t: &[Vec3; 3]) -> bool {
+    let c = b.center();
+    let h = (b.max - b.min) * 0.5;
+    let v = [t[0] - c, t[1] - c, t[2] - c];
+    // Box axes.
+    for k in 0..3 {
+        let lo = v[0][k].min(v[1][k]).min(v[2][k]);
+        let hi = v[0][k].max(v[1][k]).max(v[2][k]);
+        if lo > h[k] || hi < -h[k] {
+            return false;
+        }
+    }
+    let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
+    // Triangle normal.
+    let n = e[0].cross(e[1]);
+    let r = h.x * n.x.abs() + h.y * n.y.abs() + h.z * n.z.abs();
+    let s = n.dot(v[0]);
+    if s > r || s < -r {
+        return false;
+    }
+    // Edge × box-axis cross products.
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z];
+    for ed in &e {
+        for ax in &axes {
+            let a = ax.cross(*ed);
+            if a == Vec3::ZERO {
+                continue;
+            }
+            let p = [a.dot(v[0]), a.dot(v[1]), a.dot(v[2])];
+            let r = h.x * a.x.abs() + h.y * a.y.abs() + h.z * a.z.abs();
+            let lo = p[0].min(p[1]).min(p[2]);
+            let hi = p[0].max(p[1]).max(p[2]);
+            if lo > r || hi < -r {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod overlap_tests {
+    use super::*;
+    use crate::rng::Pcg32;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        /// Sampled points of the triangle inside the box imply overlap; a triangle separated
+        /// from the box by a clear margin along some axis does not overlap.
+        #[test]
+        fn matches_sampling(seed in 0u64..1_000_000) {
+            let mut rng = Pcg32::new(seed, 21);
+            let lo = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+            let b = Aabb::new(lo, lo + Vec3::new(rng.range(0.1, 2.0), rng.range(0.1, 2.0), rng.range(0.1, 2.0)));
+            let t = [0, 1, 2].map(|_| Vec3::new(rng.range(-4.0, 4.0), rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)));
+            let overlaps = tri_overlaps_box(&b, &t);
+            let mut inside = false;
+            for _ in 0..4000 {
+                let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
+                if u + v > 1.0 { u = 1.0 - u; v = 1.0 - v; }
+                let p = t[0] * (1.0 - u - v) + t[1] * u + t[2] * v;
+                if b.contains(p) { inside = true; break; }
+            }
+            if inside { prop_assert!(overlaps); }
+            // Shrink-test: if the box grown by 0.05 does not overlap, the box does not either.
+            let grown = Aabb::new(b.min - Vec3::splat(0.05), b.max + Vec3::splat(0.05));
+            if !tri_overlaps_box(&grown, &t) { prop_assert!(!overlaps); }
+        }
+    }
+
+    #[test]
+    fn simple_cases() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        // A large triangle slicing through the box with all vertices outside.
+        assert!(tri_overlaps_box(
+            &b,
+            &[
+                Vec3::new(-5.0, 0.5, -5.0),
+                Vec3::new(5.0, 0.5, -5.0),
+                Vec3::new(0.0, 0.5, 10.0)
+            ]
+        ));
+        // Same plane, moved above the box.
+        assert!(!tri_overlaps_box(
+            &b,
+            &[
+                Vec3::new(-5.0, 1.5, -5.0),
+                Vec3::new(5.0, 1.5, -5.0),
+                Vec3::new(0.0, 1.5, 10.0)
+            ]
+        ));
+        // Near the corner but separated along the (1,1,1) diagonal plane.
+        assert!(!tri_overlaps_box(
+            &b,
+            &[
+                Vec3::new(2.0, 0.9, 0.9),
+                Vec3::new(0.9, 2.0, 0.9),
+                Vec3::new(0.9, 0.9, 2.0)
+            ]
+        ));
+        // Touching a face counts.
+        assert!(tri_overlaps_box(
+            &b,
+            &[
+                Vec3::new(1.0, 0.2, 0.2),
+                Vec3::new(2.0, 0.2, 0.2),
+                Vec3::new(1.5, 0.8, 0.2)
+            ]
+        ));
+    }
+}

@@ -1,0 +1,76 @@
+//! Cell expansion (paper §4.3): grow a cell's *exit* box over neighbours that hold a subset
+//! of its references, by the smallest neighbour overhang, one axis and side at a time. The
+//! voxel map is unchanged (entering a cell still uses it), so a ray exiting an expanded box
+//! skips cells whose triangles it has already tested.
+
+use super::{is_subset, Grid};
+use rayon::prelude::*;
+
+/// `passes` expansion passes, each over x, y, z and both sides.
+pub fn expand(g: &mut Grid, passes: u32) {
+    for _ in 0..passes {
+        for axis in 0..3 {
+            for positive in [false, true] {
+                let grown: Vec<([u32; 3], [u32; 3])> = (0..g.cells())
+                    .into_par_iter()
+                    .map(|c| expand_side(g, c, axis, positive))
+                    .collect();
+                for (c, (lo, hi)) in grown.into_iter().enumerate() {
+                    g.exp_min[c] = lo;
+                    g.exp_max[c] = hi;
+                }
+            }
+        }
+    }
+}
+
+/// The cells on one side of cell c's expanded box (the voxel layer just outside the face):
+/// if all hold subsets of c's references, the box grows by the smallest overhang.
+fn expand_side(g: &Grid, c: usize, axis: usize, positive: bool) -> ([u32; 3], [u32; 3]) {
+    let (mut lo, mut hi) = (g.exp_min[c], g.exp_max[c]);
+    let layer = if positive {
+        if hi[axis] >= g.dims[axis] {
+            return (lo, hi);
+        }
+        hi[axis]
+    } else {
+        if lo[axis] == 0 {
+            return (lo, hi);
+        }
+        lo[axis] - 1
+    };
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let mine = g.cell_refs(c);
+    let mut step = u32::MAX;
+    // Walk the face layer, jumping over each neighbour's footprint along u.
+    let mut pv = lo[v];
+    while pv < hi[v] {
+        let mut pu = lo[u];
+        let mut row_next = u32::MAX;
+        while pu < hi[u] {
+            let mut p = [0u32; 3];
+            p[axis] = layer;
+            p[u] = pu;
+            p[v] = pv;
+            let n = g.lookup(p) as usize;
+            if !is_subset(g.cell_refs(n), mine) {
+                return (lo, hi);
+            }
+            let over = if positive {
+                g.cell_max[n][axis] - layer
+            } else {
+                layer + 1 - g.cell_min[n][axis]
+            };
+            step = step.min(over);
+            row_next = row_next.min(g.cell_max[n][v]);
+            pu = g.cell_max[n][u];
+        }
+        pv = row_next.max(pv + 1);
+    }
+    if positive {
+        hi[axis] += step;
+    } else {
+        lo[axis] -= step;
+    }
+    (lo, hi)
+}

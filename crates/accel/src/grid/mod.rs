@@ -1,0 +1,309 @@
+//! The irregular grid of Pérard-Gayot, Kalojanov & Slusallek (2017), and its two-level-grid
+//! baseline (Kalojanov et al. 2011: the same structure stopped before merging).
+//!
+//! Structure (paper §3): cells aligned on a *virtual base grid*, each with a box and a range
+//! of triangle references, plus a two-level *voxel map* from virtual voxels to cells.
+//! Build (§4, [`build`]): a top-level uniform grid (Cleary's formula with density λ₁), an
+//! octree per top cell (density λ₂), references emitted with exact triangle–box tests through
+//! count → scan → emit passes; then SAH cell merging ([`merge`]) and cell expansion
+//! ([`expand`]). Traversal (§5, [`traverse`]): look up the cell of the current voxel, test its
+//! triangles, exit through the far planes of the cell's (expanded) box, step forward.
+//!
+//! Robustness: cell boxes are padded by a small fraction of a voxel when references are
+//! emitted, so a triangle within rounding distance of a cell boundary is referenced on both
+//! sides; the traversal's float position errors are far below that padding, so it can never
+//! step past a triangle that brute force hits.
+
+pub mod build;
+pub mod expand;
+pub mod merge;
+pub mod traverse;
+
+use geom::{Aabb, Vec3};
+
+/// Build parameters (paper defaults: λ₁ = 0.12, λ₂ = 2.4, α = 0.995, 3 expansion passes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridConfig {
+    pub top_density: f32,
+    pub leaf_density: f32,
+    /// Merge rounds stop when a round keeps at least α of the cells.
+    pub alpha: f32,
+    pub merge: bool,
+    pub expansion_passes: u32,
+    /// Largest octree depth per top cell.
+    pub max_depth: u32,
+}
+
+impl Default for GridConfig {
+    fn default() -> Self {
+        GridConfig {
+            top_density: 0.12,
+            leaf_density: 2.4,
+            alpha: 0.995,
+            merge: true,
+            expansion_passes: 3,
+            max_depth: 6,
+        }
+    }
+}
+
+impl GridConfig {
+    /// The two-level grid baseline: initial cells only.
+    pub fn two_level() -> Self {
+        GridConfig {
+            merge: false,
+            expansion_passes: 0,
+            ..Self::default()
+        }
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        let ok = |x: f32| x.is_finite() && x > 0.0 && x <= 1e4;
+        if !ok(self.top_density) || !ok(self.leaf_density) {
+            return Err(format!(
+                "grid densities must be in (0, 10^4], got {} and {}",
+                self.top_density, self.leaf_density
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.alpha) {
+            return Err(format!("merge alpha {} is not in [0, 1]", self.alpha));
+        }
+        if self.expansion_passes > 16 {
+            return Err(format!(
+                "{} expansion passes is more than 16",
+                self.expansion_passes
+            ));
+        }
+        if self.max_depth > 8 {
+            return Err(format!("octree depth {} is more than 8", self.max_depth));
+        }
+        Ok(())
+    }
+}
+
+/// Times (seconds) and sizes of a build.
+#[derive(Clone, Debug, Default)]
+pub struct BuildStats {
+    pub top_refs_seconds: f64,
+    pub octree_seconds: f64,
+    pub voxel_map_seconds: f64,
+    pub merge_seconds: f64,
+    pub expand_seconds: f64,
+    pub initial_cells: usize,
+    pub merge_rounds: usize,
+}
+
+/// An irregular grid (or two-level grid) over a triangle set.
+#[derive(Clone, Debug)]
+pub struct Grid {
+    /// Padded scene box.
+    pub bounds: Aabb,
+    pub top_dims: [u32; 3],
+    /// log2 of the virtual voxels per top cell along each axis (the largest octree depth).
+    pub shift: u32,
+    /// Virtual grid resolution: top_dims << shift.
+    pub dims: [u32; 3],
+    pub voxel: Vec3,
+    pub inv_voxel: Vec3,
+    /// Voxel-map footprint of each cell on the virtual grid, [min, max).
+    pub cell_min: Vec<[u32; 3]>,
+    pub cell_max: Vec<[u32; 3]>,
+    /// Expanded box (virtual grid units) used to exit the cell during traversal.
+    pub exp_min: Vec<[u32; 3]>,
+    pub exp_max: Vec<[u32; 3]>,
+    /// References of cell c: `refs[ref_first[c] .. ref_first[c + 1]]`, ascending.
+    pub ref_first: Vec<u32>,
+    pub refs: Vec<u32>,
+    /// Voxel map, top level: per top cell (octree depth << 28 | offset into `leaf`).
+    pub top: Vec<u32>,
+    /// Voxel map, second level: cell index per octree leaf voxel.
+    pub leaf: Vec<u32>,
+    pub build: BuildStats,
+}
+
+impl Grid {
+    pub fn cells(&self) -> usize {
+        self.cell_min.len()
+    }
+
+    /// Bytes of the cells (both boxes and the reference ranges), the references and the
+    /// voxel map.
+    pub fn memory(&self) -> (usize, usize, usize) {
+        let cells = self.cells() * (4 * 12 + 4) + 4;
+        (
+            cells,
+            self.refs.len() * 4,
+            (self.top.len() + self.leaf.len()) * 4,
+        )
+    }
+
+    #[inline]
+    pub fn top_index(&self, t: [u32; 3]) -> usize {
+        (t[0] + self.top_dims[0] * (t[1] + self.top_dims[1] * t[2])) as usize
+    }
+
+    /// The cell containing virtual voxel `v` (two dependent lookups).
+    #[inline]
+    pub fn lookup(&self, v: [u32; 3]) -> u32 {
+        let t = [v[0] >> self.shift, v[1] >> self.shift, v[2] >> self.shift];
+        let e = self.top[self.top_index(t)];
+        let depth = e >> 28;
+        let off = e & 0x0fff_ffff;
+        let s = self.shift - depth;
+        let mask = (1u32 << depth) - 1;
+        let l = [(v[0] >> s) & mask, (v[1] >> s) & mask, (v[2] >> s) & mask];
+        self.leaf[(off + l[0] + (l[1] << depth) + (l[2] << (2 * depth))) as usize]
+    }
+
+    /// World-space box of a virtual-grid box.
+    #[inline]
+    pub fn world_box(&self, lo: [u32; 3], hi: [u32; 3]) -> Aabb {
+        let f = |v: [u32; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
+        Aabb::new(
+            self.bounds.min + f(lo) * self.voxel,
+            self.bounds.min + f(hi) * self.voxel,
+        )
+    }
+
+    #[inline]
+    pub fn cell_refs(&self, c: usize) -> &[u32] {
+        &self.refs[self.ref_first[c] as usize..self.ref_first[c + 1] as usize]
+    }
+}
+
+/// Half the surface area of a virtual-grid box in world units (the SAH area term).
+#[inline]
+pub(crate) fn half_area(voxel: Vec3, lo: [u32; 3], hi: [u32; 3]) -> f32 {
+    let e = Vec3::new(
+        (hi[0] - lo[0]) as f32,
+        (hi[1] - lo[1]) as f32,
+        (hi[2] - lo[2]) as f32,
+    ) * voxel;
+    e.x * e.y + e.y * e.z + e.z * e.x
+}
+
+/// Size of the union of two ascending reference lists (merge-sort style, duplicates once).
+pub(crate) fn union_len(a: &[u32], b: &[u32]) -> usize {
+    let (mut i, mut j, mut n) = (0, 0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => {
+                i += 1;
+                j += 1;
+            }
+        }
+        n += 1;
+    }
+    n + (a.len() - i) + (b.len() - j)
+}
+
+/// The union of two ascending lists into `out`.
+pub(crate) fn union_into(a: &[u32], b: &[u32], out: &mut Vec<u32>) {
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => {
+                out.push(a[i]);
+                i += 1
+            }
+            std::cmp::Ordering::Greater => {
+                out.push(b[j]);
+                j += 1
+            }
+            std::cmp::Ordering::Equal => {
+                out.push(a[i]);
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+}
+
+/// True when ascending `a` ⊆ ascending `b`.
+pub(crate) fn is_subset(a: &[u32], b: &[u32]) -> bool {
+    let mut j = 0;
+    for &x in a {
+        while j < b.len() && b[j] < x {
+            j += 1;
+        }
+        if j == b.len() || b[j] != x {
+            return false;
+        }
+        j += 1;
+    }
+    true
+}
+
+/// Build an irregular grid (or, with `merge: false, expansion_passes: 0`, the two-level grid).
+pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
+    let mut g = build::initial(tris, cfg)?;
+    if cfg.merge {
+        let t0 = std::time::Instant::now();
+        g.build.merge_rounds = merge::merge(&mut g, cfg.alpha);
+        g.build.merge_seconds = t0.elapsed().as_secs_f64();
+    }
+    if cfg.expansion_passes > 0 {
+        let t0 = std::time::Instant::now();
+        expand::expand(&mut g, cfg.expansion_passes);
+        g.build.expand_seconds = t0.elapsed().as_secs_f64();
+    }
+    Ok(g)
+}
+
+/// The irregular grid (or two-level grid) as a tracing engine.
+pub struct GridEngine {
+    pub grid: Grid,
+    pub tris: Vec<[Vec3; 3]>,
+    pub name: &'static str,
+}
+
+impl GridEngine {
+    pub fn new(geo: &scene::Geometry, cfg: &GridConfig) -> Result<Self, String> {
+        let grid = build_grid(&geo.tris, cfg)?;
+        let name = if cfg.merge || cfg.expansion_passes > 0 {
+            "grid"
+        } else {
+            "grid2l"
+        };
+        Ok(GridEngine {
+            grid,
+            tris: geo.tris.clone(),
+            name,
+        })
+    }
+}
+
+impl render::Tracer for GridEngine {
+    fn name(&self) -> &str {
+        self.name
+    }
+
+    fn trace(
+        &self,
+        rays: &render::RayBatch,
+        mode: render::TraceMode,
+        hits: &mut [render::Hit],
+        stats: &mut render::TraceStats,
+    ) {
+        use rayon::prelude::*;
+        assert_eq!(hits.len(), rays.len(), "one hit record per ray");
+        let (steps, tests) = hits
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(64)
+            .map(|(i, out)| {
+                let (h, c) = traverse::trace_ray(&self.grid, &self.tris, &rays.ray(i), mode);
+                *out = h;
+                (c.steps, c.tests)
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        stats.rays += rays.len() as u64;
+        stats.ray_tri_tests += tests;
+        stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
+        stats.count("traversal steps", steps);
+    }
+}

@@ -1,0 +1,260 @@
+//! The irregular grid and the two-level grid: structural invariants, and exactly the
+//! brute-force engine's hits on built-in scenes and random scenes (closest-hit records bit
+//! for bit — same kernel, same tie rule — and any-hit booleans).
+
+use accel::grid::{build_grid, Grid, GridConfig, GridEngine};
+use accel::BruteForce;
+use geom::aabb::tri_overlaps_box;
+use geom::{Pcg32, Ray, Vec3};
+use proptest::prelude::*;
+use render::whitted::{render, trace_primary, RenderOptions};
+use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer, View};
+use scene::{builtin, Geometry};
+use std::sync::Mutex;
+
+fn configs() -> Vec<(&'static str, GridConfig)> {
+    vec![
+        ("grid", GridConfig::default()),
+        ("two-level", GridConfig::two_level()),
+        (
+            "merge only",
+            GridConfig {
+                expansion_passes: 0,
+                ..Default::default()
+            },
+        ),
+        (
+            "expansion only",
+            GridConfig {
+                merge: false,
+                ..Default::default()
+            },
+        ),
+        (
+            "dense, 1 pass",
+            GridConfig {
+                top_density: 0.5,
+                leaf_density: 8.0,
+                expansion_passes: 1,
+                ..Default::default()
+            },
+        ),
+    ]
+}
+
+/// Every voxel maps to the cell containing it; every triangle overlapping a cell's box is
+/// referenced by it; every expanded box overlaps only cells whose references it holds.
+fn check_structure(g: &Grid, tris: &[[Vec3; 3]]) {
+    for z in 0..g.dims[2] {
+        for y in 0..g.dims[1] {
+            for x in 0..g.dims[0] {
+                let c = g.lookup([x, y, z]) as usize;
+                let (lo, hi) = (g.cell_min[c], g.cell_max[c]);
+                assert!(
+                    (0..3).all(|k| lo[k] <= [x, y, z][k] && [x, y, z][k] < hi[k]),
+                    "voxel {:?} maps to cell {c} {:?}..{:?}",
+                    [x, y, z],
+                    lo,
+                    hi
+                );
+            }
+        }
+    }
+    for c in 0..g.cells() {
+        let refs = g.cell_refs(c);
+        assert!(
+            refs.windows(2).all(|w| w[0] < w[1]),
+            "cell {c}: references ascending and unique"
+        );
+        let b = g.world_box(g.cell_min[c], g.cell_max[c]);
+        for (t, tri) in tris.iter().enumerate() {
+            if tri_overlaps_box(&b, tri) {
+                assert!(
+                    refs.binary_search(&(t as u32)).is_ok(),
+                    "cell {c} misses overlapping triangle {t}"
+                );
+            }
+        }
+        let (lo, hi) = (g.exp_min[c], g.exp_max[c]);
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    let n = g.lookup([x, y, z]) as usize;
+                    assert!(
+                        g.cell_refs(n).iter().all(|r| refs.binary_search(r).is_ok()),
+                        "expanded cell {c} covers cell {n} with other triangles"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn structure_on_small_scenes() {
+    for (name, s) in [
+        ("soup", builtin::soup(300, 4)),
+        ("cornell", builtin::cornell()),
+        ("office", builtin::office(2)),
+    ] {
+        let geo = Geometry::from_scene(&s);
+        for (what, cfg) in configs() {
+            let g = build_grid(&geo.tris, &cfg).unwrap();
+            let voxels: u64 = g.dims.iter().map(|&d| d as u64).product();
+            if voxels > 3_000_000 {
+                continue;
+            }
+            check_structure(&g, &geo.tris);
+            if cfg.merge {
+                assert!(
+                    g.cells() < g.build.initial_cells,
+                    "{name} {what}: merging removed cells"
+                );
+            }
+        }
+    }
+}
+
+struct Recorder {
+    inner: BruteForce,
+    batches: Mutex<Vec<(RayBatch, TraceMode, Vec<Hit>)>>,
+}
+
+impl Tracer for Recorder {
+    fn name(&self) -> &str {
+        "recorder"
+    }
+    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+        self.inner.trace(rays, mode, hits, stats);
+        self.batches
+            .lock()
+            .unwrap()
+            .push((rays.clone(), mode, hits.to_vec()));
+    }
+}
+
+fn compare(e: &dyn Tracer, rays: &RayBatch, mode: TraceMode, expect: &[Hit], what: &str) {
+    let mut got = vec![Hit::MISS; rays.len()];
+    e.trace(rays, mode, &mut got, &mut TraceStats::default());
+    for (i, (g, x)) in got.iter().zip(expect).enumerate() {
+        match mode {
+            TraceMode::Closest => assert_eq!(g, x, "{what}: ray {i} {:?}", rays.ray(i)),
+            TraceMode::Any => {
+                assert_eq!(g.is_hit(), x.is_hit(), "{what}: ray {i} {:?}", rays.ray(i))
+            }
+        }
+    }
+}
+
+#[test]
+fn builtin_scenes_match_brute_force() {
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let rec = Recorder {
+            inner: BruteForce::new(&geo),
+            batches: Mutex::new(Vec::new()),
+        };
+        render(
+            &s,
+            &geo,
+            &rec,
+            &RenderOptions {
+                width: 48,
+                height: 36,
+                bounces: 2,
+            },
+            &(),
+        );
+        let mut batches = rec.batches.into_inner().unwrap();
+        // Primary rays too (the grid is a general engine).
+        let view = View::new(&s.camera, 48, 36);
+        let (prim, hits, _) = trace_primary(&view, &BruteForce::new(&geo));
+        batches.push((prim, TraceMode::Closest, hits));
+        for (what, cfg) in configs() {
+            let e = GridEngine::new(&geo, &cfg).unwrap();
+            for (k, (rays, mode, hits)) in batches.iter().enumerate() {
+                compare(&e, rays, *mode, hits, &format!("{name} {what} batch {k}"));
+            }
+        }
+    }
+}
+
+/// Random soups with degenerate triangles; rays from inside and outside the grid,
+/// axis-parallel, with ±0.0 components, aimed at vertices and cell boundaries.
+fn random_case(seed: u64, ntri: usize, nray: usize) -> (Vec<[Vec3; 3]>, RayBatch) {
+    let mut rng = Pcg32::new(seed, 9);
+    let mut tris: Vec<[Vec3; 3]> = (0..ntri)
+        .map(|_| {
+            let c = Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
+            let s = rng.range(0.01, 0.4);
+            [0, 1, 2].map(|_| c + rng.unit_vector() * s)
+        })
+        .collect();
+    // Degenerate triangles: a point and a segment.
+    tris.push([Vec3::splat(0.1); 3]);
+    tris.push([Vec3::ZERO, Vec3::ZERO, Vec3::X]);
+    let mut b = RayBatch::default();
+    for i in 0..nray {
+        let org = match i % 4 {
+            0 => Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            ),
+            1 => rng.unit_vector() * rng.range(2.0, 5.0),
+            // On a grid-friendly plane (cell boundaries are often at such coordinates).
+            2 => Vec3::new(0.0, rng.range(-1.0, 1.0), 0.5),
+            _ => Vec3::new(rng.range(-1.0, 1.0), -0.0, rng.range(-1.0, 1.0)),
+        };
+        let dir = match i % 7 {
+            0 => [Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::X][i % 4],
+            1 => Vec3::new(-0.0, 1.0, 0.0),
+            2 => Vec3::new(
+                std::f32::consts::FRAC_1_SQRT_2,
+                -0.0,
+                std::f32::consts::FRAC_1_SQRT_2,
+            ),
+            3 => {
+                // Aimed at a vertex.
+                let t = tris[rng.below(ntri as u32) as usize];
+                (t[rng.below(3) as usize] - org).normalize_or(Vec3::X)
+            }
+            _ => rng.unit_vector(),
+        };
+        let t_max = if i % 5 == 0 {
+            rng.range(0.0, 4.0)
+        } else {
+            f32::INFINITY
+        };
+        b.push(
+            Ray::new(org, dir, 0.0, t_max),
+            RayKind::Reflection,
+            i as u32,
+            0,
+            Vec3::ONE,
+            0,
+        );
+    }
+    (tris, b)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(40))]
+
+    #[test]
+    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..500, nray in 1usize..800, which in 0usize..5, any_hit in any::<bool>()) {
+        let (tris, rays) = random_case(seed, ntri, nray);
+        let n = tris.len();
+        let geo = Geometry { tris: tris.clone(), normals: vec![[Vec3::Y; 3]; n], material: vec![0; n], mesh: vec![0; n], mesh_first: vec![0, n as u32], bounds: geom::Aabb::from_points(tris.iter().flatten().copied()), ..Default::default() };
+        let cfg = configs()[which].1.clone();
+        let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
+        let mut expect = vec![Hit::MISS; rays.len()];
+        BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
+        compare(&GridEngine::new(&geo, &cfg).unwrap(), &rays, mode, &expect, "random");
+    }
+}
