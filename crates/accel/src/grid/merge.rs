@@ -9,7 +9,7 @@
 //! cells. Passes alternate x, y, z; merging stops when a round keeps at least α of the cells.
 
 use super::build::Ptr;
-use super::{half_area, union_into, union_len, Grid};
+use super::{half_area, union_each, union_len, Grid};
 use par::exclusive_scan;
 use rayon::prelude::*;
 
@@ -144,19 +144,25 @@ pub fn merge_pass(g: &mut Grid, axis: usize) -> usize {
     let mut ref_first = vec![0u32; m + 1];
     let total = exclusive_scan(&counts, &mut ref_first[..m]) as usize;
     ref_first[m] = total as u32;
-    let lists: Vec<Vec<u32>> = old_of_new
-        .par_iter()
-        .map(|&i| {
+    // Emit every new cell's list at its offset (count → scan → emit, no per-cell vectors).
+    let mut refs = vec![0u32; total];
+    {
+        let out = Ptr(refs.as_mut_ptr());
+        old_of_new.par_iter().enumerate().for_each(|(k, &i)| {
             let i = i as usize;
-            let mut out = Vec::new();
+            let mut at = ref_first[k] as usize;
+            let mut push = |r: u32| {
+                // SAFETY: new cell k owns [ref_first[k], ref_first[k + 1]) by the scan.
+                unsafe { out.write(at, r) };
+                at += 1;
+            };
             match partner[i] {
-                NONE => out.extend_from_slice(g.cell_refs(i)),
-                j => union_into(g.cell_refs(i), g.cell_refs(j as usize), &mut out),
+                NONE => g.cell_refs(i).iter().for_each(|&r| push(r)),
+                j => union_each(g.cell_refs(i), g.cell_refs(j as usize), &mut push),
             }
-            out
-        })
-        .collect();
-    let refs: Vec<u32> = lists.concat();
+            debug_assert_eq!(at, ref_first[k + 1] as usize);
+        });
+    }
     let boxes: Vec<([u32; 3], [u32; 3])> = old_of_new
         .iter()
         .map(|&i| {

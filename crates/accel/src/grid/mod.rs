@@ -199,28 +199,28 @@ pub(crate) fn union_len(a: &[u32], b: &[u32]) -> usize {
     n + (a.len() - i) + (b.len() - j)
 }
 
-/// The union of two ascending lists into `out`.
-pub(crate) fn union_into(a: &[u32], b: &[u32], out: &mut Vec<u32>) {
+/// Visit the union of two ascending lists in order (duplicates once).
+pub(crate) fn union_each(a: &[u32], b: &[u32], f: &mut impl FnMut(u32)) {
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
         match a[i].cmp(&b[j]) {
             std::cmp::Ordering::Less => {
-                out.push(a[i]);
+                f(a[i]);
                 i += 1
             }
             std::cmp::Ordering::Greater => {
-                out.push(b[j]);
+                f(b[j]);
                 j += 1
             }
             std::cmp::Ordering::Equal => {
-                out.push(a[i]);
+                f(a[i]);
                 i += 1;
                 j += 1;
             }
         }
     }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
+    a[i..].iter().for_each(|&x| f(x));
+    b[j..].iter().for_each(|&x| f(x));
 }
 
 /// True when ascending `a` ⊆ ascending `b`.
@@ -305,5 +305,30 @@ impl render::Tracer for GridEngine {
         stats.ray_tri_tests += tests;
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
         stats.count("traversal steps", steps);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn sorted_list_ops(mut a in prop::collection::vec(0u32..200, 0..60), mut b in prop::collection::vec(0u32..200, 0..60)) {
+            a.sort_unstable();
+            a.dedup();
+            b.sort_unstable();
+            b.dedup();
+            let mut u = Vec::new();
+            union_each(&a, &b, &mut |x| u.push(x));
+            let mut e: Vec<u32> = a.iter().chain(&b).copied().collect();
+            e.sort_unstable();
+            e.dedup();
+            prop_assert_eq!(&u, &e);
+            prop_assert_eq!(union_len(&a, &b), e.len());
+            prop_assert_eq!(is_subset(&a, &b), a.iter().all(|x| b.contains(x)));
+            prop_assert!(is_subset(&a, &u) && is_subset(&b, &u));
+        }
     }
 }
