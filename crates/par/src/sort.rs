@@ -8,8 +8,8 @@
 //!
 //! The sort is limited by memory traffic, so the passes are arranged to move each byte as
 //! few times as possible:
-//! - one sweep over the keys counts every digit of every block: it tells which passes are
-//!   no-ops (one digit value for all keys: skipped) and gives the first pass's histograms;
+//! - the AND and OR of all keys tell which digits are the same for every key (those passes
+//!   are skipped), and one sweep counts the first pass's per-block histograms;
 //! - each scatter counts, per destination block, the *next* pass's digits of the items it
 //!   writes, so later passes need no histogram sweep (a GPU does the same with one partial
 //!   histogram per work-group);
@@ -27,6 +27,8 @@ pub trait RadixKey: Copy + Send + Sync + Default + 'static {
     const BITS: u32;
     /// `(self >> shift)` truncated to u32.
     fn shifted(self, shift: u32) -> u32;
+    /// The key widened to u64.
+    fn wide(self) -> u64;
 }
 
 impl RadixKey for u32 {
@@ -35,6 +37,10 @@ impl RadixKey for u32 {
     fn shifted(self, shift: u32) -> u32 {
         self >> shift
     }
+    #[inline]
+    fn wide(self) -> u64 {
+        self as u64
+    }
 }
 
 impl RadixKey for u64 {
@@ -42,6 +48,10 @@ impl RadixKey for u64 {
     #[inline]
     fn shifted(self, shift: u32) -> u32 {
         (self >> shift) as u32
+    }
+    #[inline]
+    fn wide(self) -> u64 {
+        self
     }
 }
 
@@ -265,7 +275,7 @@ pub fn sort_pairs<K: RadixKey>(
     let threads = rayon::current_num_threads().max(1);
     let nb = n
         .div_ceil(crate::MIN_BLOCK)
-        .min(threads * 2)
+        .min(threads)
         .clamp(1, crate::MAX_BLOCKS);
     // A power-of-two block length, so the destination block of an index is a shift.
     let bl = n.div_ceil(nb).next_power_of_two();
@@ -281,31 +291,20 @@ pub fn sort_pairs<K: RadixKey>(
         };
     }
     let all = &all[..nd];
-    // One sweep: per-block histograms of every digit.
-    scratch.hist.resize(nb * BUCKETS * nd, 0);
-    scratch
-        .hist
-        .par_chunks_mut(BUCKETS * nd)
-        .zip(keys.par_chunks(bl))
-        .for_each(|(h, ks)| {
-            h.fill(0);
-            for &k in ks {
-                for (j, dg) in all.iter().enumerate() {
-                    h[j * BUCKETS + dg.of(k)] += 1;
-                }
-            }
-        });
-    // Passes whose digit is the same for every key move nothing.
+    // A digit is the same for every key iff its bits agree in the AND and the OR of all keys:
+    // such passes would move nothing and are skipped.
+    let (and, or) = keys
+        .par_chunks(bl)
+        .map(|ks| {
+            ks.iter()
+                .fold((u64::MAX, 0u64), |(a, o), k| (a & k.wide(), o | k.wide()))
+        })
+        .reduce(|| (u64::MAX, 0), |x, y| (x.0 & y.0, x.1 | y.1));
+    let varying = and ^ or;
     let mut live_buf = [0usize; 8];
     let mut nlive = 0;
-    for j in 0..nd {
-        let constant = (0..BUCKETS).any(|d| {
-            (0..nb)
-                .map(|b| scratch.hist[b * BUCKETS * nd + j * BUCKETS + d] as usize)
-                .sum::<usize>()
-                == n
-        });
-        if !constant {
+    for (j, dg) in all.iter().enumerate() {
+        if (varying >> dg.shift) & dg.mask as u64 != 0 {
             live_buf[nlive] = j;
             nlive += 1;
         }
@@ -314,13 +313,20 @@ pub fn sort_pairs<K: RadixKey>(
     if live.is_empty() {
         return;
     }
-    // Keep the first live pass's per-block histograms, moved to the front (nb × 256).
-    let first = live[0];
-    for b in 0..nb {
-        let src = (b * nd + first) * BUCKETS;
-        scratch.hist.copy_within(src..src + BUCKETS, b * BUCKETS);
-    }
-    scratch.hist.truncate(nb * BUCKETS);
+    // Per-block histograms of the first live digit (later passes count theirs while
+    // scattering).
+    let first = all[live[0]];
+    scratch.hist.resize(nb * BUCKETS, 0);
+    scratch
+        .hist
+        .par_chunks_mut(BUCKETS)
+        .zip(keys.par_chunks(bl))
+        .for_each(|(h, ks)| {
+            h.fill(0);
+            for &k in ks {
+                h[first.of(k)] += 1;
+            }
+        });
     scratch.a.resize(n, Item::default());
     scratch.b.resize(n, Item::default());
     scratch.partial.resize(nb * nb * BUCKETS, 0);
