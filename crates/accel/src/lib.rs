@@ -7,6 +7,7 @@
 
 pub mod brute;
 pub mod grid;
+pub mod oracle;
 
 pub use brute::BruteForce;
 pub use grid::{GridConfig, GridEngine};

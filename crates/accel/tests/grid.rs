@@ -3,6 +3,7 @@
 //! for bit — same kernel, same tie rule — and any-hit booleans).
 
 use accel::grid::{build_grid, Grid, GridConfig, GridEngine};
+use accel::oracle::{assert_same_hits, Recorder};
 use accel::BruteForce;
 use geom::aabb::tri_overlaps_box;
 use geom::{Pcg32, Ray, Vec3};
@@ -10,7 +11,6 @@ use proptest::prelude::*;
 use render::whitted::{render, trace_primary, RenderOptions};
 use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer, View};
 use scene::{builtin, Geometry};
-use std::sync::Mutex;
 
 fn configs() -> Vec<(&'static str, GridConfig)> {
     vec![
@@ -115,46 +115,12 @@ fn structure_on_small_scenes() {
     }
 }
 
-struct Recorder {
-    inner: BruteForce,
-    batches: Mutex<Vec<(RayBatch, TraceMode, Vec<Hit>)>>,
-}
-
-impl Tracer for Recorder {
-    fn name(&self) -> &str {
-        "recorder"
-    }
-    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
-        self.inner.trace(rays, mode, hits, stats);
-        self.batches
-            .lock()
-            .unwrap()
-            .push((rays.clone(), mode, hits.to_vec()));
-    }
-}
-
-fn compare(e: &dyn Tracer, rays: &RayBatch, mode: TraceMode, expect: &[Hit], what: &str) {
-    let mut got = vec![Hit::MISS; rays.len()];
-    e.trace(rays, mode, &mut got, &mut TraceStats::default());
-    for (i, (g, x)) in got.iter().zip(expect).enumerate() {
-        match mode {
-            TraceMode::Closest => assert_eq!(g, x, "{what}: ray {i} {:?}", rays.ray(i)),
-            TraceMode::Any => {
-                assert_eq!(g.is_hit(), x.is_hit(), "{what}: ray {i} {:?}", rays.ray(i))
-            }
-        }
-    }
-}
-
 #[test]
 fn builtin_scenes_match_brute_force() {
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let rec = Recorder {
-            inner: BruteForce::new(&geo),
-            batches: Mutex::new(Vec::new()),
-        };
+        let rec = Recorder::new(&geo);
         render(
             &s,
             &geo,
@@ -166,7 +132,7 @@ fn builtin_scenes_match_brute_force() {
             },
             &(),
         );
-        let mut batches = rec.batches.into_inner().unwrap();
+        let mut batches = rec.into_batches();
         // Primary rays too (the grid is a general engine).
         let view = View::new(&s.camera, 48, 36);
         let (prim, hits, _) = trace_primary(&view, &BruteForce::new(&geo));
@@ -174,7 +140,7 @@ fn builtin_scenes_match_brute_force() {
         for (what, cfg) in configs() {
             let e = GridEngine::new(&geo, &cfg).unwrap();
             for (k, (rays, mode, hits)) in batches.iter().enumerate() {
-                compare(&e, rays, *mode, hits, &format!("{name} {what} batch {k}"));
+                assert_same_hits(&e, rays, *mode, hits, &format!("{name} {what} batch {k}"));
             }
         }
     }
@@ -255,6 +221,6 @@ proptest! {
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];
         BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
-        compare(&GridEngine::new(&geo, &cfg).unwrap(), &rays, mode, &expect, "random");
+        assert_same_hits(&GridEngine::new(&geo, &cfg).unwrap(), &rays, mode, &expect, "random");
     }
 }

@@ -6,6 +6,7 @@
 //! and the tie rule "smallest t, then smallest triangle id"), so the stated t tolerance is 0.
 //! Any-hit results are compared as booleans.
 
+use accel::oracle::{assert_same_hits, Recorder};
 use accel::BruteForce;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
@@ -13,49 +14,13 @@ use render::whitted::{render, RenderOptions};
 use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 use rsh::{HashKind, NodeTest, RshConfig, RshEngine, Union};
 use scene::{builtin, Geometry};
-use std::sync::Mutex;
-
-/// Records every batch the renderer traces, answered by brute force.
-struct Recorder {
-    inner: BruteForce,
-    batches: Mutex<Vec<(RayBatch, TraceMode, Vec<Hit>)>>,
-}
-
-impl Tracer for Recorder {
-    fn name(&self) -> &str {
-        "recorder"
-    }
-    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
-        self.inner.trace(rays, mode, hits, stats);
-        self.batches
-            .lock()
-            .unwrap()
-            .push((rays.clone(), mode, hits.to_vec()));
-    }
-}
-
-fn compare(engine: &RshEngine, rays: &RayBatch, mode: TraceMode, expect: &[Hit], what: &str) {
-    let mut got = vec![Hit::MISS; rays.len()];
-    engine.trace(rays, mode, &mut got, &mut TraceStats::default());
-    for (i, (g, e)) in got.iter().zip(expect).enumerate() {
-        match mode {
-            TraceMode::Closest => assert_eq!(g, e, "{what}: ray {i} {:?}", rays.ray(i)),
-            TraceMode::Any => {
-                assert_eq!(g.is_hit(), e.is_hit(), "{what}: ray {i} {:?}", rays.ray(i))
-            }
-        }
-    }
-}
 
 #[test]
 fn builtin_scenes_all_configs_match_brute_force() {
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let rec = Recorder {
-            inner: BruteForce::new(&geo),
-            batches: Mutex::new(Vec::new()),
-        };
+        let rec = Recorder::new(&geo);
         render(
             &s,
             &geo,
@@ -67,7 +32,7 @@ fn builtin_scenes_all_configs_match_brute_force() {
             },
             &(),
         );
-        let batches = rec.batches.into_inner().unwrap();
+        let batches = rec.into_batches();
         assert!(
             batches.len() >= 3,
             "{name}: shadow and secondary batches were traced"
@@ -82,7 +47,7 @@ fn builtin_scenes_all_configs_match_brute_force() {
                     };
                     let e = RshEngine::new(&geo, cfg.clone()).unwrap();
                     for (k, (rays, mode, hits)) in batches.iter().enumerate() {
-                        compare(
+                        assert_same_hits(
                             &e,
                             rays,
                             *mode,
@@ -103,10 +68,7 @@ fn variants_match_brute_force() {
     for name in ["office", "cornell"] {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let rec = Recorder {
-            inner: BruteForce::new(&geo),
-            batches: Mutex::new(Vec::new()),
-        };
+        let rec = Recorder::new(&geo);
         render(
             &s,
             &geo,
@@ -118,7 +80,7 @@ fn variants_match_brute_force() {
             },
             &(),
         );
-        let batches = rec.batches.into_inner().unwrap();
+        let batches = rec.into_batches();
         let variants = [
             RshConfig {
                 hash: HashKind::Morton64,
@@ -159,7 +121,7 @@ fn variants_match_brute_force() {
         for cfg in variants {
             let e = RshEngine::new(&geo, cfg.clone()).unwrap();
             for (k, (rays, mode, hits)) in batches.iter().enumerate() {
-                compare(&e, rays, *mode, hits, &format!("{name} {cfg:?} batch {k}"));
+                assert_same_hits(&e, rays, *mode, hits, &format!("{name} {cfg:?} batch {k}"));
             }
         }
     }
@@ -279,6 +241,6 @@ proptest! {
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];
         BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
-        compare(&RshEngine::new(&geo, cfg).unwrap(), &rays, mode, &expect, "random");
+        assert_same_hits(&RshEngine::new(&geo, cfg).unwrap(), &rays, mode, &expect, "random");
     }
 }

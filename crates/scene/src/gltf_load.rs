@@ -152,23 +152,7 @@ pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
         }
     }
     report.load_seconds = t0.elapsed().as_secs_f64();
-    let mut scene = Scene {
-        name: path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-        meshes,
-        materials,
-        lights: Vec::new(),
-        camera: crate::Camera {
-            eye: Vec3::Z,
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            vfov: 45.0,
-        },
-        background: Vec3::new(0.1, 0.1, 0.12),
-        report,
-    };
+    let mut scene = Scene::from_file(path, meshes, materials, report);
     auto_camera_and_light(&mut scene);
     if let Some(c) = camera {
         scene.camera = c;

@@ -233,6 +233,33 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// A scene read from `path` (named after the file stem), with a placeholder camera, no
+    /// lights and a dark background, for loaders to finish.
+    pub fn from_file(
+        path: &std::path::Path,
+        meshes: Vec<Mesh>,
+        materials: Vec<Material>,
+        report: LoadReport,
+    ) -> Scene {
+        Scene {
+            name: path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            meshes,
+            materials,
+            lights: Vec::new(),
+            camera: Camera {
+                eye: Vec3::Z,
+                target: Vec3::ZERO,
+                up: Vec3::Y,
+                vfov: 45.0,
+            },
+            background: Vec3::new(0.1, 0.1, 0.12),
+            report,
+        }
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.meshes.iter().map(|m| m.triangles.len()).sum()
     }

@@ -244,23 +244,7 @@ pub fn load_obj_scene(path: &Path, split: MeshSplit) -> Result<Scene, SceneError
     };
     let (meshes, materials) = load_obj_meshes(path, split, &mut report)?;
     report.load_seconds = t0.elapsed().as_secs_f64();
-    let mut scene = Scene {
-        name: path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-        meshes,
-        materials,
-        lights: Vec::new(),
-        camera: Camera {
-            eye: Vec3::Z,
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            vfov: 45.0,
-        },
-        background: Vec3::new(0.1, 0.1, 0.12),
-        report,
-    };
+    let mut scene = Scene::from_file(path, meshes, materials, report);
     auto_camera_and_light(&mut scene);
     Ok(scene)
 }

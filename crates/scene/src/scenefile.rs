@@ -155,27 +155,13 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
         source: Some(path.to_path_buf()),
         ..Default::default()
     };
-    let mut scene = Scene {
-        name: file.name.clone().unwrap_or_else(|| {
-            path.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default()
-        }),
-        meshes: Vec::new(),
-        materials: Vec::new(),
-        lights: Vec::new(),
-        camera: Camera {
-            eye: Vec3::Z,
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            vfov: 45.0,
-        },
-        background: file
-            .background
-            .map(Vec3::from_array)
-            .unwrap_or(Vec3::new(0.1, 0.1, 0.12)),
-        report: LoadReport::default(),
-    };
+    let mut scene = Scene::from_file(path, Vec::new(), Vec::new(), LoadReport::default());
+    if let Some(n) = &file.name {
+        scene.name = n.clone();
+    }
+    if let Some(b) = file.background {
+        scene.background = Vec3::from_array(b);
+    }
     if file.meshes.is_empty() {
         return Err(SceneError::invalid(path, "no [[meshes]] entries"));
     }

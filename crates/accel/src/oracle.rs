@@ -1,0 +1,62 @@
+//! The brute-force oracle as a test harness for any engine: record the batches a render
+//! traces (answered by brute force), and check another engine against them.
+
+use crate::BruteForce;
+use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use std::sync::Mutex;
+
+/// A tracer that answers with brute force and keeps every batch it was given.
+pub struct Recorder {
+    pub inner: BruteForce,
+    pub batches: Mutex<Vec<(RayBatch, TraceMode, Vec<Hit>)>>,
+}
+
+impl Recorder {
+    pub fn new(geo: &scene::Geometry) -> Self {
+        Recorder {
+            inner: BruteForce::new(geo),
+            batches: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// The recorded (rays, mode, brute-force hits), in trace order.
+    pub fn into_batches(self) -> Vec<(RayBatch, TraceMode, Vec<Hit>)> {
+        self.batches.into_inner().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl Tracer for Recorder {
+    fn name(&self) -> &str {
+        "recorder"
+    }
+
+    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+        self.inner.trace(rays, mode, hits, stats);
+        self.batches
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push((rays.clone(), mode, hits.to_vec()));
+    }
+}
+
+/// Trace `rays` with `engine` and panic (naming `what` and the ray) unless the result equals
+/// `expect`: closest-hit records bit for bit (one shared kernel and tie rule), any-hit as
+/// booleans.
+pub fn assert_same_hits(
+    engine: &dyn Tracer,
+    rays: &RayBatch,
+    mode: TraceMode,
+    expect: &[Hit],
+    what: &str,
+) {
+    let mut got = vec![Hit::MISS; rays.len()];
+    engine.trace(rays, mode, &mut got, &mut TraceStats::default());
+    for (i, (g, e)) in got.iter().zip(expect).enumerate() {
+        match mode {
+            TraceMode::Closest => assert_eq!(g, e, "{what}: ray {i} {:?}", rays.ray(i)),
+            TraceMode::Any => {
+                assert_eq!(g.is_hit(), e.is_hit(), "{what}: ray {i} {:?}", rays.ray(i))
+            }
+        }
+    }
+}
