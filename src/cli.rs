@@ -1,5 +1,13 @@
 //! Command-line interface.
 
+/// `println!` that ignores a closed stdout (`rayspace … | head` must not panic).
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($t)*);
+    }};
+}
+
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -25,6 +33,70 @@ struct Cli {
 enum Command {
     /// Render a scene: rasterized primary visibility, traced shadow/reflection/refraction rays.
     Render(RenderArgs),
+    /// Write a ray file (primary, shadow, reflection, ambient-occlusion or random rays).
+    Rays(RaysArgs),
+    /// Trace a ray file with an engine: prints MRays/s and counters, writes the hits.
+    Trace(TraceArgs),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum RayKindArg {
+    Primary,
+    Shadow,
+    Reflection,
+    Ao,
+    Random,
+}
+
+#[derive(Args, Clone)]
+struct RaysArgs {
+    /// A built-in scene, an .obj, .gltf/.glb or .toml file.
+    scene: String,
+    #[arg(long, value_enum, default_value_t = RayKindArg::Primary)]
+    kind: RayKindArg,
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    width: u32,
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    height: u32,
+    /// Rays per pixel (ao, random).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    spp: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Length of ambient-occlusion rays (default: 10 % of the scene's box diagonal).
+    #[arg(long = "ao-distance", allow_negative_numbers = true)]
+    ao_distance: Option<f32>,
+    /// Camera override: EX,EY,EZ,TX,TY,TZ[,FOV] (eye, target, vertical field of view in degrees).
+    #[arg(long)]
+    viewpoint: Option<String>,
+    #[arg(long, value_enum, default_value_t = Split::Groups)]
+    meshes: Split,
+    /// Output ray file.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(Args, Clone)]
+struct TraceArgs {
+    /// Ray file (rayspace format, or hagrid's headerless 6 × f32 per ray).
+    rays: PathBuf,
+    /// The scene the rays were made for.
+    #[arg(long)]
+    scene: String,
+    #[arg(long, value_enum, default_value_t = Engine::Crsh)]
+    engine: Engine,
+    #[command(flatten)]
+    rsh: RshArgs,
+    #[command(flatten)]
+    grid: GridArgs,
+    /// Any-hit (occlusion) queries instead of closest hit.
+    #[arg(long = "any-hit")]
+    any_hit: bool,
+    #[arg(long, value_enum, default_value_t = Split::Groups)]
+    meshes: Split,
+    /// Output hit file.
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -295,7 +367,7 @@ fn make_engine(
                 })?;
             let (c, r, v) = g.grid.memory();
             let b = &g.grid.build;
-            println!(
+            say!(
                 "{}: {} cells (initial {}), {} references, top grid {:?}, virtual grid {:?}; memory cells {} B, references {} B, voxel map {} B; build ms: references {:.1}, octrees {:.1}, voxel map {:.1}, merge {:.1} ({} rounds), expansion {:.1}",
                 if engine == Engine::Grid { "irregular grid" } else { "two-level grid" },
                 g.grid.cells(), b.initial_cells, g.grid.refs.len(), g.grid.top_dims, g.grid.dims, c, r, v,
@@ -341,27 +413,165 @@ struct StatsFile<'a> {
     raster_fragments: u64,
 }
 
-fn cmd_render(a: &RenderArgs) -> Result<()> {
-    let split = match a.meshes {
+fn split(s: Split) -> MeshSplit {
+    match s {
         Split::Groups => MeshSplit::Groups,
         Split::Materials => MeshSplit::Materials,
         Split::Single => MeshSplit::Single,
-    };
-    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+    }
+}
+
+fn check_out_dir(opt: &str, out: &std::path::Path) -> Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
             bail!(
-                "--out {}: directory {} does not exist",
-                a.out.display(),
+                "{opt} {}: directory {} does not exist",
+                out.display(),
                 dir.display()
             );
         }
     }
+    Ok(())
+}
+
+fn parse_viewpoint(s: &str) -> Result<scene::Camera> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            anyhow::anyhow!("--viewpoint '{s}': expected numbers EX,EY,EZ,TX,TY,TZ[,FOV]")
+        })?;
+    if !(v.len() == 6 || v.len() == 7) || v.iter().any(|x| !x.is_finite()) {
+        bail!("--viewpoint '{s}': expected 6 or 7 finite numbers EX,EY,EZ,TX,TY,TZ[,FOV]");
+    }
+    Ok(scene::Camera {
+        eye: geom::Vec3::new(v[0], v[1], v[2]),
+        target: geom::Vec3::new(v[3], v[4], v[5]),
+        up: geom::Vec3::Y,
+        vfov: v.get(6).copied().unwrap_or(45.0),
+    })
+}
+
+fn cmd_rays(a: &RaysArgs) -> Result<()> {
+    check_out_dir("--out", &a.out)?;
+    let mut scene = scene::load(
+        &a.scene,
+        &LoadOptions {
+            split: split(a.meshes),
+        },
+    )?;
+    if let Some(v) = &a.viewpoint {
+        scene.camera = parse_viewpoint(v)?;
+        scene
+            .validate()
+            .map_err(|e| anyhow::anyhow!("--viewpoint: {e}"))?;
+    }
+    if let Some(d) = a.ao_distance {
+        if !(d.is_finite() && d > 0.0) {
+            bail!("--ao-distance {d}: must be positive and finite");
+        }
+    }
+    let geo = Geometry::from_scene(&scene);
+    use render::raygen::{generate, Kind, Options};
+    let kind = match a.kind {
+        RayKindArg::Primary => Kind::Primary,
+        RayKindArg::Shadow => Kind::Shadow,
+        RayKindArg::Reflection => Kind::Reflection,
+        RayKindArg::Ao => Kind::Ao,
+        RayKindArg::Random => Kind::Random,
+    };
+    let n = a.width as u64 * a.height as u64 * a.spp as u64;
+    if n > 1 << 28 {
+        bail!("--width × --height × --spp = {n} rays is more than 2^28");
+    }
+    let rays = generate(
+        &scene,
+        &geo,
+        kind,
+        &Options {
+            width: a.width,
+            height: a.height,
+            spp: a.spp,
+            seed: a.seed,
+            ao_distance: a.ao_distance,
+        },
+    );
+    render::rayfile::write_rays(&a.out, &rays).map_err(anyhow::Error::msg)?;
+    say!(
+        "wrote {} {:?} rays of {} to {}",
+        rays.len(),
+        a.kind,
+        scene.name,
+        a.out.display()
+    );
+    Ok(())
+}
+
+fn cmd_trace(a: &TraceArgs) -> Result<()> {
+    if let Some(o) = &a.out {
+        check_out_dir("--out", o)?;
+    }
+    let rays = render::rayfile::read_rays(&a.rays, render::RayKind::Primary)
+        .map_err(anyhow::Error::msg)?;
+    let scene = scene::load(
+        &a.scene,
+        &LoadOptions {
+            split: split(a.meshes),
+        },
+    )?;
+    let geo = Geometry::from_scene(&scene);
+    let t0 = Instant::now();
+    let engine = make_engine(a.engine, &a.rsh, &a.grid, &geo)?;
+    let build = t0.elapsed().as_secs_f64();
+    let mode = if a.any_hit {
+        render::TraceMode::Any
+    } else {
+        render::TraceMode::Closest
+    };
+    let mut hits = vec![render::Hit::MISS; rays.len()];
+    let mut st = render::TraceStats::default();
+    let t1 = Instant::now();
+    engine.trace(&rays, mode, &mut hits, &mut st);
+    let secs = t1.elapsed().as_secs_f64();
+    let n = rays.len().max(1) as f64;
+    say!(
+        "{} rays, {} triangles, engine {} ({:?}): build {:.1} ms, trace {:.1} ms, {:.3} MRays/s",
+        rays.len(),
+        geo.len(),
+        engine.name(),
+        mode,
+        build * 1e3,
+        secs * 1e3,
+        n / secs.max(1e-12) / 1e6
+    );
+    say!("hits {}, ray-triangle tests {} ({:.2}/ray), node-triangle tests {}, total tests {} ({:.4} % of brute force)", st.hits, st.ray_tri_tests, st.ray_tri_tests as f64 / n, st.node_tri_tests, st.total_tests(), 100.0 * st.total_tests() as f64 / (n * geo.len() as f64));
+    for (k, v) in &st.counters {
+        say!(
+            "  {k}: {v}{}",
+            if k == "traversal steps" {
+                format!(" ({:.2}/ray)", *v as f64 / n)
+            } else {
+                String::new()
+            }
+        );
+    }
+    if let Some(o) = &a.out {
+        render::rayfile::write_hits(o, &hits, mode).map_err(anyhow::Error::msg)?;
+        say!("wrote {}", o.display());
+    }
+    Ok(())
+}
+
+fn cmd_render(a: &RenderArgs) -> Result<()> {
+    let split = split(a.meshes);
+    check_out_dir("--out", &a.out)?;
     let t0 = Instant::now();
     let scene = scene::load(&a.scene, &LoadOptions { split })?;
     let geo = Geometry::from_scene(&scene);
     let load_s = t0.elapsed().as_secs_f64();
     let r = &scene.report;
-    println!(
+    say!(
         "loaded {} in {:.2} s: {} triangles, {} meshes, {} materials, {} lights{}{}",
         scene.name,
         load_s,
@@ -395,8 +605,8 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
     render::output::write_png(&out.pixels, a.width, a.height, &a.out)
         .map_err(anyhow::Error::msg)
         .context("--out")?;
-    println!("{}", out.stats.table());
-    println!("wrote {}", a.out.display());
+    say!("{}", out.stats.table());
+    say!("wrote {}", a.out.display());
     if let Some(p) = &a.stats {
         let f = StatsFile {
             render: &out.stats,
@@ -407,7 +617,7 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
         };
         let json = serde_json::to_string_pretty(&f)?;
         std::fs::write(p, json).with_context(|| format!("--stats {}", p.display()))?;
-        println!("wrote {}", p.display());
+        say!("wrote {}", p.display());
     }
     Ok(())
 }
@@ -416,6 +626,8 @@ pub fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Some(Command::Render(a)) => cmd_render(&a),
+        Some(Command::Rays(a)) => cmd_rays(&a),
+        Some(Command::Trace(a)) => cmd_trace(&a),
         None => cmd_render(&RenderArgs::default()),
     }
 }

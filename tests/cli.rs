@@ -194,3 +194,137 @@ fn degenerate_triangles_are_skipped_and_reported() {
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("1 degenerate triangles skipped"));
 }
+
+/// `rays` then `trace` with every engine: the closest-hit files are byte-identical, and
+/// any-hit runs agree on which rays are occluded.
+#[test]
+fn ray_files_and_identical_hits_across_engines() {
+    let d = tmp("rays");
+    for (kind, extra) in [
+        ("primary", vec![]),
+        ("shadow", vec![]),
+        ("ao", vec!["--spp", "2"]),
+        ("random", vec![]),
+    ] {
+        let rays = d.join(format!("{kind}.rays"));
+        let mut args = vec![
+            "rays",
+            "spheres",
+            "--kind",
+            kind,
+            "--width",
+            "24",
+            "--height",
+            "20",
+            "--out",
+            rays.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let out = bin().args(&args).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let mut files = Vec::new();
+        for engine in ["brute", "crsh", "rah", "grid", "grid2l"] {
+            for any in [false, true] {
+                let hits = d.join(format!("{kind}-{engine}-{any}.hits"));
+                let mut a = vec![
+                    "trace",
+                    rays.to_str().unwrap(),
+                    "--scene",
+                    "spheres",
+                    "--engine",
+                    engine,
+                    "--out",
+                    hits.to_str().unwrap(),
+                ];
+                if any {
+                    a.push("--any-hit");
+                }
+                let out = bin().args(&a).output().unwrap();
+                assert!(
+                    out.status.success(),
+                    "{kind} {engine}: {}",
+                    String::from_utf8_lossy(&out.stderr)
+                );
+                assert!(String::from_utf8_lossy(&out.stdout).contains("MRays/s"));
+                let (h, _) = render::rayfile::read_hits(&hits).unwrap();
+                files.push((engine, any, std::fs::read(&hits).unwrap(), h));
+            }
+        }
+        let closest: Vec<_> = files.iter().filter(|f| !f.1).collect();
+        for f in &closest[1..] {
+            assert!(
+                f.2 == closest[0].2,
+                "{kind}: {} closest-hit file differs from brute force",
+                f.0
+            );
+        }
+        let any: Vec<_> = files.iter().filter(|f| f.1).collect();
+        for f in &any[1..] {
+            assert!(
+                f.3.iter()
+                    .zip(&any[0].3)
+                    .all(|(a, b)| a.is_hit() == b.is_hit()),
+                "{kind}: {} any-hit occlusion differs",
+                f.0
+            );
+        }
+    }
+    // Same seed, same bytes.
+    let (a, b) = (d.join("a.rays"), d.join("b.rays"));
+    for p in [&a, &b] {
+        assert!(bin()
+            .args([
+                "rays",
+                "cornell",
+                "--kind",
+                "ao",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--seed",
+                "5",
+                "--out",
+                p.to_str().unwrap()
+            ])
+            .status()
+            .unwrap()
+            .success());
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    // Bad ray files and options.
+    let junk = d.join("junk.rays");
+    std::fs::write(&junk, b"hello").unwrap();
+    fails(
+        &["trace", junk.to_str().unwrap(), "--scene", "cornell"],
+        &["junk.rays"],
+    );
+    fails(
+        &[
+            "rays",
+            "cornell",
+            "--viewpoint",
+            "1,2,3",
+            "--out",
+            a.to_str().unwrap(),
+        ],
+        &["--viewpoint"],
+    );
+    fails(
+        &[
+            "rays",
+            "cornell",
+            "--kind",
+            "ao",
+            "--ao-distance",
+            "-1",
+            "--out",
+            a.to_str().unwrap(),
+        ],
+        &["--ao-distance"],
+    );
+}

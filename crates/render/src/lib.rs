@@ -9,6 +9,8 @@
 pub mod batch;
 pub mod output;
 pub mod raster;
+pub mod rayfile;
+pub mod raygen;
 pub mod secondary;
 pub mod shade;
 pub mod stats;

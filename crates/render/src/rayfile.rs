@@ -1,0 +1,222 @@
+//! Ray and hit files, so the same rays can be traced by every engine (and by peers).
+//!
+//! ## Ray file, version 1 (all little-endian)
+//! ```text
+//! offset  size  field
+//! 0       8     magic "RSRAYS\0\0"
+//! 8       4     version (u32) = 1
+//! 12      4     layout (u32) = 0: per ray origin xyz, direction xyz, t_min, t_max (8 × f32)
+//! 16      8     ray count (u64)
+//! 24      32·n  rays
+//! ```
+//! hagrid's headerless files (6 × f32 per ray: origin, direction; t in [0, ∞)) are read too:
+//! a file without the magic whose size is a multiple of 24 bytes.
+//!
+//! ## Hit file, version 1
+//! ```text
+//! 0       8     magic "RSHITS\0\0"
+//! 8       4     version (u32) = 1
+//! 12      4     mode (u32): 0 closest hit, 1 any hit
+//! 16      8     ray count (u64)
+//! 24      16·n  per ray: triangle id (u32, 0xFFFFFFFF = miss), t, u, v (f32)
+//! ```
+//! Closest-hit records are bit-identical across rayspace engines (one shared kernel and tie
+//! rule); any-hit records agree on hit/miss, while which occluder is recorded may differ.
+
+use crate::batch::{Hit, RayBatch, RayKind};
+use crate::tracer::TraceMode;
+use geom::{Ray, Vec3};
+use std::path::Path;
+
+const RAY_MAGIC: &[u8; 8] = b"RSRAYS\0\0";
+const HIT_MAGIC: &[u8; 8] = b"RSHITS\0\0";
+const HEADER: usize = 24;
+
+fn f32s(b: &[u8]) -> impl Iterator<Item = f32> + '_ {
+    b.chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+}
+
+/// Write `rays` (origin, direction, t range) as a version-1 ray file.
+pub fn write_rays(path: &Path, rays: &RayBatch) -> Result<(), String> {
+    let mut out = Vec::with_capacity(HEADER + 32 * rays.len());
+    out.extend_from_slice(RAY_MAGIC);
+    out.extend_from_slice(&1u32.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(&(rays.len() as u64).to_le_bytes());
+    for i in 0..rays.len() {
+        let r = rays.ray(i);
+        for v in [
+            r.org.x, r.org.y, r.org.z, r.dir.x, r.dir.y, r.dir.z, r.t_min, r.t_max,
+        ] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, out).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Read a version-1 ray file or a headerless hagrid file. Rays are checked (finite origin,
+/// finite non-zero direction, t_min ≤ t_max).
+pub fn read_rays(path: &Path, kind: RayKind) -> Result<RayBatch, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let bad = |msg: String| format!("{}: {msg}", path.display());
+    let mut rays = Vec::new();
+    if bytes.len() >= 8 && &bytes[..8] == RAY_MAGIC {
+        if bytes.len() < HEADER {
+            return Err(bad("truncated header".into()));
+        }
+        let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
+        let layout = u32::from_le_bytes(bytes[12..16].try_into().unwrap());
+        let n = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
+        if version != 1 || layout != 0 {
+            return Err(bad(format!(
+                "unsupported ray file version {version} / layout {layout}"
+            )));
+        }
+        let need = (n as u128) * 32 + HEADER as u128;
+        if need != bytes.len() as u128 {
+            return Err(bad(format!(
+                "header says {n} rays ({need} bytes) but the file has {} bytes",
+                bytes.len()
+            )));
+        }
+        let v: Vec<f32> = f32s(&bytes[HEADER..]).collect();
+        for c in v.chunks_exact(8) {
+            rays.push(Ray::new(
+                Vec3::new(c[0], c[1], c[2]),
+                Vec3::new(c[3], c[4], c[5]),
+                c[6],
+                c[7],
+            ));
+        }
+    } else {
+        if bytes.is_empty() || bytes.len() % 24 != 0 {
+            return Err(bad(format!("not a rayspace ray file and {} bytes is not a whole number of 6 × f32 (hagrid) rays", bytes.len())));
+        }
+        let v: Vec<f32> = f32s(&bytes).collect();
+        for c in v.chunks_exact(6) {
+            rays.push(Ray::new(
+                Vec3::new(c[0], c[1], c[2]),
+                Vec3::new(c[3], c[4], c[5]),
+                0.0,
+                f32::INFINITY,
+            ));
+        }
+    }
+    let batch = RayBatch::from_rays(&rays, kind);
+    batch.validate().map_err(bad)?;
+    Ok(batch)
+}
+
+/// Write one record per ray.
+pub fn write_hits(path: &Path, hits: &[Hit], mode: TraceMode) -> Result<(), String> {
+    let mut out = Vec::with_capacity(HEADER + 16 * hits.len());
+    out.extend_from_slice(HIT_MAGIC);
+    out.extend_from_slice(&1u32.to_le_bytes());
+    out.extend_from_slice(&(if mode == TraceMode::Any { 1u32 } else { 0 }).to_le_bytes());
+    out.extend_from_slice(&(hits.len() as u64).to_le_bytes());
+    for h in hits {
+        out.extend_from_slice(&h.tri.to_le_bytes());
+        for v in [h.t, h.u, h.v] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, out).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Read a hit file.
+pub fn read_hits(path: &Path) -> Result<(Vec<Hit>, TraceMode), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let bad = |msg: &str| format!("{}: {msg}", path.display());
+    if bytes.len() < HEADER || &bytes[..8] != HIT_MAGIC {
+        return Err(bad("not a rayspace hit file"));
+    }
+    let mode = if u32::from_le_bytes(bytes[12..16].try_into().unwrap()) == 1 {
+        TraceMode::Any
+    } else {
+        TraceMode::Closest
+    };
+    let n = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
+    if (n as u128) * 16 + HEADER as u128 != bytes.len() as u128 {
+        return Err(bad("size does not match the ray count"));
+    }
+    let hits = bytes[HEADER..]
+        .chunks_exact(16)
+        .map(|c| {
+            let f = |k: usize| f32::from_le_bytes(c[k..k + 4].try_into().unwrap());
+            Hit {
+                tri: u32::from_le_bytes(c[..4].try_into().unwrap()),
+                t: f(4),
+                u: f(8),
+                v: f(12),
+            }
+        })
+        .collect();
+    Ok((hits, mode))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn roundtrip_and_hagrid() {
+        let d = std::env::temp_dir().join(format!("rayspace-rayfile-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let rays = vec![
+            Ray::new(
+                Vec3::new(1.0, 2.0, 3.0),
+                Vec3::new(0.0, -0.0, 1.0),
+                0.5,
+                7.0,
+            ),
+            Ray::new(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY),
+        ];
+        let b = RayBatch::from_rays(&rays, RayKind::Primary);
+        let p = d.join("r.rays");
+        write_rays(&p, &b).unwrap();
+        let r = read_rays(&p, RayKind::Primary).unwrap();
+        assert_eq!((0..2).map(|i| r.ray(i)).collect::<Vec<_>>(), rays);
+        assert!(r.dir[0].y.is_sign_negative(), "-0.0 survives");
+        // hagrid: 6 floats per ray, no header.
+        let h = d.join("h.bin");
+        let mut bytes = Vec::new();
+        for v in [1.0f32, 2.0, 3.0, 0.0, 1.0, 0.0] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        std::fs::write(&h, &bytes).unwrap();
+        let r = read_rays(&h, RayKind::Primary).unwrap();
+        assert_eq!(
+            r.ray(0),
+            Ray::new(Vec3::new(1.0, 2.0, 3.0), Vec3::Y, 0.0, f32::INFINITY)
+        );
+        // Truncated and malformed files are errors naming the file.
+        std::fs::write(&h, &bytes[..20]).unwrap();
+        assert!(read_rays(&h, RayKind::Primary)
+            .unwrap_err()
+            .contains("h.bin"));
+        let mut bad = std::fs::read(&p).unwrap();
+        bad.truncate(40);
+        std::fs::write(&p, &bad).unwrap();
+        assert!(read_rays(&p, RayKind::Primary)
+            .unwrap_err()
+            .contains("header says"));
+        let mut nan = bytes.clone();
+        nan[12..16].copy_from_slice(&f32::NAN.to_le_bytes());
+        std::fs::write(&h, &nan).unwrap();
+        assert!(read_rays(&h, RayKind::Primary).is_err());
+        // Hits.
+        let hits = vec![
+            Hit {
+                tri: 3,
+                t: 1.5,
+                u: 0.25,
+                v: 0.5,
+            },
+            Hit::MISS,
+        ];
+        let hp = d.join("x.hits");
+        write_hits(&hp, &hits, TraceMode::Closest).unwrap();
+        assert_eq!(read_hits(&hp).unwrap(), (hits, TraceMode::Closest));
+    }
+}
