@@ -163,6 +163,21 @@ fn bad_options() {
         &["render", "cornell", "--hash-bits", "4,13"],
         &["--hash-bits"],
     );
+    fails(
+        &[
+            "render",
+            "cornell",
+            "--engine",
+            "grid",
+            "--grid-top-density",
+            "0",
+        ],
+        &["--engine grid", "densities"],
+    );
+    fails(
+        &["render", "cornell", "--engine", "grid", "--grid-alpha", "2"],
+        &["--engine grid", "alpha"],
+    );
 }
 
 #[test]
