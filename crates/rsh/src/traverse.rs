@@ -162,48 +162,77 @@ impl Traversal<'_> {
             let b = (mf[m + 1] as usize).min(tris.end);
             a..b.max(a)
         };
-        let counts: Vec<u32> = nodes
+        // The top level tests candidates as it generates them (count survivors → scan →
+        // emit survivors), like a GPU kernel would: the candidates themselves are never
+        // stored, only the pairs that pass. Counts are the same as testing stored pairs.
+        let nl = self.h.levels.len();
+        let li = nl - 1;
+        let top = &self.h.levels[li];
+        let s = &self.scene;
+        let test =
+            |n: usize, t: usize| node_test(self.test, top, n, s.tri_center[t], s.tri_radius[t]);
+        let per_node: Vec<(u32, u32)> = nodes
             .clone()
             .into_par_iter()
             .map(|n| {
-                (m0..=m1)
-                    .filter(|&m| pass[n * nm + m] != 0)
-                    .map(|m| overlap(m).len() as u32)
-                    .sum()
+                let (mut tested, mut passed) = (0u32, 0u32);
+                for m in (m0..=m1).filter(|&m| pass[n * nm + m] != 0) {
+                    for t in overlap(m) {
+                        tested += 1;
+                        passed += test(n, t) as u32;
+                    }
+                }
+                (tested, passed)
             })
             .collect();
+        let mut tests = [0u64; 4];
+        let mut hits = [0u64; 4];
+        for (n, &(t, h)) in nodes.clone().zip(&per_node) {
+            let k = top.kind[n] as usize & 3;
+            tests[k] += t as u64;
+            hits[k] += h as u64;
+        }
+        c.tests[li] = add4(c.tests[li], tests);
+        c.hits[li] = add4(c.hits[li], hits);
+        let counts: Vec<u32> = per_node.iter().map(|p| p.1).collect();
         let mut offs = vec![0u32; counts.len()];
         let total = exclusive_scan(&counts, &mut offs) as usize;
         if total == 0 {
             return;
         }
-        let mut pn = vec![0u32; total];
-        let mut pt = vec![0u32; total];
+        let mut sn = vec![0u32; total];
+        let mut st = vec![0u32; total];
         {
-            let (wn, wt) = (Shared(pn.as_mut_ptr()), Shared(pt.as_mut_ptr()));
+            let (wn, wt) = (Shared(sn.as_mut_ptr()), Shared(st.as_mut_ptr()));
             nodes
                 .clone()
                 .into_par_iter()
                 .zip(offs.par_iter())
                 .for_each(|(n, &o)| {
                     let mut k = o as usize;
-                    for m in m0..=m1 {
-                        if pass[n * nm + m] == 0 {
-                            continue;
-                        }
+                    for m in (m0..=m1).filter(|&m| pass[n * nm + m] != 0) {
                         for t in overlap(m) {
-                            // SAFETY: node n owns [offs[n], offs[n] + counts[n]) by the exclusive scan.
-                            unsafe {
-                                wn.write(k, n as u32);
-                                wt.write(k, t as u32);
+                            if test(n, t) {
+                                // SAFETY: node n owns [offs[n], offs[n] + survivors[n]) by the
+                                // exclusive scan; the test is deterministic, so it passes the same
+                                // candidates as in the counting pass.
+                                unsafe {
+                                    wn.write(k, n as u32);
+                                    wt.write(k, t as u32);
+                                }
+                                k += 1;
                             }
-                            k += 1;
                         }
                     }
                 });
         }
-        let nl = self.h.levels.len();
-        self.process(nl - 1, pn, pt, c);
+        if li == 0 {
+            let t0 = Instant::now();
+            self.final_tests(&sn, &st, c);
+            c.final_seconds += t0.elapsed().as_secs_f64();
+        } else {
+            self.expand(li, sn, st, c);
+        }
     }
 
     /// Test the pairs at level index `li`, compact the survivors, then expand or finish.
