@@ -37,6 +37,44 @@ enum Command {
     Rays(RaysArgs),
     /// Trace a ray file with an engine: prints MRays/s and counters, writes the hits.
     Trace(TraceArgs),
+    /// Reproduce the papers' evaluation tables.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// The thesis's chapter-4 tables: CRSH and RAH per configuration on the same rays.
+    Rsh(BenchRshArgs),
+}
+
+#[derive(Args, Clone)]
+struct BenchRshArgs {
+    /// Scenes, comma-separated (default: cornell, office, and Sponza when the shared scenes
+    /// are present).
+    #[arg(long)]
+    scenes: Option<String>,
+    /// Configurations B/D (branching/levels), comma-separated.
+    #[arg(long, default_value = "8/2,8/3,8/4,16/2,16/3,16/4")]
+    configs: String,
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    width: u32,
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    height: u32,
+    /// Reflection/refraction generations (the thesis's tables use shadows + 1 bounce).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=MAX_BOUNCES as i64))]
+    bounces: u32,
+    /// Also write the rows (with every counter) as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Also write the summary rows as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Also write the markdown report to this file.
+    #[arg(long)]
+    md: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -563,6 +601,93 @@ fn cmd_trace(a: &TraceArgs) -> Result<()> {
     Ok(())
 }
 
+/// Machine, build and revision, recorded with every benchmark.
+fn provenance() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let commit = std::process::Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into());
+    format!(
+        "rayspace {} (commit {commit}, {} build{}), {cpu}, {} threads",
+        env!("CARGO_PKG_VERSION"),
+        if cfg!(debug_assertions) {
+            "debug"
+        } else {
+            "optimised"
+        },
+        if cfg!(target_feature = "avx2") {
+            ", avx2"
+        } else {
+            ""
+        },
+        rayon::current_num_threads()
+    )
+}
+
+fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
+    for p in [&a.json, &a.csv, &a.md].into_iter().flatten() {
+        check_out_dir("--json/--csv/--md", p)?;
+    }
+    let configs =
+        crate::bench::parse_configs(&a.configs).map_err(|e| anyhow::anyhow!("--configs: {e}"))?;
+    let scenes: Vec<String> = match &a.scenes {
+        Some(s) => s
+            .split(',')
+            .map(|x| x.trim().to_string())
+            .filter(|x| !x.is_empty())
+            .collect(),
+        None => {
+            let mut v = vec!["cornell".to_string(), "office".to_string()];
+            let sponza = concat!(env!("CARGO_MANIFEST_DIR"), "/bench/scenes/sponza.toml");
+            if scene::scenes_dir().is_some() && std::path::Path::new(sponza).exists() {
+                v.push(sponza.to_string());
+            }
+            v
+        }
+    };
+    let bar = progress_bar();
+    let spec = crate::bench::Spec {
+        scenes,
+        configs,
+        width: a.width,
+        height: a.height,
+        bounces: a.bounces,
+    };
+    let (rows, md) = crate::bench::run(&spec, &|m| bar.stage(m))?;
+    bar.0.finish_and_clear();
+    let report = format!(
+        "# rayspace bench rsh
+
+{}
+{md}",
+        provenance()
+    );
+    say!("{report}");
+    if let Some(p) = &a.md {
+        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+    }
+    if let Some(p) = &a.json {
+        std::fs::write(p, serde_json::to_string_pretty(&rows)?)
+            .with_context(|| format!("--json {}", p.display()))?;
+    }
+    if let Some(p) = &a.csv {
+        std::fs::write(p, crate::bench::csv(&rows))
+            .with_context(|| format!("--csv {}", p.display()))?;
+    }
+    Ok(())
+}
+
 fn cmd_render(a: &RenderArgs) -> Result<()> {
     let split = split(a.meshes);
     check_out_dir("--out", &a.out)?;
@@ -628,6 +753,9 @@ pub fn run() -> Result<()> {
         Some(Command::Render(a)) => cmd_render(&a),
         Some(Command::Rays(a)) => cmd_rays(&a),
         Some(Command::Trace(a)) => cmd_trace(&a),
+        Some(Command::Bench {
+            what: BenchCommand::Rsh(a),
+        }) => cmd_bench_rsh(&a),
         None => cmd_render(&RenderArgs::default()),
     }
 }

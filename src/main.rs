@@ -1,5 +1,6 @@
 //! `rayspace`: render scenes with the hybrid rasterizer + ray tracer and compare engines.
 
+mod bench;
 mod cli;
 
 use std::process::ExitCode;

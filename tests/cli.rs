@@ -343,3 +343,47 @@ fn ray_files_and_identical_hits_across_engines() {
         &["--ao-distance"],
     );
 }
+
+#[test]
+fn bench_rsh_writes_tables() {
+    let d = tmp("bench");
+    let (csv, json) = (d.join("b.csv"), d.join("b.json"));
+    let out = bin()
+        .args([
+            "bench",
+            "rsh",
+            "--scenes",
+            "cornell",
+            "--configs",
+            "8/2,4/0",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--csv",
+            csv.to_str().unwrap(),
+            "--json",
+            json.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let md = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        md.contains("| 8/2 |") && md.contains("| 4/0 |") && md.contains("phase times"),
+        "{md}"
+    );
+    let csv = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4, "header + 2 configs × 2 engines");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for row in v.as_array().unwrap() {
+        assert!(row["total_tests"].as_u64().unwrap() <= row["brute_force_tests"].as_u64().unwrap());
+    }
+    fails(&["bench", "rsh", "--configs", "8-2"], &["--configs"]);
+    fails(&["bench", "rsh", "--configs", "1/2"], &["--configs"]);
+}

@@ -1,0 +1,218 @@
+//! `rayspace bench rsh`: the thesis's chapter-4 tables for CRSH and RAH on the same rays.
+//!
+//! Each scene is rendered once (CRSH, whose hits equal brute force's) while every traced
+//! batch is recorded; then every configuration of both engines traces exactly those batches.
+//! Brute force is counted as rays × triangles, not traced.
+
+use anyhow::Result;
+use render::whitted::{render, RenderOptions};
+use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use scene::{Geometry, LoadOptions};
+use serde::Serialize;
+use std::sync::Mutex;
+
+/// Records the batches another engine traces.
+struct Recording<'a> {
+    inner: &'a dyn Tracer,
+    batches: Mutex<Vec<(RayBatch, TraceMode)>>,
+}
+
+impl Tracer for Recording<'_> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+        self.inner.trace(rays, mode, hits, stats);
+        self.batches
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push((rays.clone(), mode));
+    }
+}
+
+#[derive(Serialize, Clone)]
+pub struct Row {
+    pub scene: String,
+    pub engine: String,
+    pub branching: u32,
+    pub levels: u32,
+    pub rays: u64,
+    pub triangles: u64,
+    pub total_tests: u64,
+    pub brute_force_tests: u64,
+    pub percent_of_brute_force: f64,
+    pub trace_seconds: f64,
+    pub stats: TraceStats,
+}
+
+pub struct Spec {
+    pub scenes: Vec<String>,
+    pub configs: Vec<(u32, u32)>,
+    pub width: u32,
+    pub height: u32,
+    pub bounces: u32,
+}
+
+pub fn parse_configs(s: &str) -> Result<Vec<(u32, u32)>, String> {
+    s.split(',')
+        .map(|c| {
+            let (b, d) = c
+                .trim()
+                .split_once('/')
+                .ok_or_else(|| format!("'{c}' is not B/D"))?;
+            let b: u32 = b
+                .parse()
+                .map_err(|_| format!("'{c}': branching is not a number"))?;
+            let d: u32 = d
+                .parse()
+                .map_err(|_| format!("'{c}': levels is not a number"))?;
+            if !(2..=64).contains(&b) || d > 16 {
+                return Err(format!("'{c}': branching must be 2..=64 and levels 0..=16"));
+            }
+            Ok((b, d))
+        })
+        .collect()
+}
+
+/// Run every scene × configuration × engine; returns the rows and the markdown report.
+pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
+    let mut rows = Vec::new();
+    let mut md = String::new();
+    for name in &spec.scenes {
+        progress(&format!("{name}: rendering to record the rays"));
+        let s = scene::load(name, &LoadOptions::default())?;
+        let geo = Geometry::from_scene(&s);
+        let base = rsh::RshEngine::new(&geo, rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
+        let rec = Recording {
+            inner: &base,
+            batches: Mutex::new(Vec::new()),
+        };
+        render(
+            &s,
+            &geo,
+            &rec,
+            &RenderOptions {
+                width: spec.width,
+                height: spec.height,
+                bounces: spec.bounces,
+            },
+            &(),
+        );
+        let batches = rec.batches.into_inner().unwrap_or_else(|e| e.into_inner());
+        let nrays: u64 = batches.iter().map(|b| b.0.len() as u64).sum();
+        md += &format!(
+            "\n## {} — {} triangles, {}×{}, bounces {}, {} rays traced\n\n",
+            s.name,
+            geo.len(),
+            spec.width,
+            spec.height,
+            spec.bounces,
+            nrays
+        );
+        md += "| B/D | CRSH total | CRSH % of brute force | RAH total | RAH % of brute force | RAH / CRSH tests | CRSH trace ms | RAH trace ms |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
+        let mut detail = String::new();
+        for &(b, d) in &spec.configs {
+            let mut pair = Vec::new();
+            for base_cfg in [rsh::RshConfig::crsh(), rsh::RshConfig::rah()] {
+                let cfg = rsh::RshConfig {
+                    branching: b,
+                    levels: d,
+                    ..base_cfg
+                };
+                progress(&format!("{}: {:?} {b}/{d}", s.name, cfg.method));
+                let e = rsh::RshEngine::new(&geo, cfg).map_err(anyhow::Error::msg)?;
+                let mut st = TraceStats::default();
+                let t0 = std::time::Instant::now();
+                for (rays, mode) in &batches {
+                    let mut hits = vec![Hit::MISS; rays.len()];
+                    e.trace(rays, *mode, &mut hits, &mut st);
+                }
+                let secs = t0.elapsed().as_secs_f64();
+                let bf = nrays * geo.len() as u64;
+                let total = st.total_tests();
+                pair.push(Row {
+                    scene: s.name.clone(),
+                    engine: e.name().to_string(),
+                    branching: b,
+                    levels: d,
+                    rays: nrays,
+                    triangles: geo.len() as u64,
+                    total_tests: total,
+                    brute_force_tests: bf,
+                    percent_of_brute_force: 100.0 * total as f64 / bf.max(1) as f64,
+                    trace_seconds: secs,
+                    stats: st,
+                });
+            }
+            let (c, r) = (&pair[0], &pair[1]);
+            md += &format!(
+                "| {b}/{d} | {} | {:.3} % | {} | {:.3} % | {:.2} | {:.0} | {:.0} |\n",
+                c.total_tests,
+                c.percent_of_brute_force,
+                r.total_tests,
+                r.percent_of_brute_force,
+                r.total_tests as f64 / c.total_tests.max(1) as f64,
+                c.trace_seconds * 1e3,
+                r.trace_seconds * 1e3
+            );
+            for row in &pair {
+                detail += &format!("\n### {} {} {b}/{d}: intersections per level (thesis Tables 4.x)\n\n| level | kind | tests | hits | misses |\n|---|---|---:|---:|---:|\n", s.name, row.engine.to_uppercase());
+                for (level, kind, t, h) in row.stats.level_table() {
+                    detail += &format!("| {level} | {kind} | {t} | {h} | {} |\n", t - h);
+                }
+                for (k, v) in &row.stats.counters {
+                    if let Some(kind) = k
+                        .strip_prefix("final ")
+                        .and_then(|x| x.strip_suffix(" tests"))
+                    {
+                        detail += &format!("| final | {kind} | {v} | | |\n");
+                    }
+                }
+                detail += &format!("| **total** | | {} | | |\n", row.total_tests);
+            }
+            detail += &format!("\n### {} {b}/{d}: phase times (ms; thesis Tables 4.25–4.27)\n\n| phase | CRSH | RAH | RAH / CRSH |\n|---|---:|---:|---:|\n", s.name);
+            let mut phases: Vec<&String> =
+                c.stats.phases.keys().chain(r.stats.phases.keys()).collect();
+            phases.sort();
+            phases.dedup();
+            for p in phases {
+                let (a, bb) = (
+                    c.stats.phases.get(p).copied().unwrap_or(0.0),
+                    r.stats.phases.get(p).copied().unwrap_or(0.0),
+                );
+                let ratio = if a > 0.0 && bb > 0.0 {
+                    format!("{:.2}", bb / a)
+                } else {
+                    "—".into()
+                };
+                detail += &format!("| {p} | {:.1} | {:.1} | {ratio} |\n", a * 1e3, bb * 1e3);
+            }
+            rows.extend(pair);
+        }
+        md += &detail;
+    }
+    Ok((rows, md))
+}
+
+/// CSV of the summary rows.
+pub fn csv(rows: &[Row]) -> String {
+    let mut s = String::from("scene,engine,branching,levels,rays,triangles,total_tests,brute_force_tests,percent_of_brute_force,node_tri_tests,ray_tri_tests,trace_seconds\n");
+    for r in rows {
+        s += &format!(
+            "{},{},{},{},{},{},{},{},{:.6},{},{},{:.6}\n",
+            r.scene,
+            r.engine,
+            r.branching,
+            r.levels,
+            r.rays,
+            r.triangles,
+            r.total_tests,
+            r.brute_force_tests,
+            r.percent_of_brute_force,
+            r.stats.node_tri_tests,
+            r.stats.ray_tri_tests,
+            r.trace_seconds
+        );
+    }
+    s
+}
