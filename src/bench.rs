@@ -4,31 +4,12 @@
 //! batch is recorded; then every configuration of both engines traces exactly those batches.
 //! Brute force is counted as rays × triangles, not traced.
 
+use accel::oracle::Recorder;
 use anyhow::Result;
 use render::whitted::{render, RenderOptions};
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use render::{Hit, TraceStats, Tracer};
 use scene::{Geometry, LoadOptions};
 use serde::Serialize;
-use std::sync::Mutex;
-
-/// Records the batches another engine traces.
-struct Recording<'a> {
-    inner: &'a dyn Tracer,
-    batches: Mutex<Vec<(RayBatch, TraceMode)>>,
-}
-
-impl Tracer for Recording<'_> {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
-        self.inner.trace(rays, mode, hits, stats);
-        self.batches
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push((rays.clone(), mode));
-    }
-}
 
 #[derive(Serialize, Clone)]
 pub struct Row {
@@ -83,10 +64,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
         let s = scene::load(name, &LoadOptions::default())?;
         let geo = Geometry::from_scene(&s);
         let base = rsh::RshEngine::new(&geo, rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
-        let rec = Recording {
-            inner: &base,
-            batches: Mutex::new(Vec::new()),
-        };
+        let rec = Recorder::new(&base);
         render(
             &s,
             &geo,
@@ -98,7 +76,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
             },
             &(),
         );
-        let batches = rec.batches.into_inner().unwrap_or_else(|e| e.into_inner());
+        let batches = rec.into_batches();
         let nrays: u64 = batches.iter().map(|b| b.0.len() as u64).sum();
         md += &format!(
             "\n## {} — {} triangles, {}×{}, bounces {}, {} rays traced\n\n",
@@ -123,7 +101,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
                 let e = rsh::RshEngine::new(&geo, cfg).map_err(anyhow::Error::msg)?;
                 let mut st = TraceStats::default();
                 let t0 = std::time::Instant::now();
-                for (rays, mode) in &batches {
+                for (rays, mode, _) in &batches {
                     let mut hits = vec![Hit::MISS; rays.len()];
                     e.trace(rays, *mode, &mut hits, &mut st);
                 }

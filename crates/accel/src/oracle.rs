@@ -1,33 +1,34 @@
 //! The brute-force oracle as a test harness for any engine: record the batches a render
 //! traces (answered by brute force), and check another engine against them.
 
-use crate::BruteForce;
 use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use std::sync::Mutex;
 
-/// A tracer that answers with brute force and keeps every batch it was given.
-pub struct Recorder {
-    pub inner: BruteForce,
+/// A tracer that forwards to `inner` and keeps every batch it was given with the answers.
+/// Wrapping brute force records the oracle's answers; wrapping another engine records the
+/// exact rays a render traced (benchmarks replay them for every configuration).
+pub struct Recorder<'a> {
+    pub inner: &'a dyn Tracer,
     pub batches: Mutex<Vec<(RayBatch, TraceMode, Vec<Hit>)>>,
 }
 
-impl Recorder {
-    pub fn new(geo: &scene::Geometry) -> Self {
+impl<'a> Recorder<'a> {
+    pub fn new(inner: &'a dyn Tracer) -> Self {
         Recorder {
-            inner: BruteForce::new(geo),
+            inner,
             batches: Mutex::new(Vec::new()),
         }
     }
 
-    /// The recorded (rays, mode, brute-force hits), in trace order.
+    /// The recorded (rays, mode, hits), in trace order.
     pub fn into_batches(self) -> Vec<(RayBatch, TraceMode, Vec<Hit>)> {
         self.batches.into_inner().unwrap_or_else(|e| e.into_inner())
     }
 }
 
-impl Tracer for Recorder {
+impl Tracer for Recorder<'_> {
     fn name(&self) -> &str {
-        "recorder"
+        self.inner.name()
     }
 
     fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {

@@ -120,7 +120,8 @@ fn builtin_scenes_match_brute_force() {
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let rec = Recorder::new(&geo);
+        let bf = BruteForce::new(&geo);
+        let rec = Recorder::new(&bf);
         render(
             &s,
             &geo,

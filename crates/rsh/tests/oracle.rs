@@ -20,7 +20,8 @@ fn builtin_scenes_all_configs_match_brute_force() {
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let rec = Recorder::new(&geo);
+        let bf = BruteForce::new(&geo);
+        let rec = Recorder::new(&bf);
         render(
             &s,
             &geo,
@@ -68,7 +69,8 @@ fn variants_match_brute_force() {
     for name in ["office", "cornell"] {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let rec = Recorder::new(&geo);
+        let bf = BruteForce::new(&geo);
+        let rec = Recorder::new(&bf);
         render(
             &s,
             &geo,
