@@ -226,6 +226,11 @@ impl Traversal<'_> {
                     }
                 });
         }
+        self.survivors(li, sn, st, c);
+    }
+
+    /// Pairs that passed level index `li`: exact tests at level 1, else on to the children.
+    fn survivors(&self, li: usize, sn: Vec<u32>, st: Vec<u32>, c: &mut Counters) {
         if li == 0 {
             let t0 = Instant::now();
             self.final_tests(&sn, &st, c);
@@ -271,13 +276,7 @@ impl Traversal<'_> {
         let (mut sn, mut st) = (vec![0u32; m], vec![0u32; m]);
         compact_pairs(&nodes, &tris, &flags, &mut sn, &mut st);
         drop((nodes, tris, flags));
-        if li == 0 {
-            let t0 = Instant::now();
-            self.final_tests(&sn, &st, c);
-            c.final_seconds += t0.elapsed().as_secs_f64();
-        } else {
-            self.expand(li, sn, st, c);
-        }
+        self.survivors(li, sn, st, c);
     }
 
     /// Children of the survivors at level index `li` → pairs at `li − 1` (in halves when
