@@ -61,3 +61,28 @@ pub fn assert_same_hits(
         }
     }
 }
+
+/// Render `scene` with brute force and return every batch the Whitted loop traced, with
+/// brute force's answers: the reference other engines are checked against.
+pub fn record_render(
+    scene: &scene::Scene,
+    geo: &scene::Geometry,
+    width: u32,
+    height: u32,
+    bounces: u32,
+) -> Vec<(RayBatch, TraceMode, Vec<Hit>)> {
+    let bf = crate::BruteForce::new(geo);
+    let rec = Recorder::new(&bf);
+    render::whitted::render(
+        scene,
+        geo,
+        &rec,
+        &render::whitted::RenderOptions {
+            width,
+            height,
+            bounces,
+        },
+        &(),
+    );
+    rec.into_batches()
+}

@@ -3,12 +3,12 @@
 //! for bit — same kernel, same tie rule — and any-hit booleans).
 
 use accel::grid::{build_grid, Grid, GridConfig, GridEngine};
-use accel::oracle::{assert_same_hits, Recorder};
+use accel::oracle::{assert_same_hits, record_render};
 use accel::BruteForce;
 use geom::aabb::tri_overlaps_box;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
-use render::whitted::{render, trace_primary, RenderOptions};
+use render::whitted::trace_primary;
 use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer, View};
 use scene::{builtin, Geometry};
 
@@ -120,20 +120,7 @@ fn builtin_scenes_match_brute_force() {
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let bf = BruteForce::new(&geo);
-        let rec = Recorder::new(&bf);
-        render(
-            &s,
-            &geo,
-            &rec,
-            &RenderOptions {
-                width: 48,
-                height: 36,
-                bounces: 2,
-            },
-            &(),
-        );
-        let mut batches = rec.into_batches();
+        let mut batches = record_render(&s, &geo, 48, 36, 2);
         // Primary rays too (the grid is a general engine).
         let view = View::new(&s.camera, 48, 36);
         let (prim, hits, _) = trace_primary(&view, &BruteForce::new(&geo));

@@ -6,11 +6,10 @@
 //! and the tie rule "smallest t, then smallest triangle id"), so the stated t tolerance is 0.
 //! Any-hit results are compared as booleans.
 
-use accel::oracle::{assert_same_hits, Recorder};
+use accel::oracle::{assert_same_hits, record_render};
 use accel::BruteForce;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
-use render::whitted::{render, RenderOptions};
 use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 use rsh::{HashKind, NodeTest, RshConfig, RshEngine, Union};
 use scene::{builtin, Geometry};
@@ -20,20 +19,7 @@ fn builtin_scenes_all_configs_match_brute_force() {
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let bf = BruteForce::new(&geo);
-        let rec = Recorder::new(&bf);
-        render(
-            &s,
-            &geo,
-            &rec,
-            &RenderOptions {
-                width: 40,
-                height: 30,
-                bounces: 2,
-            },
-            &(),
-        );
-        let batches = rec.into_batches();
+        let batches = record_render(&s, &geo, 40, 30, 2);
         assert!(
             batches.len() >= 3,
             "{name}: shadow and secondary batches were traced"
@@ -69,20 +55,7 @@ fn variants_match_brute_force() {
     for name in ["office", "cornell"] {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let bf = BruteForce::new(&geo);
-        let rec = Recorder::new(&bf);
-        render(
-            &s,
-            &geo,
-            &rec,
-            &RenderOptions {
-                width: 32,
-                height: 32,
-                bounces: 2,
-            },
-            &(),
-        );
-        let batches = rec.into_batches();
+        let batches = record_render(&s, &geo, 32, 32, 2);
         let variants = [
             RshConfig {
                 hash: HashKind::Morton64,
