@@ -37,12 +37,13 @@ pub(crate) fn blocks(n: usize) -> (usize, usize) {
     (nb, n.div_ceil(nb))
 }
 
-/// A raw pointer that may be shared across the tasks of one pass.
+/// A raw pointer that may be shared across the tasks of one pass (also used by the engines'
+/// count → scan → emit passes).
 ///
 /// Used only where each task writes a set of indices that is disjoint from every other
 /// task's by construction (exclusive-scan offsets), which is what makes the writes sound.
 #[derive(Clone, Copy)]
-pub(crate) struct SharedMut<T>(pub *mut T);
+pub struct SharedMut<T>(pub *mut T);
 unsafe impl<T: Send> Send for SharedMut<T> {}
 unsafe impl<T: Send> Sync for SharedMut<T> {}
 

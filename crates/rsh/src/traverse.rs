@@ -16,7 +16,7 @@ use crate::build::{Hierarchy, Level};
 use geom::cone::{exact_test, rah_test};
 use geom::tri::RayPre;
 use geom::{intersect, Sphere, Vec3};
-use par::{compact_pairs, exclusive_scan};
+use par::{compact_pairs, exclusive_scan, SharedMut};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -203,7 +203,7 @@ impl Traversal<'_> {
         let mut sn = vec![0u32; total];
         let mut st = vec![0u32; total];
         {
-            let (wn, wt) = (Shared(sn.as_mut_ptr()), Shared(st.as_mut_ptr()));
+            let (wn, wt) = (SharedMut(sn.as_mut_ptr()), SharedMut(st.as_mut_ptr()));
             nodes
                 .clone()
                 .into_par_iter()
@@ -300,7 +300,7 @@ impl Traversal<'_> {
         let total = total as usize;
         let (mut cn, mut ct) = (vec![0u32; total], vec![0u32; total]);
         {
-            let (wn, wt) = (Shared(cn.as_mut_ptr()), Shared(ct.as_mut_ptr()));
+            let (wn, wt) = (SharedMut(cn.as_mut_ptr()), SharedMut(ct.as_mut_ptr()));
             (0..sn.len()).into_par_iter().for_each(|j| {
                 let n = sn[j] as usize;
                 for (k, child) in level.children(n).enumerate() {
@@ -340,19 +340,5 @@ impl Traversal<'_> {
             )
             .reduce(|| [0; 4], add4);
         c.final_tests = add4(c.final_tests, tests);
-    }
-}
-
-#[derive(Clone, Copy)]
-struct Shared(*mut u32);
-unsafe impl Send for Shared {}
-unsafe impl Sync for Shared {}
-
-impl Shared {
-    /// # Safety
-    /// In bounds, and no other task writes index `i` during the pass.
-    #[inline]
-    unsafe fn write(&self, i: usize, v: u32) {
-        unsafe { self.0.add(i).write(v) }
     }
 }

@@ -4,7 +4,7 @@
 use super::{BuildStats, Grid, GridConfig};
 use geom::aabb::tri_overlaps_box;
 use geom::{Aabb, Vec3};
-use par::{exclusive_scan, sort_pairs, SortScratch};
+use par::{exclusive_scan, sort_pairs, SharedMut, SortScratch};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -51,8 +51,8 @@ fn count_scan_emit(
     let mut keys = vec![0u32; total];
     let mut tris = vec![0u32; total];
     {
-        let kp = Ptr(keys.as_mut_ptr());
-        let tp = Ptr(tris.as_mut_ptr());
+        let kp = SharedMut(keys.as_mut_ptr());
+        let tp = SharedMut(tris.as_mut_ptr());
         (0..ntris).into_par_iter().for_each(|t| {
             let mut k = offs[t] as usize;
             let end = k + counts[t] as usize;
@@ -68,19 +68,6 @@ fn count_scan_emit(
         });
     }
     (keys, tris)
-}
-
-#[derive(Clone, Copy)]
-pub(crate) struct Ptr<T>(pub *mut T);
-unsafe impl<T: Send> Send for Ptr<T> {}
-unsafe impl<T: Send> Sync for Ptr<T> {}
-impl<T> Ptr<T> {
-    /// # Safety
-    /// In bounds, and no other task touches index `i` during the pass.
-    #[inline]
-    pub unsafe fn write(&self, i: usize, v: T) {
-        unsafe { self.0.add(i).write(v) }
-    }
 }
 
 /// Octree node within a top cell, packed: x | y << 8 | z << 16 | level << 24.
@@ -225,7 +212,10 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
     let mut cell_min = vec![[0u32; 3]; ncells];
     let mut cell_max = vec![[0u32; 3]; ncells];
     {
-        let (pmin, pmax) = (Ptr(cell_min.as_mut_ptr()), Ptr(cell_max.as_mut_ptr()));
+        let (pmin, pmax) = (
+            SharedMut(cell_min.as_mut_ptr()),
+            SharedMut(cell_max.as_mut_ptr()),
+        );
         (0..ntop).into_par_iter().for_each(|t| {
             let d = depth[t];
             let tc = [

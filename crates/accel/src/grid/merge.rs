@@ -8,9 +8,8 @@
 //! like merge sort (ascending, duplicates once) and the voxel map is remapped to the new
 //! cells. Passes alternate x, y, z; merging stops when a round keeps at least α of the cells.
 
-use super::build::Ptr;
 use super::{half_area, union_each, union_len, Grid};
-use par::exclusive_scan;
+use par::{exclusive_scan, SharedMut};
 use rayon::prelude::*;
 
 const NONE: u32 = u32::MAX;
@@ -96,7 +95,10 @@ pub fn merge_pass(g: &mut Grid, axis: usize) -> usize {
     let mut partner = vec![NONE; n];
     let mut consumed = vec![0u8; n];
     {
-        let (pp, cp) = (Ptr(partner.as_mut_ptr()), Ptr(consumed.as_mut_ptr()));
+        let (pp, cp) = (
+            SharedMut(partner.as_mut_ptr()),
+            SharedMut(consumed.as_mut_ptr()),
+        );
         (0..n)
             .into_par_iter()
             .filter(|&i| next[i] != NONE && !has_prev[i])
@@ -147,7 +149,7 @@ pub fn merge_pass(g: &mut Grid, axis: usize) -> usize {
     // Emit every new cell's list at its offset (count → scan → emit, no per-cell vectors).
     let mut refs = vec![0u32; total];
     {
-        let out = Ptr(refs.as_mut_ptr());
+        let out = SharedMut(refs.as_mut_ptr());
         old_of_new.par_iter().enumerate().for_each(|(k, &i)| {
             let i = i as usize;
             let mut at = ref_first[k] as usize;
