@@ -149,6 +149,14 @@ pub enum Engine {
     Grid,
     /// Two-level grid (the irregular grid's initial cells, Kalojanov et al. 2011).
     Grid2l,
+    /// Peer: obvhs's compressed 8-wide BVH (our triangle kernel at the leaves).
+    ObvhsCwbvh,
+    /// Peer: obvhs's binary BVH (our triangle kernel at the leaves).
+    ObvhsBvh2,
+    /// Peer: Embree 3, one `rtcIntersect1`/`rtcOccluded1` per ray (needs `--features embree`).
+    Embree,
+    /// Peer: Embree 3's stream API, `rtcIntersect1M` (needs `--features embree`).
+    EmbreeStream,
 }
 
 /// Options of the irregular grid (paper defaults).
@@ -414,6 +422,15 @@ fn make_engine(
             Box::new(g)
         }
         Engine::Brute => Box::new(accel::BruteForce::new(geo)),
+        Engine::ObvhsCwbvh | Engine::ObvhsBvh2 => {
+            let kind = if engine == Engine::ObvhsCwbvh {
+                accel::peers::BvhKind::CwBvh
+            } else {
+                accel::peers::BvhKind::Bvh2
+            };
+            Box::new(accel::peers::ObvhsEngine::new(geo, kind))
+        }
+        Engine::Embree | Engine::EmbreeStream => embree_engine(engine, geo)?,
         Engine::Crsh => Box::new(
             rsh::RshEngine::new(geo, rsh_args.config(rsh::Method::Crsh))
                 .map_err(anyhow::Error::msg)?,
@@ -423,6 +440,26 @@ fn make_engine(
                 .map_err(anyhow::Error::msg)?,
         ),
     })
+}
+
+#[cfg(feature = "embree")]
+fn embree_engine(engine: Engine, geo: &Geometry) -> Result<Box<dyn Tracer>> {
+    let mode = if engine == Engine::Embree {
+        accel::peers::EmbreeMode::Single
+    } else {
+        accel::peers::EmbreeMode::Stream
+    };
+    Ok(Box::new(
+        accel::peers::EmbreeEngine::new(geo, mode).map_err(anyhow::Error::msg)?,
+    ))
+}
+
+#[cfg(not(feature = "embree"))]
+fn embree_engine(engine: Engine, _geo: &Geometry) -> Result<Box<dyn Tracer>> {
+    let name = if engine == Engine::Embree { "embree" } else { "embree-stream" };
+    anyhow::bail!(
+        "--engine {name}: this build has no Embree peer; install Embree 3 (Debian: libembree-dev) and build with `cargo build --release --features embree`"
+    )
 }
 
 struct Bar(ProgressBar);

@@ -8,6 +8,7 @@
 pub mod brute;
 pub mod grid;
 pub mod oracle;
+pub mod peers;
 
 pub use brute::BruteForce;
 pub use grid::{GridConfig, GridEngine};

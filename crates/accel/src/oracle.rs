@@ -1,7 +1,8 @@
 //! The brute-force oracle as a test harness for any engine: record the batches a render
 //! traces (answered by brute force), and check another engine against them.
 
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use geom::{Pcg32, Ray, Vec3};
+use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 use std::sync::Mutex;
 
 /// A tracer that forwards to `inner` and keeps every batch it was given with the answers.
@@ -86,3 +87,151 @@ pub fn record_render(
     );
     rec.into_batches()
 }
+
+/// How a peer compares with the oracle when bit-identical records cannot be required:
+/// Embree has its own triangle kernel, and obvhs's node tests are not conservative at box
+/// faces (no Ize-style rounding), so both can lose a hit that lies exactly on a triangle
+/// edge or vertex, which the watertight kernel reports.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Agreement {
+    /// Rays compared.
+    pub rays: u64,
+    /// Same triangle and t within [`T_TOL`] (closest hit), or same boolean (any hit).
+    pub same: u64,
+    /// The oracle's hit lies within [`EDGE_EPS`] (barycentric) of an edge, and the peer
+    /// reports a hit at the same t on the neighbouring triangle, a farther hit, or a miss:
+    /// a ray through an edge decided differently. Or (with `t_floor`) a hit nearer than
+    /// the peer can see was lost.
+    pub at_edges: u64,
+    /// Anything else: a real disagreement. Tests require zero.
+    pub wrong: u64,
+    /// The first few wrong rays: (index, oracle, engine).
+    pub examples: Vec<(usize, Hit, Hit)>,
+}
+
+/// Relative t tolerance for kernels other than ours (ulp-level differences in how t is
+/// computed, amplified at grazing angles).
+pub const T_TOL: f32 = 1e-4;
+/// Barycentric distance from an edge within which kernels may disagree on the triangle.
+pub const EDGE_EPS: f32 = 1e-4;
+
+fn near_edge(h: &Hit) -> bool {
+    let w = 1.0 - h.u - h.v;
+    h.u.min(h.v).min(w) <= EDGE_EPS
+}
+
+impl Agreement {
+    /// Compare `got` with the oracle's `expect` for the same rays. Oracle hits with
+    /// `t <= t_floor` may be lost (a peer that cannot see hits that near); 0 for none.
+    pub fn check(&mut self, mode: TraceMode, expect: &[Hit], got: &[Hit], t_floor: f32) {
+        let t_close = |a: &Hit, b: &Hit| (a.t - b.t).abs() <= T_TOL * a.t.abs().max(1.0);
+        for (i, (e, g)) in expect.iter().zip(got).enumerate() {
+            self.rays += 1;
+            let ok = match mode {
+                TraceMode::Any => e.is_hit() == g.is_hit(),
+                TraceMode::Closest => {
+                    e.is_hit() == g.is_hit() && (!e.is_hit() || (e.tri == g.tri && t_close(e, g)))
+                }
+            };
+            if ok {
+                self.same += 1;
+                continue;
+            }
+            // A lost oracle hit: the peer must report something farther (or nothing).
+            // Any-hit records of Embree name no triangle, so only the oracle's is judged.
+            let lost = e.is_hit()
+                && (near_edge(e) || e.t <= t_floor)
+                && (mode == TraceMode::Any || !g.is_hit() || g.t > e.t || t_close(e, g));
+            // A peer hit the oracle does not have (or a nearer one): allowed only where the
+            // peer's own record names a point on an edge (a ray through a vertex the watertight test decides
+            // the other way). Records without a location (Embree's any-hit) cannot qualify:
+            // callers judge those with the peer's closest-hit record for the same ray.
+            let extra = g.is_hit()
+                && g.t.is_finite()
+                && near_edge(g)
+                && (!e.is_hit() || g.t < e.t || t_close(e, g));
+            if lost || extra {
+                self.at_edges += 1;
+            } else {
+                self.wrong += 1;
+                if self.examples.len() < 8 {
+                    self.examples.push((i, *e, *g));
+                }
+            }
+        }
+    }
+}
+
+/// A random case for property tests: a soup (with degenerate triangles) in one mesh; rays from inside and outside the grid,
+/// axis-parallel, with ±0.0 components, aimed at vertices and cell boundaries.
+pub fn random_case(seed: u64, ntri: usize, nray: usize) -> (scene::Geometry, RayBatch) {
+    let mut rng = Pcg32::new(seed, 9);
+    let mut tris: Vec<[Vec3; 3]> = (0..ntri)
+        .map(|_| {
+            let c = Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
+            let s = rng.range(0.01, 0.4);
+            [0, 1, 2].map(|_| c + rng.unit_vector() * s)
+        })
+        .collect();
+    // Degenerate triangles: a point and a segment.
+    tris.push([Vec3::splat(0.1); 3]);
+    tris.push([Vec3::ZERO, Vec3::ZERO, Vec3::X]);
+    let mut b = RayBatch::default();
+    for i in 0..nray {
+        let org = match i % 4 {
+            0 => Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            ),
+            1 => rng.unit_vector() * rng.range(2.0, 5.0),
+            // On a grid-friendly plane (cell boundaries are often at such coordinates).
+            2 => Vec3::new(0.0, rng.range(-1.0, 1.0), 0.5),
+            _ => Vec3::new(rng.range(-1.0, 1.0), -0.0, rng.range(-1.0, 1.0)),
+        };
+        let dir = match i % 7 {
+            0 => [Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::X][i % 4],
+            1 => Vec3::new(-0.0, 1.0, 0.0),
+            2 => Vec3::new(
+                std::f32::consts::FRAC_1_SQRT_2,
+                -0.0,
+                std::f32::consts::FRAC_1_SQRT_2,
+            ),
+            3 => {
+                // Aimed at a vertex.
+                let t = tris[rng.below(ntri as u32) as usize];
+                (t[rng.below(3) as usize] - org).normalize_or(Vec3::X)
+            }
+            _ => rng.unit_vector(),
+        };
+        let t_max = if i % 5 == 0 {
+            rng.range(0.0, 4.0)
+        } else {
+            f32::INFINITY
+        };
+        b.push(
+            Ray::new(org, dir, 0.0, t_max),
+            RayKind::Reflection,
+            i as u32,
+            0,
+            Vec3::ONE,
+            0,
+        );
+    }
+    let n = tris.len();
+    let geo = scene::Geometry {
+        normals: vec![[Vec3::Y; 3]; n],
+        material: vec![0; n],
+        mesh: vec![0; n],
+        mesh_first: vec![0, n as u32],
+        bounds: geom::Aabb::from_points(tris.iter().flatten().copied()),
+        tris,
+        ..Default::default()
+    };
+    (geo, b)
+}
+

@@ -3,13 +3,13 @@
 //! for bit — same kernel, same tie rule — and any-hit booleans).
 
 use accel::grid::{build_grid, Grid, GridConfig, GridEngine};
-use accel::oracle::{assert_same_hits, record_render};
+use accel::oracle::{assert_same_hits, random_case, record_render};
 use accel::BruteForce;
 use geom::aabb::tri_overlaps_box;
-use geom::{Pcg32, Ray, Vec3};
+use geom::Vec3;
 use proptest::prelude::*;
 use render::whitted::trace_primary;
-use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer, View};
+use render::{Hit, TraceMode, TraceStats, Tracer, View};
 use scene::{builtin, Geometry};
 
 fn configs() -> Vec<(&'static str, GridConfig)> {
@@ -134,77 +134,12 @@ fn builtin_scenes_match_brute_force() {
     }
 }
 
-/// Random soups with degenerate triangles; rays from inside and outside the grid,
-/// axis-parallel, with ±0.0 components, aimed at vertices and cell boundaries.
-fn random_case(seed: u64, ntri: usize, nray: usize) -> (Vec<[Vec3; 3]>, RayBatch) {
-    let mut rng = Pcg32::new(seed, 9);
-    let mut tris: Vec<[Vec3; 3]> = (0..ntri)
-        .map(|_| {
-            let c = Vec3::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            );
-            let s = rng.range(0.01, 0.4);
-            [0, 1, 2].map(|_| c + rng.unit_vector() * s)
-        })
-        .collect();
-    // Degenerate triangles: a point and a segment.
-    tris.push([Vec3::splat(0.1); 3]);
-    tris.push([Vec3::ZERO, Vec3::ZERO, Vec3::X]);
-    let mut b = RayBatch::default();
-    for i in 0..nray {
-        let org = match i % 4 {
-            0 => Vec3::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            ),
-            1 => rng.unit_vector() * rng.range(2.0, 5.0),
-            // On a grid-friendly plane (cell boundaries are often at such coordinates).
-            2 => Vec3::new(0.0, rng.range(-1.0, 1.0), 0.5),
-            _ => Vec3::new(rng.range(-1.0, 1.0), -0.0, rng.range(-1.0, 1.0)),
-        };
-        let dir = match i % 7 {
-            0 => [Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::X][i % 4],
-            1 => Vec3::new(-0.0, 1.0, 0.0),
-            2 => Vec3::new(
-                std::f32::consts::FRAC_1_SQRT_2,
-                -0.0,
-                std::f32::consts::FRAC_1_SQRT_2,
-            ),
-            3 => {
-                // Aimed at a vertex.
-                let t = tris[rng.below(ntri as u32) as usize];
-                (t[rng.below(3) as usize] - org).normalize_or(Vec3::X)
-            }
-            _ => rng.unit_vector(),
-        };
-        let t_max = if i % 5 == 0 {
-            rng.range(0.0, 4.0)
-        } else {
-            f32::INFINITY
-        };
-        b.push(
-            Ray::new(org, dir, 0.0, t_max),
-            RayKind::Reflection,
-            i as u32,
-            0,
-            Vec3::ONE,
-            0,
-        );
-    }
-    (tris, b)
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(40))]
 
     #[test]
     fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..500, nray in 1usize..800, which in 0usize..5, any_hit in any::<bool>()) {
-        let (tris, rays) = random_case(seed, ntri, nray);
-        let n = tris.len();
-        let geo = Geometry { tris: tris.clone(), normals: vec![[Vec3::Y; 3]; n], material: vec![0; n], mesh: vec![0; n], mesh_first: vec![0, n as u32], bounds: geom::Aabb::from_points(tris.iter().flatten().copied()), ..Default::default() };
+        let (geo, rays) = random_case(seed, ntri, nray);
         let cfg = configs()[which].1.clone();
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];

@@ -1,0 +1,21 @@
+//! Peers: other people's acceleration structures behind the same [`render::Tracer`] trait, so
+//! that benchmarks trace exactly the same rays through ours and theirs in one process.
+//!
+//! - [`ObvhsEngine`]: the pure-Rust `obvhs` crate (a PLOC-built BVH2, optionally collapsed to
+//!   an 8-wide compressed CWBVH). Its traversal calls back into our watertight triangle kernel,
+//!   so its records are bit-identical to brute force's: it differs from our engines only in
+//!   the index structure, which is what the irregular-grid paper compares.
+//! - `EmbreeEngine` (cargo feature `embree`): Intel Embree 3 through the `embree` crate's raw
+//!   bindings, with Embree's own kernel; its hits agree with ours within a tolerance (its
+//!   triangle test is not the watertight one).
+
+pub mod obvhs;
+pub use obvhs::{BvhKind, ObvhsEngine};
+
+#[cfg(feature = "embree")]
+pub mod embree;
+#[cfg(feature = "embree")]
+pub use self::embree::{EmbreeEngine, EmbreeMode};
+
+/// Whether this build has the Embree peer (the cargo feature `embree`).
+pub const HAS_EMBREE: bool = cfg!(feature = "embree");

@@ -1,0 +1,119 @@
+//! The peers (obvhs; Embree with `--features embree`) against the brute-force oracle on the
+//! built-in scenes' rendered rays, and on random scenes.
+//!
+//! Same triangle and t within `T_TOL` (obvhs calls our kernel, so its t is bit-identical
+//! where it finds the hit), except for hits exactly on a triangle edge or vertex, which a
+//! peer may lose (Embree's kernel is not watertight; obvhs's box tests are not conservative
+//! at box faces): see `accel::oracle::Agreement`. Such cases must stay rare (≤ 0.1 %).
+
+use accel::oracle::{record_render, Agreement};
+use accel::peers::{BvhKind, ObvhsEngine};
+use render::{Hit, TraceMode, TraceStats, Tracer};
+use scene::{builtin, Geometry};
+
+fn scenes() -> Vec<(&'static str, scene::Scene)> {
+    vec![
+        ("cornell", builtin::cornell()),
+        ("spheres", builtin::spheres()),
+        ("soup", builtin::soup(1500, 7)),
+        ("stadium", builtin::stadium()),
+        ("office", builtin::office(3)),
+    ]
+}
+
+/// obvhs's CWBVH node test clamps the entry distance to `max(t, 1e-4)` (an absolute
+/// epsilon, `obvhs::cwbvh::node::EPSILON`, which also ignores the ray's t_min), so it cannot
+/// see hits nearer than this. Its BVH2 has no such clamp.
+const CWBVH_T_EPS: f32 = 1e-4;
+
+#[test]
+fn obvhs_agrees_with_brute_force() {
+    for (name, s) in scenes() {
+        let geo = Geometry::from_scene(&s);
+        let batches = record_render(&s, &geo, 96, 80, 3);
+        for (kind, floor) in [(BvhKind::Bvh2, 0.0), (BvhKind::CwBvh, CWBVH_T_EPS)] {
+            let e = ObvhsEngine::new(&geo, kind);
+            let mut a = Agreement::default();
+            for (rays, tm, hits) in &batches {
+                let mut got = vec![Hit::MISS; rays.len()];
+                e.trace(rays, *tm, &mut got, &mut TraceStats::default());
+                a.check(*tm, hits, &got, floor);
+            }
+            assert_eq!(a.wrong, 0, "{name} {kind:?}: {a:?}");
+            assert!(a.at_edges * 1000 <= a.rays, "{name} {kind:?}: {a:?}");
+            eprintln!("{name} obvhs {kind:?}: {a:?}");
+        }
+    }
+}
+
+/// Embree's records for `rays`; for any-hit, each hit is replaced by Embree's closest hit
+/// for the same ray, so that `Agreement` can see where it is (`rtcOccluded` does not say).
+#[cfg(feature = "embree")]
+fn embree_records(e: &accel::peers::EmbreeEngine, rays: &render::RayBatch, mode: TraceMode) -> Vec<Hit> {
+    let mut got = vec![Hit::MISS; rays.len()];
+    e.trace(rays, mode, &mut got, &mut TraceStats::default());
+    if mode == TraceMode::Any {
+        let mut closest = vec![Hit::MISS; rays.len()];
+        e.trace(rays, TraceMode::Closest, &mut closest, &mut TraceStats::default());
+        for (g, c) in got.iter_mut().zip(&closest) {
+            if g.is_hit() && c.is_hit() {
+                *g = *c;
+            }
+        }
+    }
+    got
+}
+
+#[cfg(feature = "embree")]
+#[test]
+fn embree_agrees_with_brute_force() {
+    use accel::peers::{EmbreeEngine, EmbreeMode};
+    for (name, s) in scenes() {
+        let geo = Geometry::from_scene(&s);
+        let batches = record_render(&s, &geo, 48, 40, 2);
+        for mode in [EmbreeMode::Single, EmbreeMode::Stream] {
+            let e = EmbreeEngine::new(&geo, mode).unwrap();
+            let mut a = Agreement::default();
+            for (rays, tm, hits) in &batches {
+                a.check(*tm, hits, &embree_records(&e, rays, *tm), 0.0);
+            }
+            assert_eq!(a.wrong, 0, "{name} {mode:?}: {a:?}");
+            // Edge cases are rare; many would mean a systematic error hiding behind them.
+            assert!(a.at_edges * 1000 <= a.rays, "{name} {mode:?}: {a:?}");
+            eprintln!("{name} embree {mode:?}: {a:?}");
+        }
+    }
+}
+
+mod random {
+    use super::*;
+    use accel::oracle::random_case;
+    use accel::BruteForce;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn peers_match_brute_force_on_random_scenes(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..600, any_hit in any::<bool>()) {
+            let (geo, rays) = random_case(seed, ntri, nray);
+            let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
+            let mut expect = vec![Hit::MISS; rays.len()];
+            BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
+            for (kind, floor) in [(BvhKind::Bvh2, 0.0), (BvhKind::CwBvh, CWBVH_T_EPS)] {
+                let mut got = vec![Hit::MISS; rays.len()];
+                ObvhsEngine::new(&geo, kind).trace(&rays, mode, &mut got, &mut TraceStats::default());
+                let mut a = Agreement::default();
+                a.check(mode, &expect, &got, floor);
+                prop_assert_eq!(a.wrong, 0, "{:?}: {:?}", kind, a);
+            }
+            #[cfg(feature = "embree")]
+            for m in [accel::peers::EmbreeMode::Single, accel::peers::EmbreeMode::Stream] {
+                let e = accel::peers::EmbreeEngine::new(&geo, m).unwrap();
+                let mut a = Agreement::default();
+                a.check(mode, &expect, &embree_records(&e, &rays, mode), 0.0);
+                prop_assert_eq!(a.wrong, 0, "{:?}: {:?}", m, a);
+            }
+        }
+    }
+}
