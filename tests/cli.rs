@@ -181,6 +181,31 @@ fn bad_options() {
 }
 
 #[test]
+fn embree_engine_without_or_with_the_feature() {
+    let d = tmp("embree");
+    let out = d.join("e.png");
+    let args = [
+        "render",
+        "cornell",
+        "--engine",
+        "embree",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    if cfg!(feature = "embree") {
+        let o = bin().args(args).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(out.exists());
+    } else {
+        fails(&args, &["--engine embree", "--features embree", "libembree-dev"]);
+    }
+}
+
+#[test]
 fn degenerate_triangles_are_skipped_and_reported() {
     let d = tmp("deg");
     let p = write(

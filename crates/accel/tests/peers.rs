@@ -37,7 +37,7 @@ fn obvhs_agrees_with_brute_force() {
             for (rays, tm, hits) in &batches {
                 let mut got = vec![Hit::MISS; rays.len()];
                 e.trace(rays, *tm, &mut got, &mut TraceStats::default());
-                a.check(*tm, hits, &got, floor);
+                a.check(&geo.tris, rays, *tm, hits, &got, floor);
             }
             assert_eq!(a.wrong, 0, "{name} {kind:?}: {a:?}");
             assert!(a.at_edges * 1000 <= a.rays, "{name} {kind:?}: {a:?}");
@@ -46,21 +46,10 @@ fn obvhs_agrees_with_brute_force() {
     }
 }
 
-/// Embree's records for `rays`; for any-hit, each hit is replaced by Embree's closest hit
-/// for the same ray, so that `Agreement` can see where it is (`rtcOccluded` does not say).
 #[cfg(feature = "embree")]
 fn embree_records(e: &accel::peers::EmbreeEngine, rays: &render::RayBatch, mode: TraceMode) -> Vec<Hit> {
     let mut got = vec![Hit::MISS; rays.len()];
     e.trace(rays, mode, &mut got, &mut TraceStats::default());
-    if mode == TraceMode::Any {
-        let mut closest = vec![Hit::MISS; rays.len()];
-        e.trace(rays, TraceMode::Closest, &mut closest, &mut TraceStats::default());
-        for (g, c) in got.iter_mut().zip(&closest) {
-            if g.is_hit() && c.is_hit() {
-                *g = *c;
-            }
-        }
-    }
     got
 }
 
@@ -75,7 +64,7 @@ fn embree_agrees_with_brute_force() {
             let e = EmbreeEngine::new(&geo, mode).unwrap();
             let mut a = Agreement::default();
             for (rays, tm, hits) in &batches {
-                a.check(*tm, hits, &embree_records(&e, rays, *tm), 0.0);
+                a.check(&geo.tris, rays, *tm, hits, &embree_records(&e, rays, *tm), 0.0);
             }
             assert_eq!(a.wrong, 0, "{name} {mode:?}: {a:?}");
             // Edge cases are rare; many would mean a systematic error hiding behind them.
@@ -104,16 +93,38 @@ mod random {
                 let mut got = vec![Hit::MISS; rays.len()];
                 ObvhsEngine::new(&geo, kind).trace(&rays, mode, &mut got, &mut TraceStats::default());
                 let mut a = Agreement::default();
-                a.check(mode, &expect, &got, floor);
+                a.check(&geo.tris, &rays, mode, &expect, &got, floor);
                 prop_assert_eq!(a.wrong, 0, "{:?}: {:?}", kind, a);
             }
             #[cfg(feature = "embree")]
             for m in [accel::peers::EmbreeMode::Single, accel::peers::EmbreeMode::Stream] {
                 let e = accel::peers::EmbreeEngine::new(&geo, m).unwrap();
                 let mut a = Agreement::default();
-                a.check(mode, &expect, &embree_records(&e, &rays, mode), 0.0);
+                let got = embree_records(&e, &rays, mode);
+                a.check(&geo.tris, &rays, mode, &expect, &got, 0.0);
                 prop_assert_eq!(a.wrong, 0, "{:?}: {:?}", m, a);
             }
         }
     }
+}
+
+/// The agreement check is not vacuous: a wrong triangle, a lost hit and an invented hit
+/// away from any edge are all counted as wrong.
+#[test]
+fn agreement_detects_wrong_records() {
+    let s = builtin::cornell();
+    let geo = Geometry::from_scene(&s);
+    let batches = record_render(&s, &geo, 32, 32, 1);
+    let (rays, mode, hits) = batches
+        .iter()
+        .find(|b| b.1 == TraceMode::Closest)
+        .expect("a closest-hit batch");
+    let mut got = hits.clone();
+    let victims: Vec<usize> = (0..rays.len()).filter(|&i| hits[i].is_hit()).step_by(97).take(3).collect();
+    got[victims[0]].tri ^= 1;
+    got[victims[1]] = Hit::MISS;
+    got[victims[2]].t *= 1.5;
+    let mut a = Agreement::default();
+    a.check(&geo.tris, rays, *mode, hits, &got, 0.0);
+    assert_eq!(a.wrong, 3, "{a:?}");
 }
