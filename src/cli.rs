@@ -456,7 +456,11 @@ fn embree_engine(engine: Engine, geo: &Geometry) -> Result<Box<dyn Tracer>> {
 
 #[cfg(not(feature = "embree"))]
 fn embree_engine(engine: Engine, _geo: &Geometry) -> Result<Box<dyn Tracer>> {
-    let name = if engine == Engine::Embree { "embree" } else { "embree-stream" };
+    let name = if engine == Engine::Embree {
+        "embree"
+    } else {
+        "embree-stream"
+    };
     anyhow::bail!(
         "--engine {name}: this build has no Embree peer; install Embree 3 (Debian: libembree-dev) and build with `cargo build --release --features embree`"
     )

@@ -201,7 +201,10 @@ fn embree_engine_without_or_with_the_feature() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert!(out.exists());
     } else {
-        fails(&args, &["--engine embree", "--features embree", "libembree-dev"]);
+        fails(
+            &args,
+            &["--engine embree", "--features embree", "libembree-dev"],
+        );
     }
 }
 

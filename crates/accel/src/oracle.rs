@@ -103,6 +103,10 @@ pub struct Agreement {
     /// edge or vertex ([`ray_grazes_edge`]), or (with `t_floor`) a lost oracle hit nearer
     /// than the peer can see.
     pub at_edges: u64,
+    /// Both hit at the same t (within [`T_TOL`]) but on different triangles: coincident
+    /// surfaces (overlapping coplanar triangles, as in BART Kitchen), where which one is
+    /// "closest" is decided by rounding. The point hit is the same.
+    pub coincident: u64,
     /// Anything else: a real disagreement. Tests require zero.
     pub wrong: u64,
     /// The first few wrong rays: (index, oracle, engine).
@@ -143,7 +147,9 @@ impl Agreement {
                 continue;
             }
             let near = e.is_hit() && e.t <= t_floor && (!g.is_hit() || g.t > e.t);
-            if near || ray_grazes_edge(tris, &rays.ray(i), EDGE_EPS) {
+            if mode == TraceMode::Closest && e.is_hit() && g.is_hit() && t_close(e, g) {
+                self.coincident += 1;
+            } else if near || ray_grazes_edge(tris, &rays.ray(i), EDGE_EPS) {
                 self.at_edges += 1;
             } else {
                 self.wrong += 1;
@@ -227,7 +233,6 @@ pub fn random_case(seed: u64, ntri: usize, nray: usize) -> (scene::Geometry, Ray
     };
     (geo, b)
 }
-
 
 /// Whether `ray` passes within `eps` · (1 + |p|) of an edge (or vertex) of any triangle,
 /// where p is the closest point: the rays on which triangle kernels may legitimately

@@ -47,7 +47,11 @@ fn obvhs_agrees_with_brute_force() {
 }
 
 #[cfg(feature = "embree")]
-fn embree_records(e: &accel::peers::EmbreeEngine, rays: &render::RayBatch, mode: TraceMode) -> Vec<Hit> {
+fn embree_records(
+    e: &accel::peers::EmbreeEngine,
+    rays: &render::RayBatch,
+    mode: TraceMode,
+) -> Vec<Hit> {
     let mut got = vec![Hit::MISS; rays.len()];
     e.trace(rays, mode, &mut got, &mut TraceStats::default());
     got
@@ -64,7 +68,14 @@ fn embree_agrees_with_brute_force() {
             let e = EmbreeEngine::new(&geo, mode).unwrap();
             let mut a = Agreement::default();
             for (rays, tm, hits) in &batches {
-                a.check(&geo.tris, rays, *tm, hits, &embree_records(&e, rays, *tm), 0.0);
+                a.check(
+                    &geo.tris,
+                    rays,
+                    *tm,
+                    hits,
+                    &embree_records(&e, rays, *tm),
+                    0.0,
+                );
             }
             assert_eq!(a.wrong, 0, "{name} {mode:?}: {a:?}");
             // Edge cases are rare; many would mean a systematic error hiding behind them.
@@ -120,7 +131,11 @@ fn agreement_detects_wrong_records() {
         .find(|b| b.1 == TraceMode::Closest)
         .expect("a closest-hit batch");
     let mut got = hits.clone();
-    let victims: Vec<usize> = (0..rays.len()).filter(|&i| hits[i].is_hit()).step_by(97).take(3).collect();
+    let victims: Vec<usize> = (0..rays.len())
+        .filter(|&i| hits[i].is_hit())
+        .step_by(97)
+        .take(3)
+        .collect();
     got[victims[0]].tri ^= 1;
     got[victims[1]] = Hit::MISS;
     got[victims[2]].t *= 1.5;

@@ -60,7 +60,9 @@ impl EmbreeEngine {
         let start = Instant::now();
         let n = geo.tris.len();
         if n as u64 * 3 > u32::MAX as u64 {
-            return Err(format!("embree: {n} triangles exceed 32-bit vertex indices"));
+            return Err(format!(
+                "embree: {n} triangles exceed 32-bit vertex indices"
+            ));
         }
         // SAFETY: plain FFI calls on handles created here; buffers are written within the
         // item counts they were allocated with.
@@ -89,14 +91,9 @@ impl EmbreeEngine {
                     12,
                     3 * n,
                 ) as *mut [f32; 3];
-                let ib = rtcSetNewGeometryBuffer(
-                    g,
-                    RTCBufferType::INDEX,
-                    0,
-                    RTCFormat::UINT3,
-                    12,
-                    n,
-                ) as *mut [u32; 3];
+                let ib =
+                    rtcSetNewGeometryBuffer(g, RTCBufferType::INDEX, 0, RTCFormat::UINT3, 12, n)
+                        as *mut [u32; 3];
                 if vb.is_null() || ib.is_null() {
                     rtcReleaseGeometry(g);
                     check(device, "rtcSetNewGeometryBuffer")?;
@@ -234,8 +231,9 @@ impl EmbreeEngine {
                 }
                 (EmbreeMode::Stream, TraceMode::Any) => {
                     let mut ctx = Self::context(true);
-                    let mut buf: Vec<RTCRay> =
-                        (0..out.len()).map(|k| Self::rtc_ray(rays, first + k)).collect();
+                    let mut buf: Vec<RTCRay> = (0..out.len())
+                        .map(|k| Self::rtc_ray(rays, first + k))
+                        .collect();
                     rtcOccluded1M(
                         self.scene,
                         &mut ctx,
