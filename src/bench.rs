@@ -194,3 +194,59 @@ pub fn csv(rows: &[Row]) -> String {
     }
     s
 }
+
+/// One chart per scene: intersections per hierarchy level (bars, log scale) for every
+/// configuration and engine (groups), like the thesis's Figures 4.7–4.23.
+pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
+    let mut files = Vec::new();
+    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    for sc in scenes {
+        let rs: Vec<&Row> = rows.iter().filter(|r| r.scene == sc).collect();
+        let groups: Vec<String> = rs
+            .iter()
+            .map(|r| format!("{}/{} {}", r.branching, r.levels, r.engine.to_uppercase()))
+            .collect();
+        // Series: every level present, top first, then the final ray–triangle tests.
+        let mut levels: Vec<u32> = rs
+            .iter()
+            .flat_map(|r| r.stats.level_table().into_iter().map(|row| row.0))
+            .collect();
+        levels.sort_unstable_by(|a, b| b.cmp(a));
+        levels.dedup();
+        let mut series: Vec<String> = levels.iter().map(|l| format!("level {l}")).collect();
+        series.push("final".into());
+        let values: Vec<Vec<f64>> = series
+            .iter()
+            .map(|name| {
+                rs.iter()
+                    .map(|r| match name.strip_prefix("level ") {
+                        Some(l) => {
+                            let l: u32 = l.parse().unwrap_or(0);
+                            r.stats
+                                .level_table()
+                                .iter()
+                                .filter(|row| row.0 == l)
+                                .map(|row| row.2)
+                                .sum::<u64>() as f64
+                        }
+                        None => r.stats.ray_tri_tests as f64,
+                    })
+                    .collect()
+            })
+            .collect();
+        let title = format!("{sc}: intersection tests per level");
+        files.extend(crate::charts::grouped_bars(
+            &dir.join(format!("rsh-levels-{}", crate::charts::slug(sc))),
+            &crate::charts::Bars {
+                title: &title,
+                y_label: "tests",
+                groups: &groups,
+                series: &series,
+                values: &values,
+                log_y: true,
+            },
+        )?);
+    }
+    Ok(files)
+}

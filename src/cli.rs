@@ -48,6 +48,44 @@ enum Command {
 enum BenchCommand {
     /// The thesis's chapter-4 tables: CRSH and RAH per configuration on the same rays.
     Rsh(BenchRshArgs),
+    /// The irregular-grid paper's Tables 1, 2, 3 and 5: our grids against the peers
+    /// (obvhs; Embree with `--features embree`) on the same rays.
+    Grid(BenchGridArgs),
+}
+
+#[derive(Args, Clone)]
+struct BenchGridArgs {
+    /// Scenes, comma-separated (default: cornell, office, stadium, and Sponza, Conference
+    /// and Kitchen when the shared scenes are present).
+    #[arg(long)]
+    scenes: Option<String>,
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    width: u32,
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    height: u32,
+    /// Ambient-occlusion rays per pixel.
+    #[arg(long = "ao-spp", default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=64))]
+    ao_spp: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Timed runs per engine and ray kind (the best is reported).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    repeats: u32,
+    /// Also write every row as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Also write Table 3's rows (engine × ray kind) as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Also write the grid builds of Tables 1, 2 and 5 as CSV.
+    #[arg(long = "grids-csv")]
+    grids_csv: Option<PathBuf>,
+    /// Also write the markdown report to this file.
+    #[arg(long)]
+    md: Option<PathBuf>,
+    /// Write charts (PNG and SVG) into this directory: MRays/s by ray kind and engine.
+    #[arg(long)]
+    charts: Option<PathBuf>,
 }
 
 #[derive(Args, Clone)]
@@ -75,6 +113,10 @@ struct BenchRshArgs {
     /// Also write the markdown report to this file.
     #[arg(long)]
     md: Option<PathBuf>,
+    /// Write charts (PNG and SVG) into this directory: intersections per hierarchy level by
+    /// configuration (like the thesis's Figures 4.7–4.23).
+    #[arg(long)]
+    charts: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -474,6 +516,25 @@ impl Progress for Bar {
     }
 }
 
+/// A bar over `n` steps; `Bar::stage` advances it.
+fn step_bar(n: u64) -> Bar {
+    let pb = ProgressBar::with_draw_target(Some(n), ProgressDrawTarget::stderr());
+    pb.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} [{elapsed}, eta {eta}] {msg}").unwrap(),
+    );
+    pb.enable_steady_tick(Duration::from_millis(200));
+    Bar(pb)
+}
+
+impl Bar {
+    fn step(&self, name: &str) {
+        if self.0.position() < self.0.length().unwrap_or(0) && !self.0.message().is_empty() {
+            self.0.inc(1);
+        }
+        self.0.set_message(name.to_string());
+    }
+}
+
 fn progress_bar() -> Bar {
     // Drawn only when stderr is a terminal (indicatif hides it otherwise).
     let pb = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
@@ -697,7 +758,10 @@ fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
             v
         }
     };
-    let bar = progress_bar();
+    if let Some(d) = &a.charts {
+        check_dir("--charts", d)?;
+    }
+    let bar = step_bar(scenes.len() as u64 * (1 + 2 * configs.len() as u64));
     let spec = crate::bench::Spec {
         scenes,
         configs,
@@ -705,8 +769,15 @@ fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
         height: a.height,
         bounces: a.bounces,
     };
-    let (rows, md) = crate::bench::run(&spec, &|m| bar.stage(m))?;
+    let (rows, md) = crate::bench::run(&spec, &|m| bar.step(m))?;
     bar.0.finish_and_clear();
+    if let Some(d) = &a.charts {
+        match crate::bench::charts(&rows, d) {
+            Ok(files) => files.iter().for_each(|f| say!("wrote {}", f.display())),
+            // The tables are written; a missing font only costs the pictures.
+            Err(e) => eprintln!("warning: charts not written: {e:#}"),
+        }
+    }
     let report = format!(
         "# rayspace bench rsh
 
@@ -728,6 +799,94 @@ fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
     }
     Ok(())
 }
+
+fn check_dir(opt: &str, d: &std::path::Path) -> Result<()> {
+    if !d.is_dir() {
+        bail!("{opt} {}: not a directory", d.display());
+    }
+    Ok(())
+}
+
+fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
+    for p in [&a.json, &a.csv, &a.grids_csv, &a.md].into_iter().flatten() {
+        check_out_dir("--json/--csv/--grids-csv/--md", p)?;
+    }
+    if let Some(d) = &a.charts {
+        check_dir("--charts", d)?;
+    }
+    let scenes: Vec<String> = match &a.scenes {
+        Some(s) => s
+            .split(',')
+            .map(|x| x.trim().to_string())
+            .filter(|x| !x.is_empty())
+            .collect(),
+        None => {
+            let mut v: Vec<String> = ["cornell", "office", "stadium"].map(String::from).into();
+            if scene::scenes_dir().is_some() {
+                for f in ["sponza", "conference", "kitchen"] {
+                    let p = format!("{}/bench/scenes/{f}.toml", env!("CARGO_MANIFEST_DIR"));
+                    if std::path::Path::new(&p).exists() {
+                        v.push(p);
+                    }
+                }
+            }
+            v
+        }
+    };
+    let bar = step_bar(scenes.len() as u64 * crate::bench_grid::STEPS_PER_SCENE);
+    let spec = crate::bench_grid::Spec {
+        scenes,
+        width: a.width,
+        height: a.height,
+        ao_spp: a.ao_spp,
+        seed: a.seed,
+        repeats: a.repeats,
+    };
+    let rep = crate::bench_grid::run(&spec, &|m| bar.step(m))?;
+    bar.0.finish_and_clear();
+    let report = format!(
+        "# rayspace bench grid
+
+{}; peers: obvhs {}{}
+{}",
+        provenance(),
+        OBVHS_VERSION,
+        if accel::peers::HAS_EMBREE {
+            ", Embree 3 (system library, `embree` crate 0.3.8)"
+        } else {
+            "; Embree not in this build (`--features embree`)"
+        },
+        rep.markdown
+    );
+    say!("{report}");
+    if let Some(p) = &a.md {
+        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+    }
+    if let Some(p) = &a.json {
+        let v = serde_json::json!({ "table3": rep.perf, "grids": rep.grids });
+        std::fs::write(p, serde_json::to_string_pretty(&v)?)
+            .with_context(|| format!("--json {}", p.display()))?;
+    }
+    if let Some(p) = &a.csv {
+        std::fs::write(p, crate::bench_grid::perf_csv(&rep.perf))
+            .with_context(|| format!("--csv {}", p.display()))?;
+    }
+    if let Some(p) = &a.grids_csv {
+        std::fs::write(p, crate::bench_grid::grid_csv(&rep.grids))
+            .with_context(|| format!("--grids-csv {}", p.display()))?;
+    }
+    if let Some(d) = &a.charts {
+        match crate::bench_grid::charts(&rep.perf, d) {
+            Ok(files) => files.iter().for_each(|f| say!("wrote {}", f.display())),
+            // The tables are written; a missing font only costs the pictures.
+            Err(e) => eprintln!("warning: charts not written: {e:#}"),
+        }
+    }
+    Ok(())
+}
+
+/// The obvhs version this binary is built with (for benchmark provenance).
+const OBVHS_VERSION: &str = "0.4";
 
 fn cmd_render(a: &RenderArgs) -> Result<()> {
     let split = split(a.meshes);
@@ -797,6 +956,9 @@ pub fn run() -> Result<()> {
         Some(Command::Bench {
             what: BenchCommand::Rsh(a),
         }) => cmd_bench_rsh(&a),
+        Some(Command::Bench {
+            what: BenchCommand::Grid(a),
+        }) => cmd_bench_grid(&a),
         None => cmd_render(&RenderArgs::default()),
     }
 }

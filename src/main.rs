@@ -1,6 +1,8 @@
 //! `rayspace`: render scenes with the hybrid rasterizer + ray tracer and compare engines.
 
 mod bench;
+mod bench_grid;
+mod charts;
 mod cli;
 
 use std::process::ExitCode;

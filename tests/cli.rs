@@ -415,3 +415,80 @@ fn bench_rsh_writes_tables() {
     fails(&["bench", "rsh", "--configs", "8-2"], &["--configs"]);
     fails(&["bench", "rsh", "--configs", "1/2"], &["--configs"]);
 }
+
+#[test]
+fn bench_grid_writes_tables_and_charts() {
+    let d = tmp("bench-grid");
+    let (csv, grids, json) = (d.join("t3.csv"), d.join("g.csv"), d.join("g.json"));
+    let charts = d.join("charts");
+    std::fs::create_dir_all(&charts).unwrap();
+    let out = bin()
+        .args([
+            "bench",
+            "grid",
+            "--scenes",
+            "cornell",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--repeats",
+            "1",
+            "--csv",
+            csv.to_str().unwrap(),
+            "--grids-csv",
+            grids.to_str().unwrap(),
+            "--json",
+            json.to_str().unwrap(),
+            "--charts",
+            charts.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let md = String::from_utf8_lossy(&out.stdout);
+    for t in [
+        "Table 1",
+        "Table 2",
+        "Table 3",
+        "Table 5",
+        "obvhs-cwbvh",
+        "grid2l",
+    ] {
+        assert!(md.contains(t), "{t} missing:\n{md}");
+    }
+    // 3 ray kinds × (2 grids + 2 obvhs [+ 2 Embree]).
+    let engines = if cfg!(feature = "embree") { 6 } else { 4 };
+    let t3 = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(t3.lines().count(), 1 + 3 * engines, "{t3}");
+    // Every engine agreed with the irregular grid (the `wrong` column).
+    for line in t3.lines().skip(1) {
+        assert_eq!(line.split(',').nth(11), Some("0"), "{line}");
+    }
+    // Table 1: 3 stages, Table 2: 3 densities × 2 structures, Table 5: 4 variants.
+    let g = std::fs::read_to_string(&grids).unwrap();
+    assert_eq!(g.lines().count(), 1 + 3 + 6 + 4, "{g}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["table3"].as_array().unwrap().len(), 3 * engines);
+    // Charts need a TrueType font; without one the command says so and still succeeds.
+    let png = charts.join("grid-mrays-cornell.png");
+    if png.exists() {
+        assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+        assert!(charts.join("grid-mrays-cornell.svg").exists());
+    } else {
+        eprintln!(
+            "no chart written (no font?): {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    fails(
+        &["bench", "grid", "--charts", "/nonexistent/dir"],
+        &["--charts", "not a directory"],
+    );
+    fails(&["bench", "grid", "--ao-spp", "0"], &["--ao-spp"]);
+}

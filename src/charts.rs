@@ -1,0 +1,203 @@
+//! Benchmark charts (PNG and SVG, with `plotters`): grouped bar charts, one group per
+//! category (a configuration, a ray kind) and one bar per series (a level, an engine).
+//!
+//! Text needs a TrueType font. plotters' own font lookup links fontconfig, so instead one
+//! font file is read at run time: `$RAYSPACE_FONT`, else a few common system paths. Without
+//! one, charts are skipped with a message and the tables are still written.
+
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+const FONT_PATHS: &[&str] = &[
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    "/System/Library/Fonts/Supplemental/Arial.ttf",
+    "/Library/Fonts/Arial.ttf",
+    "C:\\Windows\\Fonts\\arial.ttf",
+];
+
+/// Register a font for plotters once; the error says where fonts were looked for.
+fn font() -> Result<()> {
+    static FONT: OnceLock<Result<(), String>> = OnceLock::new();
+    FONT.get_or_init(|| {
+        let env = std::env::var("RAYSPACE_FONT").ok();
+        let candidates: Vec<String> = env
+            .iter()
+            .cloned()
+            .chain(FONT_PATHS.iter().map(|s| s.to_string()))
+            .collect();
+        for p in &candidates {
+            if let Ok(bytes) = std::fs::read(p) {
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                return plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+                    .map_err(|_| format!("{p} is not a usable TrueType font"));
+            }
+        }
+        Err(format!(
+            "no TrueType font found (set RAYSPACE_FONT to a .ttf file; looked in {})",
+            candidates.join(", ")
+        ))
+    })
+    .clone()
+    .map_err(|e| anyhow!(e))
+}
+
+/// One chart's data: `values[s][g]` is series `s` in group `g`.
+pub struct Bars<'a> {
+    pub title: &'a str,
+    pub y_label: &'a str,
+    pub groups: &'a [String],
+    pub series: &'a [String],
+    pub values: &'a [Vec<f64>],
+    /// Logarithmic y axis (for counts spanning orders of magnitude).
+    pub log_y: bool,
+}
+
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+];
+
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, plotters::coord::Shift>, b: &Bars) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("chart '{}': {e:?}", b.title);
+    root.fill(&WHITE).map_err(err)?;
+    let ng = b.groups.len().max(1);
+    let ns = b.series.len().max(1);
+    let finite = b
+        .values
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|v| v.is_finite() && *v > 0.0);
+    let ymax = finite.clone().fold(0.0f64, f64::max).max(1e-9) * 1.15;
+    let ymin = finite.fold(f64::INFINITY, f64::min);
+    let mut cb = ChartBuilder::on(&root);
+    cb.caption(b.title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(80);
+    let groups = b.groups;
+    let xfmt = move |x: &f64| {
+        let i = (*x - 0.5).round();
+        if (x - 0.5 - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < groups.len() {
+            groups[i as usize].clone()
+        } else {
+            String::new()
+        }
+    };
+    macro_rules! body {
+        ($chart:ident, $floor:expr) => {{
+            $chart
+                .configure_mesh()
+                .disable_x_mesh()
+                .x_labels(ng * 2 + 1)
+                .x_label_formatter(&xfmt)
+                .y_desc(b.y_label)
+                .y_label_formatter(&|v: &f64| human(*v))
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(err)?;
+            for (s, name) in b.series.iter().enumerate() {
+                let color = PALETTE[s % PALETTE.len()];
+                let rects: Vec<_> = (0..ng)
+                    .filter_map(|g| {
+                        let v = *b.values.get(s)?.get(g)?;
+                        (v.is_finite() && v > $floor).then(|| {
+                            let w = 0.8 / ns as f64;
+                            let x0 = g as f64 + 0.1 + s as f64 * w;
+                            Rectangle::new([(x0, $floor), (x0 + w * 0.92, v)], color.filled())
+                        })
+                    })
+                    .collect();
+                $chart
+                    .draw_series(rects)
+                    .map_err(err)?
+                    .label(name.as_str())
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled())
+                    });
+            }
+            $chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 14))
+                .draw()
+                .map_err(err)?;
+        }};
+    }
+    if b.log_y {
+        let floor = if ymin.is_finite() { ymin / 2.0 } else { 0.5 };
+        let mut chart = cb
+            .build_cartesian_2d(0f64..ng as f64, (floor..ymax).log_scale())
+            .map_err(err)?;
+        body!(chart, floor);
+    } else {
+        let mut chart = cb
+            .build_cartesian_2d(0f64..ng as f64, 0f64..ymax)
+            .map_err(err)?;
+        body!(chart, 0.0);
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Write `stem.png` and `stem.svg`; returns their paths.
+pub fn grouped_bars(stem: &Path, b: &Bars) -> Result<Vec<PathBuf>> {
+    font()?;
+    let png = stem.with_extension("png");
+    let svg = stem.with_extension("svg");
+    let w =
+        (160 + 90 * b.groups.len() as u32 * (b.series.len() as u32).max(1) / 2).clamp(640, 1600);
+    draw(BitMapBackend::new(&png, (w, 480)).into_drawing_area(), b)?;
+    draw(SVGBackend::new(&svg, (w, 480)).into_drawing_area(), b)?;
+    Ok(vec![png, svg])
+}
+
+/// A file-name-safe form of `s`.
+pub fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '-'
+            }
+        })
+        .collect::<String>()
+        .split('-')
+        .filter(|p| !p.is_empty())
+        .collect::<Vec<_>>()
+        .join("-")
+}
+
+/// 1234567 → "1.23M": short axis labels.
+pub fn human(v: f64) -> String {
+    let a = v.abs();
+    let (x, suffix) = if a >= 1e9 {
+        (v / 1e9, "G")
+    } else if a >= 1e6 {
+        (v / 1e6, "M")
+    } else if a >= 1e3 {
+        (v / 1e3, "k")
+    } else {
+        (v, "")
+    };
+    let s = format!("{x:.2}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    format!("{s}{suffix}")
+}
