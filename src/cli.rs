@@ -216,9 +216,13 @@ struct GridArgs {
     /// Cell merging (grid only).
     #[arg(long = "grid-merge", value_enum, default_value_t = OnOff::On)]
     merge: OnOff,
-    /// Cell expansion passes (grid only; 3 for static scenes, 1 for dynamic).
-    #[arg(long = "grid-expansion", default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=16))]
-    expansion: u32,
+    /// Cell expansion passes (grid only; default 3 for a still, 1 per frame of an animation
+    /// as in the paper's dynamic scenes).
+    #[arg(long = "grid-expansion", value_parser = clap::value_parser!(u32).range(0..=16))]
+    expansion: Option<u32>,
+    /// Set by the frame loop: use the dynamic-scene default of 1 expansion pass.
+    #[arg(skip)]
+    dynamic: bool,
     /// Largest octree depth per top-level cell.
     #[arg(long = "grid-max-depth", default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=8))]
     max_depth: u32,
@@ -231,7 +235,8 @@ impl Default for GridArgs {
             leaf_density: 2.4,
             alpha: 0.995,
             merge: OnOff::On,
-            expansion: 3,
+            expansion: None,
+            dynamic: false,
             max_depth: 6,
         }
     }
@@ -244,7 +249,17 @@ impl GridArgs {
             leaf_density: self.leaf_density,
             alpha: self.alpha,
             merge: !two_level && self.merge == OnOff::On,
-            expansion_passes: if two_level { 0 } else { self.expansion },
+            expansion_passes: match (two_level, self.expansion) {
+                (true, _) => 0,
+                (false, Some(n)) => n,
+                (false, None) => {
+                    if self.dynamic {
+                        1
+                    } else {
+                        3
+                    }
+                }
+            },
             max_depth: self.max_depth,
         }
     }
@@ -390,6 +405,22 @@ struct RenderArgs {
     /// Also write the statistics as JSON to this file.
     #[arg(long)]
     stats: Option<PathBuf>,
+    /// Render one instant of an animated scene (seconds, in the scene's time).
+    #[arg(long, conflicts_with = "frames", allow_hyphen_values = true)]
+    time: Option<f32>,
+    /// Render N frames of an animated scene; `--out` then needs a `%0Nd`-style frame number
+    /// (e.g. frames/%04d.png). Engines are rebuilt every frame.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    frames: Option<u32>,
+    /// Frames per second (default: spread the frames over the scene's animation interval).
+    #[arg(long)]
+    fps: Option<f32>,
+    /// With --frames: per-frame statistics (build and trace times, rays, tests) as CSV.
+    #[arg(long = "frame-csv")]
+    frame_csv: Option<PathBuf>,
+    /// With --frames: also assemble the frames into this animated GIF.
+    #[arg(long)]
+    gif: Option<PathBuf>,
 }
 
 impl Default for RenderArgs {
@@ -405,6 +436,11 @@ impl Default for RenderArgs {
             meshes: Split::Groups,
             out: PathBuf::from("rayspace.png"),
             stats: None,
+            time: None,
+            frames: None,
+            fps: None,
+            frame_csv: None,
+            gif: None,
         }
     }
 }
@@ -440,6 +476,26 @@ fn make_engine(
     grid_args: &GridArgs,
     geo: &Geometry,
 ) -> Result<Box<dyn Tracer>> {
+    make_engine_opt(engine, rsh_args, grid_args, geo, true)
+}
+
+/// [`make_engine`] without the build report (the frame loop builds one engine per frame).
+fn make_engine_quiet(
+    engine: Engine,
+    rsh_args: &RshArgs,
+    grid_args: &GridArgs,
+    geo: &Geometry,
+) -> Result<Box<dyn Tracer>> {
+    make_engine_opt(engine, rsh_args, grid_args, geo, false)
+}
+
+fn make_engine_opt(
+    engine: Engine,
+    rsh_args: &RshArgs,
+    grid_args: &GridArgs,
+    geo: &Geometry,
+    verbose: bool,
+) -> Result<Box<dyn Tracer>> {
     Ok(match engine {
         Engine::Grid | Engine::Grid2l => {
             let g = accel::GridEngine::new(geo, &grid_args.config(engine == Engine::Grid2l))
@@ -455,12 +511,14 @@ fn make_engine(
                 })?;
             let (c, r, v) = g.grid.memory();
             let b = &g.grid.build;
-            say!(
+            if verbose {
+                say!(
                 "{}: {} cells (initial {}), {} references, top grid {:?}, virtual grid {:?}; memory cells {} B, references {} B, voxel map {} B; build ms: references {:.1}, octrees {:.1}, voxel map {:.1}, merge {:.1} ({} rounds), expansion {:.1}",
                 if engine == Engine::Grid { "irregular grid" } else { "two-level grid" },
                 g.grid.cells(), b.initial_cells, g.grid.refs.len(), g.grid.top_dims, g.grid.dims, c, r, v,
                 b.top_refs_seconds * 1e3, b.octree_seconds * 1e3, b.voxel_map_seconds * 1e3, b.merge_seconds * 1e3, b.merge_rounds, b.expand_seconds * 1e3
             );
+            }
             Box::new(g)
         }
         Engine::Brute => Box::new(accel::BruteForce::new(geo)),
@@ -895,7 +953,7 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
     let scene = scene::load(&a.scene, &LoadOptions { split })?;
     let geo = Geometry::from_scene(&scene);
     let load_s = t0.elapsed().as_secs_f64();
-    let r = &scene.report;
+    let r = scene.report.clone();
     say!(
         "loaded {} in {:.2} s: {} triangles, {} meshes, {} materials, {} lights{}{}",
         scene.name,
@@ -915,6 +973,23 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
             format!(" ({})", r.notes.join("; "))
         },
     );
+    if let Some(n) = a.frames {
+        return render_frames(a, &scene, n);
+    }
+    let (scene, geo) = match a.time {
+        Some(t) => {
+            if !t.is_finite() {
+                bail!("--time {t}: not a finite time");
+            }
+            if scene.animation.is_none() {
+                bail!("--time: {} is not animated", scene.name);
+            }
+            let s = scene.at_time(t);
+            let g = Geometry::from_scene(&s);
+            (s, g)
+        }
+        None => (scene, geo),
+    };
     let t1 = Instant::now();
     let engine = make_engine(a.engine, &a.rsh, &a.grid, &geo)?;
     let build_s = t1.elapsed().as_secs_f64();
@@ -942,6 +1017,159 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
         };
         let json = serde_json::to_string_pretty(&f)?;
         std::fs::write(p, json).with_context(|| format!("--stats {}", p.display()))?;
+        say!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `path` with its `%0Nd` (or `%d`) replaced by `frame`.
+fn frame_path(pattern: &std::path::Path, frame: u32) -> Result<PathBuf> {
+    let s = pattern.to_string_lossy();
+    let Some(i) = s.find('%') else {
+        bail!("--out {s}: with --frames the name needs a frame number pattern such as %04d");
+    };
+    let rest = &s[i + 1..];
+    let Some(d) = rest.find('d') else {
+        bail!("--out {s}: expected %d or %0Nd");
+    };
+    let spec = &rest[..d];
+    let width: usize = if spec.is_empty() {
+        0
+    } else {
+        match spec.strip_prefix('0').unwrap_or(spec).parse() {
+            Ok(w) if w <= 12 => w,
+            _ => bail!("--out {s}: bad frame number pattern %{spec}d"),
+        }
+    };
+    Ok(PathBuf::from(format!(
+        "{}{:0width$}{}",
+        &s[..i],
+        frame,
+        &rest[d + 1..]
+    )))
+}
+
+/// One frame's record for `--frame-csv`.
+#[derive(Serialize)]
+struct FrameRow {
+    frame: u32,
+    time: f32,
+    triangles: usize,
+    update_ms: f64,
+    build_ms: f64,
+    trace_ms: f64,
+    rays: u64,
+    total_tests: u64,
+}
+
+/// The per-frame pipeline: update transforms (and the meshes' culling spheres, by transform),
+/// rebuild the engine, render; build and trace times apart.
+fn render_frames(a: &RenderArgs, scene: &scene::Scene, n: u32) -> Result<()> {
+    let Some(anim) = &scene.animation else {
+        bail!(
+            "--frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
+            scene.name
+        );
+    };
+    frame_path(&a.out, 0)?;
+    if let Some(d) = frame_path(&a.out, 0)?
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+    {
+        check_dir("--out", d)?;
+    }
+    for p in [&a.frame_csv, &a.gif].into_iter().flatten() {
+        check_out_dir("--frame-csv/--gif", p)?;
+    }
+    let times: Vec<f32> = match a.fps {
+        Some(f) if f.is_finite() && f > 0.0 => (0..n).map(|i| anim.start + i as f32 / f).collect(),
+        Some(f) => bail!("--fps {f}: must be a positive number"),
+        None => anim.frame_times(n),
+    };
+    let bar = step_bar(n as u64);
+    let grid = GridArgs {
+        dynamic: true,
+        ..a.grid.clone()
+    };
+    let opts = RenderOptions {
+        width: a.width,
+        height: a.height,
+        bounces: a.bounces,
+    };
+    let mut rows = Vec::new();
+    let mut gif_frames = Vec::new();
+    for (i, &t) in times.iter().enumerate() {
+        bar.step(&format!("frame {i} (t = {t:.3})"));
+        let t0 = Instant::now();
+        let s = scene.at_time(t);
+        let geo = Geometry::from_scene(&s);
+        let update_s = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let engine = make_engine_quiet(a.engine, &a.rsh, &grid, &geo)?;
+        let build_s = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        let out = render(&s, &geo, engine.as_ref(), &opts, &());
+        let trace_s = t2.elapsed().as_secs_f64();
+        let path = frame_path(&a.out, i as u32)?;
+        render::output::write_png(&out.pixels, a.width, a.height, &path)
+            .map_err(anyhow::Error::msg)
+            .context("--out")?;
+        if a.gif.is_some() {
+            gif_frames.push(out.pixels.clone());
+        }
+        rows.push(FrameRow {
+            frame: i as u32,
+            time: t,
+            triangles: geo.len(),
+            update_ms: update_s * 1e3,
+            build_ms: build_s * 1e3,
+            trace_ms: trace_s * 1e3,
+            rays: out.stats.rays_traced(),
+            total_tests: out.stats.trace.total_tests(),
+        });
+    }
+    bar.0.finish_and_clear();
+    let mean = |f: &dyn Fn(&FrameRow) -> f64| rows.iter().map(f).sum::<f64>() / rows.len() as f64;
+    say!(
+        "{} frames of {} ({}×{}, engine {:?}): mean per frame update {:.1} ms, build {:.1} ms, render {:.1} ms",
+        rows.len(),
+        scene.name,
+        a.width,
+        a.height,
+        a.engine,
+        mean(&|r| r.update_ms),
+        mean(&|r| r.build_ms),
+        mean(&|r| r.trace_ms)
+    );
+    say!(
+        "wrote {} … {}",
+        frame_path(&a.out, 0)?.display(),
+        frame_path(&a.out, n - 1)?.display()
+    );
+    if let Some(p) = &a.frame_csv {
+        let mut csv =
+            String::from("frame,time,triangles,update_ms,build_ms,trace_ms,rays,total_tests\n");
+        for r in &rows {
+            csv += &format!(
+                "{},{},{},{:.3},{:.3},{:.3},{},{}\n",
+                r.frame,
+                r.time,
+                r.triangles,
+                r.update_ms,
+                r.build_ms,
+                r.trace_ms,
+                r.rays,
+                r.total_tests
+            );
+        }
+        std::fs::write(p, csv).with_context(|| format!("--frame-csv {}", p.display()))?;
+        say!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.gif {
+        let delay_ms = a.fps.map_or(100.0, |f| 1000.0 / f) as u32;
+        render::output::write_gif(&gif_frames, a.width, a.height, delay_ms, p)
+            .map_err(anyhow::Error::msg)
+            .context("--gif")?;
         say!("wrote {}", p.display());
     }
     Ok(())

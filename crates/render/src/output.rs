@@ -30,6 +30,33 @@ pub fn write_png(pixels: &[Vec3], width: u32, height: u32, path: &Path) -> Resul
         .map_err(|e| format!("{}: {e}", path.display()))
 }
 
+/// An animated GIF of `frames` (each `width × height` linear RGB), looping, `delay_ms` per
+/// frame. Colours are quantised per frame (NeuQuant, speed 10).
+pub fn write_gif(
+    frames: &[Vec<Vec3>],
+    width: u32,
+    height: u32,
+    delay_ms: u32,
+    path: &Path,
+) -> Result<(), String> {
+    use image::codecs::gif::{GifEncoder, Repeat};
+    let err = |e: image::ImageError| format!("{}: {e}", path.display());
+    let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut enc = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
+    enc.set_repeat(Repeat::Infinite).map_err(err)?;
+    for f in frames {
+        let rgba = image::DynamicImage::ImageRgb8(to_rgb8(f, width, height)).to_rgba8();
+        let frame = image::Frame::from_parts(
+            rgba,
+            0,
+            0,
+            image::Delay::from_numer_denom_ms(delay_ms.max(10), 1),
+        );
+        enc.encode_frame(frame).map_err(err)?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

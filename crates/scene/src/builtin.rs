@@ -44,6 +44,7 @@ fn scene(
             notes: vec![format!("built-in scene '{name}'")],
             ..Default::default()
         },
+        animation: None,
     }
 }
 

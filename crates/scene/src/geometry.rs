@@ -28,7 +28,16 @@ pub struct Geometry {
 }
 
 impl Geometry {
+    /// The world-space triangles of `scene`. Mesh culling spheres are the object-space
+    /// minimal spheres transformed by each mesh's transform; for an animated scene the
+    /// object-space spheres are the animation's precomputed ones (valid at every time), so
+    /// a frame costs no miniball at all (thesis §3.2.2).
     pub fn from_scene(scene: &Scene) -> Geometry {
+        let pre = scene
+            .animation
+            .as_ref()
+            .map(|a| a.local_spheres.as_slice())
+            .filter(|s| s.len() == scene.meshes.len());
         let mut g = Geometry::default();
         g.mesh_first.push(0);
         for (mi, m) in scene.meshes.iter().enumerate() {
@@ -52,7 +61,10 @@ impl Geometry {
                 g.mesh.push(mi as u32);
             }
             g.mesh_first.push(g.tris.len() as u32);
-            let local = m.local_bound().unwrap_or_default();
+            let local = match pre {
+                Some(s) => s[mi],
+                None => m.local_bound().unwrap_or_default(),
+            };
             g.mesh_local_sphere.push(local);
             g.mesh_sphere.push(local.transformed(&xf));
         }

@@ -6,6 +6,8 @@
 //! ([`obj`]), glTF 2.0 files ([`gltf_load`]) and TOML scene files ([`scenefile`]) that compose
 //! them. Engines never see a `Scene`: they consume its flattened world-space [`Geometry`].
 
+pub mod aff;
+pub mod anim;
 pub mod builtin;
 pub mod error;
 pub mod geometry;
@@ -78,12 +80,13 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
         Some("obj") => obj::load_obj_scene(path, opts.split)?,
         Some("gltf") | Some("glb") => gltf_load::load_gltf_scene(path)?,
         Some("toml") => scenefile::load_scene_file(path)?,
+        Some("aff") | Some("nff") => aff::load_aff_scene(path)?,
         _ => match builtin::by_name(spec) {
             Some(s) => s,
             None if path.exists() => {
                 return Err(SceneError::Invalid {
                     path: path.to_path_buf(),
-                    msg: "unsupported file type (expected .obj, .gltf, .glb or .toml)".into(),
+                    msg: "unsupported file type (expected .obj, .gltf, .glb, .toml or .aff)".into(),
                 })
             }
             None => {

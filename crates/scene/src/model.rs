@@ -230,6 +230,8 @@ pub struct Scene {
     pub camera: Camera,
     pub background: Vec3,
     pub report: LoadReport,
+    /// Keyframed motion, when the scene is animated ([`Scene::at_time`]).
+    pub animation: Option<crate::anim::Animation>,
 }
 
 impl Scene {
@@ -257,6 +259,7 @@ impl Scene {
             },
             background: Vec3::new(0.1, 0.1, 0.12),
             report,
+            animation: None,
         }
     }
 

@@ -1,0 +1,895 @@
+//! BART's AFF scene files (Lext, Assarsson & Möller 2001: NFF plus includes, a transform
+//! hierarchy with keyframed tracks, triangle meshes and animated triangles).
+//!
+//! Read: `v` (view), `b`, `am`, `l`/`la`, `f`/`fm` materials, `p`, `pp`, `tt`, `ttp`, `c`
+//! (open cone side, 32 segments), `s` (sphere, tessellated), `m` meshes (vertices, normals,
+//! texture coordinates, triangles with per-corner indices), `tpa` animated triangles, `xs`
+//! static and `x` animated transform groups, `k` keyframes (translation, rotation in degrees,
+//! scale, visibility), `a` (animation interval), `i` includes (relative to the including file).
+//! Texture maps are ignored (no textures in the renderer); `la` lights are placed at their
+//! given position; visibility keys are read and ignored. Each `m` block, each transform
+//! group's loose polygons and each group's animated triangles become a separate mesh, so
+//! that every animated object keeps its own transform and bounding sphere.
+//!
+//! Every error names the file and line.
+
+use crate::anim::{Animation, Interp, RotKey, Track, VecKey, VertexKeys, Xform};
+use crate::error::SceneError;
+use crate::model::{smooth_normals, Camera, Light, LoadReport, Material, Mesh, Scene};
+use geom::{Mat4, Quat, Vec3};
+use std::path::{Path, PathBuf};
+
+struct Tok {
+    text: String,
+    line: usize,
+}
+
+fn tokenize(src: &str) -> Vec<Tok> {
+    let mut out = Vec::new();
+    for (ln, line) in src.lines().enumerate() {
+        let line = match line.find(['#', '%']) {
+            Some(i) => &line[..i],
+            None => line,
+        };
+        for w in line.split_whitespace() {
+            // Braces may be glued to other tokens ("{i", "}").
+            let mut rest = w;
+            while !rest.is_empty() {
+                if let Some(i) = rest.find(['{', '}']) {
+                    if i > 0 {
+                        out.push(Tok {
+                            text: rest[..i].to_string(),
+                            line: ln + 1,
+                        });
+                    }
+                    out.push(Tok {
+                        text: rest[i..i + 1].to_string(),
+                        line: ln + 1,
+                    });
+                    rest = &rest[i + 1..];
+                } else {
+                    out.push(Tok {
+                        text: rest.to_string(),
+                        line: ln + 1,
+                    });
+                    rest = "";
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A cursor over one file's tokens.
+struct Cursor<'a> {
+    toks: &'a [Tok],
+    pos: usize,
+    path: &'a Path,
+}
+
+impl Cursor<'_> {
+    fn line(&self) -> usize {
+        self.toks
+            .get(self.pos)
+            .or_else(|| self.toks.last())
+            .map_or(1, |t| t.line)
+    }
+    fn err(&self, msg: impl Into<String>) -> SceneError {
+        SceneError::Parse {
+            path: self.path.to_path_buf(),
+            line: self.line(),
+            msg: msg.into(),
+        }
+    }
+    fn peek(&self) -> Option<&str> {
+        self.toks.get(self.pos).map(|t| t.text.as_str())
+    }
+    fn word(&mut self, what: &str) -> Result<String, SceneError> {
+        match self.toks.get(self.pos) {
+            Some(t) => {
+                self.pos += 1;
+                Ok(t.text.clone())
+            }
+            None => Err(self.err(format!("unexpected end of file: expected {what}"))),
+        }
+    }
+    fn num(&mut self, what: &str) -> Result<f32, SceneError> {
+        let line = self.line();
+        let w = self.word(what)?;
+        match w.parse::<f32>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            Ok(_) => Err(SceneError::Parse {
+                path: self.path.to_path_buf(),
+                line,
+                msg: format!("{what}: '{w}' is not finite"),
+            }),
+            Err(_) => Err(SceneError::Parse {
+                path: self.path.to_path_buf(),
+                line,
+                msg: format!("expected {what} (a number), found '{w}'"),
+            }),
+        }
+    }
+    fn count(&mut self, what: &str, max: usize) -> Result<usize, SceneError> {
+        let line = self.line();
+        let w = self.word(what)?;
+        match w.parse::<usize>() {
+            Ok(n) if n <= max => Ok(n),
+            _ => Err(SceneError::Parse {
+                path: self.path.to_path_buf(),
+                line,
+                msg: format!("expected {what} (a count up to {max}), found '{w}'"),
+            }),
+        }
+    }
+    fn vec3(&mut self, what: &str) -> Result<Vec3, SceneError> {
+        Ok(Vec3::new(self.num(what)?, self.num(what)?, self.num(what)?))
+    }
+    fn expect(&mut self, w: &str) -> Result<(), SceneError> {
+        let line = self.line();
+        let got = self.word(&format!("'{w}'"))?;
+        if got == w {
+            Ok(())
+        } else {
+            Err(SceneError::Parse {
+                path: self.path.to_path_buf(),
+                line,
+                msg: format!("expected '{w}', found '{got}'"),
+            })
+        }
+    }
+    fn is_number(&self) -> bool {
+        self.peek().is_some_and(|w| w.parse::<f32>().is_ok())
+    }
+}
+
+/// Largest element counts accepted (absurd sizes are errors, not allocations).
+const MAX_COUNT: usize = 50_000_000;
+const MAX_INCLUDE_DEPTH: usize = 32;
+
+/// A mesh being collected: loose polygons of one transform group, or an `m` block.
+#[derive(Default)]
+struct Builder {
+    name: String,
+    positions: Vec<Vec3>,
+    normals: Vec<Option<Vec3>>,
+    triangles: Vec<[u32; 3]>,
+    materials: Vec<u32>,
+}
+
+impl Builder {
+    fn add_tri(&mut self, p: [Vec3; 3], n: Option<[Vec3; 3]>, mat: u32) {
+        let b = self.positions.len() as u32;
+        self.positions.extend(p);
+        match n {
+            Some(n) => self.normals.extend(n.map(Some)),
+            None => self.normals.extend([None; 3]),
+        }
+        self.triangles.push([b, b + 1, b + 2]);
+        self.materials.push(mat);
+    }
+    fn add_fan(&mut self, p: &[Vec3], n: Option<&[Vec3]>, mat: u32) {
+        for k in 1..p.len().saturating_sub(1) {
+            let nn = n.map(|n| [n[0], n[k], n[k + 1]]);
+            self.add_tri([p[0], p[k], p[k + 1]], nn, mat);
+        }
+    }
+}
+
+struct Parser {
+    meshes: Vec<Mesh>,
+    chains: Vec<Vec<Xform>>,
+    vertex_keys: Vec<Option<VertexKeys>>,
+    materials: Vec<Material>,
+    current_material: u32,
+    lights: Vec<Light>,
+    camera: Option<Camera>,
+    background: Vec3,
+    /// The current transform chain (outermost first); track links hold names until the end.
+    stack: Vec<Link>,
+    tracks: Vec<Track>,
+    anim: Option<(f32, f32, u32)>,
+    notes: Vec<String>,
+    files: usize,
+    /// Animated triangles of the current group: (key times, per-key positions).
+    tpa: Option<(Vec<f32>, Vec<Vec<Vec3>>, Vec<u32>)>,
+    loose: Builder,
+    include_stack: Vec<PathBuf>,
+}
+
+#[derive(Clone)]
+enum Link {
+    Static(Mat4),
+    Named(String),
+}
+
+impl Parser {
+    fn chain(&self) -> Vec<Link> {
+        self.stack.clone()
+    }
+
+    fn push_mesh(&mut self, b: Builder, keys: Option<VertexKeys>) {
+        if b.triangles.is_empty() {
+            return;
+        }
+        let computed = smooth_normals(&b.positions, &b.triangles);
+        let normals = b
+            .normals
+            .iter()
+            .zip(&computed)
+            .map(|(n, c)| n.map(|n| n.normalize_or(*c)).unwrap_or(*c))
+            .collect();
+        self.meshes.push(Mesh {
+            name: b.name,
+            positions: b.positions,
+            normals,
+            triangles: b.triangles,
+            materials: b.materials,
+            transform: Mat4::IDENTITY,
+        });
+        self.chains.push(
+            self.chain()
+                .into_iter()
+                .map(|l| match l {
+                    Link::Static(m) => Xform::Static(m),
+                    // Resolved to track indices in `finish`; u32::MAX marks "by name".
+                    Link::Named(n) => {
+                        let i = self.tracks.iter().position(|t| t.name == n);
+                        match i {
+                            Some(i) => Xform::Track(i as u32),
+                            None => {
+                                self.tracks.push(Track {
+                                    name: n,
+                                    translation: vec![],
+                                    rotation: vec![],
+                                    scale: vec![],
+                                    interp: Interp::KochanekBartels,
+                                    looping: false,
+                                });
+                                Xform::Track(self.tracks.len() as u32 - 1)
+                            }
+                        }
+                    }
+                })
+                .collect(),
+        );
+        self.vertex_keys.push(keys);
+    }
+
+    /// Close the current group's loose polygons and animated triangles as meshes.
+    fn flush(&mut self, label: &str) {
+        let b = std::mem::take(&mut self.loose);
+        let name = format!("{label} #{}", self.meshes.len());
+        self.push_mesh(Builder { name, ..b }, None);
+        if let Some((times, keys, mats)) = self.tpa.take() {
+            let n = keys.first().map_or(0, |k| k.len());
+            let triangles: Vec<[u32; 3]> = (0..n as u32 / 3)
+                .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+                .collect();
+            let b = Builder {
+                name: format!("{label} animated triangles #{}", self.meshes.len()),
+                positions: keys[0].clone(),
+                normals: vec![None; n],
+                triangles,
+                materials: mats,
+            };
+            self.push_mesh(
+                b,
+                Some(VertexKeys {
+                    times,
+                    positions: keys,
+                }),
+            );
+        }
+    }
+
+    fn file(&mut self, path: &Path) -> Result<(), SceneError> {
+        if self.include_stack.len() >= MAX_INCLUDE_DEPTH {
+            return Err(SceneError::invalid(
+                path,
+                format!("includes nested deeper than {MAX_INCLUDE_DEPTH} (a cycle?)"),
+            ));
+        }
+        // Some BART files carry Latin-1 bytes in comments; the syntax itself is ASCII.
+        let bytes = std::fs::read(path).map_err(|e| SceneError::Io {
+            path: path.to_path_buf(),
+            cause: e,
+        })?;
+        let src = String::from_utf8_lossy(&bytes);
+        self.files += 1;
+        self.include_stack.push(path.to_path_buf());
+        let toks = tokenize(&src);
+        let mut c = Cursor {
+            toks: &toks,
+            pos: 0,
+            path,
+        };
+        let label = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let depth0 = self.stack.len();
+        self.block(&mut c, &label, depth0, path)?;
+        if self.stack.len() != depth0 {
+            return Err(c.err("unclosed '{' at end of file"));
+        }
+        self.flush(&label);
+        self.include_stack.pop();
+        Ok(())
+    }
+
+    fn block(
+        &mut self,
+        c: &mut Cursor,
+        label: &str,
+        depth0: usize,
+        path: &Path,
+    ) -> Result<(), SceneError> {
+        while let Some(w) = c.peek() {
+            let w = w.to_string();
+            let line = c.line();
+            c.pos += 1;
+            let mat = self.current_material;
+            match w.as_str() {
+                "v" => {
+                    c.expect("from")?;
+                    let eye = c.vec3("from")?;
+                    c.expect("at")?;
+                    let target = c.vec3("at")?;
+                    c.expect("up")?;
+                    let up = c.vec3("up")?;
+                    c.expect("angle")?;
+                    let vfov = c.num("angle")?;
+                    c.expect("hither")?;
+                    c.num("hither")?;
+                    c.expect("resolution")?;
+                    c.num("resolution")?;
+                    c.num("resolution")?;
+                    if !(vfov > 0.0 && vfov < 180.0) || (target - eye).length() == 0.0 {
+                        return Err(SceneError::Parse {
+                            path: path.to_path_buf(),
+                            line,
+                            msg: "view: angle must be in (0, 180) and 'at' differ from 'from'"
+                                .into(),
+                        });
+                    }
+                    self.camera = Some(Camera {
+                        eye,
+                        target,
+                        up,
+                        vfov,
+                    });
+                }
+                "b" => self.background = c.vec3("background colour")?,
+                "am" => {
+                    c.vec3("ambient colour")?;
+                }
+                "l" | "la" => {
+                    if w == "la" {
+                        c.word("light name")?;
+                        self.notes
+                            .push("animated lights placed at their given position".into());
+                    }
+                    let p = c.vec3("light position")?;
+                    let col = if c.is_number() {
+                        c.vec3("light colour")?
+                    } else {
+                        Vec3::ONE
+                    };
+                    self.lights.push(Light {
+                        position: p,
+                        color: col,
+                        intensity: 1.0,
+                        attenuation: [1.0, 0.0, 0.0],
+                    });
+                }
+                "f" => {
+                    let col = c.vec3("fill colour")?;
+                    let kd = c.num("Kd")?;
+                    let ks = c.num("Ks")?;
+                    let shine = c.num("shine")?;
+                    let t = c.num("transmittance")?;
+                    let ior = c.num("index of refraction")?;
+                    self.material(col * kd, Vec3::splat(ks), shine, t, ior);
+                }
+                "fm" => {
+                    c.vec3("ambient")?;
+                    let d = c.vec3("diffuse")?;
+                    let s = c.vec3("specular")?;
+                    let shine = c.num("shine")?;
+                    let t = c.num("transmittance")?;
+                    let ior = c.num("index of refraction")?;
+                    self.material(d, s, shine, t, ior);
+                }
+                "p" | "pp" => {
+                    let n = c.count("vertex count", 1 << 20)?;
+                    let mut ps = Vec::with_capacity(n);
+                    let mut ns = Vec::with_capacity(n);
+                    for _ in 0..n {
+                        ps.push(c.vec3("polygon vertex")?);
+                        if w == "pp" {
+                            ns.push(c.vec3("polygon normal")?);
+                        }
+                    }
+                    self.loose.add_fan(&ps, (w == "pp").then_some(&ns[..]), mat);
+                }
+                "tt" | "ttp" => {
+                    c.word("texture name")?;
+                    let mut ps = [Vec3::ZERO; 3];
+                    let mut ns = [Vec3::ZERO; 3];
+                    for k in 0..3 {
+                        ps[k] = c.vec3("triangle vertex")?;
+                        if w == "ttp" {
+                            ns[k] = c.vec3("triangle normal")?;
+                        }
+                        c.num("texture u")?;
+                        c.num("texture v")?;
+                    }
+                    self.loose.add_tri(ps, (w == "ttp").then_some(ns), mat);
+                }
+                "c" => {
+                    let b = c.vec3("cone base")?;
+                    let r0 = c.num("base radius")?.abs();
+                    let a = c.vec3("cone apex")?;
+                    let r1 = c.num("apex radius")?.abs();
+                    if (a - b).length() == 0.0 {
+                        return Err(SceneError::Parse {
+                            path: path.to_path_buf(),
+                            line,
+                            msg: "cone: base and apex coincide".into(),
+                        });
+                    }
+                    cone(&mut self.loose, b, r0, a, r1, mat);
+                }
+                "s" => {
+                    let ctr = c.vec3("sphere centre")?;
+                    let r = c.num("sphere radius")?.abs();
+                    sphere(&mut self.loose, ctr, r, mat);
+                }
+                "m" => self.mesh(c, label, mat)?,
+                "tpa" => {
+                    let nk = c.count("key count", 1 << 16)?;
+                    let mut times = Vec::with_capacity(nk);
+                    let mut pos = Vec::with_capacity(nk);
+                    for _ in 0..nk {
+                        times.push(c.num("key time")?);
+                        let mut p = [Vec3::ZERO; 3];
+                        for v in &mut p {
+                            *v = c.vec3("animated vertex")?;
+                            c.vec3("animated normal")?;
+                        }
+                        pos.push(p);
+                    }
+                    if nk == 0 || times.windows(2).any(|w| w[1] < w[0]) {
+                        return Err(SceneError::Parse {
+                            path: path.to_path_buf(),
+                            line,
+                            msg: "tpa: key times must be given and increasing".into(),
+                        });
+                    }
+                    // All animated triangles of one group share the key times (BART's do);
+                    // otherwise the group is split.
+                    if self.tpa.as_ref().is_some_and(|(t, _, _)| *t != times) {
+                        let b = std::mem::take(&mut self.loose);
+                        self.flush(label);
+                        self.loose = b;
+                    }
+                    let e = self
+                        .tpa
+                        .get_or_insert_with(|| (times.clone(), vec![Vec::new(); nk], Vec::new()));
+                    for (k, p) in pos.iter().enumerate() {
+                        e.1[k].extend_from_slice(p);
+                    }
+                    e.2.push(mat);
+                }
+                "xs" => {
+                    let s = c.vec3("scale")?;
+                    let axis = c.vec3("rotation axis")?;
+                    let deg = c.num("rotation angle")?;
+                    let t = c.vec3("translation")?;
+                    c.expect("{")?;
+                    let m = Mat4::from_scale_rotation_translation(s, axis_angle(axis, deg), t);
+                    self.flush(label);
+                    self.stack.push(Link::Static(m));
+                }
+                "x" => {
+                    let name = c.word("transform name")?;
+                    c.expect("{")?;
+                    self.flush(label);
+                    self.stack.push(Link::Named(name));
+                }
+                "}" => {
+                    if self.stack.len() <= depth0 {
+                        return Err(SceneError::Parse {
+                            path: path.to_path_buf(),
+                            line,
+                            msg: "'}' without a matching '{'".into(),
+                        });
+                    }
+                    self.flush(label);
+                    self.stack.pop();
+                }
+                "k" => self.keys(c)?,
+                "a" => {
+                    let s = c.num("animation start")?;
+                    let e = c.num("animation end")?;
+                    let n = c.count("frame count", 1 << 20)?;
+                    if e < s {
+                        return Err(SceneError::Parse {
+                            path: path.to_path_buf(),
+                            line,
+                            msg: format!("animation end {e} is before its start {s}"),
+                        });
+                    }
+                    self.anim = Some((s, e, n as u32));
+                }
+                "i" => {
+                    c.num("detail level")?;
+                    let f = c.word("include file name")?;
+                    let p = path.parent().unwrap_or(Path::new(".")).join(&f);
+                    if !p.exists() {
+                        return Err(SceneError::Parse {
+                            path: path.to_path_buf(),
+                            line,
+                            msg: format!("included file {} does not exist", p.display()),
+                        });
+                    }
+                    self.flush(label);
+                    self.file(&p)?;
+                }
+                other => {
+                    return Err(SceneError::Parse {
+                        path: path.to_path_buf(),
+                        line,
+                        msg: format!("unknown AFF entity '{other}'"),
+                    })
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn material(&mut self, d: Vec3, s: Vec3, shine: f32, t: f32, ior: f32) {
+        let transparent = t > 0.0 && ior > 0.0;
+        let m = Material {
+            name: format!("aff{}", self.materials.len()),
+            diffuse: d,
+            specular: s,
+            shininess: shine.max(1.0),
+            reflectivity: 0.0,
+            transparency: if transparent { t.min(1.0) } else { 0.0 },
+            ior: if transparent { ior } else { 1.0 },
+            emission: Vec3::ZERO,
+        };
+        self.current_material = match self.materials.iter().position(|x| {
+            x.diffuse == m.diffuse
+                && x.specular == m.specular
+                && x.shininess == m.shininess
+                && x.transparency == m.transparency
+                && x.ior == m.ior
+        }) {
+            Some(i) => i as u32,
+            None => {
+                self.materials.push(m);
+                self.materials.len() as u32 - 1
+            }
+        };
+    }
+
+    fn mesh(&mut self, c: &mut Cursor, label: &str, mat: u32) -> Result<(), SceneError> {
+        c.expect("vertices")?;
+        let nv = c.count("vertex count", MAX_COUNT)?;
+        let mut pos = Vec::with_capacity(nv);
+        for _ in 0..nv {
+            pos.push(c.vec3("mesh vertex")?);
+        }
+        let mut normals: Vec<Vec3> = Vec::new();
+        let mut ntex = 0usize;
+        loop {
+            match c.peek() {
+                Some("normals") => {
+                    c.pos += 1;
+                    let n = c.count("normal count", MAX_COUNT)?;
+                    for _ in 0..n {
+                        normals.push(c.vec3("mesh normal")?);
+                    }
+                }
+                Some("texturecoords") => {
+                    c.pos += 1;
+                    ntex = c.count("texture coordinate count", MAX_COUNT)?;
+                    c.word("texture name")?;
+                    for _ in 0..ntex {
+                        c.num("texture u")?;
+                        c.num("texture v")?;
+                    }
+                }
+                _ => break,
+            }
+        }
+        c.expect("triangles")?;
+        let nt = c.count("triangle count", MAX_COUNT)?;
+        let mut b = Builder {
+            name: format!("{label} mesh #{}", self.meshes.len()),
+            ..Default::default()
+        };
+        for _ in 0..nt {
+            let line = c.line();
+            let mut idx = [0usize; 3];
+            for v in &mut idx {
+                *v = c.count("vertex index", MAX_COUNT)?;
+            }
+            let mut nidx = None;
+            if !normals.is_empty() {
+                let mut n = [0usize; 3];
+                for v in &mut n {
+                    *v = c.count("normal index", MAX_COUNT)?;
+                }
+                nidx = Some(n);
+            }
+            if ntex > 0 {
+                for _ in 0..3 {
+                    c.count("texture index", MAX_COUNT)?;
+                }
+            }
+            let bad =
+                idx.iter().find(|&&i| i >= nv).copied().or_else(|| {
+                    nidx.and_then(|n| n.iter().find(|&&i| i >= normals.len()).copied())
+                });
+            if let Some(i) = bad {
+                return Err(SceneError::Parse {
+                    path: c.path.to_path_buf(),
+                    line,
+                    msg: format!(
+                        "mesh index {i} out of range ({nv} vertices, {} normals)",
+                        normals.len()
+                    ),
+                });
+            }
+            let p = idx.map(|i| pos[i]);
+            b.add_tri(p, nidx.map(|n| n.map(|i| normals[i])), mat);
+        }
+        self.push_mesh(b, None);
+        Ok(())
+    }
+
+    fn keys(&mut self, c: &mut Cursor) -> Result<(), SceneError> {
+        let name = c.word("keyframe name")?;
+        c.expect("{")?;
+        let mut tr = Track {
+            name: name.clone(),
+            translation: vec![],
+            rotation: vec![],
+            scale: vec![],
+            interp: Interp::KochanekBartels,
+            looping: false,
+        };
+        loop {
+            let line = c.line();
+            let w = c.word("'transl', 'rot', 'scale', 'visibility' or '}'")?;
+            match w.as_str() {
+                "}" => break,
+                "transl" | "scale" => {
+                    let n = c.count("key count", 1 << 20)?;
+                    let mut v = Vec::with_capacity(n);
+                    for _ in 0..n {
+                        let t = c.num("key time")?;
+                        let x = c.vec3(&w)?;
+                        let tcb = [c.num("tension")?, c.num("continuity")?, c.num("bias")?];
+                        v.push(VecKey { t, v: x, tcb });
+                    }
+                    if w == "transl" {
+                        tr.translation = v;
+                    } else {
+                        tr.scale = v;
+                    }
+                }
+                "rot" => {
+                    let n = c.count("key count", 1 << 20)?;
+                    for _ in 0..n {
+                        let t = c.num("key time")?;
+                        let axis = c.vec3("rotation axis")?;
+                        let deg = c.num("rotation angle")?;
+                        let tcb = [c.num("tension")?, c.num("continuity")?, c.num("bias")?];
+                        tr.rotation.push(RotKey {
+                            t,
+                            q: axis_angle(axis, deg),
+                            tcb,
+                        });
+                    }
+                }
+                "visibility" => {
+                    let n = c.count("key count", 1 << 20)?;
+                    for _ in 0..n {
+                        c.num("key time")?;
+                        c.num("visibility")?;
+                    }
+                }
+                other => {
+                    return Err(SceneError::Parse {
+                        path: c.path.to_path_buf(),
+                        line,
+                        msg: format!("unknown keyframe channel '{other}' in 'k {name}'"),
+                    })
+                }
+            }
+        }
+        for keys in [
+            tr.translation.iter().map(|k| k.t).collect::<Vec<_>>(),
+            tr.rotation.iter().map(|k| k.t).collect(),
+            tr.scale.iter().map(|k| k.t).collect(),
+        ] {
+            // Equal times occur in BART Kitchen (the toy car's wheels): allowed, the later
+            // key wins from that instant on. Decreasing times are an error.
+            if keys.windows(2).any(|w| w[1] < w[0]) {
+                return Err(c.err(format!("keyframes of '{name}': key times decrease")));
+            }
+        }
+        match self.tracks.iter_mut().find(|t| t.name == name) {
+            Some(t) => *t = tr,
+            None => self.tracks.push(tr),
+        }
+        Ok(())
+    }
+}
+
+fn axis_angle(axis: Vec3, deg: f32) -> Quat {
+    let a = axis.normalize_or_zero();
+    if a == Vec3::ZERO || deg == 0.0 {
+        Quat::IDENTITY
+    } else {
+        Quat::from_axis_angle(a, deg.to_radians())
+    }
+}
+
+/// The open side wall of a cone or cylinder (NFF cones have no caps), 32 segments.
+fn cone(b: &mut Builder, base: Vec3, r0: f32, apex: Vec3, r1: f32, mat: u32) {
+    const N: usize = 32;
+    let axis = (apex - base).normalize();
+    let (u, v) = axis.any_orthonormal_pair();
+    let ring = |c: Vec3, r: f32, k: usize| {
+        let a = std::f32::consts::TAU * k as f32 / N as f32;
+        c + r * (a.cos() * u + a.sin() * v)
+    };
+    for k in 0..N {
+        let (p0, p1) = (ring(base, r0, k), ring(base, r0, k + 1));
+        let (q0, q1) = (ring(apex, r1, k), ring(apex, r1, k + 1));
+        for t in [[p0, p1, q1], [p0, q1, q0]] {
+            if !geom::tri::is_degenerate(t[0], t[1], t[2]) {
+                b.add_tri(t, None, mat);
+            }
+        }
+    }
+}
+
+/// A UV sphere (16 stacks × 32 slices).
+fn sphere(b: &mut Builder, c: Vec3, r: f32, mat: u32) {
+    const S: usize = 16;
+    const L: usize = 32;
+    let p = |i: usize, j: usize| {
+        let th = std::f32::consts::PI * i as f32 / S as f32;
+        let ph = std::f32::consts::TAU * j as f32 / L as f32;
+        c + r * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin())
+    };
+    for i in 0..S {
+        for j in 0..L {
+            for t in [
+                [p(i, j), p(i + 1, j), p(i + 1, j + 1)],
+                [p(i, j), p(i + 1, j + 1), p(i, j + 1)],
+            ] {
+                if !geom::tri::is_degenerate(t[0], t[1], t[2]) {
+                    b.add_tri(t, None, mat);
+                }
+            }
+        }
+    }
+}
+
+/// Load a BART/NFF scene: `path` is the top-level `.aff` (or `.nff`) file.
+pub fn load_aff_scene(path: &Path) -> Result<Scene, SceneError> {
+    let t0 = std::time::Instant::now();
+    let mut p = Parser {
+        meshes: vec![],
+        chains: vec![],
+        vertex_keys: vec![],
+        materials: vec![Material::default()],
+        current_material: 0,
+        lights: vec![],
+        camera: None,
+        background: Vec3::ZERO,
+        stack: vec![],
+        tracks: vec![],
+        anim: None,
+        notes: vec![],
+        files: 0,
+        tpa: None,
+        loose: Builder::default(),
+        include_stack: vec![],
+    };
+    p.file(path)?;
+    let mut degenerate = 0;
+    // Drop degenerate triangles of rigid meshes (animated triangles may be degenerate at
+    // some keys and not others; they stay).
+    for (m, k) in p.meshes.iter_mut().zip(&p.vertex_keys) {
+        if k.is_none() {
+            degenerate += m.remove_degenerate();
+        }
+    }
+    let keep: Vec<bool> = p.meshes.iter().map(|m| !m.triangles.is_empty()).collect();
+    let mut it = keep.iter();
+    p.meshes.retain(|_| *it.next().unwrap());
+    let mut it = keep.iter();
+    p.chains.retain(|_| *it.next().unwrap());
+    let mut it = keep.iter();
+    p.vertex_keys.retain(|_| *it.next().unwrap());
+    if p.meshes.is_empty() {
+        return Err(SceneError::Empty {
+            path: path.to_path_buf(),
+            detail: String::new(),
+        });
+    }
+    let mut notes = vec![format!("BART AFF, {} files", p.files)];
+    notes.extend(
+        p.notes
+            .iter()
+            .cloned()
+            .collect::<std::collections::BTreeSet<_>>(),
+    );
+    let report = LoadReport {
+        source: Some(path.to_path_buf()),
+        degenerate_skipped: degenerate,
+        load_seconds: t0.elapsed().as_secs_f64(),
+        notes,
+        ..Default::default()
+    };
+    let mut scene = Scene::from_file(path, p.meshes, p.materials, report);
+    scene.background = p.background;
+    scene.lights = p.lights;
+    let bounds = scene.bounds();
+    scene.camera = p.camera.unwrap_or_else(|| Camera::framing(&bounds));
+    // Light intensity: BART colours are already radiance-like; the thesis's attenuation is
+    // off (c = 1). Dim many lights so that the sum stays in range.
+    let n = scene.lights.len().max(1) as f32;
+    for l in &mut scene.lights {
+        l.intensity = (2.0 / n).min(1.0);
+    }
+    let animated = p.anim.is_some()
+        || p.tracks.iter().any(|t| t.name == "camera")
+        || p.chains
+            .iter()
+            .flatten()
+            .any(|x| matches!(x, Xform::Track(_)))
+        || p.vertex_keys.iter().any(Option::is_some);
+    if animated {
+        let (start, end, frames) = p.anim.unwrap_or((0.0, 1.0, 30));
+        let camera = p
+            .tracks
+            .iter()
+            .position(|t| t.name == "camera")
+            .map(|i| i as u32);
+        let local_spheres = scene
+            .meshes
+            .iter()
+            .zip(&p.vertex_keys)
+            .map(|(m, k)| match k {
+                Some(k) => {
+                    let all: Vec<Vec3> = k.positions.iter().flatten().copied().collect();
+                    geom::miniball::minimal_ball(&all).unwrap_or_default()
+                }
+                None => m.local_bound().unwrap_or_default(),
+            })
+            .collect();
+        scene.animation = Some(Animation {
+            start,
+            end,
+            frames,
+            tracks: p.tracks,
+            chains: p.chains,
+            vertex_keys: p.vertex_keys,
+            camera,
+            local_spheres,
+        });
+        // The scene as loaded is its first frame.
+        scene = scene.at_time(start);
+    }
+    Ok(scene)
+}

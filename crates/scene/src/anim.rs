@@ -1,0 +1,400 @@
+//! Animation: keyframed rigid transforms per mesh (a transform chain of static matrices and
+//! named tracks), vertex-animated meshes, and an animated camera. [`Scene::at_time`] turns an
+//! animated scene into the static scene of one instant, which every engine then rebuilds
+//! its structures for (the papers' per-frame rebuild).
+//!
+//! Tracks follow BART (Lext et al. 2001), whose keys are Kochanek–Bartels splines: positions
+//! and scales as cubic Hermite segments with TCB tangents, rotations as a squad spline of
+//! quaternions. As in BART's `kbsplpos.c`/`kbsplrot.c`, the first and last key only shape the
+//! tangents: the curve runs from key 1 to key n−2 and is clamped outside. Tracks with fewer
+//! than four keys, and tracks from TOML scene files, interpolate linearly (rotations by slerp).
+
+use crate::model::{smooth_normals, Camera, Scene};
+use geom::{Mat4, Quat, Sphere, Vec3};
+
+/// One key of a vector track (translation or scale).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VecKey {
+    pub t: f32,
+    pub v: Vec3,
+    /// Kochanek–Bartels tension, continuity, bias.
+    pub tcb: [f32; 3],
+}
+
+/// One key of a rotation track: a unit quaternion (from BART's axis + angle in degrees).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RotKey {
+    pub t: f32,
+    pub q: Quat,
+    pub tcb: [f32; 3],
+}
+
+/// How a track interpolates between keys.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interp {
+    /// BART: Kochanek–Bartels (4 keys or more; fewer fall back to linear).
+    KochanekBartels,
+    /// Linear translation and scale, slerp rotation.
+    Linear,
+}
+
+/// A named rigid-motion track: translation, rotation and scale, each optional; the matrix is
+/// T·R·S (BART's order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Track {
+    pub name: String,
+    pub translation: Vec<VecKey>,
+    pub rotation: Vec<RotKey>,
+    pub scale: Vec<VecKey>,
+    pub interp: Interp,
+    /// Repeat the keyed interval forever (TOML `loop = true`); BART tracks clamp.
+    pub looping: bool,
+}
+
+/// One link of a mesh's transform chain, outermost first.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Xform {
+    Static(Mat4),
+    /// Index into [`Animation::tracks`].
+    Track(u32),
+}
+
+/// Vertex animation of one mesh: positions at key times, linearly interpolated, clamped.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexKeys {
+    pub times: Vec<f32>,
+    /// `positions[k]` has one entry per mesh vertex.
+    pub positions: Vec<Vec<Vec3>>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Animation {
+    /// The animation interval and its suggested frame count (BART's `a` line).
+    pub start: f32,
+    pub end: f32,
+    pub frames: u32,
+    pub tracks: Vec<Track>,
+    /// Per mesh (same order as [`Scene::meshes`]): the transform chain, outermost first.
+    /// An empty chain leaves the mesh's own `transform`.
+    pub chains: Vec<Vec<Xform>>,
+    /// Per mesh: vertex animation, if any.
+    pub vertex_keys: Vec<Option<VertexKeys>>,
+    /// The camera's track (BART: the track named "camera"): translation = eye; the rotation
+    /// turns the default view (looking along −z, y up).
+    pub camera: Option<u32>,
+    /// Object-space culling sphere of each mesh, valid at every time: the minimal ball of
+    /// the mesh's vertices, or for vertex-animated meshes of all key positions together (an
+    /// interpolated vertex lies on a segment between two key positions, inside the ball).
+    pub local_spheres: Vec<Sphere>,
+}
+
+fn lerp_keys<T: Copy>(
+    keys: &[T],
+    time: impl Fn(&T) -> f32,
+    t: f32,
+    mix: impl Fn(&T, &T, f32) -> T,
+) -> Option<T> {
+    let first = keys.first()?;
+    if keys.len() == 1 || t <= time(first) {
+        return Some(*first);
+    }
+    let last = keys.last()?;
+    if t >= time(last) {
+        return Some(*last);
+    }
+    let i = keys
+        .partition_point(|k| time(k) <= t)
+        .clamp(1, keys.len() - 1);
+    let (a, b) = (&keys[i - 1], &keys[i]);
+    let span = time(b) - time(a);
+    let u = if span > 0.0 {
+        (t - time(a)) / span
+    } else {
+        1.0
+    };
+    Some(mix(a, b, u))
+}
+
+/// Segment index i (curve between keys i and i+1, 1 ≤ i ≤ n−3) and parameter u ∈ [0, 1] for
+/// time `t`, clamped as in BART.
+fn kb_segment(times: &[f32], t: f32) -> (usize, f32) {
+    let n = times.len();
+    if t <= times[1] {
+        return (1, 0.0);
+    }
+    if t >= times[n - 2] {
+        return (n - 3, 1.0);
+    }
+    let mut i = 1;
+    while i < n - 3 && t >= times[i + 1] {
+        i += 1;
+    }
+    let span = times[i + 1] - times[i];
+    (
+        i,
+        if span > 0.0 {
+            (t - times[i]) / span
+        } else {
+            1.0
+        },
+    )
+}
+
+/// Outgoing and incoming TCB tangent multipliers for the segment (i1, i2) (Kochanek &
+/// Bartels 1984, with BART's time adjustment for uneven key spacing).
+fn kb_multipliers(t: [f32; 4], k1: [f32; 3], k2: [f32; 3]) -> ([f32; 2], [f32; 2]) {
+    // Coincident key times would divide by zero; such a key gets no time adjustment.
+    let ratio = |a: f32, b: f32| if b > 0.0 { a / b } else { 0.5 };
+    let adj0 = 2.0 * ratio(t[2] - t[1], t[2] - t[0]);
+    let adj1 = 2.0 * ratio(t[2] - t[1], t[3] - t[1]);
+    let [te0, c0, b0] = k1;
+    let [te1, c1, b1] = k2;
+    let out0 = 0.5 * adj0 * (1.0 - te0) * (1.0 + c0) * (1.0 + b0);
+    let out1 = 0.5 * adj0 * (1.0 - te0) * (1.0 - c0) * (1.0 - b0);
+    let in0 = 0.5 * adj1 * (1.0 - te1) * (1.0 - c1) * (1.0 + b1);
+    let in1 = 0.5 * adj1 * (1.0 - te1) * (1.0 + c1) * (1.0 - b1);
+    ([out0, out1], [in0, in1])
+}
+
+fn eval_vec(keys: &[VecKey], interp: Interp, t: f32) -> Option<Vec3> {
+    if interp == Interp::Linear || keys.len() < 4 {
+        return lerp_keys(
+            keys,
+            |k| k.t,
+            t,
+            |a, b, u| VecKey {
+                t,
+                v: a.v.lerp(b.v, u),
+                tcb: a.tcb,
+            },
+        )
+        .map(|k| k.v);
+    }
+    let times: Vec<f32> = keys.iter().map(|k| k.t).collect();
+    let (i, u) = kb_segment(&times, t);
+    let (p0, p1, p2, p3) = (keys[i - 1].v, keys[i].v, keys[i + 1].v, keys[i + 2].v);
+    let (o, n) = kb_multipliers(
+        [times[i - 1], times[i], times[i + 1], times[i + 2]],
+        keys[i].tcb,
+        keys[i + 1].tcb,
+    );
+    let dp = p2 - p1;
+    let tout = o[1] * dp + o[0] * (p1 - p0);
+    let tin = n[1] * (p3 - p2) + n[0] * dp;
+    // Hermite cubic C0 + C1 u + C2 u² + C3 u³.
+    let c2 = 3.0 * dp - 2.0 * tout - tin;
+    let c3 = -2.0 * dp + tout + tin;
+    Some(p1 + u * (tout + u * (c2 + u * c3)))
+}
+
+fn qlog(q: Quat) -> Quat {
+    // log of a unit quaternion: (θ·axis, 0) where q = (cos θ, sin θ·axis).
+    let v = Vec3::new(q.x, q.y, q.z);
+    let s = v.length();
+    if s < 1e-6 {
+        return Quat::from_xyzw(v.x, v.y, v.z, 0.0);
+    }
+    let th = s.atan2(q.w);
+    let k = th / s;
+    Quat::from_xyzw(v.x * k, v.y * k, v.z * k, 0.0)
+}
+
+fn qexp(q: Quat) -> Quat {
+    let v = Vec3::new(q.x, q.y, q.z);
+    let th = v.length();
+    if th < 1e-6 {
+        return Quat::from_xyzw(v.x, v.y, v.z, 1.0).normalize();
+    }
+    let k = th.sin() / th;
+    Quat::from_xyzw(v.x * k, v.y * k, v.z * k, th.cos())
+}
+
+fn qscale(q: Quat, s: f32) -> Quat {
+    Quat::from_xyzw(q.x * s, q.y * s, q.z * s, q.w * s)
+}
+
+fn eval_rot(keys: &[RotKey], interp: Interp, t: f32) -> Option<Quat> {
+    if interp == Interp::Linear || keys.len() < 4 {
+        return lerp_keys(
+            keys,
+            |k| k.t,
+            t,
+            |a, b, u| RotKey {
+                t,
+                q: a.q.slerp(b.q, u),
+                tcb: a.tcb,
+            },
+        )
+        .map(|k| k.q);
+    }
+    let times: Vec<f32> = keys.iter().map(|k| k.t).collect();
+    let (i, u) = kb_segment(&times, t);
+    let q0 = keys[i - 1].q;
+    let q1 = keys[i].q;
+    let mut q2 = keys[i + 1].q;
+    let q3 = keys[i + 2].q;
+    // Consecutive quaternions at an acute angle (kbsplrot.c).
+    if q1.dot(q2) < 0.0 {
+        q2 = -q2;
+    }
+    let logdq = qlog(q1.inverse() * q2);
+    let (o, n) = kb_multipliers(
+        [times[i - 1], times[i], times[i + 1], times[i + 2]],
+        keys[i].tcb,
+        keys[i + 1].tcb,
+    );
+    let tout = qscale(logdq, o[1]) + qscale(qlog(q0.inverse() * q1), o[0]);
+    let tin = qscale(logdq, n[0]) + qscale(qlog(q2.inverse() * q3), n[1]);
+    let a = q1 * qexp(qscale(tout - logdq, 0.5));
+    let b = q2 * qexp(qscale(logdq - tin, 0.5));
+    // Squad(u; q1, a, b, q2) = Slerp(2u(1−u); Slerp(u; q1, q2), Slerp(u; a, b)).
+    let s1 = slerp_raw(q1, q2, u);
+    let s2 = slerp_raw(a, b, u);
+    Some(slerp_raw(s1, s2, 2.0 * u * (1.0 - u)).normalize())
+}
+
+/// Slerp without shortest-path flipping (squad needs the arcs as given).
+fn slerp_raw(a: Quat, b: Quat, u: f32) -> Quat {
+    let d = a.dot(b).clamp(-1.0, 1.0);
+    let th = d.acos();
+    if th.abs() < 1e-5 {
+        return qscale(a, 1.0 - u) + qscale(b, u);
+    }
+    let s = th.sin();
+    qscale(a, ((1.0 - u) * th).sin() / s) + qscale(b, (u * th).sin() / s)
+}
+
+impl Track {
+    fn local_time(&self, t: f32) -> f32 {
+        if !self.looping {
+            return t;
+        }
+        let all = self
+            .translation
+            .iter()
+            .map(|k| k.t)
+            .chain(self.rotation.iter().map(|k| k.t))
+            .chain(self.scale.iter().map(|k| k.t));
+        let (lo, hi) = all.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
+        if hi > lo {
+            lo + (t - lo).rem_euclid(hi - lo)
+        } else {
+            t
+        }
+    }
+
+    /// Translation, rotation and scale at time `t` (identity parts where a channel is absent).
+    pub fn trs(&self, t: f32) -> (Vec3, Quat, Vec3) {
+        let t = self.local_time(t);
+        (
+            eval_vec(&self.translation, self.interp, t).unwrap_or(Vec3::ZERO),
+            eval_rot(&self.rotation, self.interp, t).unwrap_or(Quat::IDENTITY),
+            eval_vec(&self.scale, self.interp, t).unwrap_or(Vec3::ONE),
+        )
+    }
+
+    /// T·R·S at time `t`.
+    pub fn matrix(&self, t: f32) -> Mat4 {
+        let (tr, r, s) = self.trs(t);
+        Mat4::from_scale_rotation_translation(s, r, tr)
+    }
+}
+
+impl Animation {
+    /// The world transform of mesh `m` at time `t` (None: the mesh's own transform).
+    pub fn mesh_transform(&self, m: usize, t: f32) -> Option<Mat4> {
+        let chain = self.chains.get(m)?;
+        if chain.is_empty() {
+            return None;
+        }
+        Some(chain.iter().fold(Mat4::IDENTITY, |acc, x| {
+            acc * match x {
+                Xform::Static(s) => *s,
+                Xform::Track(i) => self.tracks[*i as usize].matrix(t),
+            }
+        }))
+    }
+
+    /// The times of `n` frames spread evenly over [start, end] (BART's `a` line).
+    pub fn frame_times(&self, n: u32) -> Vec<f32> {
+        (0..n)
+            .map(|i| {
+                if n <= 1 {
+                    self.start
+                } else {
+                    self.start + (self.end - self.start) * i as f32 / (n - 1) as f32
+                }
+            })
+            .collect()
+    }
+}
+
+impl VertexKeys {
+    pub fn at(&self, t: f32) -> Vec<Vec3> {
+        let n = self.times.len();
+        if n == 1 || t <= self.times[0] {
+            return self.positions[0].clone();
+        }
+        if t >= self.times[n - 1] {
+            return self.positions[n - 1].clone();
+        }
+        let i = self.times.partition_point(|&x| x <= t).clamp(1, n - 1);
+        let span = self.times[i] - self.times[i - 1];
+        let u = if span > 0.0 {
+            (t - self.times[i - 1]) / span
+        } else {
+            1.0
+        };
+        self.positions[i - 1]
+            .iter()
+            .zip(&self.positions[i])
+            .map(|(a, b)| a.lerp(*b, u))
+            .collect()
+    }
+}
+
+impl Scene {
+    /// The static scene at time `t`: mesh transforms from their chains, vertex-animated
+    /// positions (with recomputed smooth normals), the animated camera. A scene without
+    /// animation is returned unchanged.
+    pub fn at_time(&self, t: f32) -> Scene {
+        let mut s = self.clone();
+        let Some(a) = &self.animation else {
+            return s;
+        };
+        for (m, mesh) in s.meshes.iter_mut().enumerate() {
+            if let Some(x) = a.mesh_transform(m, t) {
+                mesh.transform = x;
+            }
+            if let Some(Some(vk)) = a.vertex_keys.get(m) {
+                mesh.positions = vk.at(t);
+                mesh.normals = smooth_normals(&mesh.positions, &mesh.triangles);
+            }
+        }
+        if let Some(ci) = a.camera {
+            let tr = &a.tracks[ci as usize];
+            let (pos, rot, _) = tr.trs(t);
+            let base = &self.camera;
+            let eye = if tr.translation.is_empty() {
+                base.eye
+            } else {
+                pos
+            };
+            let (dir, up) = if tr.rotation.is_empty() {
+                (base.target - base.eye, base.up)
+            } else {
+                // BART's GetCamera: the viewer looks along −z with y up, rotated.
+                (rot * -Vec3::Z, rot * Vec3::Y)
+            };
+            s.camera = Camera {
+                eye,
+                target: eye + dir.normalize_or(-Vec3::Z),
+                up,
+                vfov: base.vfov,
+            };
+        }
+        s
+    }
+}
