@@ -51,6 +51,32 @@ enum BenchCommand {
     /// The irregular-grid paper's Tables 1, 2, 3 and 5: our grids against the peers
     /// (obvhs; Embree with `--features embree`) on the same rays.
     Grid(BenchGridArgs),
+    /// The irregular-grid paper's Table 4: AO samples per pixel that fit in a frame budget
+    /// on an animated scene, per-frame rebuild included.
+    Budget(BenchBudgetArgs),
+}
+
+#[derive(Args, Clone)]
+struct BenchBudgetArgs {
+    /// An animated scene (a BART .aff file); a static scene is measured as one still.
+    scene: String,
+    /// Frame budgets in milliseconds, comma-separated.
+    #[arg(long, default_value = "100,50,33")]
+    ms: String,
+    /// Engines, comma-separated (crsh, rah, grid, grid2l, obvhs-cwbvh, obvhs-bvh2, embree,
+    /// embree-stream, brute).
+    #[arg(long, default_value = "grid,grid2l,obvhs-cwbvh")]
+    engines: String,
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    width: u32,
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    height: u32,
+    /// Instants of the animation measured (spread over its interval); times are averaged.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    frames: u32,
+    /// Also write the rows as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
 }
 
 #[derive(Args, Clone)]
@@ -943,6 +969,84 @@ fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
     Ok(())
 }
 
+fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
+    if let Some(p) = &a.csv {
+        check_out_dir("--csv", p)?;
+    }
+    let budgets: Vec<f64> =
+        a.ms.split(',')
+            .map(|x| match x.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+                _ => Err(anyhow::anyhow!(
+                    "--ms: '{x}' is not a positive number of milliseconds"
+                )),
+            })
+            .collect::<Result<_>>()?;
+    let engines: Vec<Engine> = a
+        .engines
+        .split(',')
+        .map(|x| {
+            Engine::from_str(x.trim(), true)
+                .map_err(|_| anyhow::anyhow!("--engines: unknown engine '{}'", x.trim()))
+        })
+        .collect::<Result<_>>()?;
+    let scene = scene::load(&a.scene, &LoadOptions::default())?;
+    let grid = GridArgs {
+        dynamic: true,
+        ..GridArgs::default()
+    };
+    let rsh = RshArgs::default();
+    let closures: Vec<(String, Box<dyn Fn(&Geometry) -> Result<Box<dyn Tracer>>>)> = engines
+        .iter()
+        .map(|&e| {
+            let (g, r) = (grid.clone(), rsh.clone());
+            let name = e
+                .to_possible_value()
+                .map(|v| v.get_name().to_string())
+                .unwrap_or_default();
+            let f: Box<dyn Fn(&Geometry) -> Result<Box<dyn Tracer>>> =
+                Box::new(move |geo: &Geometry| make_engine_quiet(e, &r, &g, geo));
+            (name, f)
+        })
+        .collect();
+    let builders: Vec<crate::bench_budget::Builder> = closures
+        .iter()
+        .map(|(n, f)| (n.as_str(), f.as_ref()))
+        .collect();
+    let bar = step_bar(engines.len() as u64 * a.frames as u64);
+    let rows = crate::bench_budget::run(
+        &scene,
+        &builders,
+        a.width,
+        a.height,
+        a.frames,
+        &budgets,
+        &|m| bar.step(m),
+    )?;
+    bar.0.finish_and_clear();
+    say!(
+        "# rayspace bench budget\n\n{}\n\n{} — {} frames, build and primary rays inside the budget; AO rays are any-hit, one per pixel per sample\n\n{}",
+        provenance(),
+        scene.name,
+        a.frames,
+        crate::bench_budget::markdown(&rows, a.width, a.height)
+    );
+    if let Some(p) = &a.csv {
+        let mut csv =
+            String::from("scene,engine,frames,build_ms,primary_ms,ao_ms_per_spp,budget_ms,spp\n");
+        for r in &rows {
+            for (b, n) in &r.spp {
+                csv += &format!(
+                    "{},{},{},{:.3},{:.3},{:.3},{},{}\n",
+                    r.scene, r.engine, r.frames, r.build_ms, r.primary_ms, r.ao_ms_per_spp, b, n
+                );
+            }
+        }
+        std::fs::write(p, csv).with_context(|| format!("--csv {}", p.display()))?;
+    }
+    Ok(())
+}
+
 /// The obvhs version this binary is built with (for benchmark provenance).
 const OBVHS_VERSION: &str = "0.4";
 
@@ -1187,6 +1291,9 @@ pub fn run() -> Result<()> {
         Some(Command::Bench {
             what: BenchCommand::Grid(a),
         }) => cmd_bench_grid(&a),
+        Some(Command::Bench {
+            what: BenchCommand::Budget(a),
+        }) => cmd_bench_budget(&a),
         None => cmd_render(&RenderArgs::default()),
     }
 }

@@ -1,6 +1,7 @@
 //! `rayspace`: render scenes with the hybrid rasterizer + ray tracer and compare engines.
 
 mod bench;
+mod bench_budget;
 mod bench_grid;
 mod charts;
 mod cli;

@@ -87,6 +87,7 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
         for cfg in [rsh::RshConfig::crsh(), rsh::RshConfig::rah()] {
             ours.push(Box::new(rsh::RshEngine::new(&geo, cfg).unwrap()));
         }
+        #[allow(unused_mut)] // pushed to only with the `embree` feature
         let mut peers: Vec<(Box<dyn Tracer>, f32)> = vec![
             (Box::new(ObvhsEngine::new(&geo, BvhKind::Bvh2)), 0.0),
             (Box::new(ObvhsEngine::new(&geo, BvhKind::CwBvh)), 1e-4),
@@ -139,4 +140,95 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
         }
     }
     let _ = std::fs::remove_dir_all(&tmp);
+}
+
+/// BART Museum and Kitchen from their AFF files: triangle counts as in the OBJ snapshots,
+/// the camera on its keyframed path, geometry that moves, and at several animation times
+/// every engine's hits equal brute force's on the animated scene.
+#[test]
+fn bart_animations_load_animate_and_match_brute_force() {
+    use accel::oracle::{assert_same_hits, record_render};
+    let Some(dir) = scenes_dir() else {
+        eprintln!("skipped: no shared scenes (set RAYSPACE_SCENES or provide ../shared/scenes)");
+        return;
+    };
+    for (rel, tris, times, key) in [
+        (
+            "bart-museum/aff/museum5.aff",
+            11_820,
+            [-1.0f32, 1.7, 4.2],
+            // camera transl key at t = 0.5
+            (0.5f32, geom::Vec3::new(3.0, 2.4, -1.0)),
+        ),
+        (
+            "bart-kitchen/aff/kitchen.aff",
+            110_520,
+            [0.0, 6.0, 14.0],
+            (5.0, geom::Vec3::new(3.5, 0.2, 0.1)),
+        ),
+    ] {
+        let path = dir.join(rel);
+        if !path.exists() {
+            eprintln!("skipped: {} not present", path.display());
+            continue;
+        }
+        let s = load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();
+        assert_eq!(s.triangle_count(), tris, "{rel}");
+        let a = s.animation.as_ref().expect("animated");
+        assert!(a.camera.is_some(), "{rel}: camera track");
+        let eye = s.at_time(key.0).camera.eye;
+        assert!(
+            (eye - key.1).length() < 1e-4,
+            "{rel}: camera at t={} is {eye}",
+            key.0
+        );
+        let g0 = Geometry::from_scene(&s.at_time(times[0]));
+        let g2 = Geometry::from_scene(&s.at_time(times[2]));
+        assert_ne!(g0.tris, g2.tris, "{rel}: something moves");
+        for &t in &times {
+            let st = s.at_time(t);
+            let geo = Geometry::from_scene(&st);
+            let mut batches = record_render(&st, &geo, 20, 16, 1);
+            // The renderer rasterizes primary visibility; trace the primary rays too.
+            let prim = render::View::new(&st.camera, 20, 16).primary_rays();
+            let mut ph = vec![render::Hit::MISS; prim.len()];
+            render::Tracer::trace(
+                &BruteForce::new(&geo),
+                &prim,
+                render::TraceMode::Closest,
+                &mut ph,
+                &mut Default::default(),
+            );
+            batches.push((prim, render::TraceMode::Closest, ph));
+            let engines: Vec<Box<dyn render::Tracer>> = vec![
+                Box::new(
+                    accel::GridEngine::new(
+                        &geo,
+                        &accel::GridConfig {
+                            expansion_passes: 1,
+                            ..Default::default()
+                        },
+                    )
+                    .unwrap(),
+                ),
+                Box::new(rsh::RshEngine::new(&geo, rsh::RshConfig::crsh()).unwrap()),
+                Box::new(rsh::RshEngine::new(&geo, rsh::RshConfig::rah()).unwrap()),
+            ];
+            for e in &engines {
+                for (i, (rays, mode, hits)) in batches.iter().enumerate() {
+                    assert_same_hits(
+                        e.as_ref(),
+                        rays,
+                        *mode,
+                        hits,
+                        &format!("{rel} t={t} {} batch {i}", e.name()),
+                    );
+                }
+            }
+            eprintln!(
+                "{rel} t={t}: {} batches, engines agree with brute force",
+                batches.len()
+            );
+        }
+    }
 }
