@@ -20,6 +20,19 @@
 //! rotate = [0, 45, 0]            # Euler XYZ, degrees
 //! scale = 1.0                    # or [sx, sy, sz]
 //! material = { diffuse = [0.8, 0.2, 0.2], reflectivity = 0.3 }   # overrides, any subset
+//! [meshes.animation]             # optional keyframed rigid motion, after the placement above
+//! loop = true                    # repeat the keyed interval (default false: clamp)
+//! keys = [                       # linear translation and scale, slerp rotation
+//!   { t = 0, translate = [0, 0, 0], rotate = [0, 0, 0], scale = 1 },
+//!   { t = 2, translate = [1, 0, 0], rotate = [0, 180, 0] },
+//! ]
+//! [[meshes]]                     # vertex animation: numbered OBJ files, same topology
+//! sequence = "wave/frame%03d.obj"   # frames 0, 1, ... (relative to this file, or scenes:REL)
+//! frames = 10
+//! fps = 24                       # frame i is shown at time i / fps
+//! [animation]                    # optional: the interval `--frames` spreads frames over
+//! start = 0
+//! end = 2
 //! ```
 
 use crate::error::SceneError;
@@ -39,6 +52,32 @@ struct File {
     lights: Vec<LightDef>,
     #[serde(default)]
     meshes: Vec<MeshDef>,
+    animation: Option<IntervalDef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct IntervalDef {
+    start: f32,
+    end: f32,
+    frames: Option<u32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AnimDef {
+    #[serde(rename = "loop", default)]
+    looping: bool,
+    keys: Vec<KeyDef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct KeyDef {
+    t: f32,
+    translate: Option<[f32; 3]>,
+    rotate: Option<[f32; 3]>,
+    scale: Option<Scale>,
 }
 
 #[derive(Deserialize)]
@@ -92,6 +131,37 @@ struct MeshDef {
     rotate: Option<[f32; 3]>,
     scale: Option<Scale>,
     material: Option<MaterialDef>,
+    animation: Option<AnimDef>,
+    /// Vertex animation: a numbered OBJ file pattern (`%0Nd`), `frames` files at `fps`.
+    sequence: Option<String>,
+    frames: Option<u32>,
+    fps: Option<f32>,
+}
+
+fn euler(a: [f32; 3]) -> Quat {
+    Quat::from_euler(
+        glam::EulerRot::XYZ,
+        a[0].to_radians(),
+        a[1].to_radians(),
+        a[2].to_radians(),
+    )
+}
+
+fn numbered(pattern: &str, i: u32) -> Option<String> {
+    let p = pattern.find('%')?;
+    let rest = &pattern[p + 1..];
+    let d = rest.find('d')?;
+    let spec = &rest[..d];
+    let w: usize = if spec.is_empty() {
+        0
+    } else {
+        spec.trim_start_matches('0')
+            .parse()
+            .ok()
+            .or(Some(0))
+            .filter(|w| *w <= 12)?
+    };
+    Some(format!("{}{:0w$}{}", &pattern[..p], i, &rest[d + 1..]))
 }
 
 impl MaterialDef {
@@ -165,26 +235,83 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
     if file.meshes.is_empty() {
         return Err(SceneError::invalid(path, "no [[meshes]] entries"));
     }
+    let mut anim_meshes: Vec<(
+        usize,
+        Option<crate::anim::Track>,
+        Option<crate::anim::VertexKeys>,
+    )> = Vec::new();
     for (i, def) in file.meshes.iter().enumerate() {
         let what = format!("meshes[{i}]");
         let bad = |msg: String| SceneError::invalid(path, format!("{what}: {msg}"));
-        let sources =
-            def.file.is_some() as u32 + def.shape.is_some() as u32 + def.builtin.is_some() as u32;
+        let sources = def.file.is_some() as u32
+            + def.shape.is_some() as u32
+            + def.builtin.is_some() as u32
+            + def.sequence.is_some() as u32;
         if sources != 1 {
-            return Err(bad("give exactly one of file, shape or builtin".into()));
+            return Err(bad(
+                "give exactly one of file, shape, builtin or sequence".into()
+            ));
         }
-        let split: MeshSplit = match &def.split {
-            Some(s) => s.parse().map_err(bad)?,
-            None => MeshSplit::Groups,
-        };
-        let (mut meshes, mut materials) = if let Some(f) = &def.file {
+        let resolve = |f: &str| -> Result<std::path::PathBuf, SceneError> {
             // `scenes:REL` names a file in the shared scenes directory ($RAYSPACE_SCENES).
-            let p = match f.strip_prefix("scenes:") {
+            Ok(match f.strip_prefix("scenes:") {
                 Some(rel) => crate::scenes_dir()
                     .ok_or_else(|| bad(format!("'{f}': no scenes directory (set RAYSPACE_SCENES or provide ../shared/scenes)")))?
                     .join(rel),
                 None => base.join(f),
-            };
+            })
+        };
+        let mut vertex_keys = None;
+        let split: MeshSplit = match &def.split {
+            Some(s) => s.parse().map_err(bad)?,
+            None => MeshSplit::Groups,
+        };
+        let (mut meshes, mut materials) = if let Some(pat) = &def.sequence {
+            let n = def
+                .frames
+                .ok_or_else(|| bad("sequence needs frames".into()))?;
+            let fps = def.fps.unwrap_or(24.0);
+            if !(1..=100_000).contains(&n) || !(fps.is_finite() && fps > 0.0) {
+                return Err(bad(format!(
+                    "frames {n} must be 1..=100000 and fps {fps} positive"
+                )));
+            }
+            let mut keys = Vec::new();
+            let mut first = None;
+            for i in 0..n {
+                let f = numbered(pat, i).ok_or_else(|| {
+                    bad(format!("sequence '{pat}' needs a %d or %0Nd frame number"))
+                })?;
+                let p = resolve(&f)?;
+                let (mut ms, mats) = obj::load_obj_meshes(&p, MeshSplit::Single, &mut report)?;
+                let m = ms
+                    .pop()
+                    .ok_or_else(|| bad(format!("{}: no triangles", p.display())))?;
+                match &first {
+                    None => first = Some((m.clone(), mats)),
+                    Some((m0, _)) => {
+                        if m0.positions.len() != m.positions.len() || m0.triangles != m.triangles {
+                            return Err(bad(format!(
+                                "{}: topology differs from frame 0 ({} vertices, {} triangles vs {}, {})",
+                                p.display(),
+                                m.positions.len(),
+                                m.triangles.len(),
+                                m0.positions.len(),
+                                m0.triangles.len()
+                            )));
+                        }
+                    }
+                }
+                keys.push(m.positions);
+            }
+            let (m0, mats) = first.expect("n >= 1");
+            vertex_keys = Some(crate::anim::VertexKeys {
+                times: (0..n).map(|i| i as f32 / fps).collect(),
+                positions: keys,
+            });
+            (vec![m0], mats)
+        } else if let Some(f) = &def.file {
+            let p = resolve(f)?;
             let ext = p
                 .extension()
                 .and_then(|e| e.to_str())
@@ -238,17 +365,7 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
             }
         }
         let t = def.translate.map(Vec3::from_array).unwrap_or(Vec3::ZERO);
-        let r = def
-            .rotate
-            .map(|a| {
-                Quat::from_euler(
-                    glam::EulerRot::XYZ,
-                    a[0].to_radians(),
-                    a[1].to_radians(),
-                    a[2].to_radians(),
-                )
-            })
-            .unwrap_or(Quat::IDENTITY);
+        let r = def.rotate.map(euler).unwrap_or(Quat::IDENTITY);
         let s = match def.scale {
             Some(Scale::Uniform(s)) => Vec3::splat(s),
             Some(Scale::Axes(a)) => Vec3::from_array(a),
@@ -264,7 +381,51 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
                 m.name = format!("{n}/{}", m.name);
             }
         }
+        let first_mesh = scene.meshes.len();
+        let count = meshes.len();
         scene.append_meshes(meshes, materials);
+        let track = match &def.animation {
+            None => None,
+            Some(a) => {
+                if a.keys.is_empty() || a.keys.windows(2).any(|w| !(w[1].t > w[0].t)) {
+                    return Err(bad("animation keys must be given with increasing t".into()));
+                }
+                let mut tr = crate::anim::Track {
+                    name: def.name.clone().unwrap_or_else(|| what.clone()),
+                    translation: vec![],
+                    rotation: vec![],
+                    scale: vec![],
+                    interp: crate::anim::Interp::Linear,
+                    looping: a.looping,
+                };
+                for k in &a.keys {
+                    if !k.t.is_finite() {
+                        return Err(bad(format!("animation key time {} is not finite", k.t)));
+                    }
+                    let tcb = [0.0; 3];
+                    let v = Vec3::from_array(k.translate.unwrap_or([0.0; 3]));
+                    tr.translation.push(crate::anim::VecKey { t: k.t, v, tcb });
+                    let q = k.rotate.map(euler).unwrap_or(Quat::IDENTITY);
+                    tr.rotation.push(crate::anim::RotKey { t: k.t, q, tcb });
+                    let sc = match k.scale {
+                        Some(Scale::Uniform(s)) => Vec3::splat(s),
+                        Some(Scale::Axes(a)) => Vec3::from_array(a),
+                        None => Vec3::ONE,
+                    };
+                    if !(sc.cmpgt(Vec3::ZERO).all() && sc.is_finite() && v.is_finite()) {
+                        return Err(bad(format!(
+                            "animation key at t = {}: scale must be positive, values finite",
+                            k.t
+                        )));
+                    }
+                    tr.scale.push(crate::anim::VecKey { t: k.t, v: sc, tcb });
+                }
+                Some(tr)
+            }
+        };
+        for m in first_mesh..first_mesh + count {
+            anim_meshes.push((m, track.clone(), vertex_keys.clone()));
+        }
     }
     scene.report = report;
     scene.report.source = Some(path.to_path_buf());
@@ -296,6 +457,76 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
             scene.camera.eye + up * scene.bounds().diagonal() * 0.3,
             1.0,
         )];
+    }
+    if anim_meshes
+        .iter()
+        .any(|(_, t, v)| t.is_some() || v.is_some())
+    {
+        use crate::anim::{Animation, Xform};
+        let n = scene.meshes.len();
+        let mut tracks = Vec::new();
+        let mut chains = vec![Vec::new(); n];
+        let mut vkeys = vec![None; n];
+        let mut last_time = 0.0f32;
+        for (m, track, vk) in anim_meshes {
+            if let Some(tr) = track {
+                last_time = last_time.max(tr.translation.last().map_or(0.0, |k| k.t));
+                // One track per [[meshes]] entry, shared by the meshes it produced.
+                let i = match tracks.iter().position(|x: &crate::anim::Track| *x == tr) {
+                    Some(i) => i,
+                    None => {
+                        tracks.push(tr);
+                        tracks.len() - 1
+                    }
+                };
+                chains[m] = vec![
+                    Xform::Track(i as u32),
+                    Xform::Static(scene.meshes[m].transform),
+                ];
+            }
+            if let Some(v) = vk {
+                last_time = last_time.max(v.times.last().copied().unwrap_or(0.0));
+                vkeys[m] = Some(v);
+            }
+        }
+        let local_spheres = scene
+            .meshes
+            .iter()
+            .zip(&vkeys)
+            .map(|(m, k)| match k {
+                Some(k) => {
+                    let all: Vec<Vec3> = k.positions.iter().flatten().copied().collect();
+                    geom::miniball::minimal_ball(&all).unwrap_or_default()
+                }
+                None => m.local_bound().unwrap_or_default(),
+            })
+            .collect();
+        let (start, end, frames) = match &file.animation {
+            Some(a) => {
+                if !(a.start.is_finite() && a.end.is_finite() && a.end >= a.start) {
+                    return Err(SceneError::invalid(
+                        path,
+                        format!(
+                            "[animation]: start {} and end {} must be finite, end ≥ start",
+                            a.start, a.end
+                        ),
+                    ));
+                }
+                (a.start, a.end, a.frames.unwrap_or(30))
+            }
+            None => (0.0, last_time, 30),
+        };
+        scene.animation = Some(Animation {
+            start,
+            end,
+            frames,
+            tracks,
+            chains,
+            vertex_keys: vkeys,
+            camera: None,
+            local_spheres,
+        });
+        scene = scene.at_time(start);
     }
     scene.report.load_seconds = t0.elapsed().as_secs_f64();
     Ok(scene)
