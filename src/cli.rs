@@ -439,7 +439,7 @@ struct RenderArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     frames: Option<u32>,
     /// Frames per second (default: spread the frames over the scene's animation interval).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     fps: Option<f32>,
     /// With --frames: per-frame statistics (build and trace times, rays, tests) as CSV.
     #[arg(long = "frame-csv")]
@@ -804,6 +804,14 @@ fn provenance() -> String {
         .filter(|o| o.status.success())
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
         .unwrap_or_else(|| "unknown".into());
+    // A build from a modified tree is not that commit: say so.
+    let dirty = std::process::Command::new("git")
+        .args(["status", "--porcelain", "--untracked-files=no"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success() && !o.stdout.is_empty())
+        .is_some();
+    let commit = if dirty { format!("{commit}+modified") } else { commit };
     format!(
         "rayspace {} (commit {commit}, {} build{}), {cpu}, {} threads",
         env!("CARGO_PKG_VERSION"),

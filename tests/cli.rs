@@ -492,3 +492,143 @@ fn bench_grid_writes_tables_and_charts() {
     );
     fails(&["bench", "grid", "--ao-spp", "0"], &["--ao-spp"]);
 }
+
+#[test]
+fn frames_time_and_budget() {
+    let d = tmp("frames");
+    std::fs::write(
+        d.join("anim.toml"),
+        "[camera]\neye = [0, 2, 8]\ntarget = [0, 0, 0]\n[[meshes]]\nshape = \"plane\"\nscale = 5\n[[meshes]]\nshape = \"box\"\n[meshes.animation]\nkeys = [{ t = 0 }, { t = 1, translate = [2, 1, 0], rotate = [0, 90, 0] }]\n",
+    )
+    .unwrap();
+    let scene = d.join("anim.toml");
+    let pat = d.join("f%03d.png");
+    let csv = d.join("frames.csv");
+    let gif = d.join("a.gif");
+    let o = bin()
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "--frames",
+            "4",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--engine",
+            "grid",
+            "--out",
+            pat.to_str().unwrap(),
+            "--frame-csv",
+            csv.to_str().unwrap(),
+            "--gif",
+            gif.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for i in 0..4 {
+        assert!(d.join(format!("f{i:03}.png")).exists());
+    }
+    let c = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(c.lines().count(), 5, "{c}");
+    assert!(
+        c.lines().nth(4).unwrap().starts_with("3,1,"),
+        "last frame at t = 1: {c}"
+    );
+    assert!(std::fs::metadata(&gif).unwrap().len() > 100);
+    // The box moves: first and last frames differ; a repeated run is byte-identical.
+    let f0 = std::fs::read(d.join("f000.png")).unwrap();
+    assert_ne!(f0, std::fs::read(d.join("f003.png")).unwrap());
+    let one = d.join("one.png");
+    let o = bin()
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "--time",
+            "0",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--engine",
+            "grid",
+            "--out",
+            one.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(&one).unwrap(), f0, "--time 0 renders frame 0");
+    fails(
+        &[
+            "render",
+            "cornell",
+            "--frames",
+            "3",
+            "--out",
+            pat.to_str().unwrap(),
+        ],
+        &["--frames", "not animated"],
+    );
+    fails(
+        &["render", "cornell", "--time", "1"],
+        &["--time", "not animated"],
+    );
+    fails(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--frames",
+            "3",
+            "--out",
+            d.join("x.png").to_str().unwrap(),
+        ],
+        &["--out", "%04d"],
+    );
+    fails(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--frames",
+            "3",
+            "--fps",
+            "-2",
+            "--out",
+            pat.to_str().unwrap(),
+        ],
+        &["--fps"],
+    );
+    // Table 4 in miniature.
+    let o = bin()
+        .args([
+            "bench",
+            "budget",
+            scene.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--frames",
+            "2",
+            "--engines",
+            "grid,grid2l,obvhs-bvh2",
+            "--ms",
+            "100,5",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        md.contains("AO spp in 100 ms")
+            && md.contains("| grid2l |")
+            && md.contains("| obvhs-bvh2 |"),
+        "{md}"
+    );
+    fails(
+        &["bench", "budget", "cornell", "--engines", "warp"],
+        &["--engines", "warp"],
+    );
+    fails(&["bench", "budget", "cornell", "--ms", "0"], &["--ms"]);
+}
