@@ -225,17 +225,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
         // Table 1: build stages.
         progress(&format!("{}: Table 1 (build stages)", s.name));
         md += "\n### Table 1: N_T and N_I per primary ray after each build stage\n\n| stage | cells | references | N_T | N_I | MRays/s | build ms |\n|---|---:|---:|---:|---:|---:|---:|\n";
-        let stages = [
-            ("initial (two-level grid)", GridConfig::two_level()),
-            (
-                "+ merge",
-                GridConfig {
-                    expansion_passes: 0,
-                    ..Default::default()
-                },
-            ),
-            ("+ merge + expansion", GridConfig::default()),
-        ];
+        let stages = GridConfig::stages();
         for (v, cfg) in &stages {
             let r = grid_row(&geo, &s.name, "1", v, cfg, &primary, spec.repeats)?;
             md += &format!(

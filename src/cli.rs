@@ -505,16 +505,8 @@ fn make_engine(
     make_engine_opt(engine, rsh_args, grid_args, geo, true)
 }
 
-/// [`make_engine`] without the build report (the frame loop builds one engine per frame).
-fn make_engine_quiet(
-    engine: Engine,
-    rsh_args: &RshArgs,
-    grid_args: &GridArgs,
-    geo: &Geometry,
-) -> Result<Box<dyn Tracer>> {
-    make_engine_opt(engine, rsh_args, grid_args, geo, false)
-}
-
+/// [`make_engine`], with or without the build report (the frame loop builds one engine per
+/// frame and stays quiet).
 fn make_engine_opt(
     engine: Engine,
     rsh_args: &RshArgs,
@@ -811,7 +803,11 @@ fn provenance() -> String {
         .ok()
         .filter(|o| o.status.success() && !o.stdout.is_empty())
         .is_some();
-    let commit = if dirty { format!("{commit}+modified") } else { commit };
+    let commit = if dirty {
+        format!("{commit}+modified")
+    } else {
+        commit
+    };
     format!(
         "rayspace {} (commit {commit}, {} build{}), {cpu}, {} threads",
         env!("CARGO_PKG_VERSION"),
@@ -1013,7 +1009,7 @@ fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
                 .map(|v| v.get_name().to_string())
                 .unwrap_or_default();
             let f: Box<dyn Fn(&Geometry) -> Result<Box<dyn Tracer>>> =
-                Box::new(move |geo: &Geometry| make_engine_quiet(e, &r, &g, geo));
+                Box::new(move |geo: &Geometry| make_engine_opt(e, &r, &g, geo, false));
             (name, f)
         })
         .collect();
@@ -1172,7 +1168,23 @@ struct FrameRow {
     trace_ms: f64,
     rays: u64,
     total_tests: u64,
+    /// Engine phases inside the render (ms): for CRSH/RAH the per-frame ray-hierarchy build
+    /// (hash … hierarchy creation) and its traversal, in [`ENGINE_PHASES`] order.
+    phases_ms: Vec<f64>,
 }
+
+/// The engine phases `--frame-csv` reports (ray-space hierarchies; absent phases are 0).
+const ENGINE_PHASES: [&str; 9] = [
+    "hash",
+    "trim",
+    "compress",
+    "sort",
+    "decompress",
+    "screen order",
+    "hierarchy creation",
+    "traversal",
+    "final tests",
+];
 
 /// The per-frame pipeline: update transforms (and the meshes' culling spheres, by transform),
 /// rebuild the engine, render; build and trace times apart.
@@ -1217,7 +1229,7 @@ fn render_frames(a: &RenderArgs, scene: &scene::Scene, n: u32) -> Result<()> {
         let geo = Geometry::from_scene(&s);
         let update_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let engine = make_engine_quiet(a.engine, &a.rsh, &grid, &geo)?;
+        let engine = make_engine_opt(a.engine, &a.rsh, &grid, &geo, false)?;
         let build_s = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
         let out = render(&s, &geo, engine.as_ref(), &opts, &());
@@ -1238,12 +1250,16 @@ fn render_frames(a: &RenderArgs, scene: &scene::Scene, n: u32) -> Result<()> {
             trace_ms: trace_s * 1e3,
             rays: out.stats.rays_traced(),
             total_tests: out.stats.trace.total_tests(),
+            phases_ms: ENGINE_PHASES
+                .iter()
+                .map(|p| out.stats.trace.phases.get(*p).copied().unwrap_or(0.0) * 1e3)
+                .collect(),
         });
     }
     bar.0.finish_and_clear();
     let mean = |f: &dyn Fn(&FrameRow) -> f64| rows.iter().map(f).sum::<f64>() / rows.len() as f64;
     say!(
-        "{} frames of {} ({}×{}, engine {:?}): mean per frame update {:.1} ms, build {:.1} ms, render {:.1} ms",
+        "{} frames of {} ({}×{}, engine {:?}): mean per frame update {:.1} ms, build {:.1} ms, render {:.1} ms{}",
         rows.len(),
         scene.name,
         a.width,
@@ -1251,7 +1267,19 @@ fn render_frames(a: &RenderArgs, scene: &scene::Scene, n: u32) -> Result<()> {
         a.engine,
         mean(&|r| r.update_ms),
         mean(&|r| r.build_ms),
-        mean(&|r| r.trace_ms)
+        mean(&|r| r.trace_ms),
+        {
+            // Ray-space hierarchies build their structure inside the render, per batch.
+            let h = mean(&|r| r.phases_ms[..7].iter().sum());
+            if h > 0.0 {
+                format!(
+                    " (of which ray-hierarchy build {h:.1} ms, traversal and final tests {:.1} ms)",
+                    mean(&|r| r.phases_ms[7..].iter().sum())
+                )
+            } else {
+                String::new()
+            }
+        }
     );
     say!(
         "wrote {} … {}",
@@ -1260,10 +1288,14 @@ fn render_frames(a: &RenderArgs, scene: &scene::Scene, n: u32) -> Result<()> {
     );
     if let Some(p) = &a.frame_csv {
         let mut csv =
-            String::from("frame,time,triangles,update_ms,build_ms,trace_ms,rays,total_tests\n");
+            String::from("frame,time,triangles,update_ms,build_ms,render_ms,rays,total_tests");
+        for p in ENGINE_PHASES {
+            csv += &format!(",{}_ms", p.replace(' ', "_"));
+        }
+        csv += "\n";
         for r in &rows {
             csv += &format!(
-                "{},{},{},{:.3},{:.3},{:.3},{},{}\n",
+                "{},{},{},{:.3},{:.3},{:.3},{},{}",
                 r.frame,
                 r.time,
                 r.triangles,
@@ -1273,6 +1305,10 @@ fn render_frames(a: &RenderArgs, scene: &scene::Scene, n: u32) -> Result<()> {
                 r.rays,
                 r.total_tests
             );
+            for p in &r.phases_ms {
+                csv += &format!(",{p:.3}");
+            }
+            csv += "\n";
         }
         std::fs::write(p, csv).with_context(|| format!("--frame-csv {}", p.display()))?;
         say!("wrote {}", p.display());

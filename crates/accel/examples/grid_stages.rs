@@ -33,17 +33,7 @@ fn main() {
     );
     println!("| stage | cells | refs | N_T/ray | N_I/ray | MRays/s | build ms | memory (cells/refs/map) B |");
     println!("|---|---:|---:|---:|---:|---:|---:|---|");
-    let stages = [
-        ("initial (two-level grid)", GridConfig::two_level()),
-        (
-            "+ merge",
-            GridConfig {
-                expansion_passes: 0,
-                ..Default::default()
-            },
-        ),
-        ("+ merge + expansion", GridConfig::default()),
-    ];
+    let stages = GridConfig::stages();
     let mut reference: Option<Vec<Hit>> = None;
     for (name, cfg) in stages {
         let t0 = Instant::now();

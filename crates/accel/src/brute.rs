@@ -2,7 +2,6 @@
 
 use geom::tri::RayPre;
 use geom::{intersect, Vec3};
-use rayon::prelude::*;
 use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::Geometry;
 
@@ -49,19 +48,8 @@ impl Tracer for BruteForce {
     }
 
     fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
-        assert_eq!(hits.len(), rays.len(), "one hit record per ray");
-        let tests: u64 = hits
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(64)
-            .map(|(i, out)| {
-                let (h, n) = Self::trace_one(&self.tris, &rays.ray(i), mode);
-                *out = h;
-                n
-            })
-            .sum();
-        stats.rays += rays.len() as u64;
-        stats.ray_tri_tests += tests;
-        stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
+        render::trace_per_ray(rays, hits, stats, |ray| {
+            Self::trace_one(&self.tris, ray, mode)
+        });
     }
 }

@@ -20,5 +20,5 @@ pub mod whitted;
 
 pub use batch::{Hit, RayBatch, RayKind};
 pub use stats::{RenderStats, TraceStats};
-pub use tracer::{TraceMode, Tracer};
+pub use tracer::{trace_per_ray, TraceMode, Tracer};
 pub use view::View;

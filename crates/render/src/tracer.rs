@@ -20,3 +20,29 @@ pub trait Tracer: Sync {
     /// (`hits.len() == rays.len()`), and add this call's counters to `stats`.
     fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats);
 }
+
+/// The per-ray engines' whole `trace`: `one(ray)` answers one ray with its record and the
+/// number of ray–triangle tests it made; rays run in parallel, and the counters (rays, tests,
+/// hits) are added to `stats`.
+pub fn trace_per_ray(
+    rays: &RayBatch,
+    hits: &mut [Hit],
+    stats: &mut TraceStats,
+    one: impl Fn(&geom::Ray) -> (Hit, u64) + Sync,
+) {
+    use rayon::prelude::*;
+    assert_eq!(hits.len(), rays.len(), "one hit record per ray");
+    let tests: u64 = hits
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(64)
+        .map(|(i, out)| {
+            let (h, n) = one(&rays.ray(i));
+            *out = h;
+            n
+        })
+        .sum();
+    stats.rays += rays.len() as u64;
+    stats.ray_tri_tests += tests;
+    stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
+}

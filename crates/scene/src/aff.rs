@@ -866,18 +866,7 @@ pub fn load_aff_scene(path: &Path) -> Result<Scene, SceneError> {
             .iter()
             .position(|t| t.name == "camera")
             .map(|i| i as u32);
-        let local_spheres = scene
-            .meshes
-            .iter()
-            .zip(&p.vertex_keys)
-            .map(|(m, k)| match k {
-                Some(k) => {
-                    let all: Vec<Vec3> = k.positions.iter().flatten().copied().collect();
-                    geom::miniball::minimal_ball(&all).unwrap_or_default()
-                }
-                None => m.local_bound().unwrap_or_default(),
-            })
-            .collect();
+        let local_spheres = crate::anim::local_spheres(&scene.meshes, &p.vertex_keys);
         scene.animation = Some(Animation {
             start,
             end,

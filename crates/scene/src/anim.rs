@@ -9,7 +9,7 @@
 //! tangents: the curve runs from key 1 to key n−2 and is clamped outside. Tracks with fewer
 //! than four keys, and tracks from TOML scene files, interpolate linearly (rotations by slerp).
 
-use crate::model::{smooth_normals, Camera, Scene};
+use crate::model::{smooth_normals, Camera, Mesh, Scene};
 use geom::{Mat4, Quat, Sphere, Vec3};
 
 /// One key of a vector track (translation or scale).
@@ -397,4 +397,21 @@ impl Scene {
         }
         s
     }
+}
+
+/// The object-space culling sphere of each mesh, valid at every time: the minimal ball of
+/// the mesh's vertices, or for a vertex-animated mesh of all its key positions together (see
+/// [`Animation::local_spheres`]).
+pub fn local_spheres(meshes: &[Mesh], keys: &[Option<VertexKeys>]) -> Vec<Sphere> {
+    meshes
+        .iter()
+        .enumerate()
+        .map(|(i, m)| match keys.get(i) {
+            Some(Some(k)) => {
+                let all: Vec<Vec3> = k.positions.iter().flatten().copied().collect();
+                geom::miniball::minimal_ball(&all).unwrap_or_default()
+            }
+            _ => m.local_bound().unwrap_or_default(),
+        })
+        .collect()
 }

@@ -489,18 +489,7 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
                 vkeys[m] = Some(v);
             }
         }
-        let local_spheres = scene
-            .meshes
-            .iter()
-            .zip(&vkeys)
-            .map(|(m, k)| match k {
-                Some(k) => {
-                    let all: Vec<Vec3> = k.positions.iter().flatten().copied().collect();
-                    geom::miniball::minimal_ball(&all).unwrap_or_default()
-                }
-                None => m.local_bound().unwrap_or_default(),
-            })
-            .collect();
+        let local_spheres = crate::anim::local_spheres(&scene.meshes, &vkeys);
         let (start, end, frames) = match &file.animation {
             Some(a) => {
                 if !(a.start.is_finite() && a.end.is_finite() && a.end >= a.start) {

@@ -57,6 +57,22 @@ impl GridConfig {
         }
     }
 
+    /// The paper's build stages (Table 1): the initial cells (two-level grid), after merging,
+    /// after merging and expansion.
+    pub fn stages() -> [(&'static str, GridConfig); 3] {
+        [
+            ("initial (two-level grid)", Self::two_level()),
+            (
+                "+ merge",
+                GridConfig {
+                    expansion_passes: 0,
+                    ..Self::default()
+                },
+            ),
+            ("+ merge + expansion", Self::default()),
+        ]
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         let ok = |x: f32| x.is_finite() && x > 0.0 && x <= 1e4;
         if !ok(self.top_density) || !ok(self.leaf_density) {

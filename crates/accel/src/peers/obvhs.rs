@@ -7,7 +7,6 @@ use glam::Vec3A;
 use obvhs::ray::{Ray as ORay, RayHit as ORayHit};
 use obvhs::triangle::Triangle as OTri;
 use obvhs::BvhBuildParams;
-use rayon::prelude::*;
 use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::Geometry;
 use std::time::{Duration, Instant};
@@ -159,19 +158,6 @@ impl Tracer for ObvhsEngine {
     }
 
     fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
-        assert_eq!(hits.len(), rays.len(), "one hit record per ray");
-        let tests: u64 = hits
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(64)
-            .map(|(i, out)| {
-                let (h, n) = self.trace_one(&rays.ray(i), mode);
-                *out = h;
-                n
-            })
-            .sum();
-        stats.rays += rays.len() as u64;
-        stats.ray_tri_tests += tests;
-        stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
+        render::trace_per_ray(rays, hits, stats, |ray| self.trace_one(ray, mode));
     }
 }
