@@ -26,7 +26,11 @@ pub struct BudgetRow {
     pub spp: Vec<(f64, u64)>,
 }
 
-pub type Builder<'a> = (&'a str, &'a dyn Fn(&Geometry) -> Result<Box<dyn Tracer>>);
+/// Builds an engine for one frame's geometry.
+pub type BuildFn = dyn Fn(&Geometry) -> Result<Box<dyn Tracer>>;
+
+/// An engine's name and how to build it.
+pub type Builder<'a> = (&'a str, &'a BuildFn);
 
 /// Measure every engine on `frames` instants of `scene`.
 pub fn run(

@@ -82,9 +82,12 @@ pub struct Report {
     pub markdown: String,
 }
 
-/// The engines of Table 3 that exist in this build: (engine, build seconds, memory).
-fn engines(geo: &Geometry) -> Result<Vec<(Box<dyn Tracer>, f64, Option<u64>)>> {
-    let mut v: Vec<(Box<dyn Tracer>, f64, Option<u64>)> = Vec::new();
+/// An engine of Table 3 with its build seconds and memory (where known).
+type Built = (Box<dyn Tracer>, f64, Option<u64>);
+
+/// The engines of Table 3 that exist in this build.
+fn engines(geo: &Geometry) -> Result<Vec<Built>> {
+    let mut v: Vec<Built> = Vec::new();
     for cfg in [GridConfig::default(), GridConfig::two_level()] {
         let t0 = Instant::now();
         let g = GridEngine::new(geo, &cfg).map_err(anyhow::Error::msg)?;

@@ -1000,7 +1000,7 @@ fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
         ..GridArgs::default()
     };
     let rsh = RshArgs::default();
-    let closures: Vec<(String, Box<dyn Fn(&Geometry) -> Result<Box<dyn Tracer>>>)> = engines
+    let closures: Vec<(String, Box<crate::bench_budget::BuildFn>)> = engines
         .iter()
         .map(|&e| {
             let (g, r) = (grid.clone(), rsh.clone());
@@ -1008,7 +1008,7 @@ fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
                 .to_possible_value()
                 .map(|v| v.get_name().to_string())
                 .unwrap_or_default();
-            let f: Box<dyn Fn(&Geometry) -> Result<Box<dyn Tracer>>> =
+            let f: Box<crate::bench_budget::BuildFn> =
                 Box::new(move |geo: &Geometry| make_engine_opt(e, &r, &g, geo, false));
             (name, f)
         })

@@ -192,10 +192,14 @@ struct Parser {
     notes: Vec<String>,
     files: usize,
     /// Animated triangles of the current group: (key times, per-key positions).
-    tpa: Option<(Vec<f32>, Vec<Vec<Vec3>>, Vec<u32>)>,
+    tpa: Option<TpaGroup>,
     loose: Builder,
     include_stack: Vec<PathBuf>,
 }
+
+/// Animated triangles of one group: key times, per-key positions (3 per triangle), and one
+/// material per triangle.
+type TpaGroup = (Vec<f32>, Vec<Vec<Vec3>>, Vec<u32>);
 
 #[derive(Clone)]
 enum Link {

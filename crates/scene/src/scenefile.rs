@@ -271,7 +271,7 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
                 .frames
                 .ok_or_else(|| bad("sequence needs frames".into()))?;
             let fps = def.fps.unwrap_or(24.0);
-            if !(1..=100_000).contains(&n) || !(fps.is_finite() && fps > 0.0) {
+            if !((1..=100_000).contains(&n) && fps.is_finite() && fps > 0.0) {
                 return Err(bad(format!(
                     "frames {n} must be 1..=100000 and fps {fps} positive"
                 )));
@@ -387,7 +387,11 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
         let track = match &def.animation {
             None => None,
             Some(a) => {
-                if a.keys.is_empty() || a.keys.windows(2).any(|w| !(w[1].t > w[0].t)) {
+                if a.keys.is_empty()
+                    || a.keys
+                        .windows(2)
+                        .any(|w| w[1].t.partial_cmp(&w[0].t) != Some(std::cmp::Ordering::Greater))
+                {
                     return Err(bad("animation keys must be given with increasing t".into()));
                 }
                 let mut tr = crate::anim::Track {

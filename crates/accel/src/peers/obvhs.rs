@@ -96,7 +96,8 @@ impl ObvhsEngine {
 
     /// One ray; returns the record and the number of triangle tests.
     fn trace_one(&self, ray: &geom::Ray, mode: TraceMode) -> (Hit, u64) {
-        let empty = ray.t_max.is_nan() || ray.t_min.is_nan() || !(ray.t_max > ray.t_min);
+        // NaN bounds compare false, so this is also true for them.
+        let empty = ray.t_max.partial_cmp(&ray.t_min) != Some(std::cmp::Ordering::Greater);
         if empty || self.tris.is_empty() {
             return (Hit::MISS, 0);
         }
