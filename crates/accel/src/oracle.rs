@@ -151,7 +151,21 @@ impl Agreement {
                 continue;
             }
             let near = e.is_hit() && e.t <= t_floor && (!g.is_hit() || g.t > e.t);
-            if mode == TraceMode::Closest && e.is_hit() && g.is_hit() && t_close(e, g) {
+            let on_peer_triangle = || {
+                // The peer's record must name a triangle that really passes through the
+                // point it reports.
+                let r = rays.ray(i);
+                let p = r.org + r.dir * g.t;
+                tris.get(g.tri as usize).is_some_and(|t| {
+                    point_triangle_distance(p, t) <= T_TOL * scale * r.dir.length().max(1.0)
+                })
+            };
+            if mode == TraceMode::Closest
+                && e.is_hit()
+                && g.is_hit()
+                && t_close(e, g)
+                && on_peer_triangle()
+            {
                 self.coincident += 1;
             } else if near || ray_grazes_edge(tris, &rays.ray(i), EDGE_EPS) {
                 self.at_edges += 1;
@@ -236,6 +250,48 @@ pub fn random_case(seed: u64, ntri: usize, nray: usize) -> (scene::Geometry, Ray
         ..Default::default()
     };
     (geo, b)
+}
+
+/// Distance from `p` to the triangle `t` (closest point by regions, Ericson 2005 §5.1.5).
+pub fn point_triangle_distance(p: Vec3, t: &[Vec3; 3]) -> f32 {
+    let [a, b, c] = t.map(|v| v.as_dvec3());
+    let p = p.as_dvec3();
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    let q = if d1 <= 0.0 && d2 <= 0.0 {
+        a
+    } else {
+        let bp = p - b;
+        let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+        let cp = p - c;
+        let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+        let vc = d1 * d4 - d3 * d2;
+        let vb = d5 * d2 - d1 * d6;
+        let va = d3 * d6 - d5 * d4;
+        if d3 >= 0.0 && d4 <= d3 {
+            b
+        } else if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            a + ab * (d1 / (d1 - d3))
+        } else if d6 >= 0.0 && d5 <= d6 {
+            c
+        } else if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            a + ac * (d2 / (d2 - d6))
+        } else if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+            b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))
+        } else {
+            let den = va + vb + vc;
+            if den == 0.0 {
+                // Degenerate triangle: the nearest of its vertices will do.
+                [a, b, c]
+                    .into_iter()
+                    .min_by(|x, y| (p - *x).length().total_cmp(&(p - *y).length()))
+                    .unwrap_or(a)
+            } else {
+                a + ab * (vb / den) + ac * (vc / den)
+            }
+        }
+    };
+    (p - q).length() as f32
 }
 
 /// Whether `ray` passes within `eps` · (1 + |p|) of an edge (or vertex) of any triangle,

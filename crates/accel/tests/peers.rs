@@ -143,3 +143,25 @@ fn agreement_detects_wrong_records() {
     a.check(&geo.tris, rays, *mode, hits, &got, 0.0);
     assert_eq!(a.wrong, 3, "{a:?}");
 }
+
+proptest::proptest! {
+    /// The point–triangle distance used to confirm coincident-surface ties: 0 inside, never
+    /// more than the distance to any vertex, and the offset along the normal above the inside.
+    #[test]
+    fn point_triangle_distance_is_right(seed in 0u64..100_000, h in -2.0f32..2.0) {
+        use accel::oracle::point_triangle_distance;
+        let mut rng = geom::Pcg32::new(seed, 3);
+        let t = [0, 1, 2].map(|_| rng.unit_vector() * 3.0);
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        proptest::prop_assume!(n.length() > 0.1);
+        let (u, v) = (rng.next_f32(), rng.next_f32());
+        let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+        let inside = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
+        proptest::prop_assert!(point_triangle_distance(inside, &t) < 1e-4);
+        let above = inside + n.normalize() * h;
+        proptest::prop_assert!((point_triangle_distance(above, &t) - h.abs()).abs() < 1e-3);
+        let p = rng.unit_vector() * 5.0;
+        let d = point_triangle_distance(p, &t);
+        proptest::prop_assert!(t.iter().all(|v| d <= (p - *v).length() + 1e-4));
+    }
+}
