@@ -796,9 +796,19 @@ fn provenance() -> String {
         .filter(|o| o.status.success())
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
         .unwrap_or_else(|| "unknown".into());
-    // A build from a modified tree is not that commit: say so.
+    // A build from modified sources is not that commit: say so (results and docs written
+    // while a benchmark runs do not count).
     let dirty = std::process::Command::new("git")
-        .args(["status", "--porcelain", "--untracked-files=no"])
+        .args([
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            "src",
+            "crates",
+            "Cargo.toml",
+            "Cargo.lock",
+        ])
         .output()
         .ok()
         .filter(|o| o.status.success() && !o.stdout.is_empty())
