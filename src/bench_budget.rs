@@ -46,29 +46,33 @@ pub fn run(
         Some(a) => a.frame_times(frames),
         None => vec![0.0; frames as usize],
     };
-    let mut rows = Vec::new();
-    for (name, build) in engines {
-        let (mut b, mut p, mut ao) = (0.0, 0.0, 0.0);
-        for (i, &t) in times.iter().enumerate() {
+    // Per engine: summed build, primary and AO seconds. The frame's scene, geometry and rays
+    // are made once and traced by every engine.
+    let mut sums = vec![(0.0f64, 0.0f64, 0.0f64); engines.len()];
+    for (i, &t) in times.iter().enumerate() {
+        let s = scene.at_time(t);
+        let geo = Geometry::from_scene(&s);
+        let primary = View::new(&s.camera, width, height).primary_rays();
+        let ao_rays = generate(
+            &s,
+            &geo,
+            Kind::Ao,
+            &Options {
+                width,
+                height,
+                spp: 1,
+                seed: i as u64 + 1,
+                ao_distance: None,
+            },
+        );
+        // AO rays start only where a surface was rasterized; a sample is one ray per pixel,
+        // so scale to the full pixel count.
+        let per_pixel = ((width * height) as f64 / ao_rays.len().max(1) as f64).max(1.0);
+        for ((name, build), (b, p, ao)) in engines.iter().zip(sums.iter_mut()) {
             progress(&format!("{name}: frame {i} (t = {t:.2})"));
-            let s = scene.at_time(t);
-            let geo = Geometry::from_scene(&s);
-            let primary = View::new(&s.camera, width, height).primary_rays();
-            let ao_rays = generate(
-                &s,
-                &geo,
-                Kind::Ao,
-                &Options {
-                    width,
-                    height,
-                    spp: 1,
-                    seed: i as u64 + 1,
-                    ao_distance: None,
-                },
-            );
             let t0 = Instant::now();
             let e = build(&geo)?;
-            b += t0.elapsed().as_secs_f64();
+            *b += t0.elapsed().as_secs_f64();
             let mut hits = vec![Hit::MISS; primary.len()];
             let t1 = Instant::now();
             e.trace(
@@ -77,7 +81,7 @@ pub fn run(
                 &mut hits,
                 &mut TraceStats::default(),
             );
-            p += t1.elapsed().as_secs_f64();
+            *p += t1.elapsed().as_secs_f64();
             let mut hits = vec![Hit::MISS; ao_rays.len()];
             let t2 = Instant::now();
             e.trace(
@@ -86,11 +90,11 @@ pub fn run(
                 &mut hits,
                 &mut TraceStats::default(),
             );
-            // AO rays start only where a surface was rasterized; a sample is one ray per
-            // pixel, so scale to the full pixel count.
-            let per_pixel = (width * height) as f64 / ao_rays.len().max(1) as f64;
-            ao += t2.elapsed().as_secs_f64() * per_pixel.max(1.0);
+            *ao += t2.elapsed().as_secs_f64() * per_pixel;
         }
+    }
+    let mut rows = Vec::new();
+    for ((name, _), &(b, p, ao)) in engines.iter().zip(&sums) {
         let n = times.len().max(1) as f64;
         let (b, p, ao) = (b / n * 1e3, p / n * 1e3, ao / n * 1e3);
         let spp = budgets_ms

@@ -841,21 +841,7 @@ fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
     }
     let configs =
         crate::bench::parse_configs(&a.configs).map_err(|e| anyhow::anyhow!("--configs: {e}"))?;
-    let scenes: Vec<String> = match &a.scenes {
-        Some(s) => s
-            .split(',')
-            .map(|x| x.trim().to_string())
-            .filter(|x| !x.is_empty())
-            .collect(),
-        None => {
-            let mut v = vec!["cornell".to_string(), "office".to_string()];
-            let sponza = concat!(env!("CARGO_MANIFEST_DIR"), "/bench/scenes/sponza.toml");
-            if scene::scenes_dir().is_some() && std::path::Path::new(sponza).exists() {
-                v.push(sponza.to_string());
-            }
-            v
-        }
-    };
+    let scenes = bench_scenes(a.scenes.as_deref(), &["cornell", "office"], &["sponza"]);
     if let Some(d) = &a.charts {
         check_dir("--charts", d)?;
     }
@@ -870,11 +856,7 @@ fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
     let (rows, md) = crate::bench::run(&spec, &|m| bar.step(m))?;
     bar.0.finish_and_clear();
     if let Some(d) = &a.charts {
-        match crate::bench::charts(&rows, d) {
-            Ok(files) => files.iter().for_each(|f| say!("wrote {}", f.display())),
-            // The tables are written; a missing font only costs the pictures.
-            Err(e) => eprintln!("warning: charts not written: {e:#}"),
-        }
+        report_charts(crate::bench::charts(&rows, d));
     }
     let report = format!(
         "# rayspace bench rsh
@@ -898,6 +880,39 @@ fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
     Ok(())
 }
 
+/// The scenes of a benchmark: `--scenes a,b,...` as given, or the built-in `builtins` plus
+/// each `bench/scenes/<real>.toml` when the shared scenes are present.
+fn bench_scenes(arg: Option<&str>, builtins: &[&str], real: &[&str]) -> Vec<String> {
+    match arg {
+        Some(s) => s
+            .split(',')
+            .map(|x| x.trim().to_string())
+            .filter(|x| !x.is_empty())
+            .collect(),
+        None => {
+            let mut v: Vec<String> = builtins.iter().map(|s| s.to_string()).collect();
+            if scene::scenes_dir().is_some() {
+                for f in real {
+                    let p = format!("{}/bench/scenes/{f}.toml", env!("CARGO_MANIFEST_DIR"));
+                    if std::path::Path::new(&p).exists() {
+                        v.push(p);
+                    }
+                }
+            }
+            v
+        }
+    }
+}
+
+/// Report the chart files, or why there are none: the tables are written either way, so a
+/// missing font only costs the pictures.
+fn report_charts(charts: Result<Vec<PathBuf>>) {
+    match charts {
+        Ok(files) => files.iter().for_each(|f| say!("wrote {}", f.display())),
+        Err(e) => eprintln!("warning: charts not written: {e:#}"),
+    }
+}
+
 fn check_dir(opt: &str, d: &std::path::Path) -> Result<()> {
     if !d.is_dir() {
         bail!("{opt} {}: not a directory", d.display());
@@ -912,25 +927,11 @@ fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
     if let Some(d) = &a.charts {
         check_dir("--charts", d)?;
     }
-    let scenes: Vec<String> = match &a.scenes {
-        Some(s) => s
-            .split(',')
-            .map(|x| x.trim().to_string())
-            .filter(|x| !x.is_empty())
-            .collect(),
-        None => {
-            let mut v: Vec<String> = ["cornell", "office", "stadium"].map(String::from).into();
-            if scene::scenes_dir().is_some() {
-                for f in ["sponza", "conference", "kitchen"] {
-                    let p = format!("{}/bench/scenes/{f}.toml", env!("CARGO_MANIFEST_DIR"));
-                    if std::path::Path::new(&p).exists() {
-                        v.push(p);
-                    }
-                }
-            }
-            v
-        }
-    };
+    let scenes = bench_scenes(
+        a.scenes.as_deref(),
+        &["cornell", "office", "stadium"],
+        &["sponza", "conference", "kitchen"],
+    );
     let bar = step_bar(scenes.len() as u64 * crate::bench_grid::STEPS_PER_SCENE);
     let spec = crate::bench_grid::Spec {
         scenes,
@@ -974,11 +975,7 @@ fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
             .with_context(|| format!("--grids-csv {}", p.display()))?;
     }
     if let Some(d) = &a.charts {
-        match crate::bench_grid::charts(&rep.perf, d) {
-            Ok(files) => files.iter().for_each(|f| say!("wrote {}", f.display())),
-            // The tables are written; a missing font only costs the pictures.
-            Err(e) => eprintln!("warning: charts not written: {e:#}"),
-        }
+        report_charts(crate::bench_grid::charts(&rep.perf, d));
     }
     Ok(())
 }

@@ -14,6 +14,13 @@ fn tmp(tag: &str) -> PathBuf {
     d
 }
 
+/// Run the binary and require success (stderr in the message otherwise).
+fn ok(args: &[&str]) -> std::process::Output {
+    let o = bin().args(args).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    o
+}
+
 /// Run with `args`; expect failure with a one-line message containing every `needle`.
 fn fails(args: &[&str], needles: &[&str]) {
     let out = bin().args(args).output().unwrap();
@@ -38,28 +45,20 @@ fn render_writes_png_and_stats() {
     let d = tmp("ok");
     let png = d.join("a.png");
     let json = d.join("a.json");
-    let out = bin()
-        .args([
-            "render",
-            "spheres",
-            "--width",
-            "40",
-            "--height",
-            "30",
-            "--bounces",
-            "1",
-            "--out",
-            png.to_str().unwrap(),
-            "--stats",
-            json.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = ok(&[
+        "render",
+        "spheres",
+        "--width",
+        "40",
+        "--height",
+        "30",
+        "--bounces",
+        "1",
+        "--out",
+        png.to_str().unwrap(),
+        "--stats",
+        json.to_str().unwrap(),
+    ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains("| rasterize |") && stdout.contains("brute force (rays x triangles)"),
@@ -197,8 +196,7 @@ fn embree_engine_without_or_with_the_feature() {
         out.to_str().unwrap(),
     ];
     if cfg!(feature = "embree") {
-        let o = bin().args(args).output().unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        ok(&args);
         assert!(out.exists());
     } else {
         fails(
@@ -217,24 +215,16 @@ fn degenerate_triangles_are_skipped_and_reported() {
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n",
     );
     let png = d.join("deg.png");
-    let out = bin()
-        .args([
-            "render",
-            &p,
-            "--width",
-            "16",
-            "--height",
-            "16",
-            "--out",
-            png.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = ok(&[
+        "render",
+        &p,
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("1 degenerate triangles skipped"));
 }
 
@@ -376,30 +366,22 @@ fn ray_files_and_identical_hits_across_engines() {
 fn bench_rsh_writes_tables() {
     let d = tmp("bench");
     let (csv, json) = (d.join("b.csv"), d.join("b.json"));
-    let out = bin()
-        .args([
-            "bench",
-            "rsh",
-            "--scenes",
-            "cornell",
-            "--configs",
-            "8/2,4/0",
-            "--width",
-            "32",
-            "--height",
-            "32",
-            "--csv",
-            csv.to_str().unwrap(),
-            "--json",
-            json.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = ok(&[
+        "bench",
+        "rsh",
+        "--scenes",
+        "cornell",
+        "--configs",
+        "8/2,4/0",
+        "--width",
+        "32",
+        "--height",
+        "32",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
     let md = String::from_utf8_lossy(&out.stdout);
     assert!(
         md.contains("| 8/2 |") && md.contains("| 4/0 |") && md.contains("phase times"),
@@ -422,34 +404,26 @@ fn bench_grid_writes_tables_and_charts() {
     let (csv, grids, json) = (d.join("t3.csv"), d.join("g.csv"), d.join("g.json"));
     let charts = d.join("charts");
     std::fs::create_dir_all(&charts).unwrap();
-    let out = bin()
-        .args([
-            "bench",
-            "grid",
-            "--scenes",
-            "cornell",
-            "--width",
-            "24",
-            "--height",
-            "16",
-            "--repeats",
-            "1",
-            "--csv",
-            csv.to_str().unwrap(),
-            "--grids-csv",
-            grids.to_str().unwrap(),
-            "--json",
-            json.to_str().unwrap(),
-            "--charts",
-            charts.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = ok(&[
+        "bench",
+        "grid",
+        "--scenes",
+        "cornell",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--repeats",
+        "1",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--grids-csv",
+        grids.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+        "--charts",
+        charts.to_str().unwrap(),
+    ]);
     let md = String::from_utf8_lossy(&out.stdout);
     for t in [
         "Table 1",
@@ -505,28 +479,24 @@ fn frames_time_and_budget() {
     let pat = d.join("f%03d.png");
     let csv = d.join("frames.csv");
     let gif = d.join("a.gif");
-    let o = bin()
-        .args([
-            "render",
-            scene.to_str().unwrap(),
-            "--frames",
-            "4",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "--engine",
-            "grid",
-            "--out",
-            pat.to_str().unwrap(),
-            "--frame-csv",
-            csv.to_str().unwrap(),
-            "--gif",
-            gif.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--frames",
+        "4",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--engine",
+        "grid",
+        "--out",
+        pat.to_str().unwrap(),
+        "--frame-csv",
+        csv.to_str().unwrap(),
+        "--gif",
+        gif.to_str().unwrap(),
+    ]);
     for i in 0..4 {
         assert!(d.join(format!("f{i:03}.png")).exists());
     }
@@ -541,24 +511,20 @@ fn frames_time_and_budget() {
     let f0 = std::fs::read(d.join("f000.png")).unwrap();
     assert_ne!(f0, std::fs::read(d.join("f003.png")).unwrap());
     let one = d.join("one.png");
-    let o = bin()
-        .args([
-            "render",
-            scene.to_str().unwrap(),
-            "--time",
-            "0",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "--engine",
-            "grid",
-            "--out",
-            one.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--time",
+        "0",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--engine",
+        "grid",
+        "--out",
+        one.to_str().unwrap(),
+    ]);
     assert_eq!(std::fs::read(&one).unwrap(), f0, "--time 0 renders frame 0");
     fails(
         &[
@@ -600,25 +566,21 @@ fn frames_time_and_budget() {
         &["--fps"],
     );
     // Table 4 in miniature.
-    let o = bin()
-        .args([
-            "bench",
-            "budget",
-            scene.to_str().unwrap(),
-            "--width",
-            "32",
-            "--height",
-            "32",
-            "--frames",
-            "2",
-            "--engines",
-            "grid,grid2l,obvhs-bvh2",
-            "--ms",
-            "100,5",
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = ok(&[
+        "bench",
+        "budget",
+        scene.to_str().unwrap(),
+        "--width",
+        "32",
+        "--height",
+        "32",
+        "--frames",
+        "2",
+        "--engines",
+        "grid,grid2l,obvhs-bvh2",
+        "--ms",
+        "100,5",
+    ]);
     let md = String::from_utf8_lossy(&o.stdout);
     assert!(
         md.contains("AO spp in 100 ms")

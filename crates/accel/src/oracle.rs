@@ -239,17 +239,7 @@ pub fn random_case(seed: u64, ntri: usize, nray: usize) -> (scene::Geometry, Ray
             0,
         );
     }
-    let n = tris.len();
-    let geo = scene::Geometry {
-        normals: vec![[Vec3::Y; 3]; n],
-        material: vec![0; n],
-        mesh: vec![0; n],
-        mesh_first: vec![0, n as u32],
-        bounds: geom::Aabb::from_points(tris.iter().flatten().copied()),
-        tris,
-        ..Default::default()
-    };
-    (geo, b)
+    (scene::Geometry::soup(tris, Vec3::Y), b)
 }
 
 /// Distance from `p` to the triangle `t` (closest point by regions, Ericson 2005 §5.1.5).

@@ -451,16 +451,7 @@ mod tests {
     use scene::Camera;
 
     fn quad_scene(tris: Vec<[Vec3; 3]>) -> Geometry {
-        let n = tris.len();
-        Geometry {
-            normals: vec![[Vec3::Z; 3]; n],
-            material: vec![0; n],
-            mesh: vec![0; n],
-            mesh_first: vec![0, n as u32],
-            bounds: geom::Aabb::from_points(tris.iter().flatten().copied()),
-            tris,
-            ..Default::default()
-        }
+        Geometry::soup(tris, Vec3::Z)
     }
 
     fn cam() -> Camera {

@@ -88,99 +88,106 @@ pub struct Animation {
     pub local_spheres: Vec<Sphere>,
 }
 
-fn lerp_keys<T: Copy>(
-    keys: &[T],
-    time: impl Fn(&T) -> f32,
-    t: f32,
-    mix: impl Fn(&T, &T, f32) -> T,
-) -> Option<T> {
-    let first = keys.first()?;
-    if keys.len() == 1 || t <= time(first) {
-        return Some(*first);
+/// The keys a linear interpolation at time `t` mixes: (a, b, u), clamped to the first and
+/// last key (a = b there). `times` is non-empty and non-decreasing.
+fn lerp_segment(times: impl Fn(usize) -> f32, n: usize, t: f32) -> (usize, usize, f32) {
+    if n == 1 || t <= times(0) {
+        return (0, 0, 0.0);
     }
-    let last = keys.last()?;
-    if t >= time(last) {
-        return Some(*last);
+    if t >= times(n - 1) {
+        return (n - 1, n - 1, 0.0);
     }
-    let i = keys
-        .partition_point(|k| time(k) <= t)
-        .clamp(1, keys.len() - 1);
-    let (a, b) = (&keys[i - 1], &keys[i]);
-    let span = time(b) - time(a);
+    // First key after t (binary search; times are sorted).
+    let (mut lo, mut hi) = (0, n);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if times(mid) <= t {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    let i = lo.clamp(1, n - 1);
+    let span = times(i) - times(i - 1);
     let u = if span > 0.0 {
-        (t - time(a)) / span
+        (t - times(i - 1)) / span
     } else {
         1.0
     };
-    Some(mix(a, b, u))
+    (i - 1, i, u)
 }
 
-/// Segment index i (curve between keys i and i+1, 1 ≤ i ≤ n−3) and parameter u ∈ [0, 1] for
-/// time `t`, clamped as in BART.
-fn kb_segment(times: &[f32], t: f32) -> (usize, f32) {
-    let n = times.len();
-    if t <= times[1] {
-        return (1, 0.0);
-    }
-    if t >= times[n - 2] {
-        return (n - 3, 1.0);
-    }
-    let mut i = 1;
-    while i < n - 3 && t >= times[i + 1] {
-        i += 1;
-    }
-    let span = times[i + 1] - times[i];
-    (
-        i,
-        if span > 0.0 {
-            (t - times[i]) / span
-        } else {
-            1.0
-        },
-    )
+/// A Kochanek–Bartels segment at time `t`: keys i−1 … i+2 shape the curve between keys i and
+/// i+1 (1 ≤ i ≤ n−3, clamped as in BART), u ∈ [0, 1] along it, and the outgoing tangent
+/// multipliers at key i and the incoming ones at key i+1 (Kochanek & Bartels 1984, with
+/// BART's time adjustment for uneven key spacing).
+struct KbSegment {
+    i: usize,
+    u: f32,
+    out: [f32; 2],
+    inc: [f32; 2],
 }
 
-/// Outgoing and incoming TCB tangent multipliers for the segment (i1, i2) (Kochanek &
-/// Bartels 1984, with BART's time adjustment for uneven key spacing).
-fn kb_multipliers(t: [f32; 4], k1: [f32; 3], k2: [f32; 3]) -> ([f32; 2], [f32; 2]) {
+fn kb_segment(
+    times: impl Fn(usize) -> f32,
+    tcb: impl Fn(usize) -> [f32; 3],
+    n: usize,
+    t: f32,
+) -> KbSegment {
+    let (i, u) = if t <= times(1) {
+        (1, 0.0)
+    } else if t >= times(n - 2) {
+        (n - 3, 1.0)
+    } else {
+        let mut i = 1;
+        while i < n - 3 && t >= times(i + 1) {
+            i += 1;
+        }
+        let span = times(i + 1) - times(i);
+        (
+            i,
+            if span > 0.0 {
+                (t - times(i)) / span
+            } else {
+                1.0
+            },
+        )
+    };
+    let tk = [times(i - 1), times(i), times(i + 1), times(i + 2)];
     // Coincident key times would divide by zero; such a key gets no time adjustment.
     let ratio = |a: f32, b: f32| if b > 0.0 { a / b } else { 0.5 };
-    let adj0 = 2.0 * ratio(t[2] - t[1], t[2] - t[0]);
-    let adj1 = 2.0 * ratio(t[2] - t[1], t[3] - t[1]);
-    let [te0, c0, b0] = k1;
-    let [te1, c1, b1] = k2;
-    let out0 = 0.5 * adj0 * (1.0 - te0) * (1.0 + c0) * (1.0 + b0);
-    let out1 = 0.5 * adj0 * (1.0 - te0) * (1.0 - c0) * (1.0 - b0);
-    let in0 = 0.5 * adj1 * (1.0 - te1) * (1.0 - c1) * (1.0 + b1);
-    let in1 = 0.5 * adj1 * (1.0 - te1) * (1.0 + c1) * (1.0 - b1);
-    ([out0, out1], [in0, in1])
+    let adj0 = 2.0 * ratio(tk[2] - tk[1], tk[2] - tk[0]);
+    let adj1 = 2.0 * ratio(tk[2] - tk[1], tk[3] - tk[1]);
+    let [te0, c0, b0] = tcb(i);
+    let [te1, c1, b1] = tcb(i + 1);
+    KbSegment {
+        i,
+        u,
+        out: [
+            0.5 * adj0 * (1.0 - te0) * (1.0 + c0) * (1.0 + b0),
+            0.5 * adj0 * (1.0 - te0) * (1.0 - c0) * (1.0 - b0),
+        ],
+        inc: [
+            0.5 * adj1 * (1.0 - te1) * (1.0 - c1) * (1.0 + b1),
+            0.5 * adj1 * (1.0 - te1) * (1.0 + c1) * (1.0 - b1),
+        ],
+    }
 }
 
 fn eval_vec(keys: &[VecKey], interp: Interp, t: f32) -> Option<Vec3> {
-    if interp == Interp::Linear || keys.len() < 4 {
-        return lerp_keys(
-            keys,
-            |k| k.t,
-            t,
-            |a, b, u| VecKey {
-                t,
-                v: a.v.lerp(b.v, u),
-                tcb: a.tcb,
-            },
-        )
-        .map(|k| k.v);
+    let n = keys.len();
+    if n == 0 {
+        return None;
     }
-    let times: Vec<f32> = keys.iter().map(|k| k.t).collect();
-    let (i, u) = kb_segment(&times, t);
+    if interp == Interp::Linear || n < 4 {
+        let (a, b, u) = lerp_segment(|k| keys[k].t, n, t);
+        return Some(keys[a].v.lerp(keys[b].v, u));
+    }
+    let KbSegment { i, u, out: o, inc } = kb_segment(|k| keys[k].t, |k| keys[k].tcb, n, t);
     let (p0, p1, p2, p3) = (keys[i - 1].v, keys[i].v, keys[i + 1].v, keys[i + 2].v);
-    let (o, n) = kb_multipliers(
-        [times[i - 1], times[i], times[i + 1], times[i + 2]],
-        keys[i].tcb,
-        keys[i + 1].tcb,
-    );
     let dp = p2 - p1;
     let tout = o[1] * dp + o[0] * (p1 - p0);
-    let tin = n[1] * (p3 - p2) + n[0] * dp;
+    let tin = inc[1] * (p3 - p2) + inc[0] * dp;
     // Hermite cubic C0 + C1 u + C2 u² + C3 u³.
     let c2 = 3.0 * dp - 2.0 * tout - tin;
     let c3 = -2.0 * dp + tout + tin;
@@ -214,21 +221,15 @@ fn qscale(q: Quat, s: f32) -> Quat {
 }
 
 fn eval_rot(keys: &[RotKey], interp: Interp, t: f32) -> Option<Quat> {
-    if interp == Interp::Linear || keys.len() < 4 {
-        return lerp_keys(
-            keys,
-            |k| k.t,
-            t,
-            |a, b, u| RotKey {
-                t,
-                q: a.q.slerp(b.q, u),
-                tcb: a.tcb,
-            },
-        )
-        .map(|k| k.q);
+    let n = keys.len();
+    if n == 0 {
+        return None;
     }
-    let times: Vec<f32> = keys.iter().map(|k| k.t).collect();
-    let (i, u) = kb_segment(&times, t);
+    if interp == Interp::Linear || n < 4 {
+        let (a, b, u) = lerp_segment(|k| keys[k].t, n, t);
+        return Some(keys[a].q.slerp(keys[b].q, u));
+    }
+    let KbSegment { i, u, out: o, inc } = kb_segment(|k| keys[k].t, |k| keys[k].tcb, n, t);
     let q0 = keys[i - 1].q;
     let q1 = keys[i].q;
     let mut q2 = keys[i + 1].q;
@@ -238,13 +239,8 @@ fn eval_rot(keys: &[RotKey], interp: Interp, t: f32) -> Option<Quat> {
         q2 = -q2;
     }
     let logdq = qlog(q1.inverse() * q2);
-    let (o, n) = kb_multipliers(
-        [times[i - 1], times[i], times[i + 1], times[i + 2]],
-        keys[i].tcb,
-        keys[i + 1].tcb,
-    );
     let tout = qscale(logdq, o[1]) + qscale(qlog(q0.inverse() * q1), o[0]);
-    let tin = qscale(logdq, n[0]) + qscale(qlog(q2.inverse() * q3), n[1]);
+    let tin = qscale(logdq, inc[0]) + qscale(qlog(q2.inverse() * q3), inc[1]);
     let a = q1 * qexp(qscale(tout - logdq, 0.5));
     let b = q2 * qexp(qscale(logdq - tin, 0.5));
     // Squad(u; q1, a, b, q2) = Slerp(2u(1−u); Slerp(u; q1, q2), Slerp(u; a, b)).
@@ -333,24 +329,14 @@ impl Animation {
 
 impl VertexKeys {
     pub fn at(&self, t: f32) -> Vec<Vec3> {
-        let n = self.times.len();
-        if n == 1 || t <= self.times[0] {
-            return self.positions[0].clone();
+        let (a, b, u) = lerp_segment(|k| self.times[k], self.times.len(), t);
+        if a == b {
+            return self.positions[a].clone();
         }
-        if t >= self.times[n - 1] {
-            return self.positions[n - 1].clone();
-        }
-        let i = self.times.partition_point(|&x| x <= t).clamp(1, n - 1);
-        let span = self.times[i] - self.times[i - 1];
-        let u = if span > 0.0 {
-            (t - self.times[i - 1]) / span
-        } else {
-            1.0
-        };
-        self.positions[i - 1]
+        self.positions[a]
             .iter()
-            .zip(&self.positions[i])
-            .map(|(a, b)| a.lerp(*b, u))
+            .zip(&self.positions[b])
+            .map(|(p, q)| p.lerp(*q, u))
             .collect()
     }
 }

@@ -72,6 +72,21 @@ impl Geometry {
         g
     }
 
+    /// A bare triangle soup as one mesh, every vertex normal `normal`, material 0 (for tests
+    /// and synthetic inputs; no culling spheres).
+    pub fn soup(tris: Vec<[Vec3; 3]>, normal: Vec3) -> Geometry {
+        let n = tris.len();
+        Geometry {
+            normals: vec![[normal; 3]; n],
+            material: vec![0; n],
+            mesh: vec![0; n],
+            mesh_first: vec![0, n as u32],
+            bounds: Aabb::from_points(tris.iter().flatten().copied()),
+            tris,
+            ..Default::default()
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.tris.len()
     }
