@@ -27,7 +27,7 @@ fn pad_angle(a: f32) -> f32 {
 /// The angle between two unit vectors, accurate near 0 and π (atan2 of |x×y| and x·y, not acos).
 #[inline]
 pub fn angle_between(x: Vec3, y: Vec3) -> f32 {
-    x.cross(y).length().atan2(x.dot(y))
+    crate::pmath::atan2(x.cross(y).length(), x.dot(y))
 }
 
 /// The half-angle that makes a cone around `axis` contain the cones (x₁, α₁) and (x₂, α₂):
@@ -53,7 +53,7 @@ fn rotate_towards(x: Vec3, ax: f32, y: Vec3, ay: f32, beta: f32) -> Cone {
     if w == Vec3::ZERO {
         return Cone::WIDE;
     }
-    let (s, c) = beta.sin_cos();
+    let (s, c) = crate::pmath::sin_cos(beta);
     enclosing((x * c + w * s).normalize(), x, ax, y, ay)
 }
 
@@ -108,7 +108,7 @@ impl Cone {
         if q == Vec3::ZERO {
             return Cone::WIDE;
         }
-        let (s, c) = self.angle.sin_cos();
+        let (s, c) = crate::pmath::sin_cos(self.angle);
         let e = self.axis * c + q * s;
         let axis = (e + r).normalize_or_zero();
         if axis == Vec3::ZERO {
@@ -165,7 +165,7 @@ pub struct ConeSc {
 
 impl From<&Cone> for ConeSc {
     fn from(k: &Cone) -> Self {
-        let (sin, cos) = k.angle.sin_cos();
+        let (sin, cos) = crate::pmath::sin_cos(k.angle);
         ConeSc {
             axis: k.axis,
             sin,

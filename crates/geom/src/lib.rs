@@ -8,6 +8,7 @@
 pub mod aabb;
 pub mod cone;
 pub mod miniball;
+pub mod pmath;
 pub mod ray;
 pub mod rng;
 pub mod sphere;

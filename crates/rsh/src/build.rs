@@ -94,7 +94,8 @@ impl Level {
             l.radius.push(s.radius);
             l.axis.push(c.axis);
             l.angle.push(c.angle);
-            let (sn, cs) = c.angle.sin_cos();
+            // Portable sine and cosine: the GPU backend computes the same bits.
+            let (sn, cs) = geom::pmath::sin_cos(c.angle);
             l.sin.push(sn);
             l.cos.push(cs);
             l.max_t.push(t);

@@ -23,7 +23,7 @@
 //! `[31:30]` kind, `[29:26]` light, `[25:0]` Z-order (Morton) of the pixel (x, y): the layout
 //! of RAH's ray textures, whose 2×2 pyramid is exactly consecutive runs of this order.
 
-use geom::{Aabb, Vec3};
+use geom::{pmath, Aabb, Vec3};
 use render::{RayBatch, RayKind};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -116,11 +116,12 @@ fn quant(x: f32, bits: u32) -> u32 {
 }
 
 /// Spherical coordinates of a unit direction, each normalised to [0, 1]:
-/// θ = acos(z) / π, φ = (atan2(y, x) + π) / 2π.
+/// θ = acos(z) / π, φ = (atan2(y, x) + π) / 2π, with the portable [`geom::pmath`] functions
+/// so that the GPU backend computes the same keys.
 #[inline]
 pub fn spherical01(d: Vec3) -> (f32, f32) {
-    let theta = d.z.clamp(-1.0, 1.0).acos() * std::f32::consts::FRAC_1_PI;
-    let phi = (d.y.atan2(d.x) + std::f32::consts::PI) * (0.5 * std::f32::consts::FRAC_1_PI);
+    let theta = pmath::acos(d.z) * std::f32::consts::FRAC_1_PI;
+    let phi = (pmath::atan2(d.y, d.x) + std::f32::consts::PI) * (0.5 * std::f32::consts::FRAC_1_PI);
     (theta.clamp(0.0, 1.0), phi.clamp(0.0, 1.0))
 }
 

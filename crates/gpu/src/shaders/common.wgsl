@@ -1,0 +1,167 @@
+// Shared prelude of every rayspace kernel: the launch-parameter block, linear thread ids,
+// and the vector and elementary functions in exactly the evaluation order of the CPU code
+// (glam's scalar Vec3 and geom::pmath), so that a device with IEEE, unfused f32 arithmetic
+// computes the same bits as the CPU engines. Constants that are not exact literals are
+// injected by the host as bit patterns (see `kernels.rs`), never written as decimal
+// literals, because WGSL folds literal expressions in f64 (abstract float) while Rust folds
+// them in f32.
+
+// Launch parameters: 16 u32 and 8 f32; each kernel documents its use of them.
+struct Params {
+    u0: vec4<u32>,
+    u1: vec4<u32>,
+    u2: vec4<u32>,
+    u3: vec4<u32>,
+    f0: vec4<f32>,
+    f1: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> P: Params;
+
+const WG: u32 = 256u;
+
+// Linear workgroup index of a (possibly 2-D folded) dispatch.
+fn wg_linear(wid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return wid.x + wid.y * nwg.x;
+}
+
+// --- unfused products ---
+// Compilers may fuse a product and a sum into one FMA (one rounding instead of two; Mesa's
+// lavapipe does when the product has a single use). The CPU code never fuses, so every
+// product that feeds a sum goes through mul(): OR-ing in a zero the compiler cannot see
+// (P.f1.w, always 0) keeps the rounded product a value of its own.
+fn opaque_zero() -> u32 {
+    return bitcast<u32>(P.f1.w);
+}
+
+fn mul(a: f32, b: f32) -> f32 {
+    return bitcast<f32>(bitcast<u32>(a * b) | opaque_zero());
+}
+
+fn mul3(a: vec3<f32>, b: f32) -> vec3<f32> {
+    return bitcast<vec3<f32>>(bitcast<vec3<u32>>(a * b) | vec3<u32>(opaque_zero()));
+}
+
+fn mul64(a: f64, b: f64) -> f64 {
+    return select(a * b, 0.0lf, opaque_zero() != 0u);
+}
+
+fn mul3_64(a: vec3<f64>, b: f64) -> vec3<f64> {
+    return select(a * b, vec3<f64>(0.0lf), opaque_zero() != 0u);
+}
+
+// --- glam Vec3, scalar implementation order ---
+fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    let xx = mul(a.x, b.x);
+    let yy = mul(a.y, b.y);
+    let zz = mul(a.z, b.z);
+    return (xx + yy) + zz;
+}
+
+fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let x = mul(a.y, b.z) - mul(b.y, a.z);
+    let y = mul(a.z, b.x) - mul(b.z, a.x);
+    let z = mul(a.x, b.y) - mul(b.x, a.y);
+    return vec3<f32>(x, y, z);
+}
+
+fn len3(a: vec3<f32>) -> f32 {
+    return sqrt(dot3(a, a));
+}
+
+fn normalize3(a: vec3<f32>) -> vec3<f32> {
+    let rcp = 1.0 / len3(a);
+    return a * rcp;
+}
+
+// glam's normalize_or_zero: the reciprocal length must be finite and positive.
+fn is_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+fn normalize_or_zero3(a: vec3<f32>) -> vec3<f32> {
+    let rcp = 1.0 / len3(a);
+    if is_finite(rcp) && rcp > 0.0 {
+        return a * rcp;
+    }
+    return vec3<f32>(0.0);
+}
+
+fn max_element3(a: vec3<f32>) -> f32 {
+    return max(max(a.x, a.y), a.z);
+}
+
+// --- geom::pmath ---
+fn p_atan(x0: f32) -> f32 {
+    let neg = x0 < 0.0;
+    var x = abs(x0);
+    var y0 = 0.0;
+    if x > C_T3P8 {
+        x = -(1.0 / x);
+        y0 = C_FRAC_PI_2;
+    } else if x > C_TP8 {
+        x = (x - 1.0) / (x + 1.0);
+        y0 = C_FRAC_PI_4;
+    }
+    let z = x * x;
+    var p = mul(C_AT0, z) - C_AT1;
+    p = mul(p, z) + C_AT2;
+    p = mul(p, z) - C_AT3;
+    p = p * z;
+    let y = y0 + (mul(p, x) + x);
+    if neg {
+        return -y;
+    }
+    return y;
+}
+
+fn p_atan2(y: f32, x: f32) -> f32 {
+    if x == 0.0 {
+        if y > 0.0 {
+            return C_FRAC_PI_2;
+        } else if y < 0.0 {
+            return -C_FRAC_PI_2;
+        }
+        return 0.0;
+    }
+    if y == 0.0 {
+        if x > 0.0 {
+            return 0.0;
+        }
+        return C_PI;
+    }
+    let a = p_atan(y / x);
+    if x > 0.0 {
+        return a;
+    } else if y > 0.0 {
+        return a + C_PI;
+    }
+    return a - C_PI;
+}
+
+fn p_acos(x0: f32) -> f32 {
+    let x = clamp(x0, -1.0, 1.0);
+    return p_atan2(sqrt((1.0 - x) * (1.0 + x)), x);
+}
+
+// (sin x, cos x)
+fn p_sin_cos(x: f32) -> vec2<f32> {
+    let qf = floor(mul(x, C_TWO_OVER_PI) + 0.5);
+    let r = ((x - mul(qf, C_DP1)) - mul(qf, C_DP2)) - mul(qf, C_DP3);
+    let z = r * r;
+    var ts = mul(-C_S0, z) + C_S1;
+    ts = mul(ts, z) - C_S2;
+    let s = mul(mul(ts, z), r) + r;
+    var tc = mul(C_C0, z) - C_C1;
+    tc = mul(tc, z) + C_C2;
+    let c = (mul(mul(tc, z), z) - mul(0.5, z)) + 1.0;
+    let q = i32(qf) & 3;
+    if q == 0 {
+        return vec2<f32>(s, c);
+    } else if q == 1 {
+        return vec2<f32>(c, -s);
+    } else if q == 2 {
+        return vec2<f32>(-s, -c);
+    }
+    return vec2<f32>(-c, s);
+}

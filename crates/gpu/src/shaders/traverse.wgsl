@@ -1,0 +1,163 @@
+// Top-down traversal (thesis §3.2.8) and final tests (§3.2.9), mirroring rsh::traverse.
+// Counters: cnt[kind] = node–triangle tests, cnt[4 + kind] = passes (or, for the final
+// tests, cnt[kind] = ray–triangle tests), gathered per workgroup then added once.
+//
+// Bindings (shared by every entry point, so one layout serves them all):
+//   1 node sphere, 2 node cone, 3 node sc, 4 node first (children of the tested level),
+//   5 triangle sphere, 6 mesh of triangle / mesh sphere, 7 pass flags (node × mesh),
+//   8 pairs: node, 9 pairs: triangle, 10 out (counts, flags or child nodes),
+//   11 out triangles, 12 counters, 13 scanned offsets.
+
+@group(0) @binding(1) var<storage, read> n_sphere: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> n_cone: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> n_sc: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> n_first: array<u32>;
+@group(0) @binding(5) var<storage, read> t_sphere: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> t_mesh: array<u32>;
+@group(0) @binding(7) var<storage, read> m_pass: array<u32>;
+@group(0) @binding(8) var<storage, read> p_node: array<u32>;
+@group(0) @binding(9) var<storage, read> p_tri: array<u32>;
+@group(0) @binding(10) var<storage, read_write> o_a: array<u32>;
+@group(0) @binding(11) var<storage, read_write> o_b: array<u32>;
+@group(0) @binding(12) var<storage, read_write> cnt: array<atomic<u32>>;
+@group(0) @binding(13) var<storage, read> e_off: array<u32>;
+
+var<workgroup> wcnt: array<atomic<u32>, 8>;
+
+fn test_node(n: u32, p: vec4<f32>) -> bool {
+    return node_test(P.u0.w == 1u, n_sphere[n], n_cone[n], n_sc[n], p.xyz, p.w);
+}
+
+fn node_kind(n: u32) -> u32 {
+    return bitcast<u32>(n_sc[n].w) & 3u;
+}
+
+fn wcnt_reset(li: u32) {
+    if li < 8u {
+        atomicStore(&wcnt[li], 0u);
+    }
+    workgroupBarrier();
+}
+
+fn wcnt_flush(li: u32) {
+    workgroupBarrier();
+    if li < 8u {
+        let v = atomicLoad(&wcnt[li]);
+        if v > 0u {
+            atomicAdd(&cnt[li], v);
+        }
+    }
+}
+
+// Mesh culling (§3.2.1–3.2.2): pass[node · meshes + mesh]. Params u0 = (nodes · meshes,
+// meshes, -, exact test). Binding 6 holds the mesh spheres here.
+@compute @workgroup_size(256)
+fn mesh_test(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i >= P.u0.x {
+        return;
+    }
+    let n = i / P.u0.y;
+    let m = i % P.u0.y;
+    let s = vec4<f32>(bitcast<f32>(t_mesh[4u * m]), bitcast<f32>(t_mesh[4u * m + 1u]), bitcast<f32>(t_mesh[4u * m + 2u]), bitcast<f32>(t_mesh[4u * m + 3u]));
+    o_a[i] = select(0u, 1u, test_node(n, s));
+}
+
+// Top level, per (node, triangle tile): candidates are the triangles of meshes whose sphere
+// passed; count the ones whose sphere passes the node (top_count) or emit them (top_emit,
+// at the scanned offset). Node-major, triangles ascending: the CPU's pair order.
+// Params u0 = (slots, tiles per node, first node, exact), u1 = (triangle start, triangle end,
+// meshes, tile size).
+fn top_slot(i: u32, emit: bool) -> vec2<u32> {
+    let n = P.u0.z + i / P.u0.y;
+    let tile = i % P.u0.y;
+    let t0 = P.u1.x + tile * P.u1.w;
+    let t1 = min(t0 + P.u1.w, P.u1.y);
+    var tested = 0u;
+    var passed = 0u;
+    var at = 0u;
+    if emit {
+        at = e_off[i];
+    }
+    for (var t = t0; t < t1; t++) {
+        if m_pass[n * P.u1.z + t_mesh[t]] == 0u {
+            continue;
+        }
+        tested++;
+        if test_node(n, t_sphere[t]) {
+            if emit {
+                o_a[at + passed] = n;
+                o_b[at + passed] = t;
+            }
+            passed++;
+        }
+    }
+    return vec2<u32>(tested, passed);
+}
+
+@compute @workgroup_size(256)
+fn top_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
+    wcnt_reset(li);
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i < P.u0.x {
+        let r = top_slot(i, false);
+        o_a[i] = r.y;
+        let k = node_kind(P.u0.z + i / P.u0.y);
+        atomicAdd(&wcnt[k], r.x);
+        atomicAdd(&wcnt[4u + k], r.y);
+    }
+    wcnt_flush(li);
+}
+
+// Binding 13 holds the scanned counts: each slot's first output position.
+@compute @workgroup_size(256)
+fn top_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i < P.u0.x {
+        _ = top_slot(i, true);
+    }
+}
+
+// A level below the top: test every pair, flag survivors. Params u0 = (pairs, -, -, exact).
+@compute @workgroup_size(256)
+fn pair_test(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
+    wcnt_reset(li);
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i < P.u0.x {
+        let n = p_node[i];
+        let f = test_node(n, t_sphere[p_tri[i]]);
+        o_a[i] = select(0u, 1u, f);
+        let k = node_kind(n);
+        atomicAdd(&wcnt[k], 1u);
+        if f {
+            atomicAdd(&wcnt[4u + k], 1u);
+        }
+    }
+    wcnt_flush(li);
+}
+
+// Children counts of surviving pairs. Params u0 = (pairs, ...).
+@compute @workgroup_size(256)
+fn child_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i < P.u0.x {
+        let n = p_node[i];
+        o_a[i] = n_first[n + 1u] - n_first[n];
+    }
+}
+
+// Expand pair j into (child, triangle) at its scanned offset (binding 13).
+@compute @workgroup_size(256)
+fn child_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i < P.u0.x {
+        let n = p_node[i];
+        let o = e_off[i];
+        let c0 = n_first[n];
+        let c1 = n_first[n + 1u];
+        for (var c = c0; c < c1; c++) {
+            o_a[o + c - c0] = c;
+            o_b[o + c - c0] = p_tri[i];
+        }
+    }
+}
