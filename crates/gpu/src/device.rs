@@ -86,6 +86,9 @@ impl Gpu {
             max_buffer_size: alimits.max_buffer_size,
             max_storage_buffers_per_shader_stage: alimits.max_storage_buffers_per_shader_stage,
             max_compute_workgroups_per_dimension: alimits.max_compute_workgroups_per_dimension,
+            // The G-buffer's five 16-byte render targets.
+            max_color_attachment_bytes_per_sample: alimits.max_color_attachment_bytes_per_sample,
+            max_texture_dimension_2d: alimits.max_texture_dimension_2d,
             ..wgpu::Limits::default()
         };
         if limits.max_storage_buffers_per_shader_stage < 10 {

@@ -7,6 +7,8 @@
 //!   stable radix sort) built from them.
 //! - [`engine`]: CRSH and RAH as a [`render::Tracer`], kernel for kernel the pipeline of
 //!   the `rsh` crate, with the same counters.
+//! - [`raster`]: primary visibility by real rasterization (render pipeline, depth test) into
+//!   the G-buffer's render targets.
 
 //!
 //! Every kernel mirrors a CPU pass over flat structure-of-arrays buffers of the same layout;
@@ -15,6 +17,8 @@
 pub mod device;
 pub mod engine;
 pub mod kernels;
+pub mod raster;
 
 pub use device::{Gpu, GpuError};
 pub use engine::GpuRsh;
+pub use raster::GpuRaster;

@@ -88,6 +88,24 @@ pub fn render(
     opts: &RenderOptions,
     progress: &dyn Progress,
 ) -> Rendered {
+    render_with(scene, geo, tracer, opts, progress, &|view, near| {
+        rasterize(geo, &scene.materials, view, near)
+    })
+}
+
+/// Primary visibility from a rasterizer: the view and the near-plane distance in, a
+/// G-buffer out (the CPU rasterizer, or the GPU backend's render pipeline).
+pub type RasterFn<'a> = dyn Fn(&View, f32) -> (GBuffer, RasterStats) + 'a;
+
+/// [`render`] with another rasterizer for the primary visibility.
+pub fn render_with(
+    scene: &Scene,
+    geo: &Geometry,
+    tracer: &dyn Tracer,
+    opts: &RenderOptions,
+    progress: &dyn Progress,
+    raster_fn: &RasterFn,
+) -> Rendered {
     let view = View::new(&scene.camera, opts.width, opts.height);
     let lights = &scene.lights;
     let mut stats = RenderStats {
@@ -103,7 +121,7 @@ pub fn render(
     };
     progress.stage("rasterize");
     let (gb, raster) = timed(&mut stats, "rasterize", || {
-        rasterize(geo, &scene.materials, &view, default_near(geo))
+        raster_fn(&view, default_near(geo))
     });
     let npix = (opts.width * opts.height) as usize;
     let mut pixels: Vec<Vec3> = gb

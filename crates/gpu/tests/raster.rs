@@ -1,0 +1,118 @@
+//! The GPU G-buffer against the CPU rasterizer, and whole renders (GPU raster + GPU CRSH)
+//! against CPU renders.
+//!
+//! Stated tolerance. The hardware rasterizer snaps vertices to its own sub-pixel grid and
+//! interpolates barycentrics in its own precision, so (1) a pixel whose centre lies within
+//! rounding of a triangle edge may be covered by the neighbouring triangle: at most 1 % of
+//! the covered pixels may name another triangle; (2) where both name the same triangle, the
+//! positions agree within 1e-4 of the scene's diagonal; (3) in the final image at most 2 %
+//! of the pixels differ by more than 2/255 in any channel (edge pixels and the secondary
+//! rays they spawn). With the CPU's G-buffer, the GPU tracer's image is byte-identical.
+
+use gpu::{Gpu, GpuRaster, GpuRsh};
+use render::raster::{default_near, rasterize};
+use render::whitted::{render, render_with, RenderOptions};
+use render::View;
+use rsh::{RshConfig, RshEngine};
+use scene::{builtin, Geometry};
+
+fn gpu() -> Option<Gpu> {
+    match Gpu::new() {
+        Ok(g) => Some(g),
+        Err(e) => {
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+    }
+}
+
+fn bytes(p: &[geom::Vec3]) -> Vec<u8> {
+    p.iter()
+        .flat_map(|c| [c.x, c.y, c.z].map(render::output::srgb_encode))
+        .collect()
+}
+
+#[test]
+fn gbuffer_matches_cpu_rasterizer() {
+    let Some(g) = gpu() else { return };
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let r = GpuRaster::new(&g, &geo, &s.materials).unwrap();
+        let view = View::new(&s.camera, 160, 120);
+        let near = default_near(&geo);
+        let (cpu, _) = rasterize(&geo, &s.materials, &view, near);
+        let (gpu, _) = r.rasterize(&view, near);
+        let covered = cpu.covered().max(1);
+        let mut other = 0;
+        let diag = geo.bounds.diagonal();
+        for p in 0..cpu.tri.len() {
+            if cpu.tri[p] != gpu.tri[p] {
+                other += 1;
+                continue;
+            }
+            if cpu.tri[p] == geom::NO_HIT {
+                continue;
+            }
+            let d = (cpu.position[p] - gpu.position[p]).length();
+            assert!(d <= 1e-4 * diag, "{name} pixel {p}: positions {d} apart");
+            assert!(
+                (cpu.normal[p] - gpu.normal[p]).length() < 1e-3,
+                "{name} pixel {p}: normal"
+            );
+            assert_eq!(cpu.diffuse[p], gpu.diffuse[p]);
+            assert_eq!(cpu.specular[p], gpu.specular[p]);
+        }
+        let frac = other as f64 / covered as f64;
+        eprintln!("{name}: {other} of {covered} covered pixels name another triangle");
+        assert!(
+            frac <= 0.01,
+            "{name}: {:.3} % of pixels differ",
+            frac * 100.0
+        );
+    }
+}
+
+#[test]
+fn renders_match_cpu_renders() {
+    let Some(g) = gpu() else { return };
+    let opts = RenderOptions {
+        width: 96,
+        height: 72,
+        bounces: 2,
+    };
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let cpu_engine = RshEngine::new(&geo, RshConfig::crsh()).unwrap();
+        let cpu = render(&s, &geo, &cpu_engine, &opts, &());
+        let gpu_engine = GpuRsh::new(Gpu::new().unwrap(), &geo, RshConfig::crsh()).unwrap();
+        // GPU tracer on the CPU's G-buffer: the same image, byte for byte.
+        let mixed = render(&s, &geo, &gpu_engine, &opts, &());
+        assert_eq!(
+            bytes(&mixed.pixels),
+            bytes(&cpu.pixels),
+            "{name}: GPU tracer image"
+        );
+        assert_eq!(
+            mixed.stats.total_tests, cpu.stats.total_tests,
+            "{name}: tests"
+        );
+        // GPU raster + GPU tracer: within the stated tolerance.
+        let r = GpuRaster::new(&g, &geo, &s.materials).unwrap();
+        let full = render_with(&s, &geo, &gpu_engine, &opts, &(), &|v, n| r.rasterize(v, n));
+        let (a, b) = (bytes(&full.pixels), bytes(&cpu.pixels));
+        let bad = a
+            .chunks(3)
+            .zip(b.chunks(3))
+            .filter(|(x, y)| x.iter().zip(y.iter()).any(|(p, q)| p.abs_diff(*q) > 2))
+            .count();
+        let frac = bad as f64 / (a.len() / 3) as f64;
+        eprintln!("{name}: {bad} pixels differ by more than 2/255");
+        assert!(
+            frac <= 0.02,
+            "{name}: {:.2} % of pixels differ",
+            frac * 100.0
+        );
+    }
+}
