@@ -48,6 +48,9 @@ enum Command {
 enum BenchCommand {
     /// The thesis's chapter-4 tables: CRSH and RAH per configuration on the same rays.
     Rsh(BenchRshArgs),
+    /// The GPU backend against the CPU engines on the same rays, phase by phase, with the
+    /// agreement of hits and counters checked in the same run.
+    Gpu(BenchGpuArgs),
     /// The irregular-grid paper's Tables 1, 2, 3 and 5: our grids against the peers
     /// (obvhs; Embree with `--features embree`) on the same rays.
     Grid(BenchGridArgs),
@@ -143,6 +146,30 @@ struct BenchRshArgs {
     /// configuration (like the thesis's Figures 4.7–4.23).
     #[arg(long)]
     charts: Option<PathBuf>,
+}
+
+#[derive(Args, Clone)]
+struct BenchGpuArgs {
+    /// Scenes, comma-separated (default: cornell, and Sponza when the shared scenes are
+    /// present).
+    #[arg(long)]
+    scenes: Option<String>,
+    /// Configurations B/D (branching/levels), comma-separated.
+    #[arg(long, default_value = "8/2")]
+    configs: String,
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    width: u32,
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE as i64))]
+    height: u32,
+    /// Reflection/refraction generations (0: shadow rays of the rasterized surfaces only).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=MAX_BOUNCES as i64))]
+    bounces: u32,
+    /// Also run RAH.
+    #[arg(long)]
+    rah: bool,
+    /// Also write the markdown report to this file.
+    #[arg(long)]
+    md: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -401,6 +428,12 @@ enum Split {
     Single,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Backend {
+    Cpu,
+    Gpu,
+}
+
 #[derive(Args, Clone)]
 struct RenderArgs {
     /// A built-in scene (cornell, spheres, soup, stadium, office), or an .obj, .gltf/.glb or .toml file.
@@ -418,6 +451,11 @@ struct RenderArgs {
     /// Tracing engine.
     #[arg(long, value_enum, default_value_t = Engine::Crsh)]
     engine: Engine,
+    /// Where primary visibility and the engine run: `gpu` rasterizes the G-buffer with a
+    /// render pipeline and runs CRSH/RAH as compute kernels (wgpu); shading and ray
+    /// generation stay on the CPU.
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    backend: Backend,
     #[command(flatten)]
     rsh: RshArgs,
     #[command(flatten)]
@@ -457,6 +495,7 @@ impl Default for RenderArgs {
             height: 512,
             bounces: 3,
             engine: Engine::Crsh,
+            backend: Backend::Cpu,
             rsh: RshArgs::default(),
             grid: GridArgs::default(),
             meshes: Split::Groups,
@@ -627,6 +666,9 @@ struct StatsFile<'a> {
     degenerate_skipped: usize,
     raster_setup_triangles: u64,
     raster_fragments: u64,
+    /// GPU seconds per phase from timestamp queries (`--backend gpu`; empty otherwise).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    gpu_phase_seconds: Vec<(String, f64)>,
 }
 
 fn split(s: Split) -> MeshSplit {
@@ -833,6 +875,40 @@ fn provenance() -> String {
         },
         rayon::current_num_threads()
     )
+}
+
+#[cfg(feature = "gpu")]
+fn cmd_bench_gpu(a: &BenchGpuArgs) -> Result<()> {
+    if let Some(p) = &a.md {
+        check_out_dir("--md", p)?;
+    }
+    let configs =
+        crate::bench::parse_configs(&a.configs).map_err(|e| anyhow::anyhow!("--configs: {e}"))?;
+    let scenes = bench_scenes(a.scenes.as_deref(), &["cornell"], &["sponza"]);
+    let per = 1 + configs.len() as u64 * if a.rah { 2 } else { 1 };
+    let bar = step_bar(scenes.len() as u64 * per);
+    let spec = crate::bench_gpu::Spec {
+        scenes,
+        configs,
+        width: a.width,
+        height: a.height,
+        bounces: a.bounces,
+        rah: a.rah,
+    };
+    let md = crate::bench_gpu::run(&spec, &|m| bar.step(m))?;
+    bar.0.finish_and_clear();
+    let report = format!("# rayspace bench gpu\n\n{}\n{md}", provenance());
+    say!("{report}");
+    if let Some(p) = &a.md {
+        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+        say!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "gpu"))]
+fn cmd_bench_gpu(_a: &BenchGpuArgs) -> Result<()> {
+    bail!("bench gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
 }
 
 fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
@@ -1088,6 +1164,17 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
             format!(" ({})", r.notes.join("; "))
         },
     );
+    if a.backend == Backend::Gpu {
+        if a.frames.is_some() {
+            bail!("--backend gpu renders one frame; --frames runs on the CPU backend only");
+        }
+        if !matches!(a.engine, Engine::Crsh | Engine::Rah) {
+            bail!(
+                "--backend gpu: only --engine crsh and --engine rah run on the GPU (not {:?})",
+                a.engine
+            );
+        }
+    }
     if let Some(n) = a.frames {
         return render_frames(a, &scene, n);
     }
@@ -1105,22 +1192,33 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
         }
         None => (scene, geo),
     };
-    let t1 = Instant::now();
-    let engine = make_engine(a.engine, &a.rsh, &a.grid, &geo)?;
-    let build_s = t1.elapsed().as_secs_f64();
-    let bar = progress_bar();
     let opts = RenderOptions {
         width: a.width,
         height: a.height,
         bounces: a.bounces,
     };
-    let mut out = render(&scene, &geo, engine.as_ref(), &opts, &bar);
-    bar.0.finish_and_clear();
+    let t1 = Instant::now();
+    let (mut out, build_s, gpu_phases, gpu_timer) = if a.backend == Backend::Gpu {
+        render_on_gpu(a, &scene, &geo, &opts, t1)?
+    } else {
+        let engine = make_engine(a.engine, &a.rsh, &a.grid, &geo)?;
+        let build_s = t1.elapsed().as_secs_f64();
+        let bar = progress_bar();
+        let out = render(&scene, &geo, engine.as_ref(), &opts, &bar);
+        bar.0.finish_and_clear();
+        (out, build_s, Vec::new(), "")
+    };
     out.stats.phases.insert(0, ("engine build".into(), build_s));
     render::output::write_png(&out.pixels, a.width, a.height, &a.out)
         .map_err(anyhow::Error::msg)
         .context("--out")?;
     say!("{}", out.stats.table());
+    if !gpu_phases.is_empty() {
+        say!("GPU time per phase ({}):", gpu_timer);
+        for (p, t) in &gpu_phases {
+            say!("  {p:<20} {:>10.3} ms", t * 1e3);
+        }
+    }
     say!("wrote {}", a.out.display());
     if let Some(p) = &a.stats {
         let f = StatsFile {
@@ -1129,12 +1227,78 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
             degenerate_skipped: r.degenerate_skipped,
             raster_setup_triangles: out.raster.setup,
             raster_fragments: out.raster.fragments,
+            gpu_phase_seconds: gpu_phases.clone(),
         };
         let json = serde_json::to_string_pretty(&f)?;
         std::fs::write(p, json).with_context(|| format!("--stats {}", p.display()))?;
         say!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// Rendered image, engine set-up seconds and GPU seconds per phase.
+type GpuRender = (
+    render::whitted::Rendered,
+    f64,
+    Vec<(String, f64)>,
+    &'static str,
+);
+
+/// `render --backend gpu`: the G-buffer from the GPU's render pipeline, CRSH/RAH as compute
+/// kernels; shading and ray generation on the CPU.
+#[cfg(feature = "gpu")]
+fn render_on_gpu(
+    a: &RenderArgs,
+    scene: &scene::Scene,
+    geo: &Geometry,
+    opts: &RenderOptions,
+    t1: Instant,
+) -> Result<GpuRender> {
+    let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    say!("GPU: {}", g.describe());
+    let timer = match g.timer {
+        gpu::device::PhaseTimer::Timestamps => "timestamp queries",
+        gpu::device::PhaseTimer::WallClock => {
+            "wall clock, waiting at every phase boundary: this adapter has no timestamp queries that time kernels"
+        }
+    };
+    let method = if a.engine == Engine::Rah {
+        rsh::Method::Rah
+    } else {
+        rsh::Method::Crsh
+    };
+    let engine = gpu::GpuRsh::new(g, geo, a.rsh.config(method))
+        .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    let raster = gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
+        .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    let build_s = t1.elapsed().as_secs_f64();
+    let bar = progress_bar();
+    let out = render::whitted::render_with(scene, geo, &engine, opts, &bar, &|v, n| {
+        raster.rasterize(v, n)
+    });
+    bar.0.finish_and_clear();
+    let mut phases: Vec<(String, f64)> = Vec::new();
+    if let Some(t) = raster.last_gpu_seconds.get() {
+        phases.push(("rasterize".into(), t));
+    }
+    phases.extend(
+        engine
+            .take_times()
+            .into_iter()
+            .map(|(p, t)| (p.to_string(), t)),
+    );
+    Ok((out, build_s, phases, timer))
+}
+
+#[cfg(not(feature = "gpu"))]
+fn render_on_gpu(
+    _a: &RenderArgs,
+    _scene: &scene::Scene,
+    _geo: &Geometry,
+    _opts: &RenderOptions,
+    _t1: Instant,
+) -> Result<GpuRender> {
+    bail!("--backend gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
 }
 
 /// `path` with its `%0Nd` (or `%d`) replaced by `frame`.
@@ -1342,6 +1506,9 @@ pub fn run() -> Result<()> {
         Some(Command::Bench {
             what: BenchCommand::Grid(a),
         }) => cmd_bench_grid(&a),
+        Some(Command::Bench {
+            what: BenchCommand::Gpu(a),
+        }) => cmd_bench_gpu(&a),
         Some(Command::Bench {
             what: BenchCommand::Budget(a),
         }) => cmd_bench_budget(&a),

@@ -2,6 +2,8 @@
 
 mod bench;
 mod bench_budget;
+#[cfg(feature = "gpu")]
+mod bench_gpu;
 mod bench_grid;
 mod charts;
 mod cli;

@@ -86,7 +86,7 @@ pub fn acos(x: f32) -> f32 {
 pub const DP1: f32 = 1.570_312_5;
 pub const DP2: f32 = 4.837_513e-4;
 pub const DP3: f32 = 7.549_79e-8;
-pub const TWO_OVER_PI: f32 = 0.636_619_8;
+pub const TWO_OVER_PI: f32 = std::f32::consts::FRAC_2_PI;
 
 /// (sin x, cos x) for |x| ≤ 8192 (larger arguments lose accuracy; no caller uses them).
 #[inline]

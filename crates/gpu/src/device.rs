@@ -45,6 +45,18 @@ pub struct Gpu {
     pub limits: wgpu::Limits,
     /// Timestamp queries between passes are available.
     pub timestamps: bool,
+    /// How phases are timed: GPU timestamps, or (where they are absent or do not mean GPU
+    /// execution time) wall-clock time with a wait at every phase boundary.
+    pub timer: PhaseTimer,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PhaseTimer {
+    Timestamps,
+    /// lavapipe writes a timestamp when the command is reached, without waiting for the
+    /// compute dispatches before it (they run on its thread pool), so its timestamps do not
+    /// measure kernels; and some adapters have no timestamp queries at all.
+    WallClock,
 }
 
 impl Gpu {
@@ -104,12 +116,19 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
+        let timer = match std::env::var("RAYSPACE_GPU_TIMER").as_deref() {
+            Ok("wall") => PhaseTimer::WallClock,
+            Ok("timestamps") if timestamps => PhaseTimer::Timestamps,
+            _ if timestamps && info.device_type != wgpu::DeviceType::Cpu => PhaseTimer::Timestamps,
+            _ => PhaseTimer::WallClock,
+        };
         Ok(Gpu {
             device,
             queue,
             info,
             limits,
             timestamps,
+            timer,
         })
     }
 
@@ -127,7 +146,7 @@ impl Gpu {
 
     /// Largest storage binding in bytes.
     pub fn max_binding(&self) -> u64 {
-        self.limits.max_storage_buffer_binding_size as u64
+        self.limits.max_storage_buffer_binding_size
     }
 
     pub fn shader(&self, label: &str, src: &str) -> wgpu::ShaderModule {

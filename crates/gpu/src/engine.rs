@@ -251,6 +251,7 @@ impl GpuRsh {
             n64,
             256,
         );
+        ex.phase("read-back");
         let recs: Vec<[u32; 4]> = ex.read(&rec, n);
         for (h, r) in hits.iter_mut().zip(&recs) {
             *h = if r[0] == geom::NO_HIT {
@@ -264,7 +265,7 @@ impl GpuRsh {
                 }
             };
         }
-        ex.flush();
+        ex.finish();
         let mut times = self.times.lock().unwrap();
         for (p, t) in ex.times.drain(..) {
             stats.time(p, t);

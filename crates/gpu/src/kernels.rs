@@ -3,8 +3,9 @@
 //! phase (GPU time, not wall-clock), and the data-parallel primitives the pipeline is made
 //! of (scan, compaction, radix sort) as host functions that record passes.
 
-use crate::device::Gpu;
+use crate::device::{Gpu, PhaseTimer};
 use std::collections::HashMap;
+use std::time::Instant;
 
 /// Launch parameters, the `Params` block of `common.wgsl`.
 #[repr(C)]
@@ -179,15 +180,18 @@ pub struct Exec<'a> {
     enc: Option<wgpu::CommandEncoder>,
     phase: &'static str,
     timer: Timer,
-    /// Seconds of GPU time per phase (timestamps), in first-seen order.
+    /// Seconds per phase, in first-seen order: GPU time from timestamps, or wall-clock time
+    /// with a wait at each phase boundary ([`PhaseTimer`]).
     pub times: Vec<(&'static str, f64)>,
     pub launches: u64,
+    wall_start: Option<Instant>,
 }
 
 impl<'a> Exec<'a> {
     pub fn new(g: &'a Gpu, k: &'a Kernels) -> Exec<'a> {
         let mut timer = Timer::default();
-        if g.timestamps {
+        let wall = g.timer == PhaseTimer::WallClock;
+        if !wall {
             timer.set = Some(g.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("phase timestamps"),
                 ty: wgpu::QueryType::Timestamp,
@@ -204,15 +208,42 @@ impl<'a> Exec<'a> {
             g,
             k,
             enc: None,
-            phase: "setup",
+            phase: "upload",
             timer,
             times: Vec::new(),
             launches: 0,
+            wall_start: wall.then(Instant::now),
         }
     }
 
+    fn add_time(&mut self, ph: &'static str, dt: f64) {
+        match self.times.iter_mut().find(|(p, _)| *p == ph) {
+            Some(e) => e.1 += dt,
+            None => self.times.push((ph, dt)),
+        }
+    }
+
+    /// Start phase `name` (with the wall-clock timer: finish the previous phase's work first).
     pub fn phase(&mut self, name: &'static str) {
+        if self.wall_start.is_some() && name != self.phase {
+            self.finish();
+        }
         self.phase = name;
+    }
+
+    /// Submit and wait for everything recorded; with the wall-clock timer, the time since
+    /// the phase started is added to it.
+    pub fn finish(&mut self) {
+        self.flush();
+        if let Some(t0) = self.wall_start {
+            self.g
+                .device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .expect("GPU device lost");
+            let now = Instant::now();
+            self.add_time(self.phase, (now - t0).as_secs_f64());
+            self.wall_start = Some(now);
+        }
     }
 
     fn encoder(&mut self) -> &mut wgpu::CommandEncoder {
@@ -319,10 +350,7 @@ impl<'a> Exec<'a> {
             let phases = std::mem::take(&mut self.timer.phases);
             for (i, ph) in phases.into_iter().enumerate() {
                 let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period;
-                match self.times.iter_mut().find(|(p, _)| *p == ph) {
-                    Some(e) => e.1 += dt,
-                    None => self.times.push((ph, dt)),
-                }
+                self.add_time(ph, dt);
             }
             self.timer.used = 0;
         }

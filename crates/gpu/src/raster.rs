@@ -44,7 +44,8 @@ pub struct GpuRaster<'g> {
     material: wgpu::Buffer,
     mats: wgpu::Buffer,
     ntri: u32,
-    /// GPU seconds of the last rasterization (None without timestamp queries).
+    /// Seconds of the last rasterization: GPU time from timestamps, or wall-clock time of
+    /// the render pass and the read-back ([`crate::device::PhaseTimer`]).
     pub last_gpu_seconds: std::cell::Cell<Option<f64>>,
 }
 
@@ -182,7 +183,9 @@ impl<'g> GpuRaster<'g> {
                 },
             ],
         });
-        let qs = g.timestamps.then(|| {
+        let wall = g.timer == crate::device::PhaseTimer::WallClock;
+        let t0 = std::time::Instant::now();
+        let qs = (!wall).then(|| {
             g.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("raster timestamps"),
                 ty: wgpu::QueryType::Timestamp,
@@ -283,6 +286,9 @@ impl<'g> GpuRaster<'g> {
                     .collect()
             })
             .collect();
+        if wall {
+            self.last_gpu_seconds.set(Some(t0.elapsed().as_secs_f64()));
+        }
         let n = (w * h) as usize;
         let f = |p: [u32; 4]| {
             Vec3::new(
@@ -302,6 +308,7 @@ impl<'g> GpuRaster<'g> {
             diffuse: vec![Vec3::ZERO; n],
             specular: vec![[0.0; 4]; n],
         };
+        #[allow(clippy::needless_range_loop)] // p indexes five parallel targets
         for p in 0..n {
             let id = data[4][p];
             if id[3] == 0 {

@@ -1,0 +1,203 @@
+//! `rayspace bench gpu`: the GPU backend against the CPU engines on the same rays, phase by
+//! phase (the thesis's Tables 4.25–4.27 breakdown: hashing, trimming, compression, sorting,
+//! decompression, hierarchy creation, traversal, final tests), plus the G-buffer.
+//!
+//! Each scene is rendered once on the CPU while every traced batch is recorded; then CPU
+//! CRSH and GPU CRSH (and RAH) trace exactly those batches. The hits and the counters of the
+//! two are compared in the same run and the report says whether they agree. GPU phase times
+//! come from timestamp queries where they time kernels, otherwise from the wall clock with a
+//! wait at every phase boundary (the report names which).
+
+use accel::oracle::Recorder;
+use anyhow::Result;
+use render::raster::{default_near, rasterize};
+use render::whitted::{render, RenderOptions};
+use render::{Hit, TraceStats, Tracer, View};
+use scene::{Geometry, LoadOptions};
+use std::time::Instant;
+
+pub struct Spec {
+    pub scenes: Vec<String>,
+    pub configs: Vec<(u32, u32)>,
+    pub width: u32,
+    pub height: u32,
+    pub bounces: u32,
+    pub rah: bool,
+}
+
+fn counters(s: &TraceStats) -> Vec<(String, u64)> {
+    let mut v: Vec<(String, u64)> = s
+        .counters
+        .iter()
+        .filter(|(k, _)| !k.starts_with("gpu "))
+        .map(|(k, &n)| (k.clone(), n))
+        .collect();
+    v.push(("node-triangle tests".into(), s.node_tri_tests));
+    v.push(("ray-triangle tests".into(), s.ray_tri_tests));
+    v
+}
+
+const PHASES: [&str; 10] = [
+    "hash",
+    "screen order",
+    "trim",
+    "compress",
+    "sort",
+    "decompress",
+    "hierarchy creation",
+    "traversal",
+    "final tests",
+    "read-back",
+];
+
+/// Run the comparison; returns the markdown report.
+pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<String> {
+    let probe = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
+    let timer = match probe.timer {
+        gpu::device::PhaseTimer::Timestamps => "GPU timestamp queries",
+        gpu::device::PhaseTimer::WallClock => {
+            "wall clock with a wait at every phase boundary (this adapter's timestamps do not time kernels)"
+        }
+    };
+    let mut md = format!("GPU: {}  \nGPU phase timer: {timer}\n", probe.describe());
+    drop(probe);
+    for name in &spec.scenes {
+        progress(&format!("{name}: rendering to record the rays"));
+        let s = scene::load(name, &LoadOptions::default())?;
+        let geo = Geometry::from_scene(&s);
+        let base = rsh::RshEngine::new(&geo, rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
+        let rec = Recorder::new(&base);
+        let opts = RenderOptions {
+            width: spec.width,
+            height: spec.height,
+            bounces: spec.bounces,
+        };
+        render(&s, &geo, &rec, &opts, &());
+        let batches = rec.into_batches();
+        let nrays: u64 = batches.iter().map(|b| b.0.len() as u64).sum();
+        md += &format!(
+            "\n## {} — {} triangles, {}×{}, bounces {}, {} rays in {} batches\n",
+            s.name,
+            geo.len(),
+            spec.width,
+            spec.height,
+            spec.bounces,
+            nrays,
+            batches.len()
+        );
+        // The G-buffer: CPU rasterizer and the GPU render pipeline.
+        progress(&format!("{name}: G-buffer"));
+        let view = View::new(&s.camera, spec.width, spec.height);
+        let near = default_near(&geo);
+        let t0 = Instant::now();
+        let (cpu_gb, _) = rasterize(&geo, &s.materials, &view, near);
+        let cpu_raster = t0.elapsed().as_secs_f64();
+        let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
+        let raster = gpu::GpuRaster::new(&g, &geo, &s.materials)
+            .map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
+        raster.rasterize(&view, near); // warm-up (pipeline compilation)
+        let (gpu_gb, _) = raster.rasterize(&view, near);
+        let gpu_raster = raster.last_gpu_seconds.get().unwrap_or(f64::NAN);
+        let same = cpu_gb
+            .tri
+            .iter()
+            .zip(&gpu_gb.tri)
+            .filter(|(a, b)| a == b)
+            .count();
+        md += &format!(
+            "\nG-buffer: CPU rasterizer {:.1} ms, GPU render pipeline {:.1} ms; {:.3} % of pixels name the same triangle.\n",
+            cpu_raster * 1e3,
+            gpu_raster * 1e3,
+            100.0 * same as f64 / cpu_gb.tri.len().max(1) as f64
+        );
+        drop(raster);
+        drop(g);
+        let methods: &[rsh::Method] = if spec.rah {
+            &[rsh::Method::Crsh, rsh::Method::Rah]
+        } else {
+            &[rsh::Method::Crsh]
+        };
+        for &(b, d) in &spec.configs {
+            for &method in methods {
+                let cfg = rsh::RshConfig {
+                    branching: b,
+                    levels: d,
+                    ..match method {
+                        rsh::Method::Crsh => rsh::RshConfig::crsh(),
+                        rsh::Method::Rah => rsh::RshConfig::rah(),
+                    }
+                };
+                progress(&format!("{name}: {method:?} {b}/{d} on the CPU"));
+                let cpu = rsh::RshEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?;
+                let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
+                let gpu = gpu::GpuRsh::new(g, &geo, cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
+                // Warm-up on the first batch: drivers compile pipelines at first use (lavapipe
+                // JIT-compiles every kernel), which is not the pipeline's cost.
+                if let Some((rays, mode, _)) = batches.first() {
+                    let mut h = vec![Hit::MISS; rays.len()];
+                    cpu.trace(rays, *mode, &mut h, &mut TraceStats::default());
+                    gpu.trace(rays, *mode, &mut h, &mut TraceStats::default());
+                    gpu.take_times();
+                }
+                let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
+                let (mut wc, mut wg) = (0.0, 0.0);
+                let mut same_hits = true;
+                for (rays, mode, _) in &batches {
+                    let mut hc = vec![Hit::MISS; rays.len()];
+                    let t0 = Instant::now();
+                    cpu.trace(rays, *mode, &mut hc, &mut sc);
+                    wc += t0.elapsed().as_secs_f64();
+                    progress(&format!("{name}: {method:?} {b}/{d} on the GPU"));
+                    let mut hg = vec![Hit::MISS; rays.len()];
+                    let t0 = Instant::now();
+                    gpu.trace(rays, *mode, &mut hg, &mut sg);
+                    wg += t0.elapsed().as_secs_f64();
+                    same_hits &= hc == hg;
+                }
+                let same_counts = counters(&sc) == counters(&sg);
+                let gt = gpu.take_times();
+                md += &format!(
+                    "\n### {method:?} {b}/{d}: hits {} the CPU's, counters {} ({} node–triangle + {} ray–triangle tests, {:.3} % of brute force)\n\n",
+                    if same_hits { "equal" } else { "DIFFER from" },
+                    if same_counts { "equal" } else { "DIFFER" },
+                    sg.node_tri_tests,
+                    sg.ray_tri_tests,
+                    100.0 * sg.total_tests() as f64 / (nrays * geo.len() as u64).max(1) as f64
+                );
+                md += "| phase | CPU ms | GPU ms | GPU / CPU |\n|---|---:|---:|---:|\n";
+                let mut shown = Vec::new();
+                for p in PHASES.iter().copied().chain(gt.iter().map(|x| x.0)) {
+                    if shown.contains(&p) {
+                        continue;
+                    }
+                    shown.push(p);
+                    let c = sc.phases.get(p).copied();
+                    let gp = gt.iter().find(|x| x.0 == p).map(|x| x.1);
+                    if c.is_none() && gp.is_none() {
+                        continue;
+                    }
+                    let f =
+                        |x: Option<f64>| x.map(|v| format!("{:.1}", v * 1e3)).unwrap_or("—".into());
+                    let ratio = match (c, gp) {
+                        (Some(c), Some(g)) if c > 0.0 => format!("{:.2}", g / c),
+                        _ => "—".into(),
+                    };
+                    md += &format!("| {p} | {} | {} | {ratio} |\n", f(c), f(gp));
+                }
+                md += &format!(
+                    "| **trace call, wall** | **{:.1}** | **{:.1}** | **{:.2}** |\n",
+                    wc * 1e3,
+                    wg * 1e3,
+                    wg / wc.max(1e-12)
+                );
+                md += &format!(
+                    "\nGPU kernel launches: {}; chunks {}; top nodes {}.\n",
+                    sg.counters.get("gpu kernel launches").unwrap_or(&0),
+                    sg.counters.get("chunks").unwrap_or(&0),
+                    sg.counters.get("top nodes").unwrap_or(&0)
+                );
+            }
+        }
+    }
+    Ok(md)
+}
