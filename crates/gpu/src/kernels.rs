@@ -415,7 +415,9 @@ impl<'a> Exec<'a> {
         if n <= 1 {
             return;
         }
-        let tiles = n.div_ceil(256);
+        // A tile is 256 threads × 16 elements (sort.wgsl).
+        const SORT_TILE: u64 = 256 * 16;
+        let tiles = n.div_ceil(SORT_TILE);
         let hist = self.g.storage("sort hist", 16 * tiles * 4);
         let hist_s = self.g.storage("sort hist scanned", (16 * tiles + 1) * 4);
         let k2 = self.g.storage("sort keys", n * 4);

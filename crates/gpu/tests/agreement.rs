@@ -147,3 +147,23 @@ fn tiny_budget_batches_and_splits_match() {
     }
     assert!(splits > 0, "the tiny budget forced split expansions");
 }
+
+#[test]
+fn multi_tile_batches_match() {
+    // Batches of tens of thousands of rays: many scan blocks and sort tiles.
+    let Some(g) = gpu() else { return };
+    let exact = lavapipe(&g);
+    let s = builtin::by_name("office").unwrap();
+    let geo = Geometry::from_scene(&s);
+    let batches = record_render(&s, &geo, 192, 144, 1);
+    assert!(batches.iter().any(|b| b.0.len() > 20_000));
+    for cfg in [RshConfig::crsh(), RshConfig::rah()] {
+        let cpu = RshEngine::new(&geo, cfg.clone()).unwrap();
+        let gpu = GpuRsh::new(Gpu::new().unwrap(), &geo, cfg.clone()).unwrap();
+        for (k, (rays, mode, hits)) in batches.iter().enumerate() {
+            let what = format!("office 192x144 {:?} batch {k}", cfg.method);
+            compare(&cpu, &gpu, rays, *mode, hits, exact, &what);
+        }
+    }
+    drop(g);
+}

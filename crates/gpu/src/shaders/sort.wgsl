@@ -1,9 +1,14 @@
-// Stable key–value LSD radix sort of u32 keys, 4 bits per pass, tiles of 256 elements
-// (reduce-then-scan; no subgroup operations, no inter-workgroup waiting):
+// Stable key–value LSD radix sort of u32 keys, 4 bits per pass, tiles of 256 threads ×
+// 16 consecutive elements (reduce-then-scan; no subgroup operations, no inter-workgroup
+// waiting):
 //   sort_count:   per-tile digit histogram, stored digit-major: hist[d · tiles + tile]
 //   (the host scans hist exclusively: the global base of every (digit, tile))
-//   sort_scatter: stable rank inside the tile by a workgroup scan of 16 packed 16-bit
-//                 counters per thread, then out[base + rank] = (key, value)
+//   sort_scatter: each thread counts its 16 elements' digits (16 packed 16-bit counters),
+//                 a workgroup scan of those gives every thread its per-digit start inside
+//                 the tile, and the thread walks its elements again in order:
+//                 out[base(digit, tile) + start + running count] = (key, value).
+// Many elements per thread keep the number of workgroup barriers per element low, which
+// matters on CPU implementations of Vulkan (lavapipe), where a barrier is a context switch.
 // Params: n = element count, a = shift, b = tile count.
 // Bindings: 1 keys in, 2 values in, 3 hist, 4 keys out, 5 values out.
 
@@ -13,6 +18,7 @@
 @group(0) @binding(4) var<storage, read_write> k_out: array<u32>;
 @group(0) @binding(5) var<storage, read_write> v_out: array<u32>;
 
+const PER: u32 = 16u;
 var<workgroup> bins: array<atomic<u32>, 16>;
 var<workgroup> packed: array<array<u32, 8>, 256>;
 
@@ -23,9 +29,11 @@ fn sort_count(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) w
         atomicStore(&bins[li], 0u);
     }
     workgroupBarrier();
-    let i = tile * WG + li;
-    if i < P.u0.x {
-        atomicAdd(&bins[(k_in[i] >> P.u0.y) & 15u], 1u);
+    let base = (tile * WG + li) * PER;
+    for (var k = 0u; k < PER; k++) {
+        if base + k < P.u0.x {
+            atomicAdd(&bins[(k_in[base + k] >> P.u0.y) & 15u], 1u);
+        }
     }
     workgroupBarrier();
     if li < 16u && tile < P.u0.z {
@@ -36,42 +44,53 @@ fn sort_count(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) w
 @compute @workgroup_size(256)
 fn sort_scatter(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let tile = wg_linear(wid, nwg);
-    let i = tile * WG + li;
-    let valid = i < P.u0.x && tile < P.u0.z;
-    var key = 0u;
-    var d = 0u;
-    if valid {
-        key = k_in[i];
-        d = (key >> P.u0.y) & 15u;
+    let base = (tile * WG + li) * PER;
+    // This thread's digit counts, digit d in lane d / 2, half d % 2.
+    var own: array<u32, 8>;
+    for (var j = 0u; j < 8u; j++) {
+        own[j] = 0u;
     }
-    // One-hot counter of this element's digit: lane d / 2, half d % 2.
-    let lane = d >> 1u;
-    var one = 0u;
-    if valid {
-        one = 1u << ((d & 1u) * 16u);
+    for (var k = 0u; k < PER; k++) {
+        if base + k < P.u0.x {
+            let d = (k_in[base + k] >> P.u0.y) & 15u;
+            own[d >> 1u] += 1u << ((d & 1u) * 16u);
+        }
     }
-    for (var k = 0u; k < 8u; k++) {
-        packed[li][k] = select(0u, one, k == lane);
-    }
+    packed[li] = own;
     workgroupBarrier();
     for (var s = 1u; s < 256u; s <<= 1u) {
         var add: array<u32, 8>;
-        for (var k = 0u; k < 8u; k++) {
-            add[k] = 0u;
+        for (var j = 0u; j < 8u; j++) {
+            add[j] = 0u;
             if li >= s {
-                add[k] = packed[li - s][k];
+                add[j] = packed[li - s][j];
             }
         }
         workgroupBarrier();
-        for (var k = 0u; k < 8u; k++) {
-            packed[li][k] += add[k];
+        for (var j = 0u; j < 8u; j++) {
+            packed[li][j] += add[j];
         }
         workgroupBarrier();
     }
-    if valid {
-        let incl = (packed[li][lane] >> ((d & 1u) * 16u)) & 0xffffu;
-        let dst = hist[d * P.u0.z + tile] + incl - 1u;
-        k_out[dst] = key;
-        v_out[dst] = v_in[i];
+    // Exclusive start of every digit for this thread, then its elements in order.
+    var run: array<u32, 8>;
+    for (var j = 0u; j < 8u; j++) {
+        run[j] = packed[li][j] - own[j];
+    }
+    if tile >= P.u0.z {
+        return;
+    }
+    for (var k = 0u; k < PER; k++) {
+        let i = base + k;
+        if i < P.u0.x {
+            let key = k_in[i];
+            let d = (key >> P.u0.y) & 15u;
+            let sh = (d & 1u) * 16u;
+            let rank = (run[d >> 1u] >> sh) & 0xffffu;
+            run[d >> 1u] += 1u << sh;
+            let dst = hist[d * P.u0.z + tile] + rank;
+            k_out[dst] = key;
+            v_out[dst] = v_in[i];
+        }
     }
 }
