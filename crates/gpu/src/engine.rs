@@ -13,7 +13,8 @@ use rsh::{HashKind, Method, NodeTest, RshConfig, Union};
 use scene::Geometry;
 use std::sync::Mutex;
 
-/// Triangles per thread of the top-level candidate kernels.
+/// Triangles per thread of the top-level candidate kernels (more when the per-thread count
+/// buffer would not fit one binding; the pair order, node-major then triangle, is the same).
 const TILE: u32 = 256;
 
 /// One level of nodes on the device (structure of arrays, as `rsh::build::Level`).
@@ -96,6 +97,17 @@ impl GpuRsh {
         }
         let kernels = Kernels::new(&gpu);
         let ntri = geo.tris.len();
+        // Pair buffers hold at most `pair_budget` u32s each (as on the CPU, where the budget
+        // bounds the same buffers); they must fit one binding.
+        if cfg.pair_budget as u64 * 4 > gpu.max_binding() {
+            return Err(GpuError::Limits(format!(
+                "--pair-budget {} needs {} MiB per binding; this device allows {} MiB (use at most {})",
+                cfg.pair_budget,
+                (cfg.pair_budget as u64 * 4) >> 20,
+                gpu.max_binding() >> 20,
+                gpu.max_binding() / 4
+            )));
+        }
         let max_tris = gpu.max_binding() / 48;
         if ntri as u64 > max_tris {
             return Err(GpuError::Limits(format!(
@@ -122,9 +134,12 @@ impl GpuRsh {
         let meshes: Vec<[f32; 4]> = geo.mesh_sphere.iter().map(v4).collect();
         let ext = geo.bounds.extent().max(geom::Vec3::splat(1e-30));
         let b = geo.bounds.min;
-        // Rays: 16 bytes of origin and of direction per ray in one binding; the candidate
-        // slots and sort histograms are far smaller.
-        let max_rays = (gpu.max_binding() / 16).min(1 << 26) as usize;
+        // Rays: 16 bytes of origin and of direction per ray in one binding. The top level has
+        // at most ⌈rays / b⌉ + 3 nodes, and its node × mesh pass bits must fit one binding
+        // too (and index in u32); a larger batch is traced in parts.
+        let bit_entries = (gpu.max_binding() * 8).min(1 << 31);
+        let by_pass = (bit_entries / nm.max(1) as u64).saturating_sub(4) * cfg.branching as u64;
+        let max_rays = (gpu.max_binding() / 16).min(1 << 26).min(by_pass).max(1) as usize;
         Ok(GpuRsh {
             tris: gpu.upload("triangles", &tris),
             tri_sphere: gpu.upload("triangle spheres", &spheres),
@@ -477,28 +492,41 @@ impl GpuRsh {
         let nt = top.len() as usize;
         let nm = self.mesh_first.len() - 1;
         let budget = self.cfg.pair_budget;
-        let pass: Vec<u32> = if self.cfg.mesh_culling {
+        // The node × mesh pass table: tested in node ranges whose flags fit one binding,
+        // kept as a bit set (the ray-count limit in `new` keeps it within one binding).
+        let pass: Vec<u8> = if self.cfg.mesh_culling {
             c.mesh_tests += (nt * nm) as u64;
-            let out = g.storage("mesh pass", (nt * nm) as u64 * 4);
-            ex.run(
-                "mesh_test",
-                Params::n((nt * nm) as u32, nm as u32, 0, self.exact()),
-                &[
-                    (1, &top.sphere),
-                    (2, &top.cone),
-                    (3, &top.sc),
-                    (6, &self.mesh_sphere),
-                    (10, &out),
-                ],
-                (nt * nm) as u64,
-                256,
-            );
-            ex.read(&out, nt * nm)
+            let per = ((g.max_binding() / 4) as usize / nm.max(1)).max(1);
+            let mut pass = Vec::with_capacity(nt * nm);
+            for first in (0..nt).step_by(per) {
+                let k = per.min(nt - first);
+                let out = g.storage("mesh pass", (k * nm) as u64 * 4);
+                ex.run(
+                    "mesh_test",
+                    Params::n((k * nm) as u32, nm as u32, first as u32, self.exact()),
+                    &[
+                        (1, &top.sphere),
+                        (2, &top.cone),
+                        (3, &top.sc),
+                        (6, &self.mesh_sphere),
+                        (10, &out),
+                    ],
+                    (k * nm) as u64,
+                    256,
+                );
+                let flags: Vec<u32> = ex.read(&out, k * nm);
+                pass.extend(flags.iter().map(|&f| f as u8));
+            }
+            pass
         } else {
             vec![1; nt * nm]
         };
         c.mesh_passes += pass.iter().map(|&p| p as u64).sum::<u64>();
-        let pass_buf = g.upload("mesh pass", &pass);
+        let mut bits = vec![0u32; (nt * nm).div_ceil(32)];
+        for (i, &p) in pass.iter().enumerate() {
+            bits[i >> 5] |= (p as u32) << (i & 31);
+        }
+        let pass_buf = g.upload("mesh pass bits", &bits);
         let mf = &self.mesh_first;
         let ntri = self.ntri as usize;
         let mesh_of = |t: usize| mf.partition_point(|&f| f as usize <= t) - 1;
@@ -549,12 +577,17 @@ impl GpuRsh {
         let li = levels.len() - 1;
         let top = &levels[li];
         let nm = (self.mesh_first.len() - 1) as u32;
-        let tiles = (tris.len() as u32).div_ceil(TILE);
+        let max_slots = (self.gpu.max_binding() / 4 - 1).min(u32::MAX as u64 / 2);
+        let mut tile = TILE;
+        while nodes.len() as u64 * (tris.len() as u64).div_ceil(tile as u64) > max_slots {
+            tile *= 2;
+        }
+        let tiles = (tris.len() as u32).div_ceil(tile);
         let slots = nodes.len() as u64 * tiles as u64;
         let prm = Params {
             u: [
                 [slots as u32, tiles, nodes.start as u32, self.exact()],
-                [tris.start as u32, tris.end as u32, nm, TILE],
+                [tris.start as u32, tris.end as u32, nm, tile],
                 [0; 4],
                 [0; 4],
             ],

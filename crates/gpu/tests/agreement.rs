@@ -167,3 +167,44 @@ fn multi_tile_batches_match() {
     }
     drop(g);
 }
+
+#[test]
+fn small_bindings_split_the_work_and_keep_the_hits() {
+    // A device that allows only 128 KiB per binding: batches are traced in parts of 8192
+    // rays, the node × mesh culling runs in node ranges, the top-level candidate kernels take
+    // more triangles per thread, and a pair budget above the binding is refused. The parts
+    // build their own hierarchies, so only the hits are compared (with brute force).
+    let Some(mut g) = gpu() else { return };
+    g.limits.max_storage_buffer_binding_size = 1 << 17;
+    let s = builtin::by_name("office").unwrap();
+    let geo = Geometry::from_scene(&s);
+    let too_big = RshConfig {
+        pair_budget: 1 << 20,
+        ..RshConfig::crsh()
+    };
+    let err = GpuRsh::new(Gpu::new().unwrap(), &geo, too_big.clone());
+    assert!(err.is_ok(), "a real device allows 4 MiB bindings");
+    let err = GpuRsh::new(g, &geo, too_big).err().expect("refused");
+    assert!(err.to_string().contains("--pair-budget"), "{err}");
+    let Some(mut g) = gpu() else { return };
+    g.limits.max_storage_buffer_binding_size = 1 << 17;
+    let cfg = RshConfig {
+        pair_budget: 4096,
+        levels: 1,
+        ..RshConfig::crsh()
+    };
+    let gpu = GpuRsh::new(g, &geo, cfg).unwrap();
+    let batches = record_render(&s, &geo, 128, 96, 1);
+    assert!(batches.iter().any(|b| b.0.len() > 8192));
+    for (k, (rays, mode, hits)) in batches.iter().enumerate() {
+        let mut got = vec![Hit::MISS; rays.len()];
+        gpu.trace(rays, *mode, &mut got, &mut TraceStats::default());
+        for i in 0..rays.len() {
+            if *mode == TraceMode::Closest {
+                assert_eq!(got[i], hits[i], "batch {k} ray {i}");
+            } else {
+                assert_eq!(got[i].is_hit(), hits[i].is_hit(), "batch {k} ray {i}");
+            }
+        }
+    }
+}

@@ -4,7 +4,7 @@
 //
 // Bindings (shared by every entry point, so one layout serves them all):
 //   1 node sphere, 2 node cone, 3 node sc, 4 node first (children of the tested level),
-//   5 triangle sphere, 6 mesh of triangle / mesh sphere, 7 pass flags (node × mesh),
+//   5 triangle sphere, 6 mesh of triangle / mesh sphere, 7 pass bits (node · meshes + mesh),
 //   8 pairs: node, 9 pairs: triangle, 10 out (counts, flags or child nodes),
 //   11 out triangles, 12 counters, 13 scanned offsets.
 
@@ -49,15 +49,16 @@ fn wcnt_flush(li: u32) {
     }
 }
 
-// Mesh culling (§3.2.1–3.2.2): pass[node · meshes + mesh]. Params u0 = (nodes · meshes,
-// meshes, -, exact test). Binding 6 holds the mesh spheres here.
+// Mesh culling (§3.2.1–3.2.2) for a range of top nodes: out[(node − first) · meshes + mesh].
+// Params u0 = (nodes in range · meshes, meshes, first node, exact test). Binding 6 holds the
+// mesh spheres here.
 @compute @workgroup_size(256)
 fn mesh_test(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = gid.x + gid.y * nwg.x * 256u;
     if i >= P.u0.x {
         return;
     }
-    let n = i / P.u0.y;
+    let n = P.u0.z + i / P.u0.y;
     let m = i % P.u0.y;
     let s = vec4<f32>(bitcast<f32>(t_mesh[4u * m]), bitcast<f32>(t_mesh[4u * m + 1u]), bitcast<f32>(t_mesh[4u * m + 2u]), bitcast<f32>(t_mesh[4u * m + 3u]));
     o_a[i] = select(0u, 1u, test_node(n, s));
@@ -80,7 +81,8 @@ fn top_slot(i: u32, emit: bool) -> vec2<u32> {
         at = e_off[i];
     }
     for (var t = t0; t < t1; t++) {
-        if m_pass[n * P.u1.z + t_mesh[t]] == 0u {
+        let bit = n * P.u1.z + t_mesh[t];
+        if ((m_pass[bit >> 5u] >> (bit & 31u)) & 1u) == 0u {
             continue;
         }
         tested++;
