@@ -451,9 +451,8 @@ struct RenderArgs {
     /// Tracing engine.
     #[arg(long, value_enum, default_value_t = Engine::Crsh)]
     engine: Engine,
-    /// Where primary visibility and the engine run: `gpu` rasterizes the G-buffer with a
-    /// render pipeline and runs CRSH/RAH as compute kernels (wgpu); shading and ray
-    /// generation stay on the CPU.
+    /// Where the render runs: `gpu` rasterizes the G-buffer with a render pipeline and runs
+    /// CRSH/RAH, secondary-ray generation and shading as compute kernels (wgpu).
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     backend: Backend,
     #[command(flatten)]
@@ -1244,8 +1243,9 @@ type GpuRender = (
     &'static str,
 );
 
-/// `render --backend gpu`: the G-buffer from the GPU's render pipeline, CRSH/RAH as compute
-/// kernels; shading and ray generation on the CPU.
+/// `render --backend gpu`: the G-buffer from the GPU's render pipeline, CRSH/RAH, secondary
+/// ray generation and shading as compute kernels; the Whitted loop's sequencing, the surface
+/// records between generations and the pixel accumulation on the CPU.
 #[cfg(feature = "gpu")]
 fn render_on_gpu(
     a: &RenderArgs,
@@ -1273,9 +1273,16 @@ fn render_on_gpu(
         .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
     let build_s = t1.elapsed().as_secs_f64();
     let bar = progress_bar();
-    let out = render::whitted::render_with(scene, geo, &engine, opts, &bar, &|v, n| {
-        raster.rasterize(v, n)
-    });
+    let stages = gpu::GpuStages::new(engine.gpu());
+    let out = render::whitted::render_with(
+        scene,
+        geo,
+        &engine,
+        opts,
+        &bar,
+        &|v, n| raster.rasterize(v, n),
+        &stages,
+    );
     bar.0.finish_and_clear();
     let mut phases: Vec<(String, f64)> = Vec::new();
     if let Some(t) = raster.last_gpu_seconds.get() {
@@ -1286,6 +1293,13 @@ fn render_on_gpu(
             .take_times()
             .into_iter()
             .map(|(p, t)| (p.to_string(), t)),
+    );
+    phases.extend(
+        stages
+            .times
+            .borrow()
+            .iter()
+            .map(|(p, t)| (p.to_string(), *t)),
     );
     Ok((out, build_s, phases, timer))
 }

@@ -35,7 +35,7 @@ fn constants() -> String {
     use geom::pmath;
     use std::f32::consts::*;
     let eps = f32::EPSILON;
-    let list: [(&str, f32); 26] = [
+    let list: [(&str, f32); 27] = [
         ("C_PI", PI),
         ("C_FRAC_PI_2", FRAC_PI_2),
         ("C_FRAC_PI_4", FRAC_PI_4),
@@ -48,6 +48,7 @@ fn constants() -> String {
         ("C_PAD", 8.0 * eps),
         ("C_ONE_P_PAD", 1.0 + 8.0 * eps),
         ("C_ONE_P_1EM5", 1.0 + 1e-5),
+        ("C_OFFSET_REL", geom::ray::OFFSET_REL),
         ("C_T3P8", pmath::T3P8),
         ("C_TP8", pmath::TP8),
         ("C_AT0", pmath::AT[0]),
@@ -92,7 +93,7 @@ pub struct Kernels {
 impl Kernels {
     pub fn new(g: &Gpu) -> Kernels {
         let prelude = format!("{}\n{COMMON}\n", constants());
-        let modules: [(&str, String, &[&'static str]); 7] = [
+        let modules: [(&str, String, &[&'static str]); 8] = [
             (
                 "scan",
                 format!("{prelude}{}", include_str!("shaders/scan.wgsl")),
@@ -138,6 +139,11 @@ impl Kernels {
                     "child_count",
                     "child_emit",
                 ],
+            ),
+            (
+                "stages",
+                format!("{prelude}{}", include_str!("shaders/stages.wgsl")),
+                &["shadow_rays", "bounce_rays", "shade_local"],
             ),
             (
                 "final",

@@ -9,6 +9,8 @@
 //!   the `rsh` crate, with the same counters.
 //! - [`raster`]: primary visibility by real rasterization (render pipeline, depth test) into
 //!   the G-buffer's render targets.
+//! - [`stages`]: the Whitted loop's shadow-ray generation, reflection/refraction-ray
+//!   generation and shading as kernels.
 
 //!
 //! Every kernel mirrors a CPU pass over flat structure-of-arrays buffers of the same layout;
@@ -18,7 +20,9 @@ pub mod device;
 pub mod engine;
 pub mod kernels;
 pub mod raster;
+pub mod stages;
 
 pub use device::{Gpu, GpuError};
 pub use engine::GpuRsh;
 pub use raster::GpuRaster;
+pub use stages::GpuStages;

@@ -7,9 +7,11 @@
 //! the covered pixels may name another triangle; (2) where both name the same triangle, the
 //! positions agree within 1e-4 of the scene's diagonal; (3) in the final image at most 2 %
 //! of the pixels differ by more than 2/255 in any channel (edge pixels and the secondary
-//! rays they spawn). With the CPU's G-buffer, the GPU tracer's image is byte-identical.
+//! rays they spawn). With the CPU's G-buffer, the GPU tracer's image is byte-identical; the
+//! GPU's ray generation reproduces the CPU's rays bit for bit, and its shading the CPU's
+//! colours within 1e-4 (relative: the device's `pow` for the specular exponent).
 
-use gpu::{Gpu, GpuRaster, GpuRsh};
+use gpu::{Gpu, GpuRaster, GpuRsh, GpuStages};
 use render::raster::{default_near, rasterize};
 use render::whitted::{render, render_with, RenderOptions};
 use render::View;
@@ -98,9 +100,19 @@ fn renders_match_cpu_renders() {
             mixed.stats.total_tests, cpu.stats.total_tests,
             "{name}: tests"
         );
-        // GPU raster + GPU tracer: within the stated tolerance.
+        // GPU raster + GPU ray generation and shading + GPU tracer: within the tolerance.
         let r = GpuRaster::new(&g, &geo, &s.materials).unwrap();
-        let full = render_with(&s, &geo, &gpu_engine, &opts, &(), &|v, n| r.rasterize(v, n));
+        let stages = GpuStages::new(&g);
+        let full = render_with(
+            &s,
+            &geo,
+            &gpu_engine,
+            &opts,
+            &(),
+            &|v, n| r.rasterize(v, n),
+            &stages,
+        );
+        assert!(stages.times.borrow().len() >= 2, "the GPU passes ran");
         let (a, b) = (bytes(&full.pixels), bytes(&cpu.pixels));
         let bad = a
             .chunks(3)
@@ -114,5 +126,67 @@ fn renders_match_cpu_renders() {
             "{name}: {:.2} % of pixels differ",
             frac * 100.0
         );
+    }
+}
+
+#[test]
+fn ray_generation_and_shading_match_the_cpu_passes() {
+    use render::secondary::{bounce_rays, shadow_rays, Surfaces};
+    use render::whitted::{CpuStages, Stages};
+    let Some(g) = gpu() else { return };
+    let stages = GpuStages::new(&g);
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let view = View::new(&s.camera, 80, 60);
+        let (gb, _) = rasterize(&geo, &s.materials, &view, default_near(&geo));
+        let first = Surfaces::from_gbuffer(&gb, &geo, view.eye);
+        // A second generation: the surfaces the first generation's bounce rays hit.
+        let rays = bounce_rays(&first, &s.materials);
+        let bf = accel::BruteForce::new(&geo);
+        let mut hits = vec![render::Hit::MISS; rays.len()];
+        use render::Tracer;
+        bf.trace(
+            &rays,
+            render::TraceMode::Closest,
+            &mut hits,
+            &mut Default::default(),
+        );
+        let second = Surfaces::from_hits(&rays, &hits, &geo);
+        for (gen, surf) in [first, second].iter().enumerate() {
+            let what = format!("{name} generation {gen}");
+            let (a, b) = (
+                shadow_rays(surf, &s.lights),
+                stages.shadow_rays(surf, &s.lights),
+            );
+            assert_eq!(a.org, b.org, "{what}: shadow origins");
+            assert_eq!(a.dir, b.dir, "{what}: shadow directions");
+            assert_eq!(a.t_max, b.t_max, "{what}: shadow lengths");
+            assert_eq!(
+                (a.pixel.clone(), a.light.clone()),
+                (b.pixel.clone(), b.light.clone())
+            );
+            let (a, b) = (
+                bounce_rays(surf, &s.materials),
+                stages.bounce_rays(surf, &s.materials),
+            );
+            assert_eq!(a.kind, b.kind, "{what}: bounce kinds");
+            assert_eq!(a.org, b.org, "{what}: bounce origins");
+            assert_eq!(a.dir, b.dir, "{what}: bounce directions");
+            assert_eq!(a.throughput, b.throughput, "{what}: bounce weights");
+            assert_eq!(a.t_max, b.t_max);
+            let occ: Vec<bool> = (0..surf.len() * s.lights.len())
+                .map(|k| k % 3 == 1)
+                .collect();
+            let ca = CpuStages.local_shading(surf, &s.materials, &s.lights, &occ);
+            let cb = stages.local_shading(surf, &s.materials, &s.lights, &occ);
+            for (i, (x, y)) in ca.iter().zip(&cb).enumerate() {
+                let tol = 1e-4 * x.abs().max_element().max(1e-3);
+                assert!(
+                    (*x - *y).abs().max_element() <= tol,
+                    "{what}: colour {i}: {x} vs {y}"
+                );
+            }
+        }
     }
 }

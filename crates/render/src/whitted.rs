@@ -14,7 +14,7 @@ use crate::tracer::{TraceMode, Tracer};
 use crate::view::View;
 use geom::Vec3;
 use rayon::prelude::*;
-use scene::{Geometry, Scene};
+use scene::{Geometry, Light, Material, Scene};
 use std::time::Instant;
 
 /// Largest accepted image side and bounce count (the CLI validates against these).
@@ -88,16 +88,63 @@ pub fn render(
     opts: &RenderOptions,
     progress: &dyn Progress,
 ) -> Rendered {
-    render_with(scene, geo, tracer, opts, progress, &|view, near| {
-        rasterize(geo, &scene.materials, view, near)
-    })
+    render_with(
+        scene,
+        geo,
+        tracer,
+        opts,
+        progress,
+        &|view, near| rasterize(geo, &scene.materials, view, near),
+        &CpuStages,
+    )
 }
 
 /// Primary visibility from a rasterizer: the view and the near-plane distance in, a
 /// G-buffer out (the CPU rasterizer, or the GPU backend's render pipeline).
 pub type RasterFn<'a> = dyn Fn(&View, f32) -> (GBuffer, RasterStats) + 'a;
 
-/// [`render`] with another rasterizer for the primary visibility.
+/// The per-generation passes of the Whitted loop around the traces: shadow-ray generation,
+/// local shading and reflection/refraction-ray generation. The defaults are the CPU passes
+/// (`secondary`, `shade`); the GPU backend implements them as kernels.
+pub trait Stages {
+    /// Shadow rays, one per (surface, light), surface-major ([`shadow_rays`]).
+    fn shadow_rays(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
+        shadow_rays(s, lights)
+    }
+
+    /// Local illumination of every surface times its throughput ([`shade::local`]);
+    /// `occluded[i · lights + l]` says whether light l is hidden from surface i.
+    fn local_shading(
+        &self,
+        s: &Surfaces,
+        materials: &[Material],
+        lights: &[Light],
+        occluded: &[bool],
+    ) -> Vec<Vec3> {
+        let nl = lights.len();
+        (0..s.len())
+            .into_par_iter()
+            .map(|i| {
+                let visible: Vec<bool> = (0..nl).map(|l| !occluded[i * nl + l]).collect();
+                let m = &materials[s.material[i] as usize];
+                shade::local(s, i, m, lights, &visible) * s.throughput[i]
+            })
+            .collect()
+    }
+
+    /// Reflection and refraction rays ([`bounce_rays`]).
+    fn bounce_rays(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
+        bounce_rays(s, materials)
+    }
+}
+
+/// The CPU passes.
+pub struct CpuStages;
+
+impl Stages for CpuStages {}
+
+/// [`render`] with another rasterizer for the primary visibility and other implementations
+/// of the per-generation passes.
 pub fn render_with(
     scene: &Scene,
     geo: &Geometry,
@@ -105,6 +152,7 @@ pub fn render_with(
     opts: &RenderOptions,
     progress: &dyn Progress,
     raster_fn: &RasterFn,
+    stages: &dyn Stages,
 ) -> Rendered {
     let view = View::new(&scene.camera, opts.width, opts.height);
     let lights = &scene.lights;
@@ -145,7 +193,7 @@ pub fn render_with(
         // Shadows of this generation's surfaces, then local shading.
         progress.stage(&format!("shadow rays, generation {generation}"));
         let shadows = timed(&mut stats, "ray creation", || {
-            shadow_rays(&surfaces, lights)
+            stages.shadow_rays(&surfaces, lights)
         });
         let occl = if shadows.is_empty() {
             Vec::new()
@@ -154,15 +202,8 @@ pub fn render_with(
         };
         progress.stage(&format!("shading, generation {generation}"));
         timed(&mut stats, "shading", || {
-            let nl = lights.len();
-            let local: Vec<Vec3> = (0..surfaces.len())
-                .into_par_iter()
-                .map(|i| {
-                    let visible: Vec<bool> = (0..nl).map(|l| !occl[i * nl + l].is_hit()).collect();
-                    let m = &scene.materials[surfaces.material[i] as usize];
-                    shade::local(&surfaces, i, m, lights, &visible) * surfaces.throughput[i]
-                })
-                .collect();
+            let occluded: Vec<bool> = occl.iter().map(|h| h.is_hit()).collect();
+            let local = stages.local_shading(&surfaces, &scene.materials, lights, &occluded);
             for (i, c) in local.into_iter().enumerate() {
                 pixels[surfaces.pixel[i] as usize] += c;
             }
@@ -172,7 +213,7 @@ pub fn render_with(
         }
         progress.stage(&format!("secondary rays, generation {}", generation + 1));
         let rays = timed(&mut stats, "ray creation", || {
-            bounce_rays(&surfaces, &scene.materials)
+            stages.bounce_rays(&surfaces, &scene.materials)
         });
         if rays.is_empty() {
             break;

@@ -1,0 +1,268 @@
+//! The Whitted loop's per-generation passes as kernels (`shaders/stages.wgsl`): shadow-ray
+//! generation, reflection/refraction-ray generation and Blinn-Phong shading, implementing
+//! [`render::whitted::Stages`] so `render_with` runs them in place of the CPU passes.
+//!
+//! The surfaces arrive from the host (the loop builds them from the G-buffer or from the
+//! previous generation's hits) and the rays and colours go back to it, so each pass costs an
+//! upload and a read-back; the ray generation reproduces the CPU's rays bit for bit (same
+//! operation order, unfused products), the shading uses the device's `pow` for the specular
+//! exponent and may differ from the CPU's in the last bits.
+
+use crate::device::Gpu;
+use crate::kernels::{Exec, Kernels, Params};
+use geom::Vec3;
+use render::secondary::Surfaces;
+use render::whitted::Stages;
+use render::{RayBatch, RayKind};
+use scene::{Light, Material};
+use std::cell::RefCell;
+
+/// GPU passes of the Whitted loop, with the seconds they took (wall clock, including the
+/// transfers) per pass.
+pub struct GpuStages<'g> {
+    gpu: &'g Gpu,
+    kernels: Kernels,
+    pub times: RefCell<Vec<(&'static str, f64)>>,
+}
+
+fn v4(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+/// The surfaces' buffers.
+struct Surf {
+    pos: wgpu::Buffer,
+    ng: wgpu::Buffer,
+    ns: wgpu::Buffer,
+    inc: wgpu::Buffer,
+    tw: wgpu::Buffer,
+    mat: wgpu::Buffer,
+}
+
+impl<'g> GpuStages<'g> {
+    pub fn new(gpu: &'g Gpu) -> Self {
+        GpuStages {
+            gpu,
+            kernels: Kernels::new(gpu),
+            times: RefCell::new(Vec::new()),
+        }
+    }
+
+    fn surf(&self, s: &Surfaces) -> Surf {
+        let g = self.gpu;
+        let f = |v: &[Vec3]| -> Vec<[f32; 4]> { v.iter().map(|&x| v4(x, 0.0)).collect() };
+        let tw: Vec<[f32; 4]> = s
+            .throughput
+            .iter()
+            .zip(&s.scale)
+            .map(|(&t, &sc)| v4(t, sc))
+            .collect();
+        Surf {
+            pos: g.upload("surface pos", &f(&s.pos)),
+            ng: g.upload("surface ng", &f(&s.ng)),
+            ns: g.upload("surface ns", &f(&s.ns)),
+            inc: g.upload("surface incident", &f(&s.incident)),
+            tw: g.upload("surface throughput", &tw),
+            mat: g.upload("surface material", &s.material),
+        }
+    }
+
+    fn lights(&self, lights: &[Light]) -> wgpu::Buffer {
+        let l: Vec<[f32; 4]> = lights
+            .iter()
+            .flat_map(|l| {
+                let [c, li, q] = l.attenuation;
+                [
+                    v4(l.position, l.intensity),
+                    v4(l.color, 0.0),
+                    [c, li, q, 0.0],
+                ]
+            })
+            .collect();
+        self.gpu.upload("lights", &l)
+    }
+
+    fn materials(&self, m: &[Material]) -> wgpu::Buffer {
+        let v: Vec<[f32; 4]> = m
+            .iter()
+            .flat_map(|m| {
+                [
+                    v4(m.diffuse, m.shininess),
+                    v4(m.specular, m.reflectivity),
+                    v4(m.emission, m.transparency),
+                    [m.ior, 0.0, 0.0, 0.0],
+                ]
+            })
+            .collect();
+        self.gpu.upload("materials", &v)
+    }
+
+    fn timed<T>(&self, name: &'static str, f: impl FnOnce() -> T) -> T {
+        let t0 = std::time::Instant::now();
+        let r = f();
+        let dt = t0.elapsed().as_secs_f64();
+        let mut t = self.times.borrow_mut();
+        match t.iter_mut().find(|x| x.0 == name) {
+            Some(e) => e.1 += dt,
+            None => t.push((name, dt)),
+        }
+        r
+    }
+}
+
+fn ray_of(o: [f32; 4], d: [f32; 4]) -> geom::Ray {
+    geom::Ray::new(
+        Vec3::new(o[0], o[1], o[2]),
+        Vec3::new(d[0], d[1], d[2]),
+        o[3],
+        d[3],
+    )
+}
+
+impl Stages for GpuStages<'_> {
+    fn shadow_rays(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
+        let (n, nl) = (s.len(), lights.len());
+        if n * nl == 0 {
+            return RayBatch::default();
+        }
+        self.timed("shadow-ray kernel", || {
+            let g = self.gpu;
+            let mut ex = Exec::new(g, &self.kernels);
+            let sf = self.surf(s);
+            let lb = self.lights(lights);
+            let m = (n * nl) as u64;
+            let (org, dir) = (g.storage("org", m * 16), g.storage("dir", m * 16));
+            ex.run(
+                "shadow_rays",
+                Params::n(n as u32, nl as u32, 0, 0),
+                &[
+                    (1, &sf.pos),
+                    (2, &sf.ng),
+                    (5, &sf.tw),
+                    (7, &lb),
+                    (9, &org),
+                    (10, &dir),
+                ],
+                m,
+                256,
+            );
+            let o: Vec<[f32; 4]> = ex.read(&org, m as usize);
+            let d: Vec<[f32; 4]> = ex.read(&dir, m as usize);
+            let mut b = RayBatch::with_capacity(m as usize);
+            for k in 0..m as usize {
+                let i = k / nl;
+                b.push(
+                    ray_of(o[k], d[k]),
+                    RayKind::Shadow,
+                    s.pixel[i],
+                    (k % nl) as u32,
+                    s.throughput[i],
+                    s.depth[i],
+                );
+            }
+            b
+        })
+    }
+
+    fn local_shading(
+        &self,
+        s: &Surfaces,
+        materials: &[Material],
+        lights: &[Light],
+        occluded: &[bool],
+    ) -> Vec<Vec3> {
+        let n = s.len();
+        if n == 0 {
+            return Vec::new();
+        }
+        self.timed("shading kernel", || {
+            let g = self.gpu;
+            let mut ex = Exec::new(g, &self.kernels);
+            let sf = self.surf(s);
+            let lb = self.lights(lights);
+            let mb = self.materials(materials);
+            let occ: Vec<u32> = occluded.iter().map(|&o| o as u32).collect();
+            let ob = g.upload("occluded", &occ);
+            let out = g.storage("colour", n as u64 * 16);
+            ex.run(
+                "shade_local",
+                Params::n(n as u32, lights.len() as u32, 0, 0),
+                &[
+                    (1, &sf.pos),
+                    (2, &sf.ng),
+                    (3, &sf.ns),
+                    (4, &sf.inc),
+                    (5, &sf.tw),
+                    (6, &sf.mat),
+                    (7, &lb),
+                    (8, &mb),
+                    (11, &out),
+                    (12, &ob),
+                ],
+                n as u64,
+                256,
+            );
+            let c: Vec<[f32; 4]> = ex.read(&out, n);
+            c.iter().map(|c| Vec3::new(c[0], c[1], c[2])).collect()
+        })
+    }
+
+    fn bounce_rays(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
+        let n = s.len();
+        if n == 0 {
+            return RayBatch::default();
+        }
+        self.timed("bounce-ray kernel", || {
+            let g = self.gpu;
+            let mut ex = Exec::new(g, &self.kernels);
+            let sf = self.surf(s);
+            let mb = self.materials(materials);
+            let m = 2 * n as u64;
+            let (org, dir, w) = (
+                g.storage("org", m * 16),
+                g.storage("dir", m * 16),
+                g.storage("weight", m * 16),
+            );
+            ex.run(
+                "bounce_rays",
+                Params::n(n as u32, 0, 0, 0),
+                &[
+                    (1, &sf.pos),
+                    (2, &sf.ng),
+                    (3, &sf.ns),
+                    (4, &sf.inc),
+                    (5, &sf.tw),
+                    (6, &sf.mat),
+                    (8, &mb),
+                    (9, &org),
+                    (10, &dir),
+                    (11, &w),
+                ],
+                n as u64,
+                256,
+            );
+            let o: Vec<[f32; 4]> = ex.read(&org, m as usize);
+            let d: Vec<[f32; 4]> = ex.read(&dir, m as usize);
+            let wt: Vec<[f32; 4]> = ex.read(&w, m as usize);
+            let mut b = RayBatch::default();
+            // Slots in order: surface-major, reflection before refraction (the CPU's order).
+            for k in 0..m as usize {
+                let kind = match wt[k][3] as u32 {
+                    2 => RayKind::Reflection,
+                    3 => RayKind::Refraction,
+                    _ => continue,
+                };
+                let i = k / 2;
+                b.push(
+                    ray_of(o[k], d[k]),
+                    kind,
+                    s.pixel[i],
+                    0,
+                    Vec3::new(wt[k][0], wt[k][1], wt[k][2]),
+                    s.depth[i],
+                );
+            }
+            b
+        })
+    }
+}
