@@ -55,28 +55,36 @@ pub fn parse_configs(s: &str) -> Result<Vec<(u32, u32)>, String> {
         .collect()
 }
 
+/// The batches a render of `name` traces (answered by CPU CRSH, whose hits equal brute
+/// force's), with the scene and its geometry.
+pub type Recorded = (
+    scene::Scene,
+    Geometry,
+    Vec<(render::RayBatch, render::TraceMode, Vec<Hit>)>,
+);
+
+pub fn record(name: &str, width: u32, height: u32, bounces: u32) -> Result<Recorded> {
+    let s = scene::load(name, &LoadOptions::default())?;
+    let geo = Geometry::from_scene(&s);
+    let base = rsh::RshEngine::new(&geo, rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
+    let rec = Recorder::new(&base);
+    let opts = RenderOptions {
+        width,
+        height,
+        bounces,
+    };
+    render(&s, &geo, &rec, &opts, &());
+    let batches = rec.into_batches();
+    Ok((s, geo, batches))
+}
+
 /// Run every scene × configuration × engine; returns the rows and the markdown report.
 pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
     let mut rows = Vec::new();
     let mut md = String::new();
     for name in &spec.scenes {
         progress(&format!("{name}: rendering to record the rays"));
-        let s = scene::load(name, &LoadOptions::default())?;
-        let geo = Geometry::from_scene(&s);
-        let base = rsh::RshEngine::new(&geo, rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
-        let rec = Recorder::new(&base);
-        render(
-            &s,
-            &geo,
-            &rec,
-            &RenderOptions {
-                width: spec.width,
-                height: spec.height,
-                bounces: spec.bounces,
-            },
-            &(),
-        );
-        let batches = rec.into_batches();
+        let (s, geo, batches) = record(name, spec.width, spec.height, spec.bounces)?;
         let nrays: u64 = batches.iter().map(|b| b.0.len() as u64).sum();
         md += &format!(
             "\n## {} — {} triangles, {}×{}, bounces {}, {} rays traced\n\n",

@@ -8,12 +8,11 @@
 //! come from timestamp queries where they time kernels, otherwise from the wall clock with a
 //! wait at every phase boundary (the report names which).
 
-use accel::oracle::Recorder;
 use anyhow::Result;
 use render::raster::{default_near, rasterize};
-use render::whitted::{render, RenderOptions};
+
 use render::{Hit, TraceStats, Tracer, View};
-use scene::{Geometry, LoadOptions};
+
 use std::time::Instant;
 
 pub struct Spec {
@@ -25,17 +24,7 @@ pub struct Spec {
     pub rah: bool,
 }
 
-fn counters(s: &TraceStats) -> Vec<(String, u64)> {
-    let mut v: Vec<(String, u64)> = s
-        .counters
-        .iter()
-        .filter(|(k, _)| !k.starts_with("gpu "))
-        .map(|(k, &n)| (k.clone(), n))
-        .collect();
-    v.push(("node-triangle tests".into(), s.node_tri_tests));
-    v.push(("ray-triangle tests".into(), s.ray_tri_tests));
-    v
-}
+use gpu::engine::comparable_counters as counters;
 
 const PHASES: [&str; 10] = [
     "hash",
@@ -63,17 +52,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<String> {
     drop(probe);
     for name in &spec.scenes {
         progress(&format!("{name}: rendering to record the rays"));
-        let s = scene::load(name, &LoadOptions::default())?;
-        let geo = Geometry::from_scene(&s);
-        let base = rsh::RshEngine::new(&geo, rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
-        let rec = Recorder::new(&base);
-        let opts = RenderOptions {
-            width: spec.width,
-            height: spec.height,
-            bounces: spec.bounces,
-        };
-        render(&s, &geo, &rec, &opts, &());
-        let batches = rec.into_batches();
+        let (s, geo, batches) = crate::bench::record(name, spec.width, spec.height, spec.bounces)?;
         let nrays: u64 = batches.iter().map(|b| b.0.len() as u64).sum();
         md += &format!(
             "\n## {} — {} triangles, {}×{}, bounces {}, {} rays in {} batches\n",

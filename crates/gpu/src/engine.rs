@@ -9,6 +9,7 @@ use crate::device::{Gpu, GpuError};
 use crate::kernels::{Exec, Kernels, Params};
 use geom::{Pcg32, Sphere};
 use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use rsh::traverse::Counters;
 use rsh::{HashKind, Method, NodeTest, RshConfig, Union};
 use scene::Geometry;
 use std::sync::Mutex;
@@ -31,18 +32,6 @@ impl Level {
     fn len(&self) -> u32 {
         self.per_kind.iter().sum()
     }
-}
-
-/// Counters by level and kind, as `rsh::traverse::Counters`.
-#[derive(Default)]
-struct Counters {
-    tests: Vec<[u64; 4]>,
-    hits: Vec<[u64; 4]>,
-    final_tests: [u64; 4],
-    mesh_tests: u64,
-    mesh_passes: u64,
-    batches: u64,
-    splits: u64,
 }
 
 /// The GPU engine. Scene data is uploaded once; each trace call builds its hierarchy.
@@ -483,8 +472,8 @@ impl GpuRsh {
         (self.cfg.node_test == NodeTest::Exact) as u32
     }
 
-    /// Mesh culling, then node chunks × triangle batches within the pair budget, exactly as
-    /// `rsh::traverse::Traversal::run`.
+    /// Mesh culling, then node chunks × triangle batches within the pair budget on the CPU's
+    /// schedule (`rsh::traverse::batches`).
     fn traverse(&self, ex: &mut Exec, levels: &[Level], rays: &RaysOnGpu, c: &mut Counters) {
         let g = self.gpu_ref();
         ex.phase("traversal");
@@ -527,37 +516,8 @@ impl GpuRsh {
             bits[i >> 5] |= (p as u32) << (i & 31);
         }
         let pass_buf = g.upload("mesh pass bits", &bits);
-        let mf = &self.mesh_first;
-        let ntri = self.ntri as usize;
-        let mesh_of = |t: usize| mf.partition_point(|&f| f as usize <= t) - 1;
-        let node_chunk = nt.min(budget).max(1);
-        for n0 in (0..nt).step_by(node_chunk) {
-            let n1 = (n0 + node_chunk).min(nt);
-            let mut per_mesh = vec![0u64; nm];
-            for n in n0..n1 {
-                for m in 0..nm {
-                    per_mesh[m] += pass[n * nm + m] as u64;
-                }
-            }
-            let mut t0 = 0;
-            while t0 < ntri {
-                let mut t1 = t0;
-                let mut load = 0u64;
-                let mut m = mesh_of(t0);
-                while t1 < ntri {
-                    while mf[m + 1] as usize <= t1 {
-                        m += 1;
-                    }
-                    let cost = per_mesh[m];
-                    if load + cost > budget as u64 && t1 > t0 {
-                        break;
-                    }
-                    load += cost;
-                    t1 += 1;
-                }
-                self.top_batch(ex, levels, rays, &pass_buf, n0..n1, t0..t1, c);
-                t0 = t1;
-            }
+        for (nodes, tris) in rsh::traverse::batches(&pass, nm, &self.mesh_first, budget) {
+            self.top_batch(ex, levels, rays, &pass_buf, nodes, tris, c);
         }
     }
 
@@ -780,34 +740,26 @@ impl GpuRsh {
 
     /// Counters into `stats`, named as the CPU engine names them.
     fn report(&self, c: &Counters, levels: &[Level], hits: &[Hit], stats: &mut TraceStats) {
-        const KIND: [&str; 4] = ["PR", "SH", "RE", "RF"];
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
-        for (li, (t, hh)) in c.tests.iter().zip(&c.hits).enumerate() {
-            for k in 0..4 {
-                if t[k] > 0 {
-                    stats.count(&format!("L{} {} tests", li + 1, KIND[k]), t[k]);
-                    stats.count(&format!("L{} {} hits", li + 1, KIND[k]), hh[k]);
-                }
-                stats.node_tri_tests += t[k];
-            }
-        }
-        for (name, &n) in KIND.iter().zip(&c.final_tests) {
-            if n > 0 {
-                stats.count(&format!("final {name} tests"), n);
-            }
-            stats.ray_tri_tests += n;
-        }
-        if self.cfg.mesh_culling {
-            stats.count("mesh-sphere tests", c.mesh_tests);
-            stats.count("mesh-sphere passes", c.mesh_passes);
-        }
-        stats.count("triangle batches", c.batches);
-        stats.count("budget splits", c.splits);
-        stats.count(
-            "top nodes",
-            levels.last().map(|l| l.len() as u64).unwrap_or(0),
-        );
+        let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
+        rsh::engine::report_counters(c, self.cfg.mesh_culling, top, stats);
     }
+}
+
+/// The counters of a trace that the GPU engine must reproduce: every engine counter but the
+/// GPU-only ones (`gpu …`), with rays, hits and the test totals; timings are left out.
+pub fn comparable_counters(s: &TraceStats) -> Vec<(String, u64)> {
+    let mut v: Vec<(String, u64)> = s
+        .counters
+        .iter()
+        .filter(|(k, _)| !k.starts_with("gpu "))
+        .map(|(k, &n)| (k.clone(), n))
+        .collect();
+    v.push(("rays".into(), s.rays));
+    v.push(("hits".into(), s.hits));
+    v.push(("node-triangle tests".into(), s.node_tri_tests));
+    v.push(("ray-triangle tests".into(), s.ray_tri_tests));
+    v
 }
 
 /// Rays `r` of `rays` as a batch of their own.

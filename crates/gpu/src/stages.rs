@@ -29,7 +29,7 @@ fn v4(v: Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
 }
 
-/// The surfaces' buffers.
+/// The surfaces' buffers (bindings 1–6 of `stages.wgsl`).
 struct Surf {
     pos: wgpu::Buffer,
     ng: wgpu::Buffer,
@@ -37,6 +37,20 @@ struct Surf {
     inc: wgpu::Buffer,
     tw: wgpu::Buffer,
     mat: wgpu::Buffer,
+}
+
+impl Surf {
+    /// Bindings 1–6, for the kernels that read every surface array.
+    fn binds(&self) -> Vec<(u32, &wgpu::Buffer)> {
+        vec![
+            (1, &self.pos),
+            (2, &self.ng),
+            (3, &self.ns),
+            (4, &self.inc),
+            (5, &self.tw),
+            (6, &self.mat),
+        ]
+    }
 }
 
 impl<'g> GpuStages<'g> {
@@ -187,18 +201,7 @@ impl Stages for GpuStages<'_> {
             ex.run(
                 "shade_local",
                 Params::n(n as u32, lights.len() as u32, 0, 0),
-                &[
-                    (1, &sf.pos),
-                    (2, &sf.ng),
-                    (3, &sf.ns),
-                    (4, &sf.inc),
-                    (5, &sf.tw),
-                    (6, &sf.mat),
-                    (7, &lb),
-                    (8, &mb),
-                    (11, &out),
-                    (12, &ob),
-                ],
+                &[sf.binds(), vec![(7, &lb), (8, &mb), (11, &out), (12, &ob)]].concat(),
                 n as u64,
                 256,
             );
@@ -226,18 +229,7 @@ impl Stages for GpuStages<'_> {
             ex.run(
                 "bounce_rays",
                 Params::n(n as u32, 0, 0, 0),
-                &[
-                    (1, &sf.pos),
-                    (2, &sf.ng),
-                    (3, &sf.ns),
-                    (4, &sf.inc),
-                    (5, &sf.tw),
-                    (6, &sf.mat),
-                    (8, &mb),
-                    (9, &org),
-                    (10, &dir),
-                    (11, &w),
-                ],
+                &[sf.binds(), vec![(8, &mb), (9, &org), (10, &dir), (11, &w)]].concat(),
                 n as u64,
                 256,
             );

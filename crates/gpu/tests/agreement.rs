@@ -29,20 +29,7 @@ fn lavapipe(g: &Gpu) -> bool {
     g.info.device_type == wgpu::DeviceType::Cpu
 }
 
-/// Counters that must agree (everything but timings and GPU-only counters).
-fn counters(s: &TraceStats) -> Vec<(String, u64)> {
-    let mut v: Vec<(String, u64)> = s
-        .counters
-        .iter()
-        .filter(|(k, _)| !k.starts_with("gpu "))
-        .map(|(k, &n)| (k.clone(), n))
-        .collect();
-    v.push(("rays".into(), s.rays));
-    v.push(("hits".into(), s.hits));
-    v.push(("node-triangle tests".into(), s.node_tri_tests));
-    v.push(("ray-triangle tests".into(), s.ray_tri_tests));
-    v
-}
+use gpu::engine::comparable_counters as counters;
 
 fn compare(
     cpu: &RshEngine,

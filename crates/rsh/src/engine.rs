@@ -97,6 +97,33 @@ pub struct RshEngine {
 
 const KIND: [&str; 4] = ["PR", "SH", "RE", "RF"];
 
+/// The traversal's counters into `stats` under the names every report uses (also used by
+/// the GPU backend, whose counters are the same).
+pub fn report_counters(c: &Counters, mesh_culling: bool, top_nodes: u64, stats: &mut TraceStats) {
+    for (li, (t, hh)) in c.tests.iter().zip(&c.hits).enumerate() {
+        for k in 0..4 {
+            if t[k] > 0 {
+                stats.count(&format!("L{} {} tests", li + 1, KIND[k]), t[k]);
+                stats.count(&format!("L{} {} hits", li + 1, KIND[k]), hh[k]);
+            }
+            stats.node_tri_tests += t[k];
+        }
+    }
+    for (name, &n) in KIND.iter().zip(&c.final_tests) {
+        if n > 0 {
+            stats.count(&format!("final {name} tests"), n);
+        }
+        stats.ray_tri_tests += n;
+    }
+    if mesh_culling {
+        stats.count("mesh-sphere tests", c.mesh_tests);
+        stats.count("mesh-sphere passes", c.mesh_passes);
+    }
+    stats.count("triangle batches", c.batches);
+    stats.count("budget splits", c.splits);
+    stats.count("top nodes", top_nodes);
+}
+
 impl RshEngine {
     pub fn new(geo: &Geometry, cfg: RshConfig) -> Result<Self, String> {
         cfg.validate()?;
@@ -196,30 +223,7 @@ impl Tracer for RshEngine {
             };
         });
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
-        for (li, (t, hh)) in c.tests.iter().zip(&c.hits).enumerate() {
-            for k in 0..4 {
-                if t[k] > 0 {
-                    stats.count(&format!("L{} {} tests", li + 1, KIND[k]), t[k]);
-                    stats.count(&format!("L{} {} hits", li + 1, KIND[k]), hh[k]);
-                }
-                stats.node_tri_tests += t[k];
-            }
-        }
-        for (name, &n) in KIND.iter().zip(&c.final_tests) {
-            if n > 0 {
-                stats.count(&format!("final {name} tests"), n);
-            }
-            stats.ray_tri_tests += n;
-        }
-        if self.cfg.mesh_culling {
-            stats.count("mesh-sphere tests", c.mesh_tests);
-            stats.count("mesh-sphere passes", c.mesh_passes);
-        }
-        stats.count("triangle batches", c.batches);
-        stats.count("budget splits", c.splits);
-        stats.count(
-            "top nodes",
-            h.levels.last().map(|l| l.len() as u64).unwrap_or(0),
-        );
+        let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
+        report_counters(&c, self.cfg.mesh_culling, top, stats);
     }
 }

@@ -61,6 +61,53 @@ pub struct Traversal<'a> {
     pub budget: usize,
 }
 
+/// The top level's work units (RAH's scene batches): node chunks of at most `budget` nodes ×
+/// triangle ranges grown triangle by triangle while their candidates (the nodes whose test
+/// against the triangle's mesh sphere passed, `pass[node · nm + mesh]`) fit the budget; a
+/// single triangle is always taken. Both the CPU and the GPU traversal follow this schedule,
+/// so their pair streams, and so their counters, are the same.
+pub fn batches(
+    pass: &[u8],
+    nm: usize,
+    mesh_first: &[u32],
+    budget: usize,
+) -> Vec<(std::ops::Range<usize>, std::ops::Range<usize>)> {
+    let nt = pass.len().checked_div(nm).unwrap_or(0);
+    let ntri = *mesh_first.last().unwrap_or(&0) as usize;
+    let mesh_of = |t: usize| mesh_first.partition_point(|&f| f as usize <= t) - 1;
+    let mut out = Vec::new();
+    let node_chunk = nt.min(budget).max(1);
+    for n0 in (0..nt).step_by(node_chunk) {
+        let n1 = (n0 + node_chunk).min(nt);
+        let mut per_mesh = vec![0u64; nm];
+        for n in n0..n1 {
+            for m in 0..nm {
+                per_mesh[m] += pass[n * nm + m] as u64;
+            }
+        }
+        let mut t0 = 0;
+        while t0 < ntri {
+            let mut t1 = t0;
+            let mut load = 0u64;
+            let mut m = mesh_of(t0);
+            while t1 < ntri {
+                while mesh_first[m + 1] as usize <= t1 {
+                    m += 1;
+                }
+                let cost = per_mesh[m];
+                if load + cost > budget as u64 && t1 > t0 {
+                    break;
+                }
+                load += cost;
+                t1 += 1;
+            }
+            out.push((n0..n1, t0..t1));
+            t0 = t1;
+        }
+    }
+    out
+}
+
 /// (t, triangle) packed so that the u64 order is (smallest t, then smallest id): positive
 /// f32 bit patterns order like the floats.
 #[inline]
@@ -107,37 +154,8 @@ impl Traversal<'_> {
             vec![1; nt * nm]
         };
         c.mesh_passes += pass.iter().map(|&p| p as u64).sum::<u64>();
-        // Node chunks × triangle batches whose candidate count fits the budget.
-        let node_chunk = nt.min(self.budget).max(1);
-        for n0 in (0..nt).step_by(node_chunk) {
-            let n1 = (n0 + node_chunk).min(nt);
-            let mut per_mesh = vec![0u64; nm];
-            for n in n0..n1 {
-                for m in 0..nm {
-                    per_mesh[m] += pass[n * nm + m] as u64;
-                }
-            }
-            let ntri = self.scene.tris.len();
-            let mut t0 = 0;
-            while t0 < ntri {
-                // Grow the batch triangle by triangle while its candidates fit.
-                let mut t1 = t0;
-                let mut load = 0u64;
-                let mut m = self.mesh_of(t0);
-                while t1 < ntri {
-                    while self.scene.mesh_first[m + 1] as usize <= t1 {
-                        m += 1;
-                    }
-                    let cost = per_mesh[m];
-                    if load + cost > self.budget as u64 && t1 > t0 {
-                        break;
-                    }
-                    load += cost;
-                    t1 += 1;
-                }
-                self.top_batch(n0..n1, t0..t1, &pass, nm, c);
-                t0 = t1;
-            }
+        for (nodes, tris) in batches(&pass, nm, self.scene.mesh_first, self.budget) {
+            self.top_batch(nodes, tris, &pass, nm, c);
         }
     }
 
