@@ -74,6 +74,9 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<String> {
         let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
         let raster = gpu::GpuRaster::new(&g, &geo, &s.materials)
             .map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
+        raster
+            .check_size(spec.width, spec.height)
+            .map_err(|e| anyhow::anyhow!("bench gpu: --width/--height: {e}"))?;
         raster.rasterize(&view, near); // warm-up (pipeline compilation)
         let (gpu_gb, _) = raster.rasterize(&view, near);
         let gpu_raster = raster.last_gpu_seconds.get().unwrap_or(f64::NAN);

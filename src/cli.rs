@@ -1271,6 +1271,9 @@ fn render_on_gpu(
         .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
     let raster = gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
         .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    raster
+        .check_size(opts.width, opts.height)
+        .map_err(|e| anyhow::anyhow!("--width/--height with --backend gpu: {e}"))?;
     let build_s = t1.elapsed().as_secs_f64();
     let bar = progress_bar();
     let stages = gpu::GpuStages::new(engine.gpu());

@@ -120,7 +120,28 @@ impl<'g> GpuRaster<'g> {
         })
     }
 
-    /// Rasterize into a G-buffer of `view`'s size.
+    /// Whether a `width × height` G-buffer fits the device: its texture size limit, and one
+    /// read-back buffer per render target.
+    pub fn check_size(&self, width: u32, height: u32) -> Result<(), GpuError> {
+        let lim = &self.gpu.limits;
+        if width.max(height) > lim.max_texture_dimension_2d {
+            return Err(GpuError::Limits(format!(
+                "a {width}×{height} G-buffer exceeds the device's {} pixel texture limit",
+                lim.max_texture_dimension_2d
+            )));
+        }
+        let bytes = (width as u64 * 16).next_multiple_of(256) * height as u64;
+        if bytes > lim.max_buffer_size {
+            return Err(GpuError::Limits(format!(
+                "a {width}×{height} G-buffer target needs {} MiB, above the device's {} MiB buffers",
+                bytes >> 20,
+                lim.max_buffer_size >> 20
+            )));
+        }
+        Ok(())
+    }
+
+    /// Rasterize into a G-buffer of `view`'s size (which [`GpuRaster::check_size`] accepts).
     pub fn rasterize(&self, view: &View, near: f32) -> (GBuffer, RasterStats) {
         let g = self.gpu;
         let (w, h) = (view.width, view.height);

@@ -41,6 +41,9 @@ fn gbuffer_matches_cpu_rasterizer() {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
         let r = GpuRaster::new(&g, &geo, &s.materials).unwrap();
+        assert!(r.check_size(160, 120).is_ok());
+        let too_wide = r.check_size(g.limits.max_texture_dimension_2d + 1, 1);
+        assert!(too_wide.unwrap_err().to_string().contains("texture limit"));
         let view = View::new(&s.camera, 160, 120);
         let near = default_near(&geo);
         let (cpu, _) = rasterize(&geo, &s.materials, &view, near);
