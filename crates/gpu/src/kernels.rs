@@ -102,7 +102,7 @@ impl Kernels {
             (
                 "sort",
                 format!("{prelude}{}", include_str!("shaders/sort.wgsl")),
-                &["sort_count", "sort_scatter"],
+                &["key_bits", "sort_count", "sort_scatter"],
             ),
             (
                 "misc",
@@ -428,9 +428,28 @@ impl<'a> Exec<'a> {
         let hist_s = self.g.storage("sort hist scanned", (16 * tiles + 1) * 4);
         let k2 = self.g.storage("sort keys", n * 4);
         let v2 = self.g.storage("sort vals", n * 4);
-        let passes = bits.div_ceil(4);
+        // Digits that are equal in every key need no pass (as in `par::sort_pairs`).
+        let kb = self.g.upload("key bits", &[0u32, u32::MAX]);
+        self.run(
+            "key_bits",
+            Params::n(n as u32, 0, 0, 0),
+            &[(1, keys), (6, &kb)],
+            tiles * 256,
+            256,
+        );
+        let ka: Vec<u32> = self.read(&kb, 2);
+        let varying = (ka[0] ^ ka[1])
+            & if bits >= 32 {
+                u32::MAX
+            } else {
+                (1 << bits) - 1
+            };
+        let digits: Vec<u32> = (0..bits.div_ceil(4))
+            .filter(|&p| (varying >> (4 * p)) & 15 != 0)
+            .collect();
+        let passes = digits.len() as u32;
         let (mut src, mut dst) = ((keys, vals), (&k2, &v2));
-        for p in 0..passes {
+        for &p in &digits {
             let prm = Params::n(n as u32, 4 * p, tiles as u32, 0);
             self.run(
                 "sort_count",

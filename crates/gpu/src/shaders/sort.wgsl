@@ -17,10 +17,41 @@
 @group(0) @binding(3) var<storage, read_write> hist: array<u32>;
 @group(0) @binding(4) var<storage, read_write> k_out: array<u32>;
 @group(0) @binding(5) var<storage, read_write> v_out: array<u32>;
+// key_bits: (OR, AND) of all keys, so the host skips the passes whose digit is the same in
+// every key (a stable pass over equal digits is the identity).
+@group(0) @binding(6) var<storage, read_write> kbits: array<atomic<u32>>;
 
 const PER: u32 = 16u;
 var<workgroup> bins: array<atomic<u32>, 16>;
 var<workgroup> packed: array<array<u32, 8>, 256>;
+
+var<workgroup> w_or: atomic<u32>;
+var<workgroup> w_and: atomic<u32>;
+
+@compute @workgroup_size(256)
+fn key_bits(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    if li == 0u {
+        atomicStore(&w_or, 0u);
+        atomicStore(&w_and, 0xffffffffu);
+    }
+    workgroupBarrier();
+    let base = (wg_linear(wid, nwg) * WG + li) * PER;
+    var o = 0u;
+    var a = 0xffffffffu;
+    for (var k = 0u; k < PER; k++) {
+        if base + k < P.u0.x {
+            o |= k_in[base + k];
+            a &= k_in[base + k];
+        }
+    }
+    atomicOr(&w_or, o);
+    atomicAnd(&w_and, a);
+    workgroupBarrier();
+    if li == 0u {
+        atomicOr(&kbits[0], atomicLoad(&w_or));
+        atomicAnd(&kbits[1], atomicLoad(&w_and));
+    }
+}
 
 @compute @workgroup_size(256)
 fn sort_count(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
