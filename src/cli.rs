@@ -1276,7 +1276,7 @@ fn render_on_gpu(
         .map_err(|e| anyhow::anyhow!("--width/--height with --backend gpu: {e}"))?;
     let build_s = t1.elapsed().as_secs_f64();
     let bar = progress_bar();
-    let stages = gpu::GpuStages::new(engine.gpu());
+    let stages = gpu::GpuStages::new(engine.gpu(), engine.kernels());
     let out = render::whitted::render_with(
         scene,
         geo,

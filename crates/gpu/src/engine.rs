@@ -151,6 +151,11 @@ impl GpuRsh {
         &self.gpu
     }
 
+    /// The compiled kernels (shared with [`crate::GpuStages`], so nothing compiles twice).
+    pub fn kernels(&self) -> &Kernels {
+        &self.kernels
+    }
+
     /// GPU time per phase accumulated since the last call (empty without timestamp queries).
     pub fn take_times(&self) -> Vec<(&'static str, f64)> {
         std::mem::take(&mut *self.times.lock().unwrap())
@@ -291,7 +296,7 @@ impl GpuRsh {
         m: u64,
         stats: &mut TraceStats,
     ) -> wgpu::Buffer {
-        let g = self.gpu_ref();
+        let g = self.gpu();
         ex.phase("compress");
         if m == 0 {
             stats.count("chunks", 0);
@@ -360,10 +365,6 @@ impl GpuRsh {
         leaves
     }
 
-    fn gpu_ref(&self) -> &Gpu {
-        &self.gpu
-    }
-
     /// Bottom-up build: level 1 over the sorted leaves, then unions, as `rsh::build::build`.
     fn build(
         &self,
@@ -374,7 +375,7 @@ impl GpuRsh {
         kl: &wgpu::Buffer,
         m: u64,
     ) -> Vec<Level> {
-        let g = self.gpu_ref();
+        let g = self.gpu();
         let b = self.cfg.branching;
         // Leaf counts per kind (kinds are sorted: find where each starts).
         let mut counts = [0u32; 4];
@@ -475,7 +476,7 @@ impl GpuRsh {
     /// Mesh culling, then node chunks × triangle batches within the pair budget on the CPU's
     /// schedule (`rsh::traverse::batches`).
     fn traverse(&self, ex: &mut Exec, levels: &[Level], rays: &RaysOnGpu, c: &mut Counters) {
-        let g = self.gpu_ref();
+        let g = self.gpu();
         ex.phase("traversal");
         let top = levels.last().unwrap();
         let nt = top.len() as usize;
@@ -532,7 +533,7 @@ impl GpuRsh {
         tris: std::ops::Range<usize>,
         c: &mut Counters,
     ) {
-        let g = self.gpu_ref();
+        let g = self.gpu();
         c.batches += 1;
         let li = levels.len() - 1;
         let top = &levels[li];
@@ -644,7 +645,7 @@ impl GpuRsh {
         count: u64,
         c: &mut Counters,
     ) {
-        let g = self.gpu_ref();
+        let g = self.gpu();
         let lv = &levels[li];
         let flags = g.storage("flags", count * 4);
         let cnt = g.upload("counters", &[0u32; 8]);
@@ -687,7 +688,7 @@ impl GpuRsh {
         count: u64,
         c: &mut Counters,
     ) {
-        let g = self.gpu_ref();
+        let g = self.gpu();
         let lv = &levels[li];
         let counts = g.storage("child counts", count * 4);
         ex.run(

@@ -7,7 +7,8 @@ use crate::device::{Gpu, PhaseTimer};
 use std::collections::HashMap;
 use std::time::Instant;
 
-/// Launch parameters, the `Params` block of `common.wgsl`.
+/// Launch parameters, the `Params` block of `common.wgsl`. `f[1][3]` is reserved: [`Exec::run`]
+/// always sets it to 0, the zero the kernels' `mul()` hides products behind.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Params {
@@ -35,7 +36,7 @@ fn constants() -> String {
     use geom::pmath;
     use std::f32::consts::*;
     let eps = f32::EPSILON;
-    let list: [(&str, f32); 27] = [
+    let list: &[(&str, f32)] = &[
         ("C_PI", PI),
         ("C_FRAC_PI_2", FRAC_PI_2),
         ("C_FRAC_PI_4", FRAC_PI_4),
@@ -63,12 +64,11 @@ fn constants() -> String {
         ("C_S1", pmath::SN[1]),
         ("C_S2", pmath::SN[2]),
         ("C_C0", pmath::CS[0]),
+        ("C_C1", pmath::CS[1]),
+        ("C_C2", pmath::CS[2]),
     ];
     let mut s = String::new();
-    for (name, v) in list
-        .into_iter()
-        .chain([("C_C1", pmath::CS[1]), ("C_C2", pmath::CS[2])])
-    {
+    for &(name, v) in list {
         s += &format!("const {name}: f32 = {};\n", hex_f32(v));
     }
     s
@@ -271,6 +271,8 @@ impl<'a> Exec<'a> {
         if threads == 0 {
             return;
         }
+        let mut params = params;
+        params.f[1][3] = 0.0;
         if self.timer.used + 2 > MAX_QUERIES {
             self.flush();
         }

@@ -21,7 +21,7 @@ use std::cell::RefCell;
 /// transfers) per pass.
 pub struct GpuStages<'g> {
     gpu: &'g Gpu,
-    kernels: Kernels,
+    kernels: &'g Kernels,
     pub times: RefCell<Vec<(&'static str, f64)>>,
 }
 
@@ -54,10 +54,12 @@ impl Surf {
 }
 
 impl<'g> GpuStages<'g> {
-    pub fn new(gpu: &'g Gpu) -> Self {
+    /// The passes on `gpu`, with its compiled `kernels` (an engine's, [`crate::GpuRsh::kernels`],
+    /// or [`Kernels::new`]).
+    pub fn new(gpu: &'g Gpu, kernels: &'g Kernels) -> Self {
         GpuStages {
             gpu,
-            kernels: Kernels::new(gpu),
+            kernels,
             times: RefCell::new(Vec::new()),
         }
     }
@@ -141,7 +143,7 @@ impl Stages for GpuStages<'_> {
         }
         self.timed("shadow-ray kernel", || {
             let g = self.gpu;
-            let mut ex = Exec::new(g, &self.kernels);
+            let mut ex = Exec::new(g, self.kernels);
             let sf = self.surf(s);
             let lb = self.lights(lights);
             let m = (n * nl) as u64;
@@ -191,7 +193,7 @@ impl Stages for GpuStages<'_> {
         }
         self.timed("shading kernel", || {
             let g = self.gpu;
-            let mut ex = Exec::new(g, &self.kernels);
+            let mut ex = Exec::new(g, self.kernels);
             let sf = self.surf(s);
             let lb = self.lights(lights);
             let mb = self.materials(materials);
@@ -217,7 +219,7 @@ impl Stages for GpuStages<'_> {
         }
         self.timed("bounce-ray kernel", || {
             let g = self.gpu;
-            let mut ex = Exec::new(g, &self.kernels);
+            let mut ex = Exec::new(g, self.kernels);
             let sf = self.surf(s);
             let mb = self.materials(materials);
             let m = 2 * n as u64;

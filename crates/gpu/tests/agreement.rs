@@ -16,13 +16,7 @@ use rsh::{NodeTest, RshConfig, RshEngine, Union};
 use scene::{builtin, Geometry};
 
 fn gpu() -> Option<Gpu> {
-    match Gpu::new() {
-        Ok(g) => Some(g),
-        Err(e) => {
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
+    Gpu::or_skip()
 }
 
 fn lavapipe(g: &Gpu) -> bool {

@@ -7,13 +7,7 @@ use gpu::kernels::{Exec, Kernels};
 use gpu::Gpu;
 
 fn gpu() -> Option<Gpu> {
-    match Gpu::new() {
-        Ok(g) => Some(g),
-        Err(e) => {
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
+    Gpu::or_skip()
 }
 
 const SIZES: [usize; 9] = [1, 2, 1023, 1024, 1025, 4096, 4097, 70_001, 1_100_000];

@@ -11,6 +11,7 @@
 //! GPU's ray generation reproduces the CPU's rays bit for bit, and its shading the CPU's
 //! colours within 1e-4 (relative: the device's `pow` for the specular exponent).
 
+use gpu::kernels::Kernels;
 use gpu::{Gpu, GpuRaster, GpuRsh, GpuStages};
 use render::raster::{default_near, rasterize};
 use render::whitted::{render, render_with, RenderOptions};
@@ -19,13 +20,7 @@ use rsh::{RshConfig, RshEngine};
 use scene::{builtin, Geometry};
 
 fn gpu() -> Option<Gpu> {
-    match Gpu::new() {
-        Ok(g) => Some(g),
-        Err(e) => {
-            eprintln!("skipping GPU test: {e}");
-            None
-        }
-    }
+    Gpu::or_skip()
 }
 
 fn bytes(p: &[geom::Vec3]) -> Vec<u8> {
@@ -105,7 +100,8 @@ fn renders_match_cpu_renders() {
         );
         // GPU raster + GPU ray generation and shading + GPU tracer: within the tolerance.
         let r = GpuRaster::new(&g, &geo, &s.materials).unwrap();
-        let stages = GpuStages::new(&g);
+        let kernels = Kernels::new(&g);
+        let stages = GpuStages::new(&g, &kernels);
         let full = render_with(
             &s,
             &geo,
@@ -137,7 +133,8 @@ fn ray_generation_and_shading_match_the_cpu_passes() {
     use render::secondary::{bounce_rays, shadow_rays, Surfaces};
     use render::whitted::{CpuStages, Stages};
     let Some(g) = gpu() else { return };
-    let stages = GpuStages::new(&g);
+    let kernels = Kernels::new(&g);
+    let stages = GpuStages::new(&g, &kernels);
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);

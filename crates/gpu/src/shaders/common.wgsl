@@ -29,7 +29,8 @@ fn wg_linear(wid: vec3<u32>, nwg: vec3<u32>) -> u32 {
 // Compilers may fuse a product and a sum into one FMA (one rounding instead of two; Mesa's
 // lavapipe does when the product has a single use). The CPU code never fuses, so every
 // product that feeds a sum goes through mul(): OR-ing in a zero the compiler cannot see
-// (P.f1.w, always 0) keeps the rounded product a value of its own.
+// (P.f1.w, set to 0 by the host for every launch) keeps the rounded product a value of its
+// own.
 fn opaque_zero() -> u32 {
     return bitcast<u32>(P.f1.w);
 }
