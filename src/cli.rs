@@ -277,8 +277,20 @@ struct GridArgs {
     #[arg(skip)]
     dynamic: bool,
     /// Largest octree depth per top-level cell.
-    #[arg(long = "grid-max-depth", default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=8))]
+    #[arg(long = "grid-max-depth", default_value_t = 10, value_parser = clap::value_parser!(u32).range(0..=12))]
     max_depth: u32,
+    /// Which octree nodes split: `paper` (one depth per top cell from its count, §4.1) or
+    /// `adaptive` (also every deeper node whose own count calls for it, up to the max depth).
+    #[arg(long = "grid-subdivision", value_enum, default_value_t = SubdivisionArg::Adaptive)]
+    subdivision: SubdivisionArg,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum SubdivisionArg {
+    /// The paper's rule: one octree depth per top cell.
+    Paper,
+    /// Split every node whose own reference count calls for it.
+    Adaptive,
 }
 
 impl Default for GridArgs {
@@ -290,7 +302,8 @@ impl Default for GridArgs {
             merge: OnOff::On,
             expansion: None,
             dynamic: false,
-            max_depth: 6,
+            max_depth: 10,
+            subdivision: SubdivisionArg::Adaptive,
         }
     }
 }
@@ -314,6 +327,10 @@ impl GridArgs {
                 }
             },
             max_depth: self.max_depth,
+            subdivision: match self.subdivision {
+                SubdivisionArg::Paper => accel::grid::Subdivision::Paper,
+                SubdivisionArg::Adaptive => accel::grid::Subdivision::Adaptive,
+            },
         }
     }
 }

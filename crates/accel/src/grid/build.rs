@@ -1,11 +1,31 @@
 //! Initial irregular-grid construction (paper §4.1): top-level grid, per-cell octrees,
-//! references by exact triangle–box tests, and the two-level voxel map.
+//! references by exact triangle–box tests, and the hierarchical voxel map.
+//!
+//! The octrees are built level by level, as the paper's reference implementation (hagrid's
+//! `build_iter`) does: every reference of a node that splits is tested against the node's 8
+//! children and re-emitted for those it overlaps (count → scan → emit), and only *non-empty*
+//! nodes split. Empty space is therefore never materialised at the finest resolution (on
+//! Sponza this is ~6× fewer initial cells than a dense 8^D block per top cell), and every
+//! pass is a flat loop over references or nodes.
+//!
+//! Which nodes split ([`Subdivision`]):
+//! - `paper`: eq. 1 with λ₂ and the *top cell's* primitive count gives one octree depth D per
+//!   top cell (rounded up to a power of two, §4.1); non-empty nodes split until depth D.
+//! - `adaptive` (the paper's §7 future work, "changing the initial subdivision scheme"): as
+//!   `paper`, and below depth D a node keeps splitting while its *own* count calls for it
+//!   (eq. 1 on the node: λ₂·n ≥ 8, i.e. at least two cells per axis), up to the maximum
+//!   depth. A small dense object in a huge top cell (the teapot in a stadium) thus gets cells
+//!   its own size, while regions the paper's rule already resolves are unchanged.
+//!
+//! Robustness: node boxes are grown by [`ref_padding`] for every reference test, so a triangle
+//! within rounding distance of a boundary is referenced on both sides.
 
-use super::{BuildStats, Grid, GridConfig};
-use geom::aabb::tri_overlaps_box;
+use super::{BuildStats, Grid, GridConfig, Subdivision, NODE};
+use geom::aabb::TriBoxSat;
 use geom::{Aabb, Vec3};
-use par::{exclusive_scan, sort_pairs, SharedMut, SortScratch};
+use par::{exclusive_scan, SharedMut};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 /// Cleary's resolution (paper eq. 1): R = d · cbrt(λ N / V), at least 1 per axis.
@@ -19,7 +39,11 @@ pub fn resolution(extent: Vec3, n: usize, density: f32) -> [u32; 3] {
 /// The scene box padded by 0.1% per side (as hagrid), with no axis thinner than 1e-3 of the
 /// largest, so flat scenes still get volume.
 pub fn padded_bounds(tris: &[[Vec3; 3]]) -> Aabb {
-    let b = Aabb::from_points(tris.iter().flatten().copied());
+    let b = tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|t| Aabb::from_points(t.iter().copied()))
+        .reduce(Aabb::default, |a, b| a.union(&b));
     let e = b.extent();
     let m = e.max_element().max(1e-6);
     let pad = (e * 0.001).max(Vec3::splat(m * 1e-3));
@@ -38,47 +62,246 @@ pub fn ref_padding(bounds: &Aabb) -> f32 {
     m * 1e-5
 }
 
-/// Emit (key, tri) pairs through count → exclusive scan → emit: `count(t)` says how many
-/// pairs triangle t makes, `emit(t, out)` pushes them in the same order.
+/// The reference padding of `grid`, for checks that must use the builder's boxes.
+pub fn padding(grid: &Grid) -> f32 {
+    ref_padding(&grid.bounds)
+}
+
+/// The deepest octree level whose virtual grid still has exact f32 voxel coordinates
+/// (top_dims · 2^level ≤ 2^24), so traversal's voxel arithmetic stays exact.
+fn coordinate_depth_limit(top_dims: [u32; 3]) -> u32 {
+    let m = top_dims.iter().copied().max().unwrap_or(1).max(1);
+    24 - (32 - (m - 1).leading_zeros()).min(24)
+}
+
+/// `ceil(log2(m))` for m ≥ 1.
+#[inline]
+fn ceil_log2(m: u32) -> u32 {
+    32 - (m.max(1) - 1).leading_zeros()
+}
+
+/// The geometry every reference test of one build shares.
+struct Frame<'a> {
+    tris: &'a [[Vec3; 3]],
+    /// Per-triangle bounding boxes (the cheap half-space prefilter of every split).
+    tri_box: Vec<Aabb>,
+    bounds: Aabb,
+    tsize: Vec3,
+    pad: f32,
+}
+
+impl Frame<'_> {
+    /// The centre of the node at integer coordinates `c` of octree level `level`, and the
+    /// padded half-extent shared by every node of that level.
+    #[inline]
+    fn node_centre(&self, c: [u32; 3], level: u32) -> Vec3 {
+        let size = self.tsize / (1u32 << level) as f32;
+        self.bounds.min
+            + (Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) + Vec3::splat(0.5)) * size
+    }
+
+    #[inline]
+    fn node_half(&self, level: u32) -> Vec3 {
+        self.tsize / (2u32 << level) as f32 + Vec3::splat(self.pad)
+    }
+
+    /// Which of the 8 children of node `c` (level `level`) triangle `t` overlaps, child k at
+    /// 2c + (k & 1, (k >> 1) & 1, k >> 2). The triangle overlaps the node's padded box.
+    /// Children its box misses are dropped by half-space tests first (hagrid's
+    /// `compute_split_masks`); a single remaining child needs no test, since the triangle
+    /// meets the parent box and lies entirely inside that child's half-spaces. The others
+    /// share one prepared separating-axis test (same axes, same radii).
+    fn child_mask(&self, c: [u32; 3], level: u32, t: usize) -> u8 {
+        let size = self.tsize / (1u32 << (level + 1)) as f32;
+        let tb = &self.tri_box[t];
+        let mut mask = 0xffu8;
+        const LOW: [u8; 3] = [0x55, 0x33, 0x0f];
+        for k in 0..3 {
+            let mid = self.bounds.min[k] + (2 * c[k] + 1) as f32 * size[k];
+            if tb.min[k] > mid + self.pad {
+                mask &= !LOW[k];
+            }
+            if tb.max[k] < mid - self.pad {
+                mask &= LOW[k];
+            }
+        }
+        if mask.count_ones() <= 1 {
+            return mask;
+        }
+        let sat = TriBoxSat::new(&self.tris[t]);
+        let radii = sat.radii(self.node_half(level + 1));
+        let mut out = 0u8;
+        let mut m = mask;
+        while m != 0 {
+            let k = m.trailing_zeros();
+            m &= m - 1;
+            let cc = [
+                2 * c[0] + (k & 1),
+                2 * c[1] + ((k >> 1) & 1),
+                2 * c[2] + (k >> 2),
+            ];
+            if sat.overlaps(self.node_centre(cc, level + 1), &radii) {
+                out |= 1 << k;
+            }
+        }
+        out
+    }
+}
+
+/// Emit (key, tri) pairs through count → exclusive scan → emit: `count(i)` says how many
+/// pairs item i makes, `emit(i, out)` pushes them in the same order.
 fn count_scan_emit(
-    ntris: usize,
+    n: usize,
     count: impl Fn(usize) -> u32 + Sync,
-    emit: impl Fn(usize, &mut dyn FnMut(u32)) + Sync,
+    emit: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
 ) -> (Vec<u32>, Vec<u32>) {
-    let counts: Vec<u32> = (0..ntris).into_par_iter().map(&count).collect();
-    let mut offs = vec![0u32; ntris];
+    let counts: Vec<u32> = (0..n)
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(&count)
+        .collect();
+    let mut offs = vec![0u32; n];
     let total = exclusive_scan(&counts, &mut offs) as usize;
     let mut keys = vec![0u32; total];
-    let mut tris = vec![0u32; total];
+    let mut vals = vec![0u32; total];
     {
         let kp = SharedMut(keys.as_mut_ptr());
-        let tp = SharedMut(tris.as_mut_ptr());
-        (0..ntris).into_par_iter().for_each(|t| {
-            let mut k = offs[t] as usize;
-            let end = k + counts[t] as usize;
-            emit(t, &mut |key| {
+        let vp = SharedMut(vals.as_mut_ptr());
+        (0..n).into_par_iter().with_min_len(1024).for_each(|i| {
+            let mut k = offs[i] as usize;
+            let end = k + counts[i] as usize;
+            emit(i, &mut |key, val| {
                 assert!(k < end, "emit made more pairs than count");
-                // SAFETY: triangle t owns [offs[t], offs[t] + counts[t]) by the exclusive scan.
+                // SAFETY: item i owns [offs[i], offs[i] + counts[i]) by the exclusive scan.
                 unsafe {
                     kp.write(k, key);
-                    tp.write(k, t as u32);
+                    vp.write(k, val);
                 }
                 k += 1;
             });
         });
     }
-    (keys, tris)
+    (keys, vals)
 }
 
-/// Octree node within a top cell, packed: x | y << 8 | z << 16 | level << 24.
-#[inline]
-fn pack(l: [u32; 3], level: u32) -> u32 {
-    l[0] | l[1] << 8 | l[2] << 16 | level << 24
+/// References to the top cells: (top cell, triangle), in triangle order, by exact tests.
+/// A triangle whose padded box lies in one top cell needs no test; the count pass keeps the
+/// overlap bits of ranges up to 64 cells so the emit pass does not test them again.
+fn top_refs(f: &Frame, top_dims: [u32; 3]) -> (Vec<u32>, Vec<u32>) {
+    let range = |t: usize| {
+        let b = &f.tri_box[t];
+        let lo = ((b.min - Vec3::splat(f.pad) - f.bounds.min) / f.tsize).floor();
+        let hi = ((b.max + Vec3::splat(f.pad) - f.bounds.min) / f.tsize).floor();
+        let c = |v: f32, k: usize| (v.max(0.0) as u32).min(top_dims[k] - 1);
+        (
+            [c(lo.x, 0), c(lo.y, 1), c(lo.z, 2)],
+            [c(hi.x, 0), c(hi.y, 1), c(hi.z, 2)],
+        )
+    };
+    let index = |x: u32, y: u32, z: u32| x + top_dims[0] * (y + top_dims[1] * z);
+    let half = f.node_half(0);
+    let visit = |t: usize, f_out: &mut dyn FnMut(u32)| {
+        let (lo, hi) = range(t);
+        if lo == hi {
+            f_out(index(lo[0], lo[1], lo[2]));
+            return;
+        }
+        let sat = TriBoxSat::new(&f.tris[t]);
+        let radii = sat.radii(half);
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                for x in lo[0]..=hi[0] {
+                    if sat.overlaps(f.node_centre([x, y, z], 0), &radii) {
+                        f_out(index(x, y, z));
+                    }
+                }
+            }
+        }
+    };
+    // Overlap bits of small ranges, in range order (x fastest).
+    let bits: Vec<u64> = (0..f.tris.len())
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|t| {
+            let (lo, hi) = range(t);
+            let n = (0..3).map(|k| (hi[k] - lo[k] + 1) as u64).product::<u64>();
+            if n > 64 || lo == hi {
+                return 0;
+            }
+            let sat = TriBoxSat::new(&f.tris[t]);
+            let radii = sat.radii(half);
+            let mut m = 0u64;
+            let mut i = 0;
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        if sat.overlaps(f.node_centre([x, y, z], 0), &radii) {
+                            m |= 1 << i;
+                        }
+                        i += 1;
+                    }
+                }
+            }
+            m
+        })
+        .collect();
+    let small = |t: usize| {
+        let (lo, hi) = range(t);
+        let n = (0..3).map(|k| (hi[k] - lo[k] + 1) as u64).product::<u64>();
+        (n <= 64 && lo != hi).then_some((lo, hi))
+    };
+    count_scan_emit(
+        f.tris.len(),
+        |t| match small(t) {
+            Some(_) => bits[t].count_ones(),
+            None => {
+                let mut n = 0;
+                visit(t, &mut |_| n += 1);
+                n
+            }
+        },
+        |t, out| match small(t) {
+            Some((lo, hi)) => {
+                let mut i = 0;
+                for z in lo[2]..=hi[2] {
+                    for y in lo[1]..=hi[1] {
+                        for x in lo[0]..=hi[0] {
+                            if bits[t] >> i & 1 != 0 {
+                                out(index(x, y, z), t as u32);
+                            }
+                            i += 1;
+                        }
+                    }
+                }
+            }
+            None => visit(t, &mut |c| out(c, t as u32)),
+        },
+    )
 }
 
-#[inline]
-fn unpack(p: u32) -> ([u32; 3], u32) {
-    ([p & 0xff, (p >> 8) & 0xff, (p >> 16) & 0xff], p >> 24)
+/// Below the paper's depth, an adaptive node splits while λ₂ · (its references to triangles
+/// at most half its size) reaches this: eq. 1 on the node asks for this many cells.
+const ADAPTIVE_SPLIT: f32 = 64.0;
+
+/// Reference counts per node (a histogram; the GPU's atomic add); keys ≥ n are not counted.
+fn histogram(keys: &[u32], n: usize) -> Vec<u32> {
+    let h: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(0)).collect();
+    keys.par_iter().with_min_len(4096).for_each(|&k| {
+        if (k as usize) < n {
+            h[k as usize].fetch_add(1, Ordering::Relaxed);
+        }
+    });
+    h.into_iter().map(AtomicU32::into_inner).collect()
+}
+
+/// The octree depth the paper gives a top cell of `n` references (eq. 1 with λ₂, rounded up
+/// to a power of two).
+fn paper_depth(tsize: Vec3, n: u32, leaf_density: f32, max_depth: u32) -> u32 {
+    if n == 0 {
+        return 0; // Empty cells never split.
+    }
+    let r = resolution(tsize, n as usize, leaf_density);
+    ceil_log2(r[0].max(r[1]).max(r[2])).min(max_depth)
 }
 
 /// The initial structure: top grid, octrees, voxel map, sorted references.
@@ -87,181 +310,255 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
     if tris.is_empty() {
         return Err("the grid needs at least one triangle".into());
     }
+    if tris.len() >= (NODE as usize) {
+        return Err(format!(
+            "{} triangles exceed the grid's 31-bit references",
+            tris.len()
+        ));
+    }
     let t0 = Instant::now();
     let bounds = padded_bounds(tris);
-    let pad = ref_padding(&bounds);
     let ext = bounds.extent();
     let top_dims = resolution(ext, tris.len(), cfg.top_density);
-    let tsize = ext / Vec3::new(top_dims[0] as f32, top_dims[1] as f32, top_dims[2] as f32);
+    let frame = Frame {
+        tris,
+        tri_box: tris
+            .par_iter()
+            .with_min_len(4096)
+            .map(|t| Aabb::from_points(t.iter().copied()))
+            .collect(),
+        bounds,
+        tsize: ext / Vec3::new(top_dims[0] as f32, top_dims[1] as f32, top_dims[2] as f32),
+        pad: ref_padding(&bounds),
+    };
     let ntop = (top_dims[0] * top_dims[1] * top_dims[2]) as usize;
-    let top_box = |c: [u32; 3]| {
-        let lo = bounds.min + Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * tsize;
-        Aabb::new(lo - Vec3::splat(pad), lo + tsize + Vec3::splat(pad))
-    };
-    let range = |t: &[Vec3; 3]| {
-        let b = Aabb::from_points(t.iter().copied());
-        let lo = ((b.min - Vec3::splat(pad) - bounds.min) / tsize).floor();
-        let hi = ((b.max + Vec3::splat(pad) - bounds.min) / tsize).floor();
-        let c = |v: f32, k: usize| (v.max(0.0) as u32).min(top_dims[k] - 1);
-        (
-            [c(lo.x, 0), c(lo.y, 1), c(lo.z, 2)],
-            [c(hi.x, 0), c(hi.y, 1), c(hi.z, 2)],
-        )
-    };
-    let visit = |t: usize, f: &mut dyn FnMut(u32)| {
-        let (lo, hi) = range(&tris[t]);
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                for x in lo[0]..=hi[0] {
-                    if tri_overlaps_box(&top_box([x, y, z]), &tris[t]) {
-                        f(x + top_dims[0] * (y + top_dims[1] * z));
-                    }
-                }
-            }
-        }
-    };
-    let (top_cell, top_tri) = count_scan_emit(
-        tris.len(),
-        |t| {
-            let mut n = 0;
-            visit(t, &mut |_| n += 1);
-            n
-        },
-        visit,
-    );
+    let (mut ref_node, mut ref_tri) = top_refs(&frame, top_dims);
     let top_refs_seconds = t0.elapsed().as_secs_f64();
 
-    // Octree depth per top cell from the same formula with λ₂ and the cell's own count.
+    // Octree levels. Per level: nodes (coordinates, top cell), references (node, triangle).
     let t1 = Instant::now();
-    let mut per_cell = vec![0u32; ntop];
-    for &c in &top_cell {
-        per_cell[c as usize] += 1;
-    }
-    let depth: Vec<u32> = per_cell
-        .iter()
-        .map(|&n| {
-            if n == 0 {
-                return 0; // Empty cells never split.
-            }
-            let r = resolution(tsize, n as usize, cfg.leaf_density);
-            let m = r[0].max(r[1]).max(r[2]);
-            (32 - (m - 1).leading_zeros()).min(cfg.max_depth) // ceil(log2 m)
+    let max_depth = cfg.max_depth.min(coordinate_depth_limit(top_dims));
+    let mut depth = vec![0u32; ntop];
+    let mut coords: Vec<[u32; 3]> = (0..ntop as u32)
+        .map(|t| {
+            [
+                t % top_dims[0],
+                (t / top_dims[0]) % top_dims[1],
+                t / (top_dims[0] * top_dims[1]),
+            ]
         })
         .collect();
-    let shift = depth.iter().copied().max().unwrap_or(0);
-    // Split passes: each pass takes every reference one octree level down, emitting a child
-    // reference for each of the 8 children its triangle overlaps.
-    let mut node: Vec<u32> = vec![pack([0; 3], 0); top_cell.len()];
-    let (mut rc, mut rt) = (top_cell, top_tri);
-    for _ in 0..shift {
-        let child_box = |top: u32, l: [u32; 3], level: u32| {
-            let tc = [
-                top % top_dims[0],
-                (top / top_dims[0]) % top_dims[1],
-                top / (top_dims[0] * top_dims[1]),
-            ];
-            let size = tsize / (1u32 << level) as f32;
-            let lo = bounds.min
-                + Vec3::new(tc[0] as f32, tc[1] as f32, tc[2] as f32) * tsize
-                + Vec3::new(l[0] as f32, l[1] as f32, l[2] as f32) * size;
-            Aabb::new(lo - Vec3::splat(pad), lo + size + Vec3::splat(pad))
+    let mut top_of: Vec<u32> = (0..ntop as u32).collect();
+    let mut entries: Vec<u32> = Vec::with_capacity(ntop * 2);
+    // Leaf cells in level order: coordinates, level, reference count.
+    let mut cell_coord: Vec<[u32; 3]> = Vec::new();
+    let mut cell_level: Vec<u8> = Vec::new();
+    let mut cell_count: Vec<u32> = Vec::new();
+    // Final references of the leaves, grouped by level; cells of one level take all their
+    // references from that level, in triangle order.
+    let mut kept_cell: Vec<u32> = Vec::new();
+    let mut kept_tri: Vec<u32> = Vec::new();
+    let mut level = 0u32;
+    loop {
+        let nodes = coords.len();
+        let count = histogram(&ref_node, nodes);
+        // The references a split can separate: triangles at most half the node's size.
+        let small = if cfg.subdivision == Subdivision::Adaptive && level >= 1 {
+            let half = (frame.tsize / (1u32 << (level + 1)) as f32).min_element();
+            let keys: Vec<u32> = ref_node
+                .par_iter()
+                .zip(&ref_tri)
+                .with_min_len(4096)
+                .map(|(&p, &t)| {
+                    if frame.tri_box[t as usize].extent().max_element() <= half {
+                        p
+                    } else {
+                        u32::MAX
+                    }
+                })
+                .collect();
+            histogram(&keys, nodes)
+        } else {
+            count.clone()
         };
-        let visit = |i: usize, f: &mut dyn FnMut(u32)| {
-            let (l, level) = unpack(node[i]);
-            if level >= depth[rc[i] as usize] {
-                f(node[i]);
-                return;
+        if level == 0 {
+            depth = count
+                .iter()
+                .map(|&n| paper_depth(frame.tsize, n, cfg.leaf_density, max_depth))
+                .collect();
+        }
+        let adaptive = cfg.subdivision == Subdivision::Adaptive;
+        let split: Vec<u32> = (0..nodes)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|i| {
+                let n = count[i];
+                let wants = level < depth[top_of[i] as usize]
+                    || (adaptive && cfg.leaf_density * small[i] as f32 >= ADAPTIVE_SPLIT);
+                (n > 0 && level < max_depth && wants) as u32
+            })
+            .collect();
+        let mut child_base = vec![0u32; nodes];
+        let nsplit = exclusive_scan(&split, &mut child_base) as usize;
+        let leaf: Vec<u32> = split.iter().map(|&s| 1 - s).collect();
+        let mut leaf_index = vec![0u32; nodes];
+        let nleaf = exclusive_scan(&leaf, &mut leaf_index) as usize;
+        let first_cell = cell_coord.len() as u32;
+        let next_level_entry = (entries.len() + nodes) as u64;
+        if next_level_entry + 8 * nsplit as u64 >= NODE as u64
+            || first_cell as u64 + nleaf as u64 >= NODE as u64
+        {
+            return Err(format!(
+                "the grid's voxel map would exceed 2^31 entries at octree level {level}; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
+            ));
+        }
+        entries.extend((0..nodes).map(|i| {
+            if split[i] != 0 {
+                NODE | (next_level_entry as u32 + 8 * child_base[i])
+            } else {
+                first_cell + leaf_index[i]
             }
-            for k in 0..8u32 {
-                let c = [
-                    2 * l[0] + (k & 1),
-                    2 * l[1] + ((k >> 1) & 1),
-                    2 * l[2] + (k >> 2),
-                ];
-                if tri_overlaps_box(&child_box(rc[i], c, level + 1), &tris[rt[i] as usize]) {
-                    f(pack(c, level + 1));
+        }));
+        cell_coord.extend((0..nodes).filter(|&i| split[i] == 0).map(|i| coords[i]));
+        cell_level.extend(std::iter::repeat_n(level as u8, nleaf));
+        cell_count.extend((0..nodes).filter(|&i| split[i] == 0).map(|i| count[i]));
+        // References of leaves are final; those of split nodes go one level down.
+        let kept: Vec<u32> = ref_node.iter().map(|&p| 1 - split[p as usize]).collect();
+        let mut kept_at = vec![0u32; ref_node.len()];
+        let nkept = exclusive_scan(&kept, &mut kept_at) as usize;
+        let base = kept_cell.len();
+        kept_cell.resize(base + nkept, 0);
+        kept_tri.resize(base + nkept, 0);
+        {
+            let (cp, tp) = (
+                SharedMut(kept_cell[base..].as_mut_ptr()),
+                SharedMut(kept_tri[base..].as_mut_ptr()),
+            );
+            (0..ref_node.len())
+                .into_par_iter()
+                .with_min_len(4096)
+                .filter(|&r| kept[r] != 0)
+                .for_each(|r| {
+                    let p = ref_node[r] as usize;
+                    // SAFETY: kept reference r owns slot kept_at[r] by the exclusive scan.
+                    unsafe {
+                        cp.write(kept_at[r] as usize, first_cell + leaf_index[p]);
+                        tp.write(kept_at[r] as usize, ref_tri[r]);
+                    }
+                });
+        }
+        if nsplit == 0 {
+            break;
+        }
+        // Split references: the children each one overlaps, then count → scan → emit.
+        let mask: Vec<u8> = (0..ref_node.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|r| {
+                let p = ref_node[r] as usize;
+                if split[p] == 0 {
+                    0
+                } else {
+                    frame.child_mask(coords[p], level, ref_tri[r] as usize)
                 }
-            }
-        };
-        let (new_node, src) = count_scan_emit(
-            node.len(),
-            |i| {
-                let mut n = 0;
-                visit(i, &mut |_| n += 1);
-                n
+            })
+            .collect();
+        let (new_node, new_tri) = count_scan_emit(
+            ref_node.len(),
+            |r| mask[r].count_ones(),
+            |r, out| {
+                let mut m = mask[r];
+                let base = 8 * child_base[ref_node[r] as usize];
+                while m != 0 {
+                    let k = m.trailing_zeros();
+                    m &= m - 1;
+                    out(base + k, ref_tri[r]);
+                }
             },
-            visit,
         );
-        // `src` holds the index of the parent reference; carry its top cell and triangle.
-        rc = src.par_iter().map(|&i| rc[i as usize]).collect();
-        rt = src.par_iter().map(|&i| rt[i as usize]).collect();
-        node = new_node;
+        let mut new_coords = vec![[0u32; 3]; 8 * nsplit];
+        let mut new_top = vec![0u32; 8 * nsplit];
+        {
+            let (cp, tp) = (
+                SharedMut(new_coords.as_mut_ptr()),
+                SharedMut(new_top.as_mut_ptr()),
+            );
+            (0..nodes)
+                .into_par_iter()
+                .with_min_len(4096)
+                .filter(|&i| split[i] != 0)
+                .for_each(|i| {
+                    let c = coords[i];
+                    for k in 0..8u32 {
+                        let cc = [
+                            2 * c[0] + (k & 1),
+                            2 * c[1] + ((k >> 1) & 1),
+                            2 * c[2] + (k >> 2),
+                        ];
+                        let at = (8 * child_base[i] + k) as usize;
+                        // SAFETY: split node i owns children [8 child_base[i], +8).
+                        unsafe {
+                            cp.write(at, cc);
+                            tp.write(at, top_of[i]);
+                        }
+                    }
+                });
+        }
+        coords = new_coords;
+        top_of = new_top;
+        ref_node = new_node;
+        ref_tri = new_tri;
+        level += 1;
     }
     let octree_seconds = t1.elapsed().as_secs_f64();
 
-    // Cells: 8^D per top cell, and the voxel map.
+    // Cells on the virtual grid, and their references sorted by (cell, triangle).
     let t2 = Instant::now();
-    let sizes: Vec<u32> = depth.iter().map(|&d| 1u32 << (3 * d)).collect();
-    let mut cell_offset = vec![0u32; ntop];
-    let ncells = exclusive_scan(&sizes, &mut cell_offset) as usize;
-    if ncells >= 1 << 28 {
-        return Err(format!("{ncells} initial cells exceed the voxel map's 28-bit index; lower the densities or the octree depth"));
-    }
-    let top: Vec<u32> = (0..ntop).map(|t| depth[t] << 28 | cell_offset[t]).collect();
-    let leaf: Vec<u32> = (0..ncells as u32).collect();
-    let mut cell_min = vec![[0u32; 3]; ncells];
-    let mut cell_max = vec![[0u32; 3]; ncells];
-    {
-        let (pmin, pmax) = (
-            SharedMut(cell_min.as_mut_ptr()),
-            SharedMut(cell_max.as_mut_ptr()),
-        );
-        (0..ntop).into_par_iter().for_each(|t| {
-            let d = depth[t];
-            let tc = [
-                t as u32 % top_dims[0],
-                (t as u32 / top_dims[0]) % top_dims[1],
-                t as u32 / (top_dims[0] * top_dims[1]),
-            ];
-            let step = 1u32 << (shift - d);
-            let n = 1u32 << d;
-            for i in 0..sizes[t] {
-                let l = [i % n, (i / n) % n, i / (n * n)];
-                let lo = [0, 1, 2].map(|k| (tc[k] << shift) + l[k] * step);
-                let hi = lo.map(|v| v + step);
-                // SAFETY: top cell t owns [cell_offset[t], cell_offset[t] + sizes[t]).
-                unsafe {
-                    pmin.write((cell_offset[t] + i) as usize, lo);
-                    pmax.write((cell_offset[t] + i) as usize, hi);
-                }
-            }
-        });
-    }
-    // References sorted by (cell, triangle): one radix sort of 64-bit keys.
-    let mut keys: Vec<u64> = (0..node.len())
+    let shift = level;
+    let ncells = cell_coord.len();
+    let (cell_min, cell_max): (Vec<[u32; 3]>, Vec<[u32; 3]>) = (0..ncells)
         .into_par_iter()
-        .map(|i| {
-            let (l, level) = unpack(node[i]);
-            let n = 1u32 << level;
-            let cell = cell_offset[rc[i] as usize] + l[0] + n * (l[1] + n * l[2]);
-            (cell as u64) << 32 | rt[i] as u64
+        .with_min_len(4096)
+        .map(|c| {
+            let s = shift - cell_level[c] as u32;
+            let lo = cell_coord[c].map(|v| v << s);
+            (lo, lo.map(|v| v + (1 << s)))
         })
-        .collect();
-    let mut dummy = vec![0u32; keys.len()];
-    let cell_bits = 64 - (ncells.max(1) as u64).leading_zeros();
-    sort_pairs(
-        &mut keys,
-        &mut dummy,
-        32 + cell_bits,
-        &mut SortScratch::new(),
-    );
-    let refs: Vec<u32> = keys.par_iter().map(|&k| k as u32).collect();
+        .unzip();
     let mut ref_first = vec![0u32; ncells + 1];
-    for &k in &keys {
-        ref_first[(k >> 32) as usize + 1] += 1;
+    let total = exclusive_scan(&cell_count, &mut ref_first[..ncells]);
+    ref_first[ncells] = total;
+    debug_assert_eq!(total as usize, kept_tri.len());
+    // Scatter by cell with one cursor per cell, then order each cell's few references (the
+    // slots a cell gets are fixed, so the result does not depend on scheduling).
+    let cursor: Vec<AtomicU32> = ref_first[..ncells]
+        .iter()
+        .map(|&f| AtomicU32::new(f))
+        .collect();
+    let mut refs = vec![0u32; total as usize];
+    {
+        let rp = SharedMut(refs.as_mut_ptr());
+        (0..kept_tri.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .for_each(|r| {
+                let at = cursor[kept_cell[r] as usize].fetch_add(1, Ordering::Relaxed);
+                // SAFETY: each cursor hands out distinct slots of its cell's range.
+                unsafe { rp.write(at as usize, kept_tri[r]) };
+            });
     }
-    for c in 0..ncells {
-        ref_first[c + 1] += ref_first[c];
+    {
+        let rp = SharedMut(refs.as_mut_ptr());
+        (0..ncells)
+            .into_par_iter()
+            .with_min_len(1024)
+            .for_each(|c| {
+                let (a, b) = (ref_first[c] as usize, ref_first[c + 1] as usize);
+                let whole = &rp; // the wrapper, not its raw field, crosses threads
+                                 // SAFETY: cell ranges are disjoint.
+                let s = unsafe { std::slice::from_raw_parts_mut(whole.0.add(a), b - a) };
+                s.sort_unstable();
+            });
     }
     let dims = top_dims.map(|d| d << shift);
     let voxel = ext / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
@@ -279,8 +576,7 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         cell_max,
         ref_first,
         refs,
-        top,
-        leaf,
+        entries,
         build: BuildStats {
             top_refs_seconds,
             octree_seconds,
@@ -289,9 +585,4 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
             ..Default::default()
         },
     })
-}
-
-/// The reference padding of `grid`, for checks that must use the builder's boxes.
-pub fn padding(grid: &Grid) -> f32 {
-    ref_padding(&grid.bounds)
 }

@@ -8,7 +8,7 @@
 //! like merge sort (ascending, duplicates once) and the voxel map is remapped to the new
 //! cells. Passes alternate x, y, z; merging stops when a round keeps at least α of the cells.
 
-use super::{half_area, union_each, union_len, Grid};
+use super::{half_area, union_each, union_len, Grid, NODE};
 use par::{exclusive_scan, SharedMut};
 use rayon::prelude::*;
 
@@ -185,7 +185,11 @@ pub fn merge_pass(g: &mut Grid, axis: usize) -> usize {
             remap[partner[i] as usize] = new_index[i];
         }
     }
-    g.leaf.par_iter_mut().for_each(|c| *c = remap[*c as usize]);
+    g.entries.par_iter_mut().with_min_len(4096).for_each(|e| {
+        if *e & NODE == 0 {
+            *e = remap[*e as usize];
+        }
+    });
     g.cell_min = boxes.iter().map(|b| b.0).collect();
     g.cell_max = boxes.iter().map(|b| b.1).collect();
     g.exp_min = g.cell_min.clone();

@@ -4,9 +4,15 @@
 //! Structure (paper §3): cells aligned on a *virtual base grid*, each with a box and a range
 //! of triangle references, plus a two-level *voxel map* from virtual voxels to cells.
 //! Build (§4, [`build`]): a top-level uniform grid (Cleary's formula with density λ₁), an
-//! octree per top cell (density λ₂), references emitted with exact triangle–box tests through
-//! count → scan → emit passes; then SAH cell merging ([`merge`]) and cell expansion
-//! ([`expand`]). Traversal (§5, [`traverse`]): look up the cell of the current voxel, test its
+//! octree per top cell (density λ₂; only non-empty nodes split, as in the paper's reference
+//! code), references emitted with exact triangle–box tests through count → scan → emit
+//! passes; then SAH cell merging ([`merge`]) and cell expansion ([`expand`]).
+//!
+//! The voxel map (§3, Figure 1) is stored as in hagrid: one entry per top cell, and per split
+//! octree node a block of 8 child entries; an entry is either a cell index or ([`NODE`] | the
+//! index of its 8 children). A lookup descends from the top cell to the leaf, so the map's
+//! size follows the cells, not the finest resolution, and octrees may be deep where a small
+//! dense object needs it. Traversal (§5, [`traverse`]): look up the cell of the current voxel, test its
 //! triangles, exit through the far planes of the cell's (expanded) box, step forward.
 //!
 //! Robustness: cell boxes are padded by a small fraction of a voxel when references are
@@ -21,6 +27,20 @@ pub mod traverse;
 
 use geom::{Aabb, Vec3};
 
+/// Voxel-map entry flag: the entry is an octree node whose 8 children start at the index in
+/// the low 31 bits (child k at x | y << 1 | z << 2); without it the entry is a cell index.
+pub const NODE: u32 = 1 << 31;
+
+/// Which octree nodes split during the initial subdivision (see [`build`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Subdivision {
+    /// One depth per top cell from eq. 1 with the top cell's count (the paper's rule).
+    Paper,
+    /// The paper's depth, and below it every node whose own count calls for a split
+    /// (λ₂·n ≥ 8), up to the maximum depth.
+    Adaptive,
+}
+
 /// Build parameters (paper defaults: λ₁ = 0.12, λ₂ = 2.4, α = 0.995, 3 expansion passes).
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridConfig {
@@ -32,6 +52,7 @@ pub struct GridConfig {
     pub expansion_passes: u32,
     /// Largest octree depth per top cell.
     pub max_depth: u32,
+    pub subdivision: Subdivision,
 }
 
 impl Default for GridConfig {
@@ -42,7 +63,8 @@ impl Default for GridConfig {
             alpha: 0.995,
             merge: true,
             expansion_passes: 3,
-            max_depth: 6,
+            max_depth: 10,
+            subdivision: Subdivision::Adaptive,
         }
     }
 }
@@ -90,8 +112,8 @@ impl GridConfig {
                 self.expansion_passes
             ));
         }
-        if self.max_depth > 8 {
-            return Err(format!("octree depth {} is more than 8", self.max_depth));
+        if self.max_depth > 12 {
+            return Err(format!("octree depth {} is more than 12", self.max_depth));
         }
         Ok(())
     }
@@ -107,6 +129,21 @@ pub struct BuildStats {
     pub expand_seconds: f64,
     pub initial_cells: usize,
     pub merge_rounds: usize,
+}
+
+impl BuildStats {
+    /// Each build pass's time in seconds, in build order, and the total (`total` last).
+    pub fn passes(&self) -> [(&'static str, f64); 6] {
+        let p = [
+            ("top_refs", self.top_refs_seconds),
+            ("octrees", self.octree_seconds),
+            ("cells", self.voxel_map_seconds),
+            ("merge", self.merge_seconds),
+            ("expansion", self.expand_seconds),
+        ];
+        let total = p.iter().map(|x| x.1).sum();
+        [p[0], p[1], p[2], p[3], p[4], ("total", total)]
+    }
 }
 
 /// An irregular grid (or two-level grid) over a triangle set.
@@ -130,10 +167,9 @@ pub struct Grid {
     /// References of cell c: `refs[ref_first[c] .. ref_first[c + 1]]`, ascending.
     pub ref_first: Vec<u32>,
     pub refs: Vec<u32>,
-    /// Voxel map, top level: per top cell (octree depth << 28 | offset into `leaf`).
-    pub top: Vec<u32>,
-    /// Voxel map, second level: cell index per octree leaf voxel.
-    pub leaf: Vec<u32>,
+    /// Voxel map: entries `0..top cells` for the top grid, then the octree nodes' child
+    /// blocks; each entry a cell index or [`NODE`] | first child.
+    pub entries: Vec<u32>,
     pub build: BuildStats,
 }
 
@@ -146,11 +182,7 @@ impl Grid {
     /// voxel map.
     pub fn memory(&self) -> (usize, usize, usize) {
         let cells = self.cells() * (4 * 12 + 4) + 4;
-        (
-            cells,
-            self.refs.len() * 4,
-            (self.top.len() + self.leaf.len()) * 4,
-        )
+        (cells, self.refs.len() * 4, self.entries.len() * 4)
     }
 
     #[inline]
@@ -158,17 +190,19 @@ impl Grid {
         (t[0] + self.top_dims[0] * (t[1] + self.top_dims[1] * t[2])) as usize
     }
 
-    /// The cell containing virtual voxel `v` (two dependent lookups).
+    /// The cell containing virtual voxel `v`: the top cell's entry, then one entry per
+    /// octree level below it.
     #[inline]
     pub fn lookup(&self, v: [u32; 3]) -> u32 {
-        let t = [v[0] >> self.shift, v[1] >> self.shift, v[2] >> self.shift];
-        let e = self.top[self.top_index(t)];
-        let depth = e >> 28;
-        let off = e & 0x0fff_ffff;
-        let s = self.shift - depth;
-        let mask = (1u32 << depth) - 1;
-        let l = [(v[0] >> s) & mask, (v[1] >> s) & mask, (v[2] >> s) & mask];
-        self.leaf[(off + l[0] + (l[1] << depth) + (l[2] << (2 * depth))) as usize]
+        let mut s = self.shift;
+        let t = [v[0] >> s, v[1] >> s, v[2] >> s];
+        let mut e = self.entries[self.top_index(t)];
+        while e & NODE != 0 {
+            s -= 1;
+            let k = ((v[0] >> s) & 1) | ((v[1] >> s) & 1) << 1 | ((v[2] >> s) & 1) << 2;
+            e = self.entries[((e & !NODE) + k) as usize];
+        }
+        e
     }
 
     /// World-space box of a virtual-grid box.

@@ -1,0 +1,46 @@
+//! Build the irregular grid of a scene several times and print each pass's best time: the
+//! profiling loop for the build (run it under `perf record` to see inside a pass).
+//!
+//! `cargo run --release -p accel --example grid_build -- SCENE [REPEATS] [paper|adaptive]`
+
+use accel::grid::{build_grid, GridConfig, Subdivision};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let spec = args.get(1).map(String::as_str).unwrap_or("cornell");
+    let repeats: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
+    let cfg = GridConfig {
+        subdivision: match args.get(3).map(String::as_str) {
+            Some("paper") => Subdivision::Paper,
+            _ => Subdivision::Adaptive,
+        },
+        ..Default::default()
+    };
+    let s = match scene::load(spec, &Default::default()) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(1);
+        }
+    };
+    let geo = scene::Geometry::from_scene(&s);
+    let mut best: Option<Vec<(&'static str, f64)>> = None;
+    let mut cells = 0;
+    for _ in 0..repeats {
+        let g = build_grid(&geo.tris, &cfg).unwrap();
+        cells = g.cells();
+        let p = g.build.passes();
+        best = Some(match best {
+            None => p.to_vec(),
+            Some(b) => b
+                .iter()
+                .zip(p.iter())
+                .map(|(a, b)| (a.0, a.1.min(b.1)))
+                .collect(),
+        });
+    }
+    println!("{}: {} triangles, {} cells", s.name, geo.len(), cells);
+    for (name, t) in best.unwrap() {
+        println!("{name:>12} {:8.2} ms", t * 1e3);
+    }
+}
