@@ -2,6 +2,7 @@
 //! brute-force engine's hits on built-in scenes and random scenes (closest-hit records bit
 //! for bit — same kernel, same tie rule — and any-hit booleans).
 
+use accel::grid::voxelmap::{INDEX, LOG_DIM_SHIFT};
 use accel::grid::{build_grid, Grid, GridConfig, GridEngine, Subdivision, NODE};
 use accel::oracle::{assert_same_hits, random_case, record_render};
 use accel::BruteForce;
@@ -64,14 +65,18 @@ fn check_voxel_map(g: &Grid) {
     }
     while let Some((e, lo, s)) = stack.pop() {
         if e & NODE != 0 {
-            assert!(s > 0, "an octree node below the finest level");
-            for k in 0..8u32 {
-                let c = [
-                    lo[0] + (k & 1) * (1 << (s - 1)),
-                    lo[1] + ((k >> 1) & 1) * (1 << (s - 1)),
-                    lo[2] + (k >> 2) * (1 << (s - 1)),
-                ];
-                stack.push((g.entries[((e & !NODE) + k) as usize], c, s - 1));
+            let k = (e >> LOG_DIM_SHIFT) & 0xf;
+            assert!(k >= 1 && k <= s, "a block of {k} levels below level {s}");
+            let n = 1u32 << k;
+            let step = 1u32 << (s - k);
+            for z in 0..n {
+                for y in 0..n {
+                    for x in 0..n {
+                        let i = x | y << k | z << (2 * k);
+                        let c = [lo[0] + x * step, lo[1] + y * step, lo[2] + z * step];
+                        stack.push((g.entries[((e & INDEX) + i) as usize], c, s - k));
+                    }
+                }
             }
             continue;
         }

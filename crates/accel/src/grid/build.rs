@@ -20,7 +20,8 @@
 //! Robustness: node boxes are grown by [`ref_padding`] for every reference test, so a triangle
 //! within rounding distance of a boundary is referenced on both sides.
 
-use super::{BuildStats, Grid, GridConfig, Subdivision, NODE};
+use super::voxelmap::{self, INDEX};
+use super::{BuildStats, Grid, GridConfig, Subdivision};
 use geom::aabb::TriBoxSat;
 use geom::{Aabb, Vec3};
 use par::{exclusive_scan, SharedMut};
@@ -310,9 +311,9 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
     if tris.is_empty() {
         return Err("the grid needs at least one triangle".into());
     }
-    if tris.len() >= (NODE as usize) {
+    if tris.len() >= (INDEX as usize) {
         return Err(format!(
-            "{} triangles exceed the grid's 31-bit references",
+            "{} triangles exceed the grid's 27-bit references",
             tris.len()
         ));
     }
@@ -405,16 +406,16 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         let nleaf = exclusive_scan(&leaf, &mut leaf_index) as usize;
         let first_cell = cell_coord.len() as u32;
         let next_level_entry = (entries.len() + nodes) as u64;
-        if next_level_entry + 8 * nsplit as u64 >= NODE as u64
-            || first_cell as u64 + nleaf as u64 >= NODE as u64
+        if next_level_entry + 8 * nsplit as u64 >= INDEX as u64
+            || first_cell as u64 + nleaf as u64 >= INDEX as u64
         {
             return Err(format!(
-                "the grid's voxel map would exceed 2^31 entries at octree level {level}; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
+                "the grid's voxel map would exceed 2^27 entries at octree level {level}; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
             ));
         }
         entries.extend((0..nodes).map(|i| {
             if split[i] != 0 {
-                NODE | (next_level_entry as u32 + 8 * child_base[i])
+                voxelmap::node(next_level_entry as u32 + 8 * child_base[i], 1)
             } else {
                 first_cell + leaf_index[i]
             }
@@ -512,10 +513,23 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
     }
     let octree_seconds = t1.elapsed().as_secs_f64();
 
-    // Cells on the virtual grid, and their references sorted by (cell, triangle).
+    // The voxel map in blocks, cells renumbered in its order; cells on the virtual grid, and
+    // their references sorted by (cell, triangle).
     let t2 = Instant::now();
-    let shift = level;
     let ncells = cell_coord.len();
+    let (entries, order) = voxelmap::flatten(&entries, ntop, ncells)?;
+    let mut new_index = vec![0u32; ncells];
+    for (k, &c) in order.iter().enumerate() {
+        new_index[c as usize] = k as u32;
+    }
+    let cell_coord: Vec<[u32; 3]> = order.iter().map(|&c| cell_coord[c as usize]).collect();
+    let cell_level: Vec<u8> = order.iter().map(|&c| cell_level[c as usize]).collect();
+    let cell_count: Vec<u32> = order.iter().map(|&c| cell_count[c as usize]).collect();
+    kept_cell
+        .par_iter_mut()
+        .with_min_len(4096)
+        .for_each(|c| *c = new_index[*c as usize]);
+    let shift = level;
     let (cell_min, cell_max): (Vec<[u32; 3]>, Vec<[u32; 3]>) = (0..ncells)
         .into_par_iter()
         .with_min_len(4096)

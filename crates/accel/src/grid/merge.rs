@@ -5,41 +5,101 @@
 //! (|T₁ ∪ T₂| + 1)·A(B₁ ∪ B₂) ≤ (|T₁| + 1)·A(B₁) + (|T₂| + 1)·A(B₂), A the half surface
 //! area — becomes a merge candidate. Candidates form chains; walking each chain, cells at
 //! even positions merge with their successor, which becomes residue. Reference lists merge
-//! like merge sort (ascending, duplicates once) and the voxel map is remapped to the new
-//! cells. Passes alternate x, y, z; merging stops when a round keeps at least α of the cells.
+//! like merge sort (ascending, duplicates once). Passes alternate x, y, z; merging stops
+//! when a round keeps at least α of the cells.
+//!
+//! What is merged is exactly the paper's algorithm; how it is computed avoids redoing work
+//! that a pass cannot change, since the build runs every frame:
+//! - cells keep their initial index while merging (a residue points to the cell that
+//!   absorbed it, `owner`, compressed after every pass), so the voxel map is not rewritten
+//!   per pass and a pass touches only the cells it merges;
+//! - a cell's candidate along an axis depends only on the cell and the neighbour at its +axis
+//!   probe voxel; it is re-evaluated only when one of the two changed since the last pass
+//!   along that axis (late rounds re-evaluate a few percent of the cells);
+//! - merged reference lists are appended to one pool (count → scan → emit), and the cells,
+//!   references and voxel map are compacted once at the end.
 
 use super::{half_area, union_each, union_len, Grid, NODE};
 use par::{exclusive_scan, SharedMut};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU8, Ordering::Relaxed};
 
 const NONE: u32 = u32::MAX;
 
+/// Per-cell merge state, indexed by initial cell.
+struct Merger {
+    /// The live cell that holds cell i (i itself while i is live), and its scratch twin.
+    owner: Vec<u32>,
+    owner_next: Vec<u32>,
+    initial_refs: usize,
+    /// References of live cell i: `pool[begin[i] .. end[i]]`, ascending.
+    begin: Vec<u32>,
+    end: Vec<u32>,
+    pool: Vec<u32>,
+    /// Pass at which cell i last changed (0: initial).
+    changed: Vec<u32>,
+    /// Per axis: the pass that last evaluated cell i (0: never), the cell found at its +axis
+    /// probe voxel then, and its candidate (NONE: none).
+    stamp: [Vec<u32>; 3],
+    probe: [Vec<u32>; 3],
+    cand: [Vec<u32>; 3],
+    pass: u32,
+}
+
+impl Merger {
+    #[inline]
+    fn refs(&self, i: usize) -> &[u32] {
+        &self.pool[self.begin[i] as usize..self.end[i] as usize]
+    }
+}
+
 /// Merge until a full x, y, z round keeps at least `alpha` of the cells; returns the rounds.
 pub fn merge(g: &mut Grid, alpha: f32) -> usize {
+    let n = g.cells();
+    let mut m = Merger {
+        owner: (0..n as u32).collect(),
+        owner_next: vec![0; n],
+        initial_refs: g.refs.len(),
+        begin: g.ref_first[..n].to_vec(),
+        end: g.ref_first[1..].to_vec(),
+        pool: std::mem::take(&mut g.refs),
+        changed: vec![0; n],
+        stamp: std::array::from_fn(|_| vec![0; n]),
+        probe: std::array::from_fn(|_| vec![NONE; n]),
+        cand: std::array::from_fn(|_| vec![NONE; n]),
+        pass: 0,
+    };
+    let mut live: Vec<u32> = (0..n as u32).collect();
+    let flags: Vec<AtomicU8> = (0..n).map(|_| AtomicU8::new(0)).collect();
     let mut rounds = 0;
     loop {
-        let before = g.cells();
+        let before = live.len();
         for axis in 0..3 {
-            merge_pass(g, axis);
+            m.pass += 1;
+            if merge_pass(g, &mut m, &live, &flags, axis) > 0 {
+                live.retain(|&i| m.owner[i as usize] == i);
+            }
         }
         rounds += 1;
-        let after = g.cells();
+        let after = live.len();
         if after == before || after as f64 >= alpha as f64 * before as f64 {
             break;
         }
     }
+    compact(g, &m, &live);
     rounds
 }
 
-/// The +axis neighbour of cell i when it is exactly aligned, else NONE.
-fn aligned_neighbour(g: &Grid, i: usize, axis: usize) -> u32 {
+/// The cell at cell i's +axis probe voxel (its min corner moved to the far face), and whether
+/// it is exactly aligned with i (same extent on the other two axes).
+fn neighbour(g: &Grid, m: &Merger, i: usize, axis: usize) -> (u32, bool) {
     let (lo, hi) = (g.cell_min[i], g.cell_max[i]);
     if hi[axis] >= g.dims[axis] {
-        return NONE;
+        return (NONE, false);
     }
     let mut p = lo;
     p[axis] = hi[axis];
-    let j = g.lookup(p) as usize;
+    let j = m.owner[g.lookup(p) as usize] as usize;
     let (jl, jh) = (g.cell_min[j], g.cell_max[j]);
     let aligned = (0..3).all(|k| {
         if k == axis {
@@ -48,153 +108,238 @@ fn aligned_neighbour(g: &Grid, i: usize, axis: usize) -> u32 {
             jl[k] == lo[k] && jh[k] == hi[k]
         }
     });
-    if aligned {
-        j as u32
-    } else {
-        NONE
-    }
+    (j as u32, aligned)
 }
 
-/// One merge pass along `axis`; returns how many cells were removed.
-pub fn merge_pass(g: &mut Grid, axis: usize) -> usize {
-    let n = g.cells();
-    // 1. Merge candidates: next[i] = the neighbour i would absorb.
-    let next: Vec<u32> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let j = aligned_neighbour(g, i, axis);
-            if j == NONE {
-                return NONE;
+/// Does merging live cell i with its aligned +axis neighbour j lower the SAH cost?
+fn worth_merging(g: &Grid, m: &Merger, i: usize, j: usize, axis: usize) -> bool {
+    let (ri, rj) = (m.refs(i), m.refs(j));
+    let ai = half_area(g.voxel, g.cell_min[i], g.cell_max[i]);
+    let aj = half_area(g.voxel, g.cell_min[j], g.cell_max[j]);
+    let mut hi = g.cell_max[i];
+    hi[axis] = g.cell_max[j][axis];
+    let au = half_area(g.voxel, g.cell_min[i], hi);
+    let nu = union_len(ri, rj) as f32;
+    au * (nu + 1.0) <= ai * (ri.len() as f32 + 1.0) + aj * (rj.len() as f32 + 1.0)
+}
+
+/// One merge pass along `axis` over the live cells; returns how many cells were absorbed.
+fn merge_pass(
+    g: &mut Grid,
+    m: &mut Merger,
+    live: &[u32],
+    flags: &[AtomicU8],
+    axis: usize,
+) -> usize {
+    let pass = m.pass;
+    // 1. Candidates, re-evaluated where the cell or its probe neighbour changed.
+    {
+        let (sp, pp, cp) = (
+            SharedMut(m.stamp[axis].as_mut_ptr()),
+            SharedMut(m.probe[axis].as_mut_ptr()),
+            SharedMut(m.cand[axis].as_mut_ptr()),
+        );
+        let (gr, mr) = (&*g, &*m);
+        live.par_iter().with_min_len(2048).for_each(|&i| {
+            let i = i as usize;
+            let s = mr.stamp[axis][i];
+            let p = mr.probe[axis][i];
+            let stale = s == 0
+                || mr.changed[i] >= s
+                || (p != NONE && (mr.owner[p as usize] != p || mr.changed[p as usize] >= s));
+            if !stale {
+                return;
             }
-            let j = j as usize;
-            let (ri, rj) = (g.cell_refs(i), g.cell_refs(j));
-            let ai = half_area(g.voxel, g.cell_min[i], g.cell_max[i]);
-            let aj = half_area(g.voxel, g.cell_min[j], g.cell_max[j]);
-            let mut hi = g.cell_max[i];
-            hi[axis] = g.cell_max[j][axis];
-            let au = half_area(g.voxel, g.cell_min[i], hi);
-            let nu = union_len(ri, rj) as f32;
-            let merged = au * (nu + 1.0);
-            let separate = ai * (ri.len() as f32 + 1.0) + aj * (rj.len() as f32 + 1.0);
-            if merged <= separate {
-                j as u32
+            let (j, aligned) = neighbour(gr, mr, i, axis);
+            let c = if aligned && worth_merging(gr, mr, i, j as usize, axis) {
+                j
             } else {
                 NONE
+            };
+            // SAFETY: live cells are distinct, so each index is written by one task.
+            unsafe {
+                sp.write(i, pass);
+                pp.write(i, j);
+                cp.write(i, c);
             }
-        })
-        .collect();
+        });
+    }
     // 2. Chains: heads are candidates nobody points at; walk each, pairing even positions
     // with their successor (which becomes residue).
-    let mut has_prev = vec![false; n];
-    for &j in &next {
+    let next = &m.cand[axis];
+    live.par_iter().with_min_len(4096).for_each(|&i| {
+        let j = next[i as usize];
         if j != NONE {
-            has_prev[j as usize] = true;
+            flags[j as usize].store(1, Relaxed); // j has a predecessor
         }
+    });
+    let heads: Vec<u32> = live
+        .par_iter()
+        .with_min_len(4096)
+        .copied()
+        .filter(|&i| next[i as usize] != NONE && flags[i as usize].load(Relaxed) == 0)
+        .collect();
+    live.par_iter()
+        .with_min_len(4096)
+        .for_each(|&i| flags[i as usize].store(0, Relaxed));
+    let pairs: Vec<(u32, u32)> = heads
+        .par_iter()
+        .with_min_len(256)
+        .fold(Vec::new, |mut out, &head| {
+            let mut i = head;
+            loop {
+                let j = next[i as usize];
+                if j == NONE {
+                    break;
+                }
+                out.push((i, j));
+                let k = next[j as usize];
+                if k == NONE {
+                    break;
+                }
+                i = k;
+            }
+            out
+        })
+        .reduce(Vec::new, |mut a, mut b| {
+            a.append(&mut b);
+            a
+        });
+    if pairs.is_empty() {
+        return 0;
     }
-    // partner[i]: the cell i absorbs; consumed[j]: j is residue.
-    let mut partner = vec![NONE; n];
-    let mut consumed = vec![0u8; n];
+    // 3. Merged reference lists, appended to the pool (count → scan → emit).
+    let counts: Vec<u32> = pairs
+        .par_iter()
+        .with_min_len(1024)
+        .map(|&(i, j)| union_len(m.refs(i as usize), m.refs(j as usize)) as u32)
+        .collect();
+    let mut offs = vec![0u32; pairs.len()];
+    let total = exclusive_scan(&counts, &mut offs) as usize;
+    // The pool only grows while merging; rewrite it with the live lists when it would
+    // outgrow its 32-bit offsets or four times the initial references.
+    if m.pool.len() + total >= (u32::MAX as usize).min(4 * m.initial_refs.max(1 << 16)) {
+        compact_pool(m, live);
+    }
+    let base = m.pool.len();
+    if base + total >= u32::MAX as usize {
+        panic!("merged reference lists exceed 2^32 entries");
+    }
+    m.pool.resize(base + total, 0);
     {
-        let (pp, cp) = (
-            SharedMut(partner.as_mut_ptr()),
-            SharedMut(consumed.as_mut_ptr()),
+        let (pool, rest) = m.pool.split_at_mut(base);
+        let out = SharedMut(rest.as_mut_ptr());
+        let (begin, end) = (&m.begin, &m.end);
+        pairs
+            .par_iter()
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(k, &(i, j))| {
+                let refs = |c: u32| &pool[begin[c as usize] as usize..end[c as usize] as usize];
+                let mut at = offs[k] as usize;
+                union_each(refs(i), refs(j), &mut |r| {
+                    // SAFETY: pair k owns [offs[k], offs[k] + counts[k]) by the scan.
+                    unsafe { out.write(at, r) };
+                    at += 1;
+                });
+            });
+    }
+    {
+        let (bp, ep, xp, op, cp) = (
+            SharedMut(m.begin.as_mut_ptr()),
+            SharedMut(m.end.as_mut_ptr()),
+            SharedMut(g.cell_max.as_mut_ptr()),
+            SharedMut(m.owner.as_mut_ptr()),
+            SharedMut(m.changed.as_mut_ptr()),
         );
-        (0..n)
-            .into_par_iter()
-            .filter(|&i| next[i] != NONE && !has_prev[i])
-            .for_each(|head| {
-                let mut i = head;
-                loop {
-                    let j = next[i];
-                    if j == NONE {
-                        break;
-                    }
-                    // SAFETY: chains are disjoint paths, so each cell is written by one walk.
-                    unsafe {
-                        pp.write(i, j);
-                        cp.write(j as usize, 1);
-                    }
-                    let k = next[j as usize];
-                    if k == NONE {
-                        break;
-                    }
-                    i = k as usize;
+        pairs
+            .par_iter()
+            .enumerate()
+            .with_min_len(4096)
+            .for_each(|(k, &(i, j))| {
+                let (i, j) = (i as usize, j as usize);
+                let boxes = &xp; // the wrapper, not its raw field, crosses threads
+                                 // SAFETY: pairs are disjoint (each cell in at most one pair, absorber or
+                                 // residue), so every index is written by one task and no task reads an index
+                                 // another writes (j's box is read, only i's is written).
+                unsafe {
+                    let mut hi = boxes.0.add(i).read();
+                    hi[axis] = boxes.0.add(j).read()[axis];
+                    bp.write(i, base as u32 + offs[k]);
+                    ep.write(i, base as u32 + offs[k] + counts[k]);
+                    xp.write(i, hi);
+                    op.write(j, i as u32);
+                    cp.write(i, pass);
                 }
             });
     }
-    let removed = consumed.iter().filter(|&&c| c != 0).count();
-    if removed == 0 {
-        return 0;
+    compress_owners(m);
+    pairs.len()
+}
+
+/// Keep `owner` one step deep: cells that pointed at a cell absorbed in this pass now point
+/// at its absorber (absorbers are live after the pass, since pairs are disjoint).
+fn compress_owners(m: &mut Merger) {
+    let owner = &m.owner;
+    m.owner_next
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(8192)
+        .for_each(|(x, o)| *o = owner[owner[x] as usize]);
+    std::mem::swap(&mut m.owner, &mut m.owner_next);
+}
+
+/// Rewrite the pool with only the live cells' lists.
+fn compact_pool(m: &mut Merger, live: &[u32]) {
+    let mut pool = Vec::new();
+    for &i in live {
+        let i = i as usize;
+        let b = pool.len() as u32;
+        pool.extend_from_slice(m.refs(i));
+        m.begin[i] = b;
+        m.end[i] = pool.len() as u32;
     }
-    // 3. New cells in the old order: kept cells and merged pairs.
-    let keep: Vec<u32> = consumed.iter().map(|&c| (c == 0) as u32).collect();
-    let mut new_index = vec![0u32; n];
-    let m = exclusive_scan(&keep, &mut new_index) as usize;
-    let old_of_new: Vec<u32> = (0..n as u32)
-        .filter(|&i| consumed[i as usize] == 0)
+    m.pool = pool;
+}
+
+/// Renumber the live cells in their initial order, gather their references, and point the
+/// voxel map at the new indices.
+fn compact(g: &mut Grid, m: &Merger, live: &[u32]) {
+    let n = m.owner.len();
+    let mut new_index = vec![NONE; n];
+    for (k, &i) in live.iter().enumerate() {
+        new_index[i as usize] = k as u32;
+    }
+    let counts: Vec<u32> = live
+        .iter()
+        .map(|&i| m.end[i as usize] - m.begin[i as usize])
         .collect();
-    let counts: Vec<u32> = old_of_new
-        .par_iter()
-        .map(|&i| {
-            let i = i as usize;
-            match partner[i] {
-                NONE => g.cell_refs(i).len() as u32,
-                j => union_len(g.cell_refs(i), g.cell_refs(j as usize)) as u32,
-            }
-        })
-        .collect();
-    let mut ref_first = vec![0u32; m + 1];
-    let total = exclusive_scan(&counts, &mut ref_first[..m]) as usize;
-    ref_first[m] = total as u32;
-    // Emit every new cell's list at its offset (count → scan → emit, no per-cell vectors).
-    let mut refs = vec![0u32; total];
+    let mut ref_first = vec![0u32; live.len() + 1];
+    let total = exclusive_scan(&counts, &mut ref_first[..live.len()]);
+    ref_first[live.len()] = total;
+    let mut refs = vec![0u32; total as usize];
     {
         let out = SharedMut(refs.as_mut_ptr());
-        old_of_new.par_iter().enumerate().for_each(|(k, &i)| {
-            let i = i as usize;
-            let mut at = ref_first[k] as usize;
-            let mut push = |r: u32| {
-                // SAFETY: new cell k owns [ref_first[k], ref_first[k + 1]) by the scan.
-                unsafe { out.write(at, r) };
-                at += 1;
-            };
-            match partner[i] {
-                NONE => g.cell_refs(i).iter().for_each(|&r| push(r)),
-                j => union_each(g.cell_refs(i), g.cell_refs(j as usize), &mut push),
-            }
-            debug_assert_eq!(at, ref_first[k + 1] as usize);
-        });
+        live.par_iter()
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(k, &i)| {
+                let src = m.refs(i as usize);
+                for (x, &r) in src.iter().enumerate() {
+                    // SAFETY: new cell k owns [ref_first[k], ref_first[k + 1]).
+                    unsafe { out.write(ref_first[k] as usize + x, r) };
+                }
+            });
     }
-    let boxes: Vec<([u32; 3], [u32; 3])> = old_of_new
-        .iter()
-        .map(|&i| {
-            let i = i as usize;
-            let (lo, mut hi) = (g.cell_min[i], g.cell_max[i]);
-            if partner[i] != NONE {
-                hi[axis] = g.cell_max[partner[i] as usize][axis];
-            }
-            (lo, hi)
-        })
-        .collect();
-    // 4. Voxel map: old cell → new cell (residue → its absorber).
-    let mut remap: Vec<u32> = (0..n)
-        .map(|i| if consumed[i] == 0 { new_index[i] } else { NONE })
-        .collect();
-    for i in 0..n {
-        if partner[i] != NONE {
-            remap[partner[i] as usize] = new_index[i];
-        }
-    }
-    g.entries.par_iter_mut().with_min_len(4096).for_each(|e| {
-        if *e & NODE == 0 {
-            *e = remap[*e as usize];
-        }
-    });
-    g.cell_min = boxes.iter().map(|b| b.0).collect();
-    g.cell_max = boxes.iter().map(|b| b.1).collect();
+    g.cell_min = live.iter().map(|&i| g.cell_min[i as usize]).collect();
+    g.cell_max = live.iter().map(|&i| g.cell_max[i as usize]).collect();
     g.exp_min = g.cell_min.clone();
     g.exp_max = g.cell_max.clone();
     g.ref_first = ref_first;
     g.refs = refs;
-    removed
+    g.entries.par_iter_mut().with_min_len(4096).for_each(|e| {
+        if *e & NODE == 0 {
+            *e = new_index[m.owner[*e as usize] as usize];
+        }
+    });
 }

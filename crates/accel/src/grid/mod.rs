@@ -8,11 +8,9 @@
 //! code), references emitted with exact triangle–box tests through count → scan → emit
 //! passes; then SAH cell merging ([`merge`]) and cell expansion ([`expand`]).
 //!
-//! The voxel map (§3, Figure 1) is stored as in hagrid: one entry per top cell, and per split
-//! octree node a block of 8 child entries; an entry is either a cell index or ([`NODE`] | the
-//! index of its 8 children). A lookup descends from the top cell to the leaf, so the map's
-//! size follows the cells, not the finest resolution, and octrees may be deep where a small
-//! dense object needs it. Traversal (§5, [`traverse`]): look up the cell of the current voxel, test its
+//! The voxel map (§3, Figure 1; [`voxelmap`]) is stored as in hagrid: one entry per top cell
+//! pointing at a block of its octree's voxels, with further blocks only below octrees deeper
+//! than a block holds, so octrees may be deep where a small dense object needs it. Traversal (§5, [`traverse`]): look up the cell of the current voxel, test its
 //! triangles, exit through the far planes of the cell's (expanded) box, step forward.
 //!
 //! Robustness: cell boxes are padded by a small fraction of a voxel when references are
@@ -24,12 +22,11 @@ pub mod build;
 pub mod expand;
 pub mod merge;
 pub mod traverse;
+pub mod voxelmap;
 
 use geom::{Aabb, Vec3};
 
-/// Voxel-map entry flag: the entry is an octree node whose 8 children start at the index in
-/// the low 31 bits (child k at x | y << 1 | z << 2); without it the entry is a cell index.
-pub const NODE: u32 = 1 << 31;
+pub use voxelmap::NODE;
 
 /// Which octree nodes split during the initial subdivision (see [`build`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -167,8 +164,8 @@ pub struct Grid {
     /// References of cell c: `refs[ref_first[c] .. ref_first[c + 1]]`, ascending.
     pub ref_first: Vec<u32>,
     pub refs: Vec<u32>,
-    /// Voxel map: entries `0..top cells` for the top grid, then the octree nodes' child
-    /// blocks; each entry a cell index or [`NODE`] | first child.
+    /// Voxel map ([`voxelmap`]): entries `0..top cells` for the top grid, then the blocks;
+    /// each entry a cell index or a block.
     pub entries: Vec<u32>,
     pub build: BuildStats,
 }
@@ -190,19 +187,13 @@ impl Grid {
         (t[0] + self.top_dims[0] * (t[1] + self.top_dims[1] * t[2])) as usize
     }
 
-    /// The cell containing virtual voxel `v`: the top cell's entry, then one entry per
-    /// octree level below it.
+    /// The cell containing virtual voxel `v`: the top cell's entry, then one entry per block
+    /// below it (one for octrees up to [`voxelmap::MAX_BLOCK_LEVELS`] deep).
     #[inline]
     pub fn lookup(&self, v: [u32; 3]) -> u32 {
-        let mut s = self.shift;
-        let t = [v[0] >> s, v[1] >> s, v[2] >> s];
-        let mut e = self.entries[self.top_index(t)];
-        while e & NODE != 0 {
-            s -= 1;
-            let k = ((v[0] >> s) & 1) | ((v[1] >> s) & 1) << 1 | ((v[2] >> s) & 1) << 2;
-            e = self.entries[((e & !NODE) + k) as usize];
-        }
-        e
+        let s = self.shift;
+        let e = self.entries[self.top_index([v[0] >> s, v[1] >> s, v[2] >> s])];
+        voxelmap::descend(&self.entries, e, s, v)
     }
 
     /// World-space box of a virtual-grid box.

@@ -1,0 +1,183 @@
+//! The voxel map (paper §3, Figure 1): from a virtual-grid voxel to the cell containing it.
+//!
+//! Entries are u32: a cell index, or [`NODE`] | log₂ of a child block's resolution (k, in
+//! bits 27–30) | the index of the block's first entry. A block covers its node with
+//! 2^k × 2^k × 2^k entries, child (x, y, z) at x | y << k | z << 2k. This is hagrid's entry
+//! layout (`Entry { log_dim, begin }`): the paper's two-level map is the case of one block
+//! per top cell, and deeper blocks appear only below octrees deeper than [`MAX_BLOCK_LEVELS`]
+//! (the adaptive subdivision's small dense objects), so the map's size follows the cells.
+//!
+//! The octree build emits the sparse form (every node a 2×2×2 block, k = 1); [`flatten`]
+//! turns it into blocks of up to [`MAX_BLOCK_LEVELS`] levels, so a lookup on Sponza reads the
+//! top entry and one block entry, as the paper's map, instead of one entry per octree level.
+
+use rayon::prelude::*;
+
+/// The entry is a child block, not a cell.
+pub const NODE: u32 = 1 << 31;
+/// Where a block entry keeps log₂ of its block's resolution.
+pub const LOG_DIM_SHIFT: u32 = 27;
+/// The index bits of an entry.
+pub const INDEX: u32 = (1 << LOG_DIM_SHIFT) - 1;
+/// The most octree levels one block holds (8^4 = 4096 entries).
+pub const MAX_BLOCK_LEVELS: u32 = 4;
+
+/// An entry pointing at a block of 2^log_dim entries per axis starting at `first`.
+#[inline]
+pub fn node(first: u32, log_dim: u32) -> u32 {
+    debug_assert!(first <= INDEX && (1..16).contains(&log_dim));
+    NODE | log_dim << LOG_DIM_SHIFT | first
+}
+
+/// Descend from entry `e` (covering a node whose voxels are v >> s) to the cell of voxel `v`.
+#[inline]
+pub fn descend(entries: &[u32], mut e: u32, mut s: u32, v: [u32; 3]) -> u32 {
+    while e & NODE != 0 {
+        let k = (e >> LOG_DIM_SHIFT) & 0xf;
+        s -= k;
+        let m = (1u32 << k) - 1;
+        let i = ((v[0] >> s) & m) | ((v[1] >> s) & m) << k | ((v[2] >> s) & m) << (2 * k);
+        e = entries[((e & INDEX) + i) as usize];
+    }
+    e
+}
+
+/// Depth (in octree levels) of the deepest leaf below sparse entry `e`.
+fn depth(sparse: &[u32], e: u32) -> u32 {
+    if e & NODE == 0 {
+        return 0;
+    }
+    let first = (e & INDEX) as usize;
+    1 + (0..8)
+        .map(|k| depth(sparse, sparse[first + k]))
+        .max()
+        .unwrap_or(0)
+}
+
+/// A block being written: its entries (relative indices) and the cells in the order their
+/// leaves are met (depth first, children in Morton order).
+struct Out {
+    entries: Vec<u32>,
+    cells: Vec<u32>,
+}
+
+/// Flatten the subtree of sparse node entry `e` into a block appended to `out`; returns the
+/// block's entry (indices relative to `out`'s start).
+fn flatten_node(sparse: &[u32], e: u32, out: &mut Out) -> u32 {
+    let k = depth(sparse, e).min(MAX_BLOCK_LEVELS);
+    let start = out.entries.len();
+    out.entries.resize(start + (1usize << (3 * k)), 0);
+    paint(sparse, e, [0; 3], [k, k], start, out);
+    node(start as u32, k)
+}
+
+/// Write sparse entry `e`, covering the block region at `lo` of `lk[0]` octree levels
+/// (2^lk[0] voxels per axis of a block of 2^lk[1]), into the block at `start`.
+fn paint(sparse: &[u32], e: u32, lo: [u32; 3], lk: [u32; 2], start: usize, out: &mut Out) {
+    let [levels, k] = lk;
+    if e & NODE == 0 || levels == 0 {
+        let v = if e & NODE == 0 {
+            out.cells.push(e);
+            e
+        } else {
+            flatten_node(sparse, e, out)
+        };
+        let n = 1u32 << levels;
+        for z in lo[2]..lo[2] + n {
+            for y in lo[1]..lo[1] + n {
+                for x in lo[0]..lo[0] + n {
+                    out.entries[start + (x | y << k | z << (2 * k)) as usize] = v;
+                }
+            }
+        }
+        return;
+    }
+    let first = (e & INDEX) as usize;
+    let h = 1u32 << (levels - 1);
+    for c in 0..8u32 {
+        let clo = [
+            lo[0] + (c & 1) * h,
+            lo[1] + ((c >> 1) & 1) * h,
+            lo[2] + (c >> 2) * h,
+        ];
+        let child = sparse[first + c as usize];
+        paint(sparse, child, clo, [levels - 1, k], start, out);
+    }
+}
+
+/// Flatten a sparse map (entries `0..ntop` the top cells, every node a 2×2×2 block) into
+/// blocks of up to [`MAX_BLOCK_LEVELS`] levels, and renumber the cells in the order of the
+/// map (top cells in index order, each octree depth first in Morton order), so that cells
+/// close in space are close in memory for the merge, the expansion and traversal. Returns
+/// the map and `order` (new cell k is old cell `order[k]`).
+pub fn flatten(sparse: &[u32], ntop: usize, ncells: usize) -> Result<(Vec<u32>, Vec<u32>), String> {
+    // Each top cell's blocks are made independently (relative indices), then placed after
+    // the top entries by an exclusive scan of their sizes.
+    let parts: Vec<(u32, Out)> = sparse[..ntop]
+        .par_iter()
+        .with_min_len(64)
+        .map(|&e| {
+            let mut out = Out {
+                entries: Vec::new(),
+                cells: Vec::new(),
+            };
+            if e & NODE == 0 {
+                out.cells.push(e);
+                return (e, out);
+            }
+            let root = flatten_node(sparse, e, &mut out);
+            (root, out)
+        })
+        .collect();
+    let total: usize = ntop + parts.iter().map(|p| p.1.entries.len()).sum::<usize>();
+    if total > INDEX as usize {
+        return Err(format!(
+            "the grid's voxel map would need {total} entries, more than 2^27; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
+        ));
+    }
+    let order: Vec<u32> = parts
+        .iter()
+        .flat_map(|p| p.1.cells.iter().copied())
+        .collect();
+    debug_assert_eq!(order.len(), ncells, "every cell is one leaf of the map");
+    let mut new_index = vec![0u32; ncells];
+    for (k, &c) in order.iter().enumerate() {
+        new_index[c as usize] = k as u32;
+    }
+    let mut base = Vec::with_capacity(ntop);
+    let mut at = ntop as u32;
+    for p in &parts {
+        base.push(at);
+        at += p.1.entries.len() as u32;
+    }
+    // Blocks move by their base; cells take their new index.
+    let rebase = |e: u32, b: u32| {
+        if e & NODE == 0 {
+            new_index[e as usize]
+        } else {
+            e + b // the index field cannot overflow: total ≤ INDEX
+        }
+    };
+    let mut entries = vec![0u32; total];
+    let (top, rest) = entries.split_at_mut(ntop);
+    for (t, p) in parts.iter().enumerate() {
+        top[t] = rebase(p.0, base[t]);
+    }
+    let mut slices: Vec<&mut [u32]> = Vec::with_capacity(ntop);
+    let mut tail = rest;
+    for p in &parts {
+        let (a, b) = tail.split_at_mut(p.1.entries.len());
+        slices.push(a);
+        tail = b;
+    }
+    slices
+        .into_par_iter()
+        .zip(parts.par_iter().zip(base.par_iter()))
+        .with_min_len(64)
+        .for_each(|(dst, (p, &b))| {
+            for (d, &e) in dst.iter_mut().zip(&p.1.entries) {
+                *d = rebase(e, b);
+            }
+        });
+    Ok((entries, order))
+}
