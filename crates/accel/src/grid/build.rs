@@ -588,6 +588,7 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         exp_max: cell_max.clone(),
         cell_min,
         cell_max,
+        trav: Vec::new(),
         ref_first,
         refs,
         entries,

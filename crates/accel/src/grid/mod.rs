@@ -143,6 +143,17 @@ impl BuildStats {
     }
 }
 
+/// What traversal reads of a cell, in one 32-byte record (one cache line half instead of
+/// four arrays): the expanded exit box and the cell's reference range.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C)]
+pub struct CellRec {
+    pub lo: [u32; 3],
+    pub hi: [u32; 3],
+    pub begin: u32,
+    pub end: u32,
+}
+
 /// An irregular grid (or two-level grid) over a triangle set.
 #[derive(Clone, Debug)]
 pub struct Grid {
@@ -161,6 +172,8 @@ pub struct Grid {
     /// Expanded box (virtual grid units) used to exit the cell during traversal.
     pub exp_min: Vec<[u32; 3]>,
     pub exp_max: Vec<[u32; 3]>,
+    /// Traversal records, built from the boxes and ranges once the build is done.
+    pub trav: Vec<CellRec>,
     /// References of cell c: `refs[ref_first[c] .. ref_first[c + 1]]`, ascending.
     pub ref_first: Vec<u32>,
     pub refs: Vec<u32>,
@@ -175,10 +188,10 @@ impl Grid {
         self.cell_min.len()
     }
 
-    /// Bytes of the cells (both boxes and the reference ranges), the references and the
-    /// voxel map.
+    /// Bytes of what traversal reads: the cell records (exit box and reference range), the
+    /// references and the voxel map. (The build's own per-cell arrays are not counted.)
     pub fn memory(&self) -> (usize, usize, usize) {
-        let cells = self.cells() * (4 * 12 + 4) + 4;
+        let cells = self.cells() * std::mem::size_of::<CellRec>();
         (cells, self.refs.len() * 4, self.entries.len() * 4)
     }
 
@@ -292,6 +305,14 @@ pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> 
         expand::expand(&mut g, cfg.expansion_passes);
         g.build.expand_seconds = t0.elapsed().as_secs_f64();
     }
+    g.trav = (0..g.cells())
+        .map(|c| CellRec {
+            lo: g.exp_min[c],
+            hi: g.exp_max[c],
+            begin: g.ref_first[c],
+            end: g.ref_first[c + 1],
+        })
+        .collect();
     Ok(g)
 }
 
@@ -332,16 +353,20 @@ impl render::Tracer for GridEngine {
     ) {
         use rayon::prelude::*;
         assert_eq!(hits.len(), rays.len(), "one hit record per ray");
-        let (steps, tests) = hits
-            .par_iter_mut()
+        // Chunks of consecutive rays (coherent batches stay coherent within a chunk), each
+        // traced as one interleaved stream.
+        const CHUNK: usize = 256;
+        let c = hits
+            .par_chunks_mut(CHUNK)
             .enumerate()
-            .with_min_len(64)
-            .map(|(i, out)| {
-                let (h, c) = traverse::trace_ray(&self.grid, &self.tris, &rays.ray(i), mode);
-                *out = h;
-                (c.steps, c.tests)
+            .map(|(k, out)| {
+                traverse::trace_stream(&self.grid, &self.tris, rays, k * CHUNK, out, mode)
             })
-            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+            .reduce(traverse::RayCounts::default, |a, b| traverse::RayCounts {
+                steps: a.steps + b.steps,
+                tests: a.tests + b.tests,
+            });
+        let (steps, tests) = (c.steps, c.tests);
         stats.rays += rays.len() as u64;
         stats.ray_tri_tests += tests;
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
