@@ -8,8 +8,9 @@
 //! - Table 3: MRays/s for primary, ambient-occlusion (any hit) and random rays, for the
 //!   irregular grid, the two-level grid, obvhs (CWBVH, BVH2) and Embree (with the feature),
 //!   as ratios to each peer.
-//! - Table 5: merge (M) and expansion (E) applied to a uniform grid (λ = 5). The paper's
-//!   other baseline there, Devillers's macro regions, is not implemented.
+//! - Table 5: merge (M) and expansion (E) applied to a uniform grid (λ = 5), and the paper's
+//!   other baseline there, Devillers's macro regions: as the paper describes them (§6),
+//!   merge and expansion applied to the *empty* cells only (`GridConfig::empty_only`).
 //!
 //! Every engine's records are checked against the irregular grid's (itself equal to brute
 //! force's, by the test suite) with [`accel::oracle::Agreement`]; disagreements are reported.
@@ -353,15 +354,17 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
             ..Default::default()
         };
         let mut base_mrays = 0.0;
-        for (v, merge, passes) in [
-            ("uniform", false, 0),
-            ("M", true, 0),
-            ("E", false, 3),
-            ("M + E", true, 3),
+        for (v, merge, passes, empty_only) in [
+            ("uniform", false, 0, false),
+            ("macro regions (Devillers)", true, 3, true),
+            ("M", true, 0, false),
+            ("E", false, 3, false),
+            ("M + E", true, 3, false),
         ] {
             let cfg = GridConfig {
                 merge,
                 expansion_passes: passes,
+                empty_only,
                 ..uniform.clone()
             };
             let r = grid_row(&geo, &s.name, "5", v, &cfg, &primary, spec.repeats)?;

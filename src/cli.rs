@@ -331,6 +331,7 @@ impl GridArgs {
                 SubdivisionArg::Paper => accel::grid::Subdivision::Paper,
                 SubdivisionArg::Adaptive => accel::grid::Subdivision::Adaptive,
             },
+            empty_only: false,
         }
     }
 }

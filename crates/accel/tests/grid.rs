@@ -39,6 +39,15 @@ fn configs() -> Vec<(&'static str, GridConfig)> {
             },
         ),
         (
+            "macro regions",
+            GridConfig {
+                top_density: 2.0,
+                max_depth: 0,
+                empty_only: true,
+                ..Default::default()
+            },
+        ),
+        (
             "dense, 1 pass",
             GridConfig {
                 top_density: 0.5,
@@ -176,6 +185,13 @@ fn structure_on_small_scenes() {
         for (what, cfg) in configs() {
             let g = build_grid(&geo.tris, &cfg).unwrap();
             check_structure(&g, &geo.tris);
+            if cfg.empty_only {
+                // Macro regions: cells with triangles stay single uniform cells, unexpanded.
+                for c in (0..g.cells()).filter(|&c| !g.cell_refs(c).is_empty()) {
+                    assert!((0..3).all(|k| g.cell_max[c][k] - g.cell_min[c][k] == 1 << g.shift));
+                    assert_eq!((g.exp_min[c], g.exp_max[c]), (g.cell_min[c], g.cell_max[c]));
+                }
+            }
             if cfg.merge {
                 assert!(
                     g.cells() < g.build.initial_cells,
@@ -209,7 +225,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(40))]
 
     #[test]
-    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..500, nray in 1usize..800, which in 0usize..6, any_hit in any::<bool>()) {
+    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..500, nray in 1usize..800, which in 0usize..7, any_hit in any::<bool>()) {
         let (geo, rays) = random_case(seed, ntri, nray);
         let cfg = configs()[which % configs().len()].1.clone();
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };

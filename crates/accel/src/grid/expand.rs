@@ -12,8 +12,19 @@ use rayon::prelude::*;
 /// and the face only widens as other sides grow, so the neighbour that stopped it is still
 /// there. Blocked sides (one bit per side and cell) are therefore not walked again, which
 /// makes the second and third passes a fraction of the first. The result is the same.
-pub fn expand(g: &mut Grid, passes: u32) {
-    let mut blocked = vec![0u8; g.cells()];
+///
+/// With `empty_only`, only empty cells grow (over empty neighbours): Devillers's macro
+/// regions.
+pub fn expand(g: &mut Grid, passes: u32, empty_only: bool) {
+    let mut blocked: Vec<u8> = (0..g.cells())
+        .map(|c| {
+            if empty_only && !g.cell_refs(c).is_empty() {
+                0x3f
+            } else {
+                0
+            }
+        })
+        .collect();
     for _ in 0..passes {
         for axis in 0..3 {
             for positive in [false, true] {

@@ -44,6 +44,7 @@ struct Merger {
     probe: [Vec<u32>; 3],
     cand: [Vec<u32>; 3],
     pass: u32,
+    empty_only: bool,
 }
 
 impl Merger {
@@ -54,7 +55,8 @@ impl Merger {
 }
 
 /// Merge until a full x, y, z round keeps at least `alpha` of the cells; returns the rounds.
-pub fn merge(g: &mut Grid, alpha: f32) -> usize {
+/// With `empty_only`, only two empty cells merge (Devillers's macro regions).
+pub fn merge(g: &mut Grid, alpha: f32, empty_only: bool) -> usize {
     let n = g.cells();
     let mut m = Merger {
         owner: (0..n as u32).collect(),
@@ -68,6 +70,7 @@ pub fn merge(g: &mut Grid, alpha: f32) -> usize {
         probe: std::array::from_fn(|_| vec![NONE; n]),
         cand: std::array::from_fn(|_| vec![NONE; n]),
         pass: 0,
+        empty_only,
     };
     let mut live: Vec<u32> = (0..n as u32).collect();
     let flags: Vec<AtomicU8> = (0..n).map(|_| AtomicU8::new(0)).collect();
@@ -114,6 +117,9 @@ fn neighbour(g: &Grid, m: &Merger, i: usize, axis: usize) -> (u32, bool) {
 /// Does merging live cell i with its aligned +axis neighbour j lower the SAH cost?
 fn worth_merging(g: &Grid, m: &Merger, i: usize, j: usize, axis: usize) -> bool {
     let (ri, rj) = (m.refs(i), m.refs(j));
+    if m.empty_only && !(ri.is_empty() && rj.is_empty()) {
+        return false;
+    }
     let ai = half_area(g.voxel, g.cell_min[i], g.cell_max[i]);
     let aj = half_area(g.voxel, g.cell_min[j], g.cell_max[j]);
     let mut hi = g.cell_max[i];

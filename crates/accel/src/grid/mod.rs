@@ -50,6 +50,9 @@ pub struct GridConfig {
     /// Largest octree depth per top cell.
     pub max_depth: u32,
     pub subdivision: Subdivision,
+    /// Merge and expand empty cells only: Devillers's macro regions (1989), which the paper
+    /// (§6, Table 5) describes as this restriction of its merge and expansion steps.
+    pub empty_only: bool,
 }
 
 impl Default for GridConfig {
@@ -62,6 +65,7 @@ impl Default for GridConfig {
             expansion_passes: 3,
             max_depth: 10,
             subdivision: Subdivision::Adaptive,
+            empty_only: false,
         }
     }
 }
@@ -297,12 +301,12 @@ pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> 
     let mut g = build::initial(tris, cfg)?;
     if cfg.merge {
         let t0 = std::time::Instant::now();
-        g.build.merge_rounds = merge::merge(&mut g, cfg.alpha);
+        g.build.merge_rounds = merge::merge(&mut g, cfg.alpha, cfg.empty_only);
         g.build.merge_seconds = t0.elapsed().as_secs_f64();
     }
     if cfg.expansion_passes > 0 {
         let t0 = std::time::Instant::now();
-        expand::expand(&mut g, cfg.expansion_passes);
+        expand::expand(&mut g, cfg.expansion_passes, cfg.empty_only);
         g.build.expand_seconds = t0.elapsed().as_secs_f64();
     }
     g.trav = (0..g.cells())
