@@ -75,6 +75,9 @@ pub struct GridRow {
     pub n_t: f64,
     pub n_i: f64,
     pub mrays_per_s: f64,
+    /// Seconds per build pass (top references, octrees, cells and voxel map, merge,
+    /// expansion), as `GridConfig` runs them.
+    pub passes: Vec<(String, f64)>,
 }
 
 pub struct Report {
@@ -182,6 +185,10 @@ fn grid_row(
         n_t,
         n_i,
         mrays_per_s: rays.len() as f64 / r.0 / 1e6,
+        passes: e.grid.build.passes()[..5]
+            .iter()
+            .map(|(n, t)| (n.to_string(), *t))
+            .collect(),
     })
 }
 
@@ -422,10 +429,17 @@ pub fn perf_csv(rows: &[PerfRow]) -> String {
 }
 
 pub fn grid_csv(rows: &[GridRow]) -> String {
-    let mut s = String::from("scene,table,variant,top_density,leaf_density,cells,references,res_x,res_y,res_z,build_seconds,memory_bytes,n_t,n_i,mrays_per_s\n");
+    let mut s = String::from("scene,table,variant,top_density,leaf_density,cells,references,res_x,res_y,res_z,build_seconds,memory_bytes,n_t,n_i,mrays_per_s,top_refs_seconds,octrees_seconds,cells_seconds,merge_seconds,expansion_seconds\n");
     for r in rows {
+        let pass = |name: &str| {
+            r.passes
+                .iter()
+                .find(|p| p.0 == name)
+                .map(|p| p.1)
+                .unwrap_or(0.0)
+        };
         s += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4}\n",
+            "{},{},{},{},{},{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6}\n",
             r.scene,
             r.table,
             r.variant,
@@ -440,7 +454,12 @@ pub fn grid_csv(rows: &[GridRow]) -> String {
             r.memory_bytes,
             r.n_t,
             r.n_i,
-            r.mrays_per_s
+            r.mrays_per_s,
+            pass("top_refs"),
+            pass("octrees"),
+            pass("cells"),
+            pass("merge"),
+            pass("expansion")
         );
     }
     s

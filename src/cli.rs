@@ -1221,8 +1221,12 @@ fn cmd_render(a: &RenderArgs) -> Result<()> {
         let engine = make_engine(a.engine, &a.rsh, &a.grid, &geo)?;
         let build_s = t1.elapsed().as_secs_f64();
         let bar = progress_bar();
-        let out = render(&scene, &geo, engine.as_ref(), &opts, &bar);
+        let mut out = render(&scene, &geo, engine.as_ref(), &opts, &bar);
         bar.0.finish_and_clear();
+        // The build's passes, indented under "engine build" in the table and in the JSON.
+        for (k, (p, t)) in engine.build_passes().into_iter().enumerate() {
+            out.stats.phases.insert(k, (format!("  build: {p}"), t));
+        }
         (out, build_s, Vec::new(), "")
     };
     out.stats.phases.insert(0, ("engine build".into(), build_s));

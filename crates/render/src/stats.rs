@@ -149,7 +149,10 @@ impl RenderStats {
         let mut total = 0.0;
         for (n, t) in &self.phases {
             s += &format!("| {n} | {:.1} |\n", t * 1e3);
-            total += t;
+            // Indented rows break down the phase above them and are not added again.
+            if !n.starts_with(' ') {
+                total += t;
+            }
         }
         s += &format!("| **total** | {:.1} |\n\n", total * 1e3);
         s += "| count | value |\n|---|---:|\n";

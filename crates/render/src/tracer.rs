@@ -19,6 +19,12 @@ pub trait Tracer: Sync {
     /// Trace every ray of `rays`, writing one record per ray into `hits`
     /// (`hits.len() == rays.len()`), and add this call's counters to `stats`.
     fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats);
+
+    /// Seconds per pass of the engine's build, for engines built once before tracing
+    /// (reported beside the "engine build" phase); empty for the others.
+    fn build_passes(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
 }
 
 /// The per-ray engines' whole `trace`: `one(ray)` answers one ray with its record and the

@@ -348,6 +348,13 @@ impl render::Tracer for GridEngine {
         self.name
     }
 
+    fn build_passes(&self) -> Vec<(String, f64)> {
+        self.grid.build.passes()[..5]
+            .iter()
+            .map(|(n, t)| (n.to_string(), *t))
+            .collect()
+    }
+
     fn trace(
         &self,
         rays: &render::RayBatch,
