@@ -443,9 +443,14 @@ fn bench_grid_writes_tables_and_charts() {
     for line in t3.lines().skip(1) {
         assert_eq!(line.split(',').nth(11), Some("0"), "{line}");
     }
-    // Table 1: 3 stages, Table 2: 3 densities × 2 structures, Table 5: 4 variants.
+    // Table 1: 3 stages, Table 2: 3 densities × 2 structures, Table 5: 5 variants (with
+    // the macro regions), each with its build passes' times.
     let g = std::fs::read_to_string(&grids).unwrap();
-    assert_eq!(g.lines().count(), 1 + 3 + 6 + 4, "{g}");
+    assert_eq!(g.lines().count(), 1 + 3 + 6 + 5, "{g}");
+    assert!(g.lines().next().unwrap().ends_with(
+        "top_refs_seconds,octrees_seconds,cells_seconds,merge_seconds,expansion_seconds"
+    ));
+    assert!(g.contains("macro regions (Devillers)"), "{g}");
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(v["table3"].as_array().unwrap().len(), 3 * engines);
@@ -665,5 +670,68 @@ fn gpu_backend_rejects_what_it_does_not_run() {
             "x%d.png",
         ],
         &["--backend gpu", "--frames"],
+    );
+}
+
+/// The grid's build passes are in the stats table (indented under "engine build", not added
+/// to the total again) and in the JSON; `--grid-subdivision` takes both rules.
+#[test]
+fn grid_build_passes_in_stats() {
+    let d = tmp("gridpasses");
+    for sub in ["paper", "adaptive"] {
+        let json = d.join(format!("{sub}.json"));
+        let out = ok(&[
+            "render",
+            "stadium",
+            "--engine",
+            "grid",
+            "--grid-subdivision",
+            sub,
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--bounces",
+            "0",
+            "--out",
+            d.join(format!("{sub}.png")).to_str().unwrap(),
+            "--stats",
+            json.to_str().unwrap(),
+        ]);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let ms = |row: &str| -> f64 {
+            let line = stdout
+                .lines()
+                .find(|l| l.starts_with(&format!("| {row} |")))
+                .unwrap_or_else(|| panic!("no row {row}:\n{stdout}"));
+            line.split('|').nth(2).unwrap().trim().parse().unwrap()
+        };
+        let phases = [
+            "engine build",
+            "rasterize",
+            "ray creation",
+            "trace",
+            "shading",
+        ];
+        let sum: f64 = phases.iter().map(|p| ms(p)).sum();
+        assert!((ms("**total**") - sum).abs() < 0.5, "{stdout}");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let names: Vec<&str> = v["phases"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p[0].as_str().unwrap())
+            .collect();
+        for p in ["top_refs", "octrees", "cells", "merge", "expansion"] {
+            assert!(
+                names.contains(&format!("  build: {p}").as_str()),
+                "{names:?}"
+            );
+        }
+    }
+    fails(
+        &["render", "cornell", "--grid-subdivision", "dense"],
+        &["--grid-subdivision"],
     );
 }

@@ -8,6 +8,10 @@
 //! Sponza this is ~6× fewer initial cells than a dense 8^D block per top cell), and every
 //! pass is a flat loop over references or nodes.
 //!
+//! A node whose every reference overlaps all 8 of its children stays a leaf whatever the rule
+//! says: splitting it would make 8 cells with one list, which traversal would visit in turn
+//! and merging would put back together.
+//!
 //! Which nodes split ([`Subdivision`]):
 //! - `paper`: eq. 1 with λ₂ and the *top cell's* primitive count gives one octree depth D per
 //!   top cell (rounded up to a power of two, §4.1); non-empty nodes split until depth D.
@@ -26,7 +30,7 @@ use geom::aabb::TriBoxSat;
 use geom::{Aabb, Vec3};
 use par::{exclusive_scan, SharedMut};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::Instant;
 
 /// Cleary's resolution (paper eq. 1): R = d · cbrt(λ N / V), at least 1 per axis.
@@ -389,15 +393,44 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
                 .collect();
         }
         let adaptive = cfg.subdivision == Subdivision::Adaptive;
-        let split: Vec<u32> = (0..nodes)
+        let wants: Vec<bool> = (0..nodes)
             .into_par_iter()
             .with_min_len(4096)
             .map(|i| {
                 let n = count[i];
-                let wants = level < depth[top_of[i] as usize]
+                let rule = level < depth[top_of[i] as usize]
                     || (adaptive && cfg.leaf_density * small[i] as f32 >= ADAPTIVE_SPLIT);
-                (n > 0 && level < max_depth && wants) as u32
+                n > 0 && level < max_depth && rule
             })
+            .collect();
+        // The children each reference of a splitting node overlaps. A node whose every
+        // reference overlaps all 8 children does not split after all: its 8 children would
+        // hold the same list (and merging would only put them back together).
+        let mask: Vec<u8> = (0..ref_node.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|r| {
+                let p = ref_node[r] as usize;
+                if wants[p] {
+                    frame.child_mask(coords[p], level, ref_tri[r] as usize)
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let separates: Vec<AtomicBool> = (0..nodes).map(|_| AtomicBool::new(false)).collect();
+        (0..ref_node.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .for_each(|r| {
+                if wants[ref_node[r] as usize] && mask[r] != 0xff {
+                    separates[ref_node[r] as usize].store(true, Ordering::Relaxed);
+                }
+            });
+        let split: Vec<u32> = (0..nodes)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|i| (wants[i] && separates[i].load(Ordering::Relaxed)) as u32)
             .collect();
         let mut child_base = vec![0u32; nodes];
         let nsplit = exclusive_scan(&split, &mut child_base) as usize;
@@ -424,7 +457,11 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         cell_level.extend(std::iter::repeat_n(level as u8, nleaf));
         cell_count.extend((0..nodes).filter(|&i| split[i] == 0).map(|i| count[i]));
         // References of leaves are final; those of split nodes go one level down.
-        let kept: Vec<u32> = ref_node.iter().map(|&p| 1 - split[p as usize]).collect();
+        let kept: Vec<u32> = ref_node
+            .par_iter()
+            .with_min_len(4096)
+            .map(|&p| 1 - split[p as usize])
+            .collect();
         let mut kept_at = vec![0u32; ref_node.len()];
         let nkept = exclusive_scan(&kept, &mut kept_at) as usize;
         let base = kept_cell.len();
@@ -451,23 +488,20 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         if nsplit == 0 {
             break;
         }
-        // Split references: the children each one overlaps, then count → scan → emit.
-        let mask: Vec<u8> = (0..ref_node.len())
-            .into_par_iter()
-            .with_min_len(1024)
-            .map(|r| {
-                let p = ref_node[r] as usize;
-                if split[p] == 0 {
-                    0
-                } else {
-                    frame.child_mask(coords[p], level, ref_tri[r] as usize)
-                }
-            })
-            .collect();
+        // Split references: one per child each overlaps (count → scan → emit).
         let (new_node, new_tri) = count_scan_emit(
             ref_node.len(),
-            |r| mask[r].count_ones(),
+            |r| {
+                if split[ref_node[r] as usize] != 0 {
+                    mask[r].count_ones()
+                } else {
+                    0
+                }
+            },
             |r, out| {
+                if split[ref_node[r] as usize] == 0 {
+                    return;
+                }
                 let mut m = mask[r];
                 let base = 8 * child_base[ref_node[r] as usize];
                 while m != 0 {
