@@ -265,3 +265,33 @@ fn adaptive_subdivision_resolves_the_stadium() {
         "adaptive: {adaptive:.1} tests per primary ray"
     );
 }
+
+/// Absurd densities are refused with a message naming the options, before the memory is
+/// allocated (no abort, no runaway allocation).
+#[test]
+fn absurd_densities_are_refused() {
+    let small = Geometry::from_scene(&builtin::soup(300, 4));
+    let large = Geometry::from_scene(&builtin::soup(20_000, 4));
+    for (geo, cfg, option) in [
+        (
+            &large,
+            GridConfig {
+                top_density: 1e4,
+                ..Default::default()
+            },
+            "--grid-top-density",
+        ),
+        (
+            &small,
+            GridConfig {
+                top_density: 1e4,
+                leaf_density: 1e4,
+                ..Default::default()
+            },
+            "--grid-leaf-density",
+        ),
+    ] {
+        let err = build_grid(&geo.tris, &cfg).err().expect("refused");
+        assert!(err.contains(option), "{err}");
+    }
+}

@@ -155,16 +155,24 @@ impl Frame<'_> {
 
 /// Emit (key, tri) pairs through count → exclusive scan → emit: `count(i)` says how many
 /// pairs item i makes, `emit(i, out)` pushes them in the same order.
+/// The total is checked against [`MAX_REFS`] before anything is allocated for it.
 fn count_scan_emit(
     n: usize,
     count: impl Fn(usize) -> u32 + Sync,
     emit: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
-) -> (Vec<u32>, Vec<u32>) {
+) -> Result<(Vec<u32>, Vec<u32>), String> {
     let counts: Vec<u32> = (0..n)
         .into_par_iter()
         .with_min_len(1024)
         .map(&count)
         .collect();
+    let total: u64 = counts.par_iter().map(|&c| c as u64).sum();
+    if total > MAX_REFS {
+        return Err(format!(
+            "the grid would hold more than {MAX_REFS} triangle references ({} GiB); lower --grid-top-density, --grid-leaf-density or --grid-max-depth",
+            MAX_REFS * 8 >> 30
+        ));
+    }
     let mut offs = vec![0u32; n];
     let total = exclusive_scan(&counts, &mut offs) as usize;
     let mut keys = vec![0u32; total];
@@ -186,13 +194,20 @@ fn count_scan_emit(
             });
         });
     }
-    (keys, vals)
+    Ok((keys, vals))
 }
+
+/// Most references one build holds (2 GiB of (cell, triangle) pairs per level).
+const MAX_REFS: u64 = 1 << 28;
+/// Most voxel-map entries (octree nodes) one build makes.
+const MAX_NODES: u64 = 1 << 25;
+/// Most top-level cells.
+const MAX_TOP: u64 = 1 << 24;
 
 /// References to the top cells: (top cell, triangle), in triangle order, by exact tests.
 /// A triangle whose padded box lies in one top cell needs no test; the count pass keeps the
 /// overlap bits of ranges up to 64 cells so the emit pass does not test them again.
-fn top_refs(f: &Frame, top_dims: [u32; 3]) -> (Vec<u32>, Vec<u32>) {
+fn top_refs(f: &Frame, top_dims: [u32; 3]) -> Result<(Vec<u32>, Vec<u32>), String> {
     let range = |t: usize| {
         let b = &f.tri_box[t];
         let lo = ((b.min - Vec3::splat(f.pad) - f.bounds.min) / f.tsize).floor();
@@ -336,8 +351,15 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         tsize: ext / Vec3::new(top_dims[0] as f32, top_dims[1] as f32, top_dims[2] as f32),
         pad: ref_padding(&bounds),
     };
-    let ntop = (top_dims[0] * top_dims[1] * top_dims[2]) as usize;
-    let (mut ref_node, mut ref_tri) = top_refs(&frame, top_dims);
+    let ntop = top_dims.iter().map(|&d| d as u64).product::<u64>();
+    if ntop > MAX_TOP {
+        return Err(format!(
+            "a top grid of {}×{}×{} cells is more than {MAX_TOP}; lower --grid-top-density",
+            top_dims[0], top_dims[1], top_dims[2]
+        ));
+    }
+    let ntop = ntop as usize;
+    let (mut ref_node, mut ref_tri) = top_refs(&frame, top_dims)?;
     let top_refs_seconds = t0.elapsed().as_secs_f64();
 
     // Octree levels. Per level: nodes (coordinates, top cell), references (node, triangle).
@@ -439,11 +461,11 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         let nleaf = exclusive_scan(&leaf, &mut leaf_index) as usize;
         let first_cell = cell_coord.len() as u32;
         let next_level_entry = (entries.len() + nodes) as u64;
-        if next_level_entry + 8 * nsplit as u64 >= INDEX as u64
-            || first_cell as u64 + nleaf as u64 >= INDEX as u64
+        if next_level_entry + 8 * nsplit as u64 >= MAX_NODES
+            || first_cell as u64 + nleaf as u64 >= MAX_NODES
         {
             return Err(format!(
-                "the grid's voxel map would exceed 2^27 entries at octree level {level}; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
+                "the grid's octrees would exceed {MAX_NODES} nodes at level {level}; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
             ));
         }
         entries.extend((0..nodes).map(|i| {
@@ -510,7 +532,7 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
                     out(base + k, ref_tri[r]);
                 }
             },
-        );
+        )?;
         let mut new_coords = vec![[0u32; 3]; 8 * nsplit];
         let mut new_top = vec![0u32; 8 * nsplit];
         {
