@@ -281,7 +281,7 @@ struct GridArgs {
     max_depth: u32,
     /// Which octree nodes split: `paper` (one depth per top cell from its count, §4.1) or
     /// `adaptive` (also every deeper node whose own count calls for it, up to the max depth).
-    #[arg(long = "grid-subdivision", value_enum, default_value_t = SubdivisionArg::Adaptive)]
+    #[arg(long = "grid-subdivision", value_enum, default_value_t = SubdivisionArg::Paper)]
     subdivision: SubdivisionArg,
 }
 
@@ -303,7 +303,7 @@ impl Default for GridArgs {
             expansion: None,
             dynamic: false,
             max_depth: 10,
-            subdivision: SubdivisionArg::Adaptive,
+            subdivision: SubdivisionArg::Paper,
         }
     }
 }

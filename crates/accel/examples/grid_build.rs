@@ -11,8 +11,8 @@ fn main() {
     let repeats: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
     let cfg = GridConfig {
         subdivision: match args.get(3).map(String::as_str) {
-            Some("paper") => Subdivision::Paper,
-            _ => Subdivision::Adaptive,
+            Some("adaptive") => Subdivision::Adaptive,
+            _ => Subdivision::Paper,
         },
         ..Default::default()
     };

@@ -2,9 +2,9 @@
 //! irregular grid of a scene and print MRays/s (best of N), N_T and N_I: the profiling loop
 //! for traversal (run it under `perf record`). Hits are checked against the first run.
 //!
-//! `cargo run --release -p accel --example grid_trace -- SCENE [REPEATS]`
+//! `cargo run --release -p accel --example grid_trace -- SCENE [REPEATS] [paper|adaptive]`
 
-use accel::grid::{GridConfig, GridEngine};
+use accel::grid::{GridConfig, GridEngine, Subdivision};
 use render::raygen::{generate, Kind, Options};
 use render::{Hit, TraceMode, TraceStats, Tracer, View};
 use std::time::Instant;
@@ -41,7 +41,14 @@ fn main() {
             TraceMode::Closest,
         ),
     ];
-    let e = GridEngine::new(&geo, &GridConfig::default()).unwrap();
+    let cfg = GridConfig {
+        subdivision: match args.get(3).map(String::as_str) {
+            Some("adaptive") => Subdivision::Adaptive,
+            _ => Subdivision::Paper,
+        },
+        ..Default::default()
+    };
+    let e = GridEngine::new(&geo, &cfg).unwrap();
     println!(
         "{}: {} triangles, {} cells",
         s.name,

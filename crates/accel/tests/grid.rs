@@ -100,15 +100,11 @@ fn check_voxel_map(g: &Grid) {
         );
         covered[c] += 1u128 << (3 * s);
     }
-    for c in 0..g.cells() {
+    for (c, &cov) in covered.iter().enumerate() {
         let vol: u128 = (0..3)
             .map(|k| (g.cell_max[c][k] - g.cell_min[c][k]) as u128)
             .product();
-        assert_eq!(
-            covered[c], vol,
-            "cell {c}: voxel map covers {} of {vol} voxels",
-            covered[c]
-        );
+        assert_eq!(cov, vol, "cell {c}: voxel map covers {cov} of {vol} voxels");
     }
 }
 
@@ -291,7 +287,7 @@ fn absurd_densities_are_refused() {
             "--grid-leaf-density",
         ),
     ] {
-        let err = build_grid(&geo.tris, &cfg).err().expect("refused");
+        let err = build_grid(&geo.tris, &cfg).expect_err("refused");
         assert!(err.contains(option), "{err}");
     }
 }

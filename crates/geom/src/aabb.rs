@@ -278,13 +278,8 @@ impl TriBoxSat {
                 axis[4 + 3 * i + k] = ax.cross(*ed);
             }
         }
-        let mut lo = [0.0; 13];
-        let mut hi = [0.0; 13];
-        for i in 0..13 {
-            let p = [axis[i].dot(t[0]), axis[i].dot(t[1]), axis[i].dot(t[2])];
-            lo[i] = p[0].min(p[1]).min(p[2]);
-            hi[i] = p[0].max(p[1]).max(p[2]);
-        }
+        let lo = axis.map(|a| a.dot(t[0]).min(a.dot(t[1])).min(a.dot(t[2])));
+        let hi = axis.map(|a| a.dot(t[0]).max(a.dot(t[1])).max(a.dot(t[2])));
         TriBoxSat { axis, lo, hi }
     }
 
@@ -300,13 +295,14 @@ impl TriBoxSat {
     /// [`TriBoxSat::radii`])? Touching counts.
     #[inline]
     pub fn overlaps(&self, c: Vec3, r: &[f32; 13]) -> bool {
-        for i in 0..13 {
-            let p = self.axis[i].dot(c);
-            if self.lo[i] > p + r[i] || self.hi[i] < p - r[i] {
-                return false;
-            }
-        }
-        true
+        self.axis
+            .iter()
+            .zip(self.lo.iter().zip(&self.hi))
+            .zip(r)
+            .all(|((a, (&lo, &hi)), &r)| {
+                let p = a.dot(c);
+                !(lo > p + r || hi < p - r)
+            })
     }
 }
 

@@ -170,7 +170,7 @@ fn count_scan_emit(
     if total > MAX_REFS {
         return Err(format!(
             "the grid would hold more than {MAX_REFS} triangle references ({} GiB); lower --grid-top-density, --grid-leaf-density or --grid-max-depth",
-            MAX_REFS * 8 >> 30
+            (MAX_REFS * 8) >> 30
         ));
     }
     let mut offs = vec![0u32; n];
