@@ -3,27 +3,19 @@
 //!
 //! `cargo run --release -p accel --example grid_build -- SCENE [REPEATS] [paper|adaptive]`
 
-use accel::grid::{build_grid, GridConfig, Subdivision};
+mod common;
+
+use accel::grid::{build_grid, GridConfig};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let spec = args.get(1).map(String::as_str).unwrap_or("cornell");
     let repeats: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
     let cfg = GridConfig {
-        subdivision: match args.get(3).map(String::as_str) {
-            Some("adaptive") => Subdivision::Adaptive,
-            _ => Subdivision::Paper,
-        },
+        subdivision: common::subdivision(args.get(3)),
         ..Default::default()
     };
-    let s = match scene::load(spec, &Default::default()) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            std::process::exit(1);
-        }
-    };
-    let geo = scene::Geometry::from_scene(&s);
+    let (s, geo) = common::load(spec);
     let mut best: Option<Vec<(&'static str, f64)>> = None;
     let mut cells = 0;
     for _ in 0..repeats {

@@ -5,6 +5,8 @@
 //!
 //! `cargo run --release -p accel --example grid_stages -- SCENE [W H]`
 
+mod common;
+
 use accel::grid::{build_grid, GridConfig, GridEngine};
 use accel::BruteForce;
 use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer, View};
@@ -15,14 +17,7 @@ fn main() {
     let spec = args.get(1).map(String::as_str).unwrap_or("cornell");
     let w: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1024);
     let h: u32 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(1024);
-    let s = match scene::load(spec, &Default::default()) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            std::process::exit(1);
-        }
-    };
-    let geo = scene::Geometry::from_scene(&s);
+    let (s, geo) = common::load(spec);
     let rays = View::new(&s.camera, w, h).primary_rays();
     println!(
         "{}: {} triangles, {}x{} primary rays",

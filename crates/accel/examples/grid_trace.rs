@@ -4,7 +4,9 @@
 //!
 //! `cargo run --release -p accel --example grid_trace -- SCENE [REPEATS] [paper|adaptive]`
 
-use accel::grid::{GridConfig, GridEngine, Subdivision};
+mod common;
+
+use accel::grid::{GridConfig, GridEngine};
 use render::raygen::{generate, Kind, Options};
 use render::{Hit, TraceMode, TraceStats, Tracer, View};
 use std::time::Instant;
@@ -13,14 +15,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let spec = args.get(1).map(String::as_str).unwrap_or("cornell");
     let repeats: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3);
-    let s = match scene::load(spec, &Default::default()) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            std::process::exit(1);
-        }
-    };
-    let geo = scene::Geometry::from_scene(&s);
+    let (s, geo) = common::load(spec);
     let opts = Options {
         width: 512,
         height: 512,
@@ -42,10 +37,7 @@ fn main() {
         ),
     ];
     let cfg = GridConfig {
-        subdivision: match args.get(3).map(String::as_str) {
-            Some("adaptive") => Subdivision::Adaptive,
-            _ => Subdivision::Paper,
-        },
+        subdivision: common::subdivision(args.get(3)),
         ..Default::default()
     };
     let e = GridEngine::new(&geo, &cfg).unwrap();
