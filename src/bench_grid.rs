@@ -185,10 +185,7 @@ fn grid_row(
         n_t,
         n_i,
         mrays_per_s: rays.len() as f64 / r.0 / 1e6,
-        passes: e.grid.build.passes()[..5]
-            .iter()
-            .map(|(n, t)| (n.to_string(), *t))
-            .collect(),
+        passes: e.build_passes(),
     })
 }
 

@@ -9,6 +9,7 @@ macro_rules! say {
 }
 
 use anyhow::{bail, Context, Result};
+use clap::builder::TypedValueParser as _;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use render::whitted::{render, Progress, RenderOptions, MAX_BOUNCES, MAX_SIDE};
@@ -281,16 +282,10 @@ struct GridArgs {
     max_depth: u32,
     /// Which octree nodes split: `paper` (one depth per top cell from its count, §4.1) or
     /// `adaptive` (also every deeper node whose own count calls for it, up to the max depth).
-    #[arg(long = "grid-subdivision", value_enum, default_value_t = SubdivisionArg::Paper)]
-    subdivision: SubdivisionArg,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum SubdivisionArg {
-    /// The paper's rule: one octree depth per top cell.
-    Paper,
-    /// Split every node whose own reference count calls for it.
-    Adaptive,
+    #[arg(long = "grid-subdivision", default_value = "paper",
+          value_parser = clap::builder::PossibleValuesParser::new(accel::grid::Subdivision::NAMES)
+              .map(|s| s.parse::<accel::grid::Subdivision>().expect("one of the possible values")))]
+    subdivision: accel::grid::Subdivision,
 }
 
 impl Default for GridArgs {
@@ -303,7 +298,7 @@ impl Default for GridArgs {
             expansion: None,
             dynamic: false,
             max_depth: 10,
-            subdivision: SubdivisionArg::Paper,
+            subdivision: accel::grid::Subdivision::Paper,
         }
     }
 }
@@ -327,10 +322,7 @@ impl GridArgs {
                 }
             },
             max_depth: self.max_depth,
-            subdivision: match self.subdivision {
-                SubdivisionArg::Paper => accel::grid::Subdivision::Paper,
-                SubdivisionArg::Adaptive => accel::grid::Subdivision::Adaptive,
-            },
+            subdivision: self.subdivision,
             empty_only: false,
         }
     }

@@ -18,11 +18,12 @@ pub fn load(spec: &str) -> (scene::Scene, scene::Geometry) {
     }
 }
 
-/// `adaptive` → adaptive subdivision; anything else (or nothing) → the paper's rule.
+/// The subdivision rule named by `arg` (default: the paper's); exits on an unknown name.
 #[allow(dead_code)] // grid_stages uses only `load`
 pub fn subdivision(arg: Option<&String>) -> Subdivision {
-    match arg.map(String::as_str) {
-        Some("adaptive") => Subdivision::Adaptive,
-        _ => Subdivision::Paper,
-    }
+    arg.map_or(Ok(Subdivision::Paper), |a| a.parse())
+        .unwrap_or_else(|e| {
+            eprintln!("error: {e}");
+            std::process::exit(2);
+        })
 }

@@ -5,7 +5,7 @@
 //! `build_iter`) does: every reference of a node that splits is tested against the node's 8
 //! children and re-emitted for those it overlaps (count → scan → emit), and only *non-empty*
 //! nodes split. Empty space is therefore never materialised at the finest resolution (on
-//! Sponza this is ~6× fewer initial cells than a dense 8^D block per top cell), and every
+//! Sponza this is 2.4× fewer initial cells than a dense 8^D block per top cell), and every
 //! pass is a flat loop over references or nodes.
 //!
 //! A node whose every reference overlaps all 8 of its children stays a leaf whatever the rule
@@ -16,10 +16,11 @@
 //! - `paper`: eq. 1 with λ₂ and the *top cell's* primitive count gives one octree depth D per
 //!   top cell (rounded up to a power of two, §4.1); non-empty nodes split until depth D.
 //! - `adaptive` (the paper's §7 future work, "changing the initial subdivision scheme"): as
-//!   `paper`, and below depth D a node keeps splitting while its *own* count calls for it
-//!   (eq. 1 on the node: λ₂·n ≥ 8, i.e. at least two cells per axis), up to the maximum
-//!   depth. A small dense object in a huge top cell (the teapot in a stadium) thus gets cells
-//!   its own size, while regions the paper's rule already resolves are unchanged.
+//!   `paper`, and below depth D a node keeps splitting while its *own* count calls for it:
+//!   λ₂ · (its references to triangles at most half its size) ≥ [`ADAPTIVE_SPLIT`] (eq. 1 on
+//!   the node asks for 4 cells per axis), up to the maximum depth. A small dense object in a
+//!   huge top cell (the teapot in a stadium) thus gets cells its own size, while regions the
+//!   paper's rule already resolves are unchanged.
 //!
 //! Robustness: node boxes are grown by [`ref_padding`] for every reference test, so a triangle
 //! within rounding distance of a boundary is referenced on both sides.
@@ -96,8 +97,7 @@ struct Frame<'a> {
 }
 
 impl Frame<'_> {
-    /// The centre of the node at integer coordinates `c` of octree level `level`, and the
-    /// padded half-extent shared by every node of that level.
+    /// The centre of the node at integer coordinates `c` of octree level `level`.
     #[inline]
     fn node_centre(&self, c: [u32; 3], level: u32) -> Vec3 {
         let size = self.tsize / (1u32 << level) as f32;
@@ -105,6 +105,7 @@ impl Frame<'_> {
             + (Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) + Vec3::splat(0.5)) * size
     }
 
+    /// The padded half-extent shared by every node of octree level `level`.
     #[inline]
     fn node_half(&self, level: u32) -> Vec3 {
         self.tsize / (2u32 << level) as f32 + Vec3::splat(self.pad)
@@ -168,10 +169,7 @@ fn count_scan_emit(
         .collect();
     let total: u64 = counts.par_iter().map(|&c| c as u64).sum();
     if total > MAX_REFS {
-        return Err(format!(
-            "the grid would hold more than {MAX_REFS} triangle references ({} GiB); lower --grid-top-density, --grid-leaf-density or --grid-max-depth",
-            (MAX_REFS * 8) >> 30
-        ));
+        return Err(refs_error());
     }
     let mut offs = vec![0u32; n];
     let total = exclusive_scan(&counts, &mut offs) as usize;
@@ -197,8 +195,15 @@ fn count_scan_emit(
     Ok((keys, vals))
 }
 
-/// Most references one build holds (2 GiB of (cell, triangle) pairs per level).
+/// Most references one build holds, per level and in all (2 GiB of (cell, triangle) pairs).
 const MAX_REFS: u64 = 1 << 28;
+
+fn refs_error() -> String {
+    format!(
+        "the grid would hold more than {MAX_REFS} triangle references ({} GiB); lower --grid-top-density, --grid-leaf-density or --grid-max-depth",
+        (MAX_REFS * 8) >> 30
+    )
+}
 /// Most voxel-map entries (octree nodes) one build makes.
 const MAX_NODES: u64 = 1 << 25;
 /// Most top-level cells.
@@ -218,83 +223,69 @@ fn top_refs(f: &Frame, top_dims: [u32; 3]) -> Result<(Vec<u32>, Vec<u32>), Strin
             [c(hi.x, 0), c(hi.y, 1), c(hi.z, 2)],
         )
     };
-    let index = |x: u32, y: u32, z: u32| x + top_dims[0] * (y + top_dims[1] * z);
-    let half = f.node_half(0);
-    let visit = |t: usize, f_out: &mut dyn FnMut(u32)| {
-        let (lo, hi) = range(t);
-        if lo == hi {
-            f_out(index(lo[0], lo[1], lo[2]));
-            return;
-        }
-        let sat = TriBoxSat::new(&f.tris[t]);
-        let radii = sat.radii(half);
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                for x in lo[0]..=hi[0] {
-                    if sat.overlaps(f.node_centre([x, y, z], 0), &radii) {
-                        f_out(index(x, y, z));
-                    }
-                }
-            }
-        }
+    // The top cells of a range, x fastest, as (index, centre).
+    let cells = |(lo, hi): ([u32; 3], [u32; 3])| {
+        (lo[2]..=hi[2]).flat_map(move |z| {
+            (lo[1]..=hi[1]).flat_map(move |y| {
+                (lo[0]..=hi[0]).map(move |x| {
+                    let i = x + top_dims[0] * (y + top_dims[1] * z);
+                    (i, f.node_centre([x, y, z], 0))
+                })
+            })
+        })
     };
-    // Overlap bits of small ranges, in range order (x fastest).
+    let half = f.node_half(0);
+    let big = |r: ([u32; 3], [u32; 3])| {
+        (0..3)
+            .map(|k| (r.1[k] - r.0[k] + 1) as u64)
+            .product::<u64>()
+            > 64
+    };
+    // The top cells triangle t overlaps, as (position in its range, index); a range of one
+    // cell needs no test.
+    let overlapping = |t: usize| {
+        let r = range(t);
+        let sat = (r.0 != r.1).then(|| {
+            let sat = TriBoxSat::new(&f.tris[t]);
+            (sat, sat.radii(half))
+        });
+        cells(r)
+            .enumerate()
+            .filter(move |(_, (_, c))| sat.as_ref().is_none_or(|(s, radii)| s.overlaps(*c, radii)))
+            .map(|(k, (i, _))| (k, i))
+    };
+    // Ranges of up to 64 cells keep their overlaps as bits, so the emit pass does not test
+    // them again; larger ranges are tested in both passes.
     let bits: Vec<u64> = (0..f.tris.len())
         .into_par_iter()
         .with_min_len(1024)
         .map(|t| {
-            let (lo, hi) = range(t);
-            let n = (0..3).map(|k| (hi[k] - lo[k] + 1) as u64).product::<u64>();
-            if n > 64 || lo == hi {
+            if big(range(t)) {
                 return 0;
             }
-            let sat = TriBoxSat::new(&f.tris[t]);
-            let radii = sat.radii(half);
-            let mut m = 0u64;
-            let mut i = 0;
-            for z in lo[2]..=hi[2] {
-                for y in lo[1]..=hi[1] {
-                    for x in lo[0]..=hi[0] {
-                        if sat.overlaps(f.node_centre([x, y, z], 0), &radii) {
-                            m |= 1 << i;
-                        }
-                        i += 1;
-                    }
-                }
-            }
-            m
+            overlapping(t).fold(0, |m, (k, _)| m | 1 << k)
         })
         .collect();
-    let small = |t: usize| {
-        let (lo, hi) = range(t);
-        let n = (0..3).map(|k| (hi[k] - lo[k] + 1) as u64).product::<u64>();
-        (n <= 64 && lo != hi).then_some((lo, hi))
-    };
     count_scan_emit(
         f.tris.len(),
-        |t| match small(t) {
-            Some(_) => bits[t].count_ones(),
-            None => {
-                let mut n = 0;
-                visit(t, &mut |_| n += 1);
-                n
+        |t| {
+            if big(range(t)) {
+                overlapping(t).count() as u32
+            } else {
+                bits[t].count_ones()
             }
         },
-        |t, out| match small(t) {
-            Some((lo, hi)) => {
-                let mut i = 0;
-                for z in lo[2]..=hi[2] {
-                    for y in lo[1]..=hi[1] {
-                        for x in lo[0]..=hi[0] {
-                            if bits[t] >> i & 1 != 0 {
-                                out(index(x, y, z), t as u32);
-                            }
-                            i += 1;
-                        }
+        |t, out| {
+            let r = range(t);
+            if big(r) {
+                overlapping(t).for_each(|(_, i)| out(i, t as u32));
+            } else {
+                for (k, (i, _)) in cells(r).enumerate() {
+                    if bits[t] >> k & 1 != 0 {
+                        out(i, t as u32);
                     }
                 }
             }
-            None => visit(t, &mut |c| out(c, t as u32)),
         },
     )
 }
@@ -389,8 +380,10 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
     loop {
         let nodes = coords.len();
         let count = histogram(&ref_node, nodes);
-        // The references a split can separate: triangles at most half the node's size.
-        let small = if cfg.subdivision == Subdivision::Adaptive && level >= 1 {
+        // Adaptive: the references a split can separate, to triangles at most half the
+        // node's size (at the top level, all of them).
+        let adaptive = cfg.subdivision == Subdivision::Adaptive;
+        let small = if adaptive && level >= 1 {
             let half = (frame.tsize / (1u32 << (level + 1)) as f32).min_element();
             let keys: Vec<u32> = ref_node
                 .par_iter()
@@ -406,22 +399,22 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
                 .collect();
             histogram(&keys, nodes)
         } else {
-            count.clone()
+            Vec::new()
         };
+        let small = |i: usize| if level == 0 { count[i] } else { small[i] };
         if level == 0 {
             depth = count
                 .iter()
                 .map(|&n| paper_depth(frame.tsize, n, cfg.leaf_density, max_depth))
                 .collect();
         }
-        let adaptive = cfg.subdivision == Subdivision::Adaptive;
         let wants: Vec<bool> = (0..nodes)
             .into_par_iter()
             .with_min_len(4096)
             .map(|i| {
                 let n = count[i];
                 let rule = level < depth[top_of[i] as usize]
-                    || (adaptive && cfg.leaf_density * small[i] as f32 >= ADAPTIVE_SPLIT);
+                    || (adaptive && cfg.leaf_density * small(i) as f32 >= ADAPTIVE_SPLIT);
                 n > 0 && level < max_depth && rule
             })
             .collect();
@@ -487,6 +480,9 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         let mut kept_at = vec![0u32; ref_node.len()];
         let nkept = exclusive_scan(&kept, &mut kept_at) as usize;
         let base = kept_cell.len();
+        if (base + nkept) as u64 > MAX_REFS {
+            return Err(refs_error());
+        }
         kept_cell.resize(base + nkept, 0);
         kept_tri.resize(base + nkept, 0);
         {
@@ -573,11 +569,11 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
     // their references sorted by (cell, triangle).
     let t2 = Instant::now();
     let ncells = cell_coord.len();
-    let (entries, order) = voxelmap::flatten(&entries, ntop, ncells)?;
-    let mut new_index = vec![0u32; ncells];
-    for (k, &c) in order.iter().enumerate() {
-        new_index[c as usize] = k as u32;
-    }
+    let voxelmap::Flattened {
+        entries,
+        order,
+        new_index,
+    } = voxelmap::flatten(&entries, ntop, ncells)?;
     let cell_coord: Vec<[u32; 3]> = order.iter().map(|&c| cell_coord[c as usize]).collect();
     let cell_level: Vec<u8> = order.iter().map(|&c| cell_level[c as usize]).collect();
     let cell_count: Vec<u32> = order.iter().map(|&c| cell_count[c as usize]).collect();
@@ -624,8 +620,9 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
             .with_min_len(1024)
             .for_each(|c| {
                 let (a, b) = (ref_first[c] as usize, ref_first[c + 1] as usize);
-                let whole = &rp; // the wrapper, not its raw field, crosses threads
-                                 // SAFETY: cell ranges are disjoint.
+                // The wrapper, not its raw field, crosses threads.
+                let whole = &rp;
+                // SAFETY: cell ranges are disjoint.
                 let s = unsafe { std::slice::from_raw_parts_mut(whole.0.add(a), b - a) };
                 s.sort_unstable();
             });

@@ -227,10 +227,10 @@ fn merge_pass(
     if m.pool.len() + total >= (u32::MAX as usize).min(4 * m.initial_refs.max(1 << 16)) {
         compact_pool(m, live);
     }
+    // Cannot overflow: the pool stays under 4× the initial references (≤ 2^28, checked by
+    // the build) or is compacted to the live lists, and `total` is at most as many again.
     let base = m.pool.len();
-    if base + total >= u32::MAX as usize {
-        panic!("merged reference lists exceed 2^32 entries");
-    }
+    debug_assert!(base + total < u32::MAX as usize);
     m.pool.resize(base + total, 0);
     {
         let (pool, rest) = m.pool.split_at_mut(base);
@@ -264,10 +264,11 @@ fn merge_pass(
             .with_min_len(4096)
             .for_each(|(k, &(i, j))| {
                 let (i, j) = (i as usize, j as usize);
-                let boxes = &xp; // the wrapper, not its raw field, crosses threads
-                                 // SAFETY: pairs are disjoint (each cell in at most one pair, absorber or
-                                 // residue), so every index is written by one task and no task reads an index
-                                 // another writes (j's box is read, only i's is written).
+                // The wrapper, not its raw field, crosses threads.
+                let boxes = &xp;
+                // SAFETY: pairs are disjoint (each cell in at most one pair, absorber or
+                // residue), so every index is written by one task and no task reads an index
+                // another writes (j's box is read, only i's is written).
                 unsafe {
                     let mut hi = boxes.0.add(i).read();
                     hi[axis] = boxes.0.add(j).read()[axis];
@@ -295,15 +296,39 @@ fn compress_owners(m: &mut Merger) {
     std::mem::swap(&mut m.owner, &mut m.owner_next);
 }
 
+/// The live cells' lists, gathered in `live` order (count → scan → emit): the offsets
+/// (one per live cell, and the total last) and the references.
+fn gather(m: &Merger, live: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let counts: Vec<u32> = live
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&i| m.end[i as usize] - m.begin[i as usize])
+        .collect();
+    let mut first = vec![0u32; live.len() + 1];
+    let total = exclusive_scan(&counts, &mut first[..live.len()]);
+    first[live.len()] = total;
+    let mut refs = vec![0u32; total as usize];
+    {
+        let out = SharedMut(refs.as_mut_ptr());
+        live.par_iter()
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(k, &i)| {
+                for (x, &r) in m.refs(i as usize).iter().enumerate() {
+                    // SAFETY: live cell k owns [first[k], first[k + 1]).
+                    unsafe { out.write(first[k] as usize + x, r) };
+                }
+            });
+    }
+    (first, refs)
+}
+
 /// Rewrite the pool with only the live cells' lists.
 fn compact_pool(m: &mut Merger, live: &[u32]) {
-    let mut pool = Vec::new();
-    for &i in live {
-        let i = i as usize;
-        let b = pool.len() as u32;
-        pool.extend_from_slice(m.refs(i));
-        m.begin[i] = b;
-        m.end[i] = pool.len() as u32;
+    let (first, pool) = gather(m, live);
+    for (k, &i) in live.iter().enumerate() {
+        m.begin[i as usize] = first[k];
+        m.end[i as usize] = first[k + 1];
     }
     m.pool = pool;
 }
@@ -316,27 +341,7 @@ fn compact(g: &mut Grid, m: &Merger, live: &[u32]) {
     for (k, &i) in live.iter().enumerate() {
         new_index[i as usize] = k as u32;
     }
-    let counts: Vec<u32> = live
-        .iter()
-        .map(|&i| m.end[i as usize] - m.begin[i as usize])
-        .collect();
-    let mut ref_first = vec![0u32; live.len() + 1];
-    let total = exclusive_scan(&counts, &mut ref_first[..live.len()]);
-    ref_first[live.len()] = total;
-    let mut refs = vec![0u32; total as usize];
-    {
-        let out = SharedMut(refs.as_mut_ptr());
-        live.par_iter()
-            .enumerate()
-            .with_min_len(1024)
-            .for_each(|(k, &i)| {
-                let src = m.refs(i as usize);
-                for (x, &r) in src.iter().enumerate() {
-                    // SAFETY: new cell k owns [ref_first[k], ref_first[k + 1]).
-                    unsafe { out.write(ref_first[k] as usize + x, r) };
-                }
-            });
-    }
+    let (ref_first, refs) = gather(m, live);
     g.cell_min = live.iter().map(|&i| g.cell_min[i as usize]).collect();
     g.cell_max = live.iter().map(|&i| g.cell_max[i as usize]).collect();
     g.exp_min = g.cell_min.clone();

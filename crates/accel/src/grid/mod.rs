@@ -10,8 +10,9 @@
 //!
 //! The voxel map (§3, Figure 1; [`voxelmap`]) is stored as in hagrid: one entry per top cell
 //! pointing at a block of its octree's voxels, with further blocks only below octrees deeper
-//! than a block holds, so octrees may be deep where a small dense object needs it. Traversal (§5, [`traverse`]): look up the cell of the current voxel, test its
-//! triangles, exit through the far planes of the cell's (expanded) box, step forward.
+//! than a block holds, so octrees may be deep where a small dense object needs it.
+//! Traversal (§5, [`traverse`]): look up the cell of the current voxel, test its triangles,
+//! exit through the far planes of the cell's (expanded) box, step forward.
 //!
 //! Robustness: cell boxes are padded by a small fraction of a voxel when references are
 //! emitted, so a triangle within rounding distance of a cell boundary is referenced on both
@@ -33,9 +34,28 @@ pub use voxelmap::NODE;
 pub enum Subdivision {
     /// One depth per top cell from eq. 1 with the top cell's count (the paper's rule).
     Paper,
-    /// The paper's depth, and below it every node whose own count calls for a split
-    /// (λ₂·n ≥ 8), up to the maximum depth.
+    /// The paper's depth, and below it every node whose own count of small triangles calls
+    /// for a split (see [`build`]), up to the maximum depth.
     Adaptive,
+}
+
+impl Subdivision {
+    /// The rules' names, as the command line spells them.
+    pub const NAMES: [&'static str; 2] = ["paper", "adaptive"];
+}
+
+impl std::str::FromStr for Subdivision {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "paper" => Ok(Subdivision::Paper),
+            "adaptive" => Ok(Subdivision::Adaptive),
+            _ => Err(format!(
+                "subdivision rule {s:?} is not one of {:?}",
+                Self::NAMES
+            )),
+        }
+    }
 }
 
 /// Build parameters (paper defaults: λ₁ = 0.12, λ₂ = 2.4, α = 0.995, 3 expansion passes, the
@@ -135,17 +155,15 @@ pub struct BuildStats {
 }
 
 impl BuildStats {
-    /// Each build pass's time in seconds, in build order, and the total (`total` last).
-    pub fn passes(&self) -> [(&'static str, f64); 6] {
-        let p = [
+    /// Each build pass's time in seconds, in build order.
+    pub fn passes(&self) -> [(&'static str, f64); 5] {
+        [
             ("top_refs", self.top_refs_seconds),
             ("octrees", self.octree_seconds),
             ("cells", self.voxel_map_seconds),
             ("merge", self.merge_seconds),
             ("expansion", self.expand_seconds),
-        ];
-        let total = p.iter().map(|x| x.1).sum();
-        [p[0], p[1], p[2], p[3], p[4], ("total", total)]
+        ]
     }
 }
 
@@ -351,7 +369,9 @@ impl render::Tracer for GridEngine {
     }
 
     fn build_passes(&self) -> Vec<(String, f64)> {
-        self.grid.build.passes()[..5]
+        self.grid
+            .build
+            .passes()
             .iter()
             .map(|(n, t)| (n.to_string(), *t))
             .collect()
@@ -375,10 +395,7 @@ impl render::Tracer for GridEngine {
             .map(|(k, out)| {
                 traverse::trace_stream(&self.grid, &self.tris, rays, k * CHUNK, out, mode)
             })
-            .reduce(traverse::RayCounts::default, |a, b| traverse::RayCounts {
-                steps: a.steps + b.steps,
-                tests: a.tests + b.tests,
-            });
+            .reduce(traverse::RayCounts::default, |a, b| a + b);
         let (steps, tests) = (c.steps, c.tests);
         stats.rays += rays.len() as u64;
         stats.ray_tri_tests += tests;

@@ -20,6 +20,16 @@ pub struct RayCounts {
     pub tests: u64,
 }
 
+impl std::ops::Add for RayCounts {
+    type Output = RayCounts;
+    fn add(self, o: RayCounts) -> RayCounts {
+        RayCounts {
+            steps: self.steps + o.steps,
+            tests: self.tests + o.tests,
+        }
+    }
+}
+
 /// Rays advanced in turn by [`trace_stream`] (chosen by measurement on Sponza: 4 overlaps
 /// enough loads; more only adds state).
 pub const STREAM_WIDTH: usize = 4;
@@ -199,8 +209,7 @@ pub fn trace_stream(
             active = true;
             if lane.step(g, tris, mode) {
                 hits[*i] = lane.best;
-                total.steps += lane.counts.steps;
-                total.tests += lane.counts.tests;
+                total = total + lane.counts;
                 *slot = pull(&mut next, hits);
             }
         }

@@ -105,12 +105,20 @@ fn paint(sparse: &[u32], e: u32, lo: [u32; 3], lk: [u32; 2], start: usize, out: 
     }
 }
 
+/// What [`flatten`] returns.
+pub struct Flattened {
+    pub entries: Vec<u32>,
+    pub order: Vec<u32>,
+    pub new_index: Vec<u32>,
+}
+
 /// Flatten a sparse map (entries `0..ntop` the top cells, every node a 2×2×2 block) into
 /// blocks of up to [`MAX_BLOCK_LEVELS`] levels, and renumber the cells in the order of the
 /// map (top cells in index order, each octree depth first in Morton order), so that cells
 /// close in space are close in memory for the merge, the expansion and traversal. Returns
-/// the map and `order` (new cell k is old cell `order[k]`).
-pub fn flatten(sparse: &[u32], ntop: usize, ncells: usize) -> Result<(Vec<u32>, Vec<u32>), String> {
+/// the map and the renumbering both ways: new cell k is old cell `order[k]`, and old cell c
+/// is new cell `new_index[c]`.
+pub fn flatten(sparse: &[u32], ntop: usize, ncells: usize) -> Result<Flattened, String> {
     // Each top cell's blocks are made independently (relative indices), then placed after
     // the top entries by an exclusive scan of their sizes.
     let parts: Vec<(u32, Out)> = sparse[..ntop]
@@ -179,5 +187,9 @@ pub fn flatten(sparse: &[u32], ntop: usize, ncells: usize) -> Result<(Vec<u32>, 
                 *d = rebase(e, b);
             }
         });
-    Ok((entries, order))
+    Ok(Flattened {
+        entries,
+        order,
+        new_index,
+    })
 }
