@@ -1,11 +1,5 @@
 //! `rayspace`: render scenes with the hybrid rasterizer + ray tracer and compare engines.
 
-mod bench;
-mod bench_budget;
-#[cfg(feature = "gpu")]
-mod bench_gpu;
-mod bench_grid;
-mod charts;
 mod cli;
 
 use std::process::ExitCode;

@@ -11,6 +11,7 @@ use scene::{Geometry, Scene};
 
 /// Which rays to make.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Kind {
     /// One ray through every pixel centre.
     Primary,

@@ -66,20 +66,30 @@ impl RshConfig {
         }
     }
 
+    /// The one check of a configuration (the CLI, the benchmarks, the CPU and GPU engines all
+    /// call it). Errors name the option as the command line spells it.
     pub fn validate(&self) -> Result<(), String> {
         if !(2..=64).contains(&self.branching) {
             return Err(format!(
-                "branching factor {} is not in 2..=64",
+                "--branching {}: the branching factor must be in 2..=64",
                 self.branching
             ));
         }
         if self.levels > 16 {
-            return Err(format!("{} levels is more than 16", self.levels));
+            return Err(format!(
+                "--levels {}: at most 16 levels above the leaves",
+                self.levels
+            ));
         }
-        if self.pair_budget < 1024 {
-            return Err(format!("pair budget {} is below 1024", self.pair_budget));
+        if self.pair_budget < 1024 || self.pair_budget > 1 << 31 {
+            return Err(format!(
+                "--pair-budget {}: must be in 1024..=2^31",
+                self.pair_budget
+            ));
         }
-        self.hash_bits.validate()
+        self.hash_bits
+            .validate()
+            .map_err(|e| format!("--hash-bits {}: {e}", self.hash_bits))
     }
 }
 

@@ -27,6 +27,7 @@ use geom::{pmath, Aabb, Vec3};
 use render::{RayBatch, RayKind};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum HashKind {
     /// The thesis's typed 32-bit hash.
     Thesis,
@@ -54,6 +55,44 @@ impl Default for HashBits {
             origin: 5,
             dir: 7,
         }
+    }
+}
+
+/// `LIGHT,SHADOW_DIR,ORIGIN,DIR`, as `--hash-bits` takes them.
+impl std::fmt::Display for HashBits {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{},{},{},{}",
+            self.light, self.shadow_dir, self.origin, self.dir
+        )
+    }
+}
+
+impl std::str::FromStr for HashBits {
+    type Err = String;
+    /// Parse `LIGHT,SHADOW_DIR,ORIGIN,DIR` (the budgets are checked by `validate`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        let v: Vec<u32> = s
+            .split(',')
+            .map(|x| {
+                x.trim()
+                    .parse::<u32>()
+                    .map_err(|_| format!("'{x}' is not a number"))
+            })
+            .collect::<Result<_, _>>()?;
+        let [light, shadow_dir, origin, dir] = v[..] else {
+            return Err(format!(
+                "expected 4 comma-separated numbers, got {}",
+                v.len()
+            ));
+        };
+        Ok(HashBits {
+            light,
+            shadow_dir,
+            origin,
+            dir,
+        })
     }
 }
 

@@ -25,6 +25,7 @@ use std::path::{Path, PathBuf};
 
 /// How an OBJ file is cut into meshes. Culling by mesh bounding sphere depends on it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MeshSplit {
     /// One mesh per `o`/`g` group (the default).
     #[default]

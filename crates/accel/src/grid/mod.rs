@@ -31,6 +31,7 @@ pub use voxelmap::NODE;
 
 /// Which octree nodes split during the initial subdivision (see [`build`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Subdivision {
     /// One depth per top cell from eq. 1 with the top cell's count (the paper's rule).
     Paper,
@@ -118,25 +119,33 @@ impl GridConfig {
         ]
     }
 
+    /// The one check of a configuration (the CLI, the benchmarks and the engine call it).
+    /// Errors name the option as the command line spells it.
     pub fn validate(&self) -> Result<(), String> {
         let ok = |x: f32| x.is_finite() && x > 0.0 && x <= 1e4;
         if !ok(self.top_density) || !ok(self.leaf_density) {
             return Err(format!(
-                "grid densities must be in (0, 10^4], got {} and {}",
+                "--grid-top-density {} / --grid-leaf-density {}: grid densities must be in (0, 10^4]",
                 self.top_density, self.leaf_density
             ));
         }
         if !(0.0..=1.0).contains(&self.alpha) {
-            return Err(format!("merge alpha {} is not in [0, 1]", self.alpha));
+            return Err(format!(
+                "--grid-alpha {}: the merge alpha must be in [0, 1]",
+                self.alpha
+            ));
         }
         if self.expansion_passes > 16 {
             return Err(format!(
-                "{} expansion passes is more than 16",
+                "--grid-expansion {}: at most 16 expansion passes",
                 self.expansion_passes
             ));
         }
         if self.max_depth > 12 {
-            return Err(format!("octree depth {} is more than 12", self.max_depth));
+            return Err(format!(
+                "--grid-max-depth {}: octree depth at most 12",
+                self.max_depth
+            ));
         }
         Ok(())
     }

@@ -15,14 +15,7 @@ use render::{Hit, TraceStats, Tracer, View};
 
 use std::time::Instant;
 
-pub struct Spec {
-    pub scenes: Vec<String>,
-    pub configs: Vec<(u32, u32)>,
-    pub width: u32,
-    pub height: u32,
-    pub bounces: u32,
-    pub rah: bool,
-}
+use super::Spec;
 
 use gpu::engine::comparable_counters as counters;
 
@@ -39,8 +32,8 @@ const PHASES: [&str; 10] = [
     "read-back",
 ];
 
-/// Run the comparison; returns the markdown report.
-pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<String> {
+/// Run the comparison (with RAH beside CRSH when `rah`); returns the markdown report.
+pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
     let probe = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
     let timer = match probe.timer {
         gpu::device::PhaseTimer::Timestamps => "GPU timestamp queries",
@@ -52,7 +45,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<String> {
     drop(probe);
     for name in &spec.scenes {
         progress(&format!("{name}: rendering to record the rays"));
-        let (s, geo, batches) = crate::bench::record(name, spec.width, spec.height, spec.bounces)?;
+        let (s, geo, batches) = super::record(name, spec.width, spec.height, spec.bounces)?;
         let nrays: u64 = batches.iter().map(|b| b.0.len() as u64).sum();
         md += &format!(
             "\n## {} — {} triangles, {}×{}, bounces {}, {} rays in {} batches\n",
@@ -94,7 +87,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<String> {
         );
         drop(raster);
         drop(g);
-        let methods: &[rsh::Method] = if spec.rah {
+        let methods: &[rsh::Method] = if rah {
             &[rsh::Method::Crsh, rsh::Method::Rah]
         } else {
             &[rsh::Method::Crsh]

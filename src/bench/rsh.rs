@@ -4,11 +4,9 @@
 //! batch is recorded; then every configuration of both engines traces exactly those batches.
 //! Brute force is counted as rays × triangles, not traced.
 
-use accel::oracle::Recorder;
+use super::{record, Spec};
 use anyhow::Result;
-use render::whitted::{render, RenderOptions};
 use render::{Hit, TraceStats, Tracer};
-use scene::{Geometry, LoadOptions};
 use serde::Serialize;
 
 #[derive(Serialize, Clone)]
@@ -24,58 +22,6 @@ pub struct Row {
     pub percent_of_brute_force: f64,
     pub trace_seconds: f64,
     pub stats: TraceStats,
-}
-
-pub struct Spec {
-    pub scenes: Vec<String>,
-    pub configs: Vec<(u32, u32)>,
-    pub width: u32,
-    pub height: u32,
-    pub bounces: u32,
-}
-
-pub fn parse_configs(s: &str) -> Result<Vec<(u32, u32)>, String> {
-    s.split(',')
-        .map(|c| {
-            let (b, d) = c
-                .trim()
-                .split_once('/')
-                .ok_or_else(|| format!("'{c}' is not B/D"))?;
-            let b: u32 = b
-                .parse()
-                .map_err(|_| format!("'{c}': branching is not a number"))?;
-            let d: u32 = d
-                .parse()
-                .map_err(|_| format!("'{c}': levels is not a number"))?;
-            if !(2..=64).contains(&b) || d > 16 {
-                return Err(format!("'{c}': branching must be 2..=64 and levels 0..=16"));
-            }
-            Ok((b, d))
-        })
-        .collect()
-}
-
-/// The batches a render of `name` traces (answered by CPU CRSH, whose hits equal brute
-/// force's), with the scene and its geometry.
-pub type Recorded = (
-    scene::Scene,
-    Geometry,
-    Vec<(render::RayBatch, render::TraceMode, Vec<Hit>)>,
-);
-
-pub fn record(name: &str, width: u32, height: u32, bounces: u32) -> Result<Recorded> {
-    let s = scene::load(name, &LoadOptions::default())?;
-    let geo = Geometry::from_scene(&s);
-    let base = rsh::RshEngine::new(&geo, rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
-    let rec = Recorder::new(&base);
-    let opts = RenderOptions {
-        width,
-        height,
-        bounces,
-    };
-    render(&s, &geo, &rec, &opts, &());
-    let batches = rec.into_batches();
-    Ok((s, geo, batches))
 }
 
 /// Run every scene × configuration × engine; returns the rows and the markdown report.
@@ -244,9 +190,9 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
             })
             .collect();
         let title = format!("{sc}: intersection tests per level");
-        files.extend(crate::charts::grouped_bars(
-            &dir.join(format!("rsh-levels-{}", crate::charts::slug(sc))),
-            &crate::charts::Bars {
+        files.extend(super::charts::grouped_bars(
+            &dir.join(format!("rsh-levels-{}", super::charts::slug(sc))),
+            &super::charts::Bars {
                 title: &title,
                 y_label: "tests",
                 groups: &groups,

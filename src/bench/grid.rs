@@ -491,9 +491,9 @@ pub fn charts(rows: &[PerfRow], dir: &std::path::Path) -> Result<Vec<std::path::
             })
             .collect();
         let title = format!("{sc}: MRays/s by ray kind");
-        files.extend(crate::charts::grouped_bars(
-            &dir.join(format!("grid-mrays-{}", crate::charts::slug(sc))),
-            &crate::charts::Bars {
+        files.extend(super::charts::grouped_bars(
+            &dir.join(format!("grid-mrays-{}", super::charts::slug(sc))),
+            &super::charts::Bars {
                 title: &title,
                 y_label: "MRays/s",
                 groups: &kinds,

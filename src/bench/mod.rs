@@ -1,0 +1,163 @@
+//! `rayspace bench`: the papers' evaluations, reproduced on this machine.
+//!
+//! - [`rsh`]: the thesis's chapter-4 tables (CRSH against RAH per configuration).
+//! - [`gpu`]: the GPU backend against the CPU engines, phase by phase (thesis Tables 4.25–4.27).
+//! - [`grid`]: the irregular-grid paper's Tables 1, 2, 3 and 5 against the peers.
+//! - [`budget`]: the irregular-grid paper's Table 4 (AO samples per frame budget).
+//!
+//! This module holds what they share: the [`Spec`] of the ray-hierarchy benchmarks, the
+//! recording of a render's ray batches, the scene list and the provenance line every report
+//! starts with. [`charts`] draws their figures.
+
+pub mod budget;
+pub mod charts;
+#[cfg(feature = "gpu")]
+pub mod gpu;
+pub mod grid;
+pub mod rsh;
+
+use accel::oracle::Recorder;
+use anyhow::Result;
+use render::whitted::{render, RenderOptions};
+use render::Hit;
+use scene::{Geometry, LoadOptions};
+
+/// What the ray-hierarchy benchmarks ([`rsh`], [`gpu`]) run: scenes × configurations B/D.
+pub struct Spec {
+    pub scenes: Vec<String>,
+    /// (branching, levels) pairs.
+    pub configs: Vec<(u32, u32)>,
+    pub width: u32,
+    pub height: u32,
+    pub bounces: u32,
+}
+
+/// Parse `B/D,B/D,...`; each pair is checked by [`::rsh::RshConfig::validate`].
+pub fn parse_configs(s: &str) -> Result<Vec<(u32, u32)>, String> {
+    s.split(',')
+        .map(|c| {
+            let (b, d) = c
+                .trim()
+                .split_once('/')
+                .ok_or_else(|| format!("'{c}' is not B/D"))?;
+            let b: u32 = b
+                .parse()
+                .map_err(|_| format!("'{c}': branching is not a number"))?;
+            let d: u32 = d
+                .parse()
+                .map_err(|_| format!("'{c}': levels is not a number"))?;
+            ::rsh::RshConfig {
+                branching: b,
+                levels: d,
+                ..::rsh::RshConfig::crsh()
+            }
+            .validate()
+            .map_err(|e| format!("'{c}': {e}"))?;
+            Ok((b, d))
+        })
+        .collect()
+}
+
+/// The batches a render of `name` traces (answered by CPU CRSH, whose hits equal brute
+/// force's), with the scene and its geometry.
+pub type Recorded = (
+    scene::Scene,
+    Geometry,
+    Vec<(render::RayBatch, render::TraceMode, Vec<Hit>)>,
+);
+
+/// Render `name` once with CRSH, recording every traced batch.
+pub fn record(name: &str, width: u32, height: u32, bounces: u32) -> Result<Recorded> {
+    let s = scene::load(name, &LoadOptions::default())?;
+    let geo = Geometry::from_scene(&s);
+    let base = ::rsh::RshEngine::new(&geo, ::rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
+    let rec = Recorder::new(&base);
+    let opts = RenderOptions {
+        width,
+        height,
+        bounces,
+    };
+    render(&s, &geo, &rec, &opts, &());
+    let batches = rec.into_batches();
+    Ok((s, geo, batches))
+}
+
+/// The scenes of a benchmark: `--scenes a,b,...` as given, or the built-in `builtins` plus
+/// each `bench/scenes/<real>.toml` when the shared scenes are present.
+pub fn scenes(arg: Option<&str>, builtins: &[&str], real: &[&str]) -> Vec<String> {
+    match arg {
+        Some(s) => s
+            .split(',')
+            .map(|x| x.trim().to_string())
+            .filter(|x| !x.is_empty())
+            .collect(),
+        None => {
+            let mut v: Vec<String> = builtins.iter().map(|s| s.to_string()).collect();
+            if scene::scenes_dir().is_some() {
+                for f in real {
+                    let p = format!("{}/bench/scenes/{f}.toml", env!("CARGO_MANIFEST_DIR"));
+                    if std::path::Path::new(&p).exists() {
+                        v.push(p);
+                    }
+                }
+            }
+            v
+        }
+    }
+}
+
+/// Machine, build and revision, recorded with every benchmark.
+pub fn provenance() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let commit = std::process::Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into());
+    // A build from modified sources is not that commit: say so (results and docs written
+    // while a benchmark runs do not count).
+    let dirty = std::process::Command::new("git")
+        .args([
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            "src",
+            "crates",
+            "Cargo.toml",
+            "Cargo.lock",
+        ])
+        .output()
+        .ok()
+        .filter(|o| o.status.success() && !o.stdout.is_empty())
+        .is_some();
+    let commit = if dirty {
+        format!("{commit}+modified")
+    } else {
+        commit
+    };
+    format!(
+        "rayspace {} (commit {commit}, {} build{}), {cpu}, {} threads",
+        env!("CARGO_PKG_VERSION"),
+        if cfg!(debug_assertions) {
+            "debug"
+        } else {
+            "optimised"
+        },
+        if cfg!(target_feature = "avx2") {
+            ", avx2"
+        } else {
+            ""
+        },
+        rayon::current_num_threads()
+    )
+}

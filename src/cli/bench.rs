@@ -1,0 +1,233 @@
+//! `rayspace bench ...`: options in, the reports of [`rayspace::bench`] out (stdout and the
+//! `--md/--json/--csv/--charts` files), each report headed by the provenance line.
+
+use super::args::{
+    defaults, engine_options, BenchBudgetArgs, BenchGpuArgs, BenchGridArgs, BenchRshArgs, GridArgs,
+    RshArgs,
+};
+use super::progress::step_bar;
+use super::{check_dir, check_out_dir};
+use anyhow::{Context, Result};
+use rayspace::bench::{self, provenance};
+use rayspace::engines::{self, Engine, OBVHS_VERSION};
+use scene::{Geometry, LoadOptions};
+use std::path::PathBuf;
+
+#[cfg(feature = "gpu")]
+pub fn cmd_bench_gpu(a: &BenchGpuArgs) -> Result<()> {
+    if let Some(p) = &a.md {
+        check_out_dir("--md", p)?;
+    }
+    let configs =
+        bench::parse_configs(&a.configs).map_err(|e| anyhow::anyhow!("--configs: {e}"))?;
+    let scenes = bench::scenes(a.spec.scenes.as_deref(), &["cornell"], &["sponza"]);
+    let per = 1 + configs.len() as u64 * if a.rah { 2 } else { 1 };
+    let bar = step_bar(scenes.len() as u64 * per);
+    let spec = bench::Spec {
+        scenes,
+        configs,
+        width: a.spec.width,
+        height: a.spec.height,
+        bounces: a.bounces,
+    };
+    let md = bench::gpu::run(&spec, a.rah, &|m| bar.step(m))?;
+    bar.0.finish_and_clear();
+    let report = format!("# rayspace bench gpu\n\n{}\n{md}", provenance());
+    say!("{report}");
+    if let Some(p) = &a.md {
+        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+        say!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "gpu"))]
+pub fn cmd_bench_gpu(_a: &BenchGpuArgs) -> Result<()> {
+    bail!("bench gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
+}
+
+pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
+    for p in [&a.json, &a.csv, &a.md].into_iter().flatten() {
+        check_out_dir("--json/--csv/--md", p)?;
+    }
+    let configs =
+        bench::parse_configs(&a.configs).map_err(|e| anyhow::anyhow!("--configs: {e}"))?;
+    let scenes = bench::scenes(
+        a.spec.scenes.as_deref(),
+        &["cornell", "office"],
+        &["sponza"],
+    );
+    if let Some(d) = &a.charts {
+        check_dir("--charts", d)?;
+    }
+    let bar = step_bar(scenes.len() as u64 * (1 + 2 * configs.len() as u64));
+    let spec = bench::Spec {
+        scenes,
+        configs,
+        width: a.spec.width,
+        height: a.spec.height,
+        bounces: a.bounces,
+    };
+    let (rows, md) = bench::rsh::run(&spec, &|m| bar.step(m))?;
+    bar.0.finish_and_clear();
+    if let Some(d) = &a.charts {
+        report_charts(bench::rsh::charts(&rows, d));
+    }
+    let report = format!(
+        "# rayspace bench rsh
+
+{}
+{md}",
+        provenance()
+    );
+    say!("{report}");
+    if let Some(p) = &a.md {
+        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+    }
+    if let Some(p) = &a.json {
+        std::fs::write(p, serde_json::to_string_pretty(&rows)?)
+            .with_context(|| format!("--json {}", p.display()))?;
+    }
+    if let Some(p) = &a.csv {
+        std::fs::write(p, bench::rsh::csv(&rows))
+            .with_context(|| format!("--csv {}", p.display()))?;
+    }
+    Ok(())
+}
+
+/// Report the chart files, or why there are none: the tables are written either way, so a
+/// missing font only costs the pictures.
+fn report_charts(charts: Result<Vec<PathBuf>>) {
+    match charts {
+        Ok(files) => files.iter().for_each(|f| say!("wrote {}", f.display())),
+        Err(e) => eprintln!("warning: charts not written: {e:#}"),
+    }
+}
+
+pub fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
+    for p in [&a.json, &a.csv, &a.grids_csv, &a.md].into_iter().flatten() {
+        check_out_dir("--json/--csv/--grids-csv/--md", p)?;
+    }
+    if let Some(d) = &a.charts {
+        check_dir("--charts", d)?;
+    }
+    let scenes = bench::scenes(
+        a.scenes.as_deref(),
+        &["cornell", "office", "stadium"],
+        &["sponza", "conference", "kitchen"],
+    );
+    let bar = step_bar(scenes.len() as u64 * bench::grid::STEPS_PER_SCENE);
+    let spec = bench::grid::Spec {
+        scenes,
+        width: a.width,
+        height: a.height,
+        ao_spp: a.ao_spp,
+        seed: a.seed,
+        repeats: a.repeats,
+    };
+    let rep = bench::grid::run(&spec, &|m| bar.step(m))?;
+    bar.0.finish_and_clear();
+    let report = format!(
+        "# rayspace bench grid
+
+{}; peers: obvhs {}{}
+{}",
+        provenance(),
+        OBVHS_VERSION,
+        if accel::peers::HAS_EMBREE {
+            ", Embree 3 (system library, `embree` crate 0.3.8)"
+        } else {
+            "; Embree not in this build (`--features embree`)"
+        },
+        rep.markdown
+    );
+    say!("{report}");
+    if let Some(p) = &a.md {
+        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+    }
+    if let Some(p) = &a.json {
+        let v = serde_json::json!({ "table3": rep.perf, "grids": rep.grids });
+        std::fs::write(p, serde_json::to_string_pretty(&v)?)
+            .with_context(|| format!("--json {}", p.display()))?;
+    }
+    if let Some(p) = &a.csv {
+        std::fs::write(p, bench::grid::perf_csv(&rep.perf))
+            .with_context(|| format!("--csv {}", p.display()))?;
+    }
+    if let Some(p) = &a.grids_csv {
+        std::fs::write(p, bench::grid::grid_csv(&rep.grids))
+            .with_context(|| format!("--grids-csv {}", p.display()))?;
+    }
+    if let Some(d) = &a.charts {
+        report_charts(bench::grid::charts(&rep.perf, d));
+    }
+    Ok(())
+}
+
+pub fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
+    if let Some(p) = &a.csv {
+        check_out_dir("--csv", p)?;
+    }
+    let budgets: Vec<f64> =
+        a.ms.split(',')
+            .map(|x| match x.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+                _ => Err(anyhow::anyhow!(
+                    "--ms: '{x}' is not a positive number of milliseconds"
+                )),
+            })
+            .collect::<Result<_>>()?;
+    let engines: Vec<Engine> = a
+        .engines
+        .split(',')
+        .map(|x| Engine::parse(x).context("--engines"))
+        .collect::<Result<_>>()?;
+    let scene = scene::load(&a.scene, &LoadOptions::default())?;
+    // The engines' defaults, with the grid's dynamic-scene expansion (one pass per frame).
+    let opts = engine_options(&defaults::<RshArgs>(), &defaults::<GridArgs>(), true);
+    let closures: Vec<(String, Box<bench::budget::BuildFn>)> = engines
+        .iter()
+        .map(|&e| {
+            let o = opts.clone();
+            let f: Box<bench::budget::BuildFn> =
+                Box::new(move |geo: &Geometry| Ok(engines::build(e, &o, geo)?.tracer));
+            (e.name(), f)
+        })
+        .collect();
+    let builders: Vec<bench::budget::Builder> = closures
+        .iter()
+        .map(|(n, f)| (n.as_str(), f.as_ref()))
+        .collect();
+    let bar = step_bar(engines.len() as u64 * a.frames as u64);
+    let rows = bench::budget::run(
+        &scene,
+        &builders,
+        a.width,
+        a.height,
+        a.frames,
+        &budgets,
+        &|m| bar.step(m),
+    )?;
+    bar.0.finish_and_clear();
+    say!(
+        "# rayspace bench budget\n\n{}\n\n{} — {} frames, build and primary rays inside the budget; AO rays are any-hit, one per pixel per sample\n\n{}",
+        provenance(),
+        scene.name,
+        a.frames,
+        bench::budget::markdown(&rows, a.width, a.height)
+    );
+    if let Some(p) = &a.csv {
+        let mut csv =
+            String::from("scene,engine,frames,build_ms,primary_ms,ao_ms_per_spp,budget_ms,spp\n");
+        for r in &rows {
+            for (b, n) in &r.spp {
+                csv += &format!(
+                    "{},{},{},{:.3},{:.3},{:.3},{},{}\n",
+                    r.scene, r.engine, r.frames, r.build_ms, r.primary_ms, r.ao_ms_per_spp, b, n
+                );
+            }
+        }
+        std::fs::write(p, csv).with_context(|| format!("--csv {}", p.display()))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,218 @@
+//! `rayspace render`: one image (or, through [`super::frames`], an animation) of a scene:
+//! load, build the engine, rasterize the primary visibility into the G-buffer, trace the
+//! Whitted generations, shade (thesis §3.1, §3.2.6), write the PNG and the statistics. With
+//! `--backend gpu` every pass runs as a wgpu kernel (`crates/gpu`).
+
+use super::args::{engine_options, Backend, RenderArgs};
+use super::check_out_dir;
+use super::progress::progress_bar;
+use anyhow::{bail, Context, Result};
+use rayspace::engines::{self, Engine};
+use render::whitted::{render, RenderOptions};
+use scene::{Geometry, LoadOptions};
+use serde::Serialize;
+use std::time::Instant;
+
+/// `--stats`: the render's statistics and the load's.
+#[derive(Serialize)]
+struct StatsFile<'a> {
+    #[serde(flatten)]
+    render: &'a render::RenderStats,
+    load_seconds: f64,
+    degenerate_skipped: usize,
+    raster_setup_triangles: u64,
+    raster_fragments: u64,
+    /// GPU seconds per phase from timestamp queries (`--backend gpu`; empty otherwise).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    gpu_phase_seconds: Vec<(String, f64)>,
+}
+
+pub fn cmd_render(a: &RenderArgs) -> Result<()> {
+    let split = a.meshes;
+    let opts = engine_options(&a.rsh, &a.grid, a.frames.is_some());
+    opts.validate(a.engine)?;
+    check_out_dir("--out", &a.out)?;
+    let t0 = Instant::now();
+    let scene = scene::load(&a.scene, &LoadOptions { split })?;
+    let geo = Geometry::from_scene(&scene);
+    let load_s = t0.elapsed().as_secs_f64();
+    let r = scene.report.clone();
+    say!(
+        "loaded {} in {:.2} s: {} triangles, {} meshes, {} materials, {} lights{}{}",
+        scene.name,
+        load_s,
+        geo.len(),
+        geo.mesh_count(),
+        scene.materials.len(),
+        scene.lights.len(),
+        if r.degenerate_skipped > 0 {
+            format!(", {} degenerate triangles skipped", r.degenerate_skipped)
+        } else {
+            String::new()
+        },
+        if r.notes.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", r.notes.join("; "))
+        },
+    );
+    if a.backend == Backend::Gpu {
+        if a.frames.is_some() {
+            bail!("--backend gpu renders one frame; --frames runs on the CPU backend only");
+        }
+        if !matches!(a.engine, Engine::Crsh | Engine::Rah) {
+            bail!(
+                "--backend gpu: only --engine crsh and --engine rah run on the GPU (not {:?})",
+                a.engine
+            );
+        }
+    }
+    if let Some(n) = a.frames {
+        return super::frames::render_frames(a, &opts, &scene, n);
+    }
+    let (scene, geo) = match a.time {
+        Some(t) => {
+            if !t.is_finite() {
+                bail!("--time {t}: not a finite time");
+            }
+            if scene.animation.is_none() {
+                bail!("--time: {} is not animated", scene.name);
+            }
+            let s = scene.at_time(t);
+            let g = Geometry::from_scene(&s);
+            (s, g)
+        }
+        None => (scene, geo),
+    };
+    let ropts = RenderOptions {
+        width: a.width,
+        height: a.height,
+        bounces: a.bounces,
+    };
+    let t1 = Instant::now();
+    let (mut out, build_s, gpu_phases, gpu_timer) = if a.backend == Backend::Gpu {
+        render_on_gpu(a, &opts, &scene, &geo, &ropts, t1)?
+    } else {
+        let built = engines::build(a.engine, &opts, &geo)?;
+        if let Some(r) = &built.report {
+            say!("{r}");
+        }
+        let engine = built.tracer;
+        let build_s = t1.elapsed().as_secs_f64();
+        let bar = progress_bar();
+        let mut out = render(&scene, &geo, engine.as_ref(), &ropts, &bar);
+        bar.0.finish_and_clear();
+        // The build's passes, indented under "engine build" in the table and in the JSON.
+        for (k, (p, t)) in engine.build_passes().into_iter().enumerate() {
+            out.stats.phases.insert(k, (format!("  build: {p}"), t));
+        }
+        (out, build_s, Vec::new(), "")
+    };
+    out.stats.phases.insert(0, ("engine build".into(), build_s));
+    render::output::write_png(&out.pixels, a.width, a.height, &a.out)
+        .map_err(anyhow::Error::msg)
+        .context("--out")?;
+    say!("{}", out.stats.table());
+    if !gpu_phases.is_empty() {
+        say!("GPU time per phase ({}):", gpu_timer);
+        for (p, t) in &gpu_phases {
+            say!("  {p:<20} {:>10.3} ms", t * 1e3);
+        }
+    }
+    say!("wrote {}", a.out.display());
+    if let Some(p) = &a.stats {
+        let f = StatsFile {
+            render: &out.stats,
+            load_seconds: load_s,
+            degenerate_skipped: r.degenerate_skipped,
+            raster_setup_triangles: out.raster.setup,
+            raster_fragments: out.raster.fragments,
+            gpu_phase_seconds: gpu_phases.clone(),
+        };
+        let json = serde_json::to_string_pretty(&f)?;
+        std::fs::write(p, json).with_context(|| format!("--stats {}", p.display()))?;
+        say!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// Rendered image, engine set-up seconds and GPU seconds per phase.
+type GpuRender = (
+    render::whitted::Rendered,
+    f64,
+    Vec<(String, f64)>,
+    &'static str,
+);
+
+/// `render --backend gpu`: the G-buffer from the GPU's render pipeline, CRSH/RAH, secondary
+/// ray generation and shading as compute kernels; the Whitted loop's sequencing, the surface
+/// records between generations and the pixel accumulation on the CPU.
+#[cfg(feature = "gpu")]
+fn render_on_gpu(
+    a: &RenderArgs,
+    eopts: &engines::EngineOptions,
+    scene: &scene::Scene,
+    geo: &Geometry,
+    opts: &RenderOptions,
+    t1: Instant,
+) -> Result<GpuRender> {
+    let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    say!("GPU: {}", g.describe());
+    let timer = match g.timer {
+        gpu::device::PhaseTimer::Timestamps => "timestamp queries",
+        gpu::device::PhaseTimer::WallClock => {
+            "wall clock, waiting at every phase boundary: this adapter has no timestamp queries that time kernels"
+        }
+    };
+    let method = a.engine.rsh_method().expect("checked: crsh or rah");
+    let engine = gpu::GpuRsh::new(g, geo, eopts.rsh_config(method))
+        .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    let raster = gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
+        .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    raster
+        .check_size(opts.width, opts.height)
+        .map_err(|e| anyhow::anyhow!("--width/--height with --backend gpu: {e}"))?;
+    let build_s = t1.elapsed().as_secs_f64();
+    let bar = progress_bar();
+    let stages = gpu::GpuStages::new(engine.gpu(), engine.kernels());
+    let out = render::whitted::render_with(
+        scene,
+        geo,
+        &engine,
+        opts,
+        &bar,
+        &|v, n| raster.rasterize(v, n),
+        &stages,
+    );
+    bar.0.finish_and_clear();
+    let mut phases: Vec<(String, f64)> = Vec::new();
+    if let Some(t) = raster.last_gpu_seconds.get() {
+        phases.push(("rasterize".into(), t));
+    }
+    phases.extend(
+        engine
+            .take_times()
+            .into_iter()
+            .map(|(p, t)| (p.to_string(), t)),
+    );
+    phases.extend(
+        stages
+            .times
+            .borrow()
+            .iter()
+            .map(|(p, t)| (p.to_string(), *t)),
+    );
+    Ok((out, build_s, phases, timer))
+}
+
+#[cfg(not(feature = "gpu"))]
+fn render_on_gpu(
+    _a: &RenderArgs,
+    _eopts: &engines::EngineOptions,
+    _scene: &scene::Scene,
+    _geo: &Geometry,
+    _opts: &RenderOptions,
+    _t1: Instant,
+) -> Result<GpuRender> {
+    bail!("--backend gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
+}

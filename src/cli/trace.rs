@@ -1,0 +1,130 @@
+//! `rayspace rays` and `rayspace trace`: ray files out of a scene, and one engine over a ray
+//! file (hits, MRays/s and the engine's counters). The file format is
+//! `render::rayfile`'s; hagrid's headerless ray files are read too.
+
+use super::args::{engine_options, RaysArgs, TraceArgs};
+use super::check_out_dir;
+use anyhow::{bail, Result};
+use rayspace::engines;
+use scene::{Geometry, LoadOptions};
+use std::time::Instant;
+
+/// `EX,EY,EZ,TX,TY,TZ[,FOV]` as a camera.
+fn parse_viewpoint(s: &str) -> Result<scene::Camera> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            anyhow::anyhow!("--viewpoint '{s}': expected numbers EX,EY,EZ,TX,TY,TZ[,FOV]")
+        })?;
+    if !(v.len() == 6 || v.len() == 7) || v.iter().any(|x| !x.is_finite()) {
+        bail!("--viewpoint '{s}': expected 6 or 7 finite numbers EX,EY,EZ,TX,TY,TZ[,FOV]");
+    }
+    Ok(scene::Camera {
+        eye: geom::Vec3::new(v[0], v[1], v[2]),
+        target: geom::Vec3::new(v[3], v[4], v[5]),
+        up: geom::Vec3::Y,
+        vfov: v.get(6).copied().unwrap_or(45.0),
+    })
+}
+
+pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
+    check_out_dir("--out", &a.out)?;
+    let mut scene = scene::load(&a.scene, &LoadOptions { split: a.meshes })?;
+    if let Some(v) = &a.viewpoint {
+        scene.camera = parse_viewpoint(v)?;
+        scene
+            .validate()
+            .map_err(|e| anyhow::anyhow!("--viewpoint: {e}"))?;
+    }
+    if let Some(d) = a.ao_distance {
+        if !(d.is_finite() && d > 0.0) {
+            bail!("--ao-distance {d}: must be positive and finite");
+        }
+    }
+    let geo = Geometry::from_scene(&scene);
+    use render::raygen::{generate, Options};
+    let kind = a.kind;
+    let n = a.width as u64 * a.height as u64 * a.spp as u64;
+    if n > 1 << 28 {
+        bail!("--width × --height × --spp = {n} rays is more than 2^28");
+    }
+    let rays = generate(
+        &scene,
+        &geo,
+        kind,
+        &Options {
+            width: a.width,
+            height: a.height,
+            spp: a.spp,
+            seed: a.seed,
+            ao_distance: a.ao_distance,
+        },
+    );
+    render::rayfile::write_rays(&a.out, &rays).map_err(anyhow::Error::msg)?;
+    say!(
+        "wrote {} {:?} rays of {} to {}",
+        rays.len(),
+        a.kind,
+        scene.name,
+        a.out.display()
+    );
+    Ok(())
+}
+
+pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
+    let opts = engine_options(&a.rsh, &a.grid, false);
+    opts.validate(a.engine)?;
+    if let Some(o) = &a.out {
+        check_out_dir("--out", o)?;
+    }
+    let rays = render::rayfile::read_rays(&a.rays, render::RayKind::Primary)
+        .map_err(anyhow::Error::msg)?;
+    let scene = scene::load(&a.scene, &LoadOptions { split: a.meshes })?;
+    let geo = Geometry::from_scene(&scene);
+    let t0 = Instant::now();
+    let built = engines::build(a.engine, &opts, &geo)?;
+    if let Some(r) = &built.report {
+        say!("{r}");
+    }
+    let engine = built.tracer;
+    let build = t0.elapsed().as_secs_f64();
+    let mode = if a.any_hit {
+        render::TraceMode::Any
+    } else {
+        render::TraceMode::Closest
+    };
+    let mut hits = vec![render::Hit::MISS; rays.len()];
+    let mut st = render::TraceStats::default();
+    let t1 = Instant::now();
+    engine.trace(&rays, mode, &mut hits, &mut st);
+    let secs = t1.elapsed().as_secs_f64();
+    let n = rays.len().max(1) as f64;
+    say!(
+        "{} rays, {} triangles, engine {} ({:?}): build {:.1} ms, trace {:.1} ms, {:.3} MRays/s",
+        rays.len(),
+        geo.len(),
+        engine.name(),
+        mode,
+        build * 1e3,
+        secs * 1e3,
+        n / secs.max(1e-12) / 1e6
+    );
+    say!("hits {}, ray-triangle tests {} ({:.2}/ray), node-triangle tests {}, total tests {} ({:.4} % of brute force)", st.hits, st.ray_tri_tests, st.ray_tri_tests as f64 / n, st.node_tri_tests, st.total_tests(), 100.0 * st.total_tests() as f64 / (n * geo.len() as f64));
+    for (k, v) in &st.counters {
+        say!(
+            "  {k}: {v}{}",
+            if k == "traversal steps" {
+                format!(" ({:.2}/ray)", *v as f64 / n)
+            } else {
+                String::new()
+            }
+        );
+    }
+    if let Some(o) = &a.out {
+        render::rayfile::write_hits(o, &hits, mode).map_err(anyhow::Error::msg)?;
+        say!("wrote {}", o.display());
+    }
+    Ok(())
+}

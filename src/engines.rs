@@ -1,0 +1,192 @@
+//! The engine registry: every tracer this build can name, and the one function that builds
+//! it. The CLI's `render`, `rays`/`trace` and frame loop, the benchmarks and the bindings all
+//! build engines here, so an engine is named, configured and validated in one place.
+//!
+//! Engines: CRSH (Reis 2015, §3.2) and RAH (Roger et al. 2007) from `rsh`; the irregular grid
+//! (Pérard-Gayot et al. 2017) and its two-level baseline, brute force (the oracle) and the
+//! peers from `accel`.
+
+use accel::grid::GridConfig;
+use anyhow::Result;
+use render::Tracer;
+use rsh::{Method, RshConfig};
+use scene::Geometry;
+
+/// An engine, as the command line names it (`--engine`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Engine {
+    /// Coherent ray-space hierarchy (hashed, sorted rays; mesh culling).
+    Crsh,
+    /// Roger et al.'s ray hierarchy (screen-ordered rays).
+    Rah,
+    /// Every ray against every triangle (the oracle).
+    Brute,
+    /// Irregular grid (Pérard-Gayot et al. 2017).
+    Grid,
+    /// Two-level grid (the irregular grid's initial cells, Kalojanov et al. 2011).
+    Grid2l,
+    /// Peer: obvhs's compressed 8-wide BVH (our triangle kernel at the leaves).
+    ObvhsCwbvh,
+    /// Peer: obvhs's binary BVH (our triangle kernel at the leaves).
+    ObvhsBvh2,
+    /// Peer: Embree 3, one `rtcIntersect1`/`rtcOccluded1` per ray (needs `--features embree`).
+    Embree,
+    /// Peer: Embree 3's stream API, `rtcIntersect1M` (needs `--features embree`).
+    EmbreeStream,
+}
+
+impl Engine {
+    /// The engine's name on the command line (`grid2l`, `obvhs-cwbvh`, ...).
+    pub fn name(self) -> String {
+        clap::ValueEnum::to_possible_value(&self)
+            .map(|v| v.get_name().to_string())
+            .unwrap_or_default()
+    }
+
+    /// Parse a name as the command line spells it.
+    pub fn parse(name: &str) -> Result<Engine> {
+        <Engine as clap::ValueEnum>::from_str(name.trim(), true)
+            .map_err(|_| anyhow::anyhow!("unknown engine '{}'", name.trim()))
+    }
+
+    /// The ray-space hierarchy method, for the engines that are one.
+    pub fn rsh_method(self) -> Option<Method> {
+        match self {
+            Engine::Crsh => Some(Method::Crsh),
+            Engine::Rah => Some(Method::Rah),
+            _ => None,
+        }
+    }
+}
+
+/// What engines are built with: the options of every family, each engine taking its own.
+#[derive(Clone, Debug)]
+pub struct EngineOptions {
+    /// CRSH/RAH options. `method` comes from the engine, and so does `mesh_culling` unless
+    /// [`EngineOptions::mesh_culling`] overrides it (CRSH culls by default, RAH does not).
+    pub rsh: RshConfig,
+    /// Mesh-sphere culling for CRSH and RAH alike (`None`: each method's default).
+    pub mesh_culling: Option<bool>,
+    /// Irregular-grid options (`grid2l` turns merging and expansion off).
+    pub grid: GridConfig,
+}
+
+impl Default for EngineOptions {
+    fn default() -> Self {
+        EngineOptions {
+            rsh: RshConfig::crsh(),
+            mesh_culling: None,
+            grid: GridConfig::default(),
+        }
+    }
+}
+
+impl EngineOptions {
+    /// The configuration of CRSH or RAH.
+    pub fn rsh_config(&self, method: Method) -> RshConfig {
+        let base = match method {
+            Method::Crsh => RshConfig::crsh(),
+            Method::Rah => RshConfig::rah(),
+        };
+        RshConfig {
+            method,
+            mesh_culling: self.mesh_culling.unwrap_or(base.mesh_culling),
+            ..self.rsh.clone()
+        }
+    }
+
+    /// The configuration of `grid` or `grid2l` (initial cells only).
+    pub fn grid_config(&self, two_level: bool) -> GridConfig {
+        if two_level {
+            GridConfig {
+                merge: false,
+                expansion_passes: 0,
+                ..self.grid.clone()
+            }
+        } else {
+            self.grid.clone()
+        }
+    }
+
+    /// Check every option (whichever engine uses it: a bad value is an error even where
+    /// `engine` ignores it); errors name the option.
+    pub fn validate(&self, engine: Engine) -> Result<()> {
+        self.rsh_config(engine.rsh_method().unwrap_or(Method::Crsh))
+            .validate()
+            .map_err(anyhow::Error::msg)?;
+        self.grid.validate().map_err(|e| {
+            if matches!(engine, Engine::Grid | Engine::Grid2l) {
+                anyhow::anyhow!("--engine {}: {e}", engine.name())
+            } else {
+                anyhow::Error::msg(e)
+            }
+        })
+    }
+}
+
+/// A built engine, with a one-line description of what was built where the engine has one
+/// (the grids: cells, references, memory, build passes).
+pub struct Built {
+    pub tracer: Box<dyn Tracer>,
+    pub report: Option<String>,
+}
+
+/// Build `engine` over `geo`.
+pub fn build(engine: Engine, opts: &EngineOptions, geo: &Geometry) -> Result<Built> {
+    opts.validate(engine)?;
+    let mut report = None;
+    let tracer: Box<dyn Tracer> = match engine {
+        Engine::Grid | Engine::Grid2l => {
+            let two_level = engine == Engine::Grid2l;
+            let g = accel::GridEngine::new(geo, &opts.grid_config(two_level))
+                .map_err(|e| anyhow::anyhow!("--engine {}: {e}", engine.name()))?;
+            let (c, r, v) = g.grid.memory();
+            let b = &g.grid.build;
+            report = Some(format!(
+                "{}: {} cells (initial {}), {} references, top grid {:?}, virtual grid {:?}; memory cells {} B, references {} B, voxel map {} B; build ms: references {:.1}, octrees {:.1}, voxel map {:.1}, merge {:.1} ({} rounds), expansion {:.1}",
+                if two_level { "two-level grid" } else { "irregular grid" },
+                g.grid.cells(), b.initial_cells, g.grid.refs.len(), g.grid.top_dims, g.grid.dims, c, r, v,
+                b.top_refs_seconds * 1e3, b.octree_seconds * 1e3, b.voxel_map_seconds * 1e3, b.merge_seconds * 1e3, b.merge_rounds, b.expand_seconds * 1e3
+            ));
+            Box::new(g)
+        }
+        Engine::Brute => Box::new(accel::BruteForce::new(geo)),
+        Engine::ObvhsCwbvh => Box::new(accel::peers::ObvhsEngine::new(
+            geo,
+            accel::peers::BvhKind::CwBvh,
+        )),
+        Engine::ObvhsBvh2 => Box::new(accel::peers::ObvhsEngine::new(
+            geo,
+            accel::peers::BvhKind::Bvh2,
+        )),
+        Engine::Embree | Engine::EmbreeStream => embree(engine, geo)?,
+        Engine::Crsh | Engine::Rah => {
+            let m = engine.rsh_method().expect("a ray-space hierarchy");
+            Box::new(rsh::RshEngine::new(geo, opts.rsh_config(m)).map_err(anyhow::Error::msg)?)
+        }
+    };
+    Ok(Built { tracer, report })
+}
+
+#[cfg(feature = "embree")]
+fn embree(engine: Engine, geo: &Geometry) -> Result<Box<dyn Tracer>> {
+    let mode = if engine == Engine::Embree {
+        accel::peers::EmbreeMode::Single
+    } else {
+        accel::peers::EmbreeMode::Stream
+    };
+    Ok(Box::new(
+        accel::peers::EmbreeEngine::new(geo, mode).map_err(anyhow::Error::msg)?,
+    ))
+}
+
+#[cfg(not(feature = "embree"))]
+fn embree(engine: Engine, _geo: &Geometry) -> Result<Box<dyn Tracer>> {
+    anyhow::bail!(
+        "--engine {}: this build has no Embree peer; install Embree 3 (Debian: libembree-dev) and build with `cargo build --release --features embree`",
+        engine.name()
+    )
+}
+
+/// The obvhs version this binary is built with (for benchmark provenance).
+pub const OBVHS_VERSION: &str = "0.4";
