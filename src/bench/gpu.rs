@@ -11,26 +11,14 @@
 use anyhow::Result;
 use render::raster::{default_near, rasterize};
 
-use render::{Hit, TraceStats, Tracer, View};
+use render::stats::counter;
+use render::{Hit, Phase, TraceStats, Tracer, View};
 
 use std::time::Instant;
 
 use super::Spec;
 
 use gpu::engine::comparable_counters as counters;
-
-const PHASES: [&str; 10] = [
-    "hash",
-    "screen order",
-    "trim",
-    "compress",
-    "sort",
-    "decompress",
-    "hierarchy creation",
-    "traversal",
-    "final tests",
-    "read-back",
-];
 
 /// Run the comparison (with RAH beside CRSH when `rah`); returns the markdown report.
 pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
@@ -141,12 +129,12 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
                 );
                 md += "| phase | CPU ms | GPU ms | GPU / CPU |\n|---|---:|---:|---:|\n";
                 let mut shown = Vec::new();
-                for p in PHASES.iter().copied().chain(gt.iter().map(|x| x.0)) {
+                for p in Phase::ALL.into_iter().chain(gt.iter().map(|x| x.0)) {
                     if shown.contains(&p) {
                         continue;
                     }
                     shown.push(p);
-                    let c = sc.phases.get(p).copied();
+                    let c = sc.phases.get(&p).copied();
                     let gp = gt.iter().find(|x| x.0 == p).map(|x| x.1);
                     if c.is_none() && gp.is_none() {
                         continue;
@@ -167,9 +155,9 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
                 );
                 md += &format!(
                     "\nGPU kernel launches: {}; chunks {}; top nodes {}.\n",
-                    sg.counters.get("gpu kernel launches").unwrap_or(&0),
-                    sg.counters.get("chunks").unwrap_or(&0),
-                    sg.counters.get("top nodes").unwrap_or(&0)
+                    sg.counters.get(counter::GPU_KERNEL_LAUNCHES).unwrap_or(&0),
+                    sg.counters.get(counter::CHUNKS).unwrap_or(&0),
+                    sg.counters.get(counter::TOP_NODES).unwrap_or(&0)
                 );
             }
         }

@@ -22,6 +22,7 @@ use accel::oracle::Agreement;
 use accel::peers::{BvhKind, ObvhsEngine};
 use anyhow::Result;
 use render::raygen::{generate, Kind, Options};
+use render::stats::counter;
 use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer, View};
 use scene::{Geometry, LoadOptions};
 use serde::Serialize;
@@ -145,7 +146,11 @@ fn time_all(
 fn per_ray(st: &TraceStats, n: usize) -> (f64, f64) {
     let n = n.max(1) as f64;
     (
-        st.counters.get("traversal steps").copied().unwrap_or(0) as f64 / n,
+        st.counters
+            .get(counter::TRAVERSAL_STEPS)
+            .copied()
+            .unwrap_or(0) as f64
+            / n,
         st.ray_tri_tests as f64 / n,
     )
 }
@@ -270,7 +275,10 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
                     rays: rays.len() as u64,
                     seconds: *secs,
                     mrays_per_s: rays.len() as f64 / secs / 1e6,
-                    n_t: st.counters.contains_key("traversal steps").then_some(n_t),
+                    n_t: st
+                        .counters
+                        .contains_key(counter::TRAVERSAL_STEPS)
+                        .then_some(n_t),
                     n_i: counted.then_some(n_i),
                     build_seconds: *build,
                     memory_bytes: *mem,

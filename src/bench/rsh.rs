@@ -6,7 +6,7 @@
 
 use super::{record, Spec};
 use anyhow::Result;
-use render::{Hit, TraceStats, Tracer};
+use render::{Hit, Phase, TraceStats, Tracer};
 use serde::Serialize;
 
 #[derive(Serialize, Clone)]
@@ -88,30 +88,20 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
                 r.trace_seconds * 1e3
             );
             for row in &pair {
-                detail += &format!("\n### {} {} {b}/{d}: intersections per level (thesis Tables 4.x)\n\n| level | kind | tests | hits | misses |\n|---|---|---:|---:|---:|\n", s.name, row.engine.to_uppercase());
-                for (level, kind, t, h) in row.stats.level_table() {
-                    detail += &format!("| {level} | {kind} | {t} | {h} | {} |\n", t - h);
-                }
-                for (k, v) in &row.stats.counters {
-                    if let Some(kind) = k
-                        .strip_prefix("final ")
-                        .and_then(|x| x.strip_suffix(" tests"))
-                    {
-                        detail += &format!("| final | {kind} | {v} | | |\n");
-                    }
-                }
+                detail += &format!(
+                    "\n### {} {} {b}/{d}: intersections per level (thesis Tables 4.x)\n{}",
+                    s.name,
+                    row.engine.to_uppercase(),
+                    row.stats.levels.markdown()
+                );
                 detail += &format!("| **total** | | {} | | |\n", row.total_tests);
             }
             detail += &format!("\n### {} {b}/{d}: phase times (ms; thesis Tables 4.25–4.27)\n\n| phase | CRSH | RAH | RAH / CRSH |\n|---|---:|---:|---:|\n", s.name);
-            let mut phases: Vec<&String> =
-                c.stats.phases.keys().chain(r.stats.phases.keys()).collect();
-            phases.sort();
-            phases.dedup();
+            let phases = Phase::ALL
+                .into_iter()
+                .filter(|p| c.stats.phases.contains_key(p) || r.stats.phases.contains_key(p));
             for p in phases {
-                let (a, bb) = (
-                    c.stats.phases.get(p).copied().unwrap_or(0.0),
-                    r.stats.phases.get(p).copied().unwrap_or(0.0),
-                );
+                let (a, bb) = (c.stats.seconds(p), r.stats.seconds(p));
                 let ratio = if a > 0.0 && bb > 0.0 {
                     format!("{:.2}", bb / a)
                 } else {
@@ -164,7 +154,7 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
         // Series: every level present, top first, then the final ray–triangle tests.
         let mut levels: Vec<u32> = rs
             .iter()
-            .flat_map(|r| r.stats.level_table().into_iter().map(|row| row.0))
+            .flat_map(|r| r.stats.levels.rows().into_iter().map(|row| row.level))
             .collect();
         levels.sort_unstable_by(|a, b| b.cmp(a));
         levels.dedup();
@@ -178,10 +168,11 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
                         Some(l) => {
                             let l: u32 = l.parse().unwrap_or(0);
                             r.stats
-                                .level_table()
+                                .levels
+                                .rows()
                                 .iter()
-                                .filter(|row| row.0 == l)
-                                .map(|row| row.2)
+                                .filter(|row| row.level == l)
+                                .map(|row| row.tests)
                                 .sum::<u64>() as f64
                         }
                         None => r.stats.ray_tri_tests as f64,

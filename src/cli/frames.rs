@@ -9,6 +9,7 @@ use super::{check_dir, check_out_dir};
 use anyhow::{bail, Context, Result};
 use rayspace::engines::{self, EngineOptions};
 use render::whitted::{render, RenderOptions};
+use render::Phase;
 use scene::Geometry;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -53,22 +54,14 @@ struct FrameRow {
     rays: u64,
     total_tests: u64,
     /// Engine phases inside the render (ms): for CRSH/RAH the per-frame ray-hierarchy build
-    /// (hash … hierarchy creation) and its traversal, in [`ENGINE_PHASES`] order.
-    phases_ms: Vec<f64>,
+    /// (hash … hierarchy creation) and its traversal, in [`engine_phases`] order.
+    phases_ms: Vec<(Phase, f64)>,
 }
 
-/// The engine phases `--frame-csv` reports (ray-space hierarchies; absent phases are 0).
-const ENGINE_PHASES: [&str; 9] = [
-    "hash",
-    "trim",
-    "compress",
-    "sort",
-    "decompress",
-    "screen order",
-    "hierarchy creation",
-    "traversal",
-    "final tests",
-];
+/// The engine phases `--frame-csv` reports (the CPU's: no transfers; absent phases are 0).
+fn engine_phases() -> impl Iterator<Item = Phase> {
+    Phase::ALL.into_iter().filter(|p| !p.is_transfer())
+}
 
 /// The per-frame pipeline: update transforms (and the meshes' culling spheres, by transform),
 /// rebuild the engine, render; build and trace times apart.
@@ -135,9 +128,8 @@ pub fn render_frames(
             trace_ms: trace_s * 1e3,
             rays: out.stats.rays_traced(),
             total_tests: out.stats.trace.total_tests(),
-            phases_ms: ENGINE_PHASES
-                .iter()
-                .map(|p| out.stats.trace.phases.get(*p).copied().unwrap_or(0.0) * 1e3)
+            phases_ms: engine_phases()
+                .map(|p| (p, out.stats.trace.seconds(p) * 1e3))
                 .collect(),
         });
     }
@@ -155,11 +147,11 @@ pub fn render_frames(
         mean(&|r| r.trace_ms),
         {
             // Ray-space hierarchies build their structure inside the render, per batch.
-            let h = mean(&|r| r.phases_ms[..7].iter().sum());
+            let h = mean(&|r| r.phases_ms.iter().filter(|p| p.0.is_build()).map(|p| p.1).sum());
             if h > 0.0 {
                 format!(
                     " (of which ray-hierarchy build {h:.1} ms, traversal and final tests {:.1} ms)",
-                    mean(&|r| r.phases_ms[7..].iter().sum())
+                    mean(&|r| r.phases_ms.iter().filter(|p| !p.0.is_build()).map(|p| p.1).sum())
                 )
             } else {
                 String::new()
@@ -174,8 +166,8 @@ pub fn render_frames(
     if let Some(p) = &a.frame_csv {
         let mut csv =
             String::from("frame,time,triangles,update_ms,build_ms,render_ms,rays,total_tests");
-        for p in ENGINE_PHASES {
-            csv += &format!(",{}_ms", p.replace(' ', "_"));
+        for p in engine_phases() {
+            csv += &format!(",{}_ms", p.as_str().replace(' ', "_"));
         }
         csv += "\n";
         for r in &rows {
@@ -190,7 +182,7 @@ pub fn render_frames(
                 r.rays,
                 r.total_tests
             );
-            for p in &r.phases_ms {
+            for (_, p) in &r.phases_ms {
                 csv += &format!(",{p:.3}");
             }
             csv += "\n";

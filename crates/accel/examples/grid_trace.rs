@@ -66,7 +66,11 @@ fn main() {
         println!(
             "{name:>8}: {:7.2} MRays/s  N_T {:6.2}  N_I {:6.2}",
             n / best / 1e6,
-            st.counters.get("traversal steps").copied().unwrap_or(0) as f64 / n,
+            st.counters
+                .get(render::stats::counter::TRAVERSAL_STEPS)
+                .copied()
+                .unwrap_or(0) as f64
+                / n,
             st.ray_tri_tests as f64 / n
         );
     }

@@ -8,7 +8,8 @@
 use crate::device::{Gpu, GpuError};
 use crate::kernels::{Exec, Kernels, Params};
 use geom::{Pcg32, Sphere};
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use render::stats::counter;
+use render::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 use rsh::traverse::Counters;
 use rsh::{HashKind, Method, NodeTest, RshConfig, Union};
 use scene::Geometry;
@@ -51,7 +52,7 @@ pub struct GpuRsh {
     /// Most rays per hierarchy, from the binding limit (a larger batch is traced in parts).
     max_rays: usize,
     /// GPU seconds per phase of the last trace calls (drained by [`GpuRsh::take_times`]).
-    times: Mutex<Vec<(&'static str, f64)>>,
+    times: Mutex<Vec<(Phase, f64)>>,
 }
 
 /// The CPU's fixed minimal-ball shuffle (`geom::miniball`) for every count 1..=b, as rows of
@@ -157,7 +158,7 @@ impl GpuRsh {
     }
 
     /// GPU time per phase accumulated since the last call (empty without timestamp queries).
-    pub fn take_times(&self) -> Vec<(&'static str, f64)> {
+    pub fn take_times(&self) -> Vec<(Phase, f64)> {
         std::mem::take(&mut *self.times.lock().unwrap())
     }
 
@@ -190,7 +191,11 @@ impl GpuRsh {
         let pre = g.storage("ray constants", n64 * 16);
         let crsh = self.cfg.method == Method::Crsh;
         let hb = &self.cfg.hash_bits;
-        ex.phase(if crsh { "hash" } else { "screen order" });
+        ex.phase(if crsh {
+            Phase::Hash
+        } else {
+            Phase::ScreenOrder
+        });
         ex.run(
             "hash_keys",
             Params {
@@ -214,18 +219,18 @@ impl GpuRsh {
             n64,
             256,
         );
-        ex.phase("trim");
+        ex.phase(Phase::Trim);
         let (tk, tv, m) = ex.compact(&valid, &keys, None, n64);
         drop((keys, valid));
         let leaves = if crsh {
             self.chunked_order(&mut ex, &tk, &tv, m, stats)
         } else {
-            ex.phase("screen order");
+            ex.phase(Phase::ScreenOrder);
             ex.sort_pairs(&tk, &tv, m, 32);
             tv
         };
         // Hierarchy (thesis §3.2.7).
-        ex.phase("hierarchy creation");
+        ex.phase(Phase::HierarchyCreation);
         let levels = self.build(&mut ex, &leaves, &b_org, &b_dir, &b_kl, m);
         // Traversal and final tests.
         let best = g.upload("best", &vec![u64::MAX; n]);
@@ -244,7 +249,7 @@ impl GpuRsh {
         if self.ntri > 0 && !levels.is_empty() && levels.last().unwrap().len() > 0 {
             self.traverse(&mut ex, &levels, &rays_g, &mut c);
         }
-        ex.phase("final tests");
+        ex.phase(Phase::FinalTests);
         let rec = g.storage("records", n64 * 16);
         ex.run(
             "records",
@@ -260,7 +265,7 @@ impl GpuRsh {
             n64,
             256,
         );
-        ex.phase("read-back");
+        ex.phase(Phase::ReadBack);
         let recs: Vec<[u32; 4]> = ex.read(&rec, n);
         for (h, r) in hits.iter_mut().zip(&recs) {
             *h = if r[0] == geom::NO_HIT {
@@ -283,7 +288,7 @@ impl GpuRsh {
                 None => times.push((p, t)),
             }
         }
-        stats.count("gpu kernel launches", ex.launches);
+        stats.count(counter::GPU_KERNEL_LAUNCHES, ex.launches);
         self.report(&c, &levels, hits, stats);
     }
 
@@ -297,9 +302,9 @@ impl GpuRsh {
         stats: &mut TraceStats,
     ) -> wgpu::Buffer {
         let g = self.gpu();
-        ex.phase("compress");
+        ex.phase(Phase::Compress);
         if m == 0 {
-            stats.count("chunks", 0);
+            stats.count(counter::CHUNKS, 0);
             return g.storage("leaves", 4);
         }
         let heads = g.storage("heads", m * 4);
@@ -313,7 +318,7 @@ impl GpuRsh {
         let offs = g.storage("head offsets", (m + 1) * 4);
         ex.scan(&heads, &offs, m);
         let nch = ex.read_at(&offs, m as usize) as u64;
-        stats.count("chunks", nch);
+        stats.count(counter::CHUNKS, nch);
         let (ck, cb, cs) = (
             g.storage("chunk keys", nch * 4),
             g.storage("chunk bases", nch * 4),
@@ -333,7 +338,7 @@ impl GpuRsh {
             nch,
             256,
         );
-        ex.phase("sort");
+        ex.phase(Phase::Sort);
         let order = g.storage("chunk order", nch * 4);
         ex.run(
             "iota",
@@ -343,7 +348,7 @@ impl GpuRsh {
             256,
         );
         ex.sort_pairs(&ck, &order, nch, 32);
-        ex.phase("decompress");
+        ex.phase(Phase::Decompress);
         let sizes = g.storage("sorted sizes", nch * 4);
         ex.run(
             "gather",
@@ -477,7 +482,7 @@ impl GpuRsh {
     /// schedule (`rsh::traverse::batches`).
     fn traverse(&self, ex: &mut Exec, levels: &[Level], rays: &RaysOnGpu, c: &mut Counters) {
         let g = self.gpu();
-        ex.phase("traversal");
+        ex.phase(Phase::Traversal);
         let top = levels.last().unwrap();
         let nt = top.len() as usize;
         let nm = self.mesh_first.len() - 1;
@@ -602,7 +607,7 @@ impl GpuRsh {
         c: &mut Counters,
     ) {
         if li == 0 {
-            ex.phase("final tests");
+            ex.phase(Phase::FinalTests);
             let cnt = self.gpu.upload("counters", &[0u32; 4]);
             let l1 = &levels[0];
             ex.run(
@@ -626,7 +631,7 @@ impl GpuRsh {
             );
             let cv: Vec<u32> = ex.read(&cnt, 4);
             add4(&mut c.final_tests, &cv);
-            ex.phase("traversal");
+            ex.phase(Phase::Traversal);
         } else {
             self.expand(ex, levels, rays, li, sn, st, count, c);
         }
@@ -747,20 +752,13 @@ impl GpuRsh {
     }
 }
 
-/// The counters of a trace that the GPU engine must reproduce: every engine counter but the
-/// GPU-only ones (`gpu …`), with rays, hits and the test totals; timings are left out.
-pub fn comparable_counters(s: &TraceStats) -> Vec<(String, u64)> {
-    let mut v: Vec<(String, u64)> = s
-        .counters
-        .iter()
-        .filter(|(k, _)| !k.starts_with("gpu "))
-        .map(|(k, &n)| (k.clone(), n))
-        .collect();
-    v.push(("rays".into(), s.rays));
-    v.push(("hits".into(), s.hits));
-    v.push(("node-triangle tests".into(), s.node_tri_tests));
-    v.push(("ray-triangle tests".into(), s.ray_tri_tests));
-    v
+/// The counts of a trace that the GPU engine must reproduce: everything in `s` (rays, hits,
+/// test totals, per-level counts, engine counters) but the times and the GPU-only counter.
+pub fn comparable_counters(s: &TraceStats) -> TraceStats {
+    let mut c = s.clone();
+    c.phases.clear();
+    c.counters.remove(counter::GPU_KERNEL_LAUNCHES);
+    c
 }
 
 /// Rays `r` of `rays` as a batch of their own.

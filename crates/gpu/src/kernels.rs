@@ -4,6 +4,7 @@
 //! of (scan, compaction, radix sort) as host functions that record passes.
 
 use crate::device::{Gpu, PhaseTimer};
+use render::Phase;
 use std::collections::HashMap;
 use std::time::Instant;
 
@@ -174,7 +175,7 @@ struct Timer {
     set: Option<wgpu::QuerySet>,
     resolve: Option<wgpu::Buffer>,
     used: u32,
-    phases: Vec<&'static str>,
+    phases: Vec<Phase>,
 }
 
 const MAX_QUERIES: u32 = 4096;
@@ -184,11 +185,11 @@ pub struct Exec<'a> {
     pub g: &'a Gpu,
     pub k: &'a Kernels,
     enc: Option<wgpu::CommandEncoder>,
-    phase: &'static str,
+    phase: Phase,
     timer: Timer,
     /// Seconds per phase, in first-seen order: GPU time from timestamps, or wall-clock time
     /// with a wait at each phase boundary ([`PhaseTimer`]).
-    pub times: Vec<(&'static str, f64)>,
+    pub times: Vec<(Phase, f64)>,
     pub launches: u64,
     wall_start: Option<Instant>,
 }
@@ -214,7 +215,7 @@ impl<'a> Exec<'a> {
             g,
             k,
             enc: None,
-            phase: "upload",
+            phase: Phase::Upload,
             timer,
             times: Vec::new(),
             launches: 0,
@@ -222,7 +223,7 @@ impl<'a> Exec<'a> {
         }
     }
 
-    fn add_time(&mut self, ph: &'static str, dt: f64) {
+    fn add_time(&mut self, ph: Phase, dt: f64) {
         match self.times.iter_mut().find(|(p, _)| *p == ph) {
             Some(e) => e.1 += dt,
             None => self.times.push((ph, dt)),
@@ -230,7 +231,7 @@ impl<'a> Exec<'a> {
     }
 
     /// Start phase `name` (with the wall-clock timer: finish the previous phase's work first).
-    pub fn phase(&mut self, name: &'static str) {
+    pub fn phase(&mut self, name: Phase) {
         if self.wall_start.is_some() && name != self.phase {
             self.finish();
         }

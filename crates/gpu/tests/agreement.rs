@@ -53,7 +53,9 @@ fn compare(
     if exact_counts {
         assert_eq!(counters(&sg), counters(&sc), "{what}: counters");
     }
-    assert!(sg.counters.contains_key("gpu kernel launches"));
+    assert!(sg
+        .counters
+        .contains_key(render::stats::counter::GPU_KERNEL_LAUNCHES));
 }
 
 #[test]
@@ -124,7 +126,11 @@ fn tiny_budget_batches_and_splits_match() {
         let mut st = TraceStats::default();
         let mut h = vec![Hit::MISS; rays.len()];
         gpu.trace(rays, *mode, &mut h, &mut st);
-        splits += st.counters.get("budget splits").copied().unwrap_or(0);
+        splits += st
+            .counters
+            .get(render::stats::counter::BUDGET_SPLITS)
+            .copied()
+            .unwrap_or(0);
     }
     assert!(splits > 0, "the tiny budget forced split expansions");
 }

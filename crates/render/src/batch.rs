@@ -29,6 +29,11 @@ impl RayKind {
         }
     }
 
+    /// The two-letter name of the thesis's tables (PR, SH, RE, RF).
+    pub fn short(self) -> &'static str {
+        ["PR", "SH", "RE", "RF"][self as usize]
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             RayKind::Primary => "primary",

@@ -19,6 +19,6 @@ pub mod view;
 pub mod whitted;
 
 pub use batch::{Hit, RayBatch, RayKind};
-pub use stats::{RenderStats, TraceStats};
+pub use stats::{LevelCounts, Phase, RenderStats, TraceStats};
 pub use tracer::{trace_per_ray, TraceMode, Tracer};
 pub use view::View;

@@ -3,8 +3,220 @@
 //! Counts are deterministic for a given input and configuration and are the primary
 //! efficiency figures; times are for orientation only.
 
-use serde::Serialize;
+use crate::RayKind;
+use serde::{Serialize, Serializer};
 use std::collections::BTreeMap;
+
+/// An engine's internal phases, in pipeline order: CRSH (thesis §3.2, Tables 4.25–4.27)
+/// hashes, trims, compresses, sorts and decompresses its rays, RAH puts them in screen order,
+/// both then build the hierarchy, traverse it and finish with the final ray–triangle tests;
+/// the GPU backend adds its transfers (upload before the first kernel, read-back after the
+/// last). The CPU and GPU engines, the stats table, the JSON,
+/// the frame CSV and the benchmarks all name phases through this type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Phase {
+    Upload,
+    Hash,
+    Trim,
+    Compress,
+    Sort,
+    Decompress,
+    ScreenOrder,
+    HierarchyCreation,
+    Traversal,
+    FinalTests,
+    ReadBack,
+}
+
+impl Phase {
+    /// Every phase, in pipeline order.
+    pub const ALL: [Phase; 11] = [
+        Phase::Upload,
+        Phase::Hash,
+        Phase::Trim,
+        Phase::Compress,
+        Phase::Sort,
+        Phase::Decompress,
+        Phase::ScreenOrder,
+        Phase::HierarchyCreation,
+        Phase::Traversal,
+        Phase::FinalTests,
+        Phase::ReadBack,
+    ];
+
+    /// The phase's name in reports ("hierarchy creation", ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Phase::Upload => "upload",
+            Phase::Hash => "hash",
+            Phase::Trim => "trim",
+            Phase::Compress => "compress",
+            Phase::Sort => "sort",
+            Phase::Decompress => "decompress",
+            Phase::ScreenOrder => "screen order",
+            Phase::HierarchyCreation => "hierarchy creation",
+            Phase::Traversal => "traversal",
+            Phase::FinalTests => "final tests",
+            Phase::ReadBack => "read-back",
+        }
+    }
+
+    /// The GPU backend's transfers between host and device.
+    pub fn is_transfer(self) -> bool {
+        matches!(self, Phase::Upload | Phase::ReadBack)
+    }
+
+    /// Phases that build the ray hierarchy (ordering it and creating its nodes).
+    pub fn is_build(self) -> bool {
+        !self.is_transfer() && self < Phase::Traversal
+    }
+}
+
+impl std::fmt::Display for Phase {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl Serialize for Phase {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+/// Names of the engines' other counters, each defined once.
+pub mod counter {
+    /// Grids: cells visited per ray, summed (the paper's N_T).
+    pub const TRAVERSAL_STEPS: &str = "traversal steps";
+    /// CRSH: runs of equal hashes after trimming (thesis §3.2.3).
+    pub const CHUNKS: &str = "chunks";
+    /// Ray hierarchies: node–mesh-sphere tests at the top level (thesis §3.2.2).
+    pub const MESH_SPHERE_TESTS: &str = "mesh-sphere tests";
+    /// Ray hierarchies: (top node, mesh) pairs that passed the mesh-sphere test.
+    pub const MESH_SPHERE_PASSES: &str = "mesh-sphere passes";
+    /// Ray hierarchies: triangle batches of the top level (RAH's scene batches).
+    pub const TRIANGLE_BATCHES: &str = "triangle batches";
+    /// Ray hierarchies: levels halved because their pairs exceeded the pair budget.
+    pub const BUDGET_SPLITS: &str = "budget splits";
+    /// Ray hierarchies: nodes of the top level.
+    pub const TOP_NODES: &str = "top nodes";
+    /// GPU backend: compute dispatches.
+    pub const GPU_KERNEL_LAUNCHES: &str = "gpu kernel launches";
+}
+
+/// A ray hierarchy's tests and hits per level and ray kind, as the thesis's chapter-4 tables
+/// give them; index `[level − 1][RayKind as usize]`, level 1 the nodes just above the rays.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LevelCounts {
+    /// Node–triangle tests per level and kind.
+    pub tests: Vec<[u64; 4]>,
+    /// Node–triangle tests that passed, per level and kind.
+    pub hits: Vec<[u64; 4]>,
+    /// Final ray–triangle tests per kind.
+    pub final_tests: [u64; 4],
+}
+
+/// One row of [`LevelCounts::rows`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct LevelRow {
+    pub level: u32,
+    /// The kind's short name (`SH`, `RE`, `RF`, `PR`).
+    pub kind: &'static str,
+    pub tests: u64,
+    pub hits: u64,
+}
+
+impl LevelCounts {
+    /// No tests recorded (engines that are not ray hierarchies).
+    pub fn is_empty(&self) -> bool {
+        self.tests.iter().all(|t| *t == [0; 4]) && self.final_tests == [0; 4]
+    }
+
+    pub fn add(&mut self, o: &LevelCounts) {
+        let n = self.tests.len().max(o.tests.len());
+        self.tests.resize(n, [0; 4]);
+        self.hits.resize(n, [0; 4]);
+        for (l, (t, h)) in o.tests.iter().zip(&o.hits).enumerate() {
+            for k in 0..4 {
+                self.tests[l][k] += t[k];
+                self.hits[l][k] += h[k];
+            }
+        }
+        for k in 0..4 {
+            self.final_tests[k] += o.final_tests[k];
+        }
+    }
+
+    /// The (level, kind) cells with tests, top level first, kinds by short name.
+    pub fn rows(&self) -> Vec<LevelRow> {
+        let mut rows = Vec::new();
+        for (l, (t, h)) in self.tests.iter().zip(&self.hits).enumerate().rev() {
+            let mut level: Vec<LevelRow> = RayKind::ALL
+                .iter()
+                .filter(|&&k| t[k as usize] > 0)
+                .map(|&k| LevelRow {
+                    level: l as u32 + 1,
+                    kind: k.short(),
+                    tests: t[k as usize],
+                    hits: h[k as usize],
+                })
+                .collect();
+            level.sort_by_key(|r| r.kind);
+            rows.extend(level);
+        }
+        rows
+    }
+
+    /// The final tests with their kind's short name, kinds by short name.
+    pub fn final_rows(&self) -> Vec<(&'static str, u64)> {
+        let mut v: Vec<(&'static str, u64)> = RayKind::ALL
+            .iter()
+            .filter(|&&k| self.final_tests[k as usize] > 0)
+            .map(|&k| (k.short(), self.final_tests[k as usize]))
+            .collect();
+        v.sort();
+        v
+    }
+}
+
+impl LevelCounts {
+    /// The thesis's per-level table as markdown rows (with its header): tests, hits and
+    /// misses per level and kind, top level first, then the final ray–triangle tests.
+    pub fn markdown(&self) -> String {
+        let mut s =
+            String::from("\n| level | kind | tests | hits | misses |\n|---|---|---:|---:|---:|\n");
+        for r in self.rows() {
+            s += &format!(
+                "| {} | {} | {} | {} | {} |\n",
+                r.level,
+                r.kind,
+                r.tests,
+                r.hits,
+                r.tests - r.hits
+            );
+        }
+        for (kind, v) in self.final_rows() {
+            s += &format!("| final (ray-triangle) | {kind} | {v} | | |\n");
+        }
+        s
+    }
+}
+
+/// In JSON: `{"levels": [{level, kind, tests, hits}, ...], "final_tests": {"SH": n, ...}}`.
+impl Serialize for LevelCounts {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Json {
+            levels: Vec<LevelRow>,
+            final_tests: BTreeMap<&'static str, u64>,
+        }
+        Json {
+            levels: self.rows(),
+            final_tests: self.final_rows().into_iter().collect(),
+        }
+        .serialize(s)
+    }
+}
 
 /// Counters accumulated by an engine over one or more trace calls.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
@@ -17,11 +229,15 @@ pub struct TraceStats {
     pub node_tri_tests: u64,
     /// Rays that found a hit.
     pub hits: u64,
-    /// Engine-specific counters (tests per level and ray kind, traversal steps, ...), for
-    /// reporting; they do not enter [`TraceStats::total_tests`].
+    /// Ray hierarchies: tests and hits per level and ray kind (a breakdown of
+    /// `node_tri_tests` and `ray_tri_tests`, not added again).
+    #[serde(skip_serializing_if = "LevelCounts::is_empty")]
+    pub levels: LevelCounts,
+    /// Engine-specific counters (named in [`counter`]), for reporting; they do not enter
+    /// [`TraceStats::total_tests`].
     pub counters: BTreeMap<String, u64>,
     /// Engine-internal phase times in seconds (accumulated over calls).
-    pub phases: BTreeMap<String, f64>,
+    pub phases: BTreeMap<Phase, f64>,
 }
 
 impl TraceStats {
@@ -30,48 +246,28 @@ impl TraceStats {
         self.ray_tri_tests += o.ray_tri_tests;
         self.node_tri_tests += o.node_tri_tests;
         self.hits += o.hits;
+        self.levels.add(&o.levels);
         for (k, v) in &o.counters {
             *self.counters.entry(k.clone()).or_default() += v;
         }
         for (k, v) in &o.phases {
-            *self.phases.entry(k.clone()).or_default() += v;
+            *self.phases.entry(*k).or_default() += v;
         }
     }
 
+    /// Add `n` to the counter `name` (one of [`counter`]).
     pub fn count(&mut self, name: &str, n: u64) {
         *self.counters.entry(name.to_string()).or_default() += n;
     }
 
-    pub fn time(&mut self, name: &str, secs: f64) {
-        *self.phases.entry(name.to_string()).or_default() += secs;
+    /// Add `secs` to `phase`.
+    pub fn time(&mut self, phase: Phase, secs: f64) {
+        *self.phases.entry(phase).or_default() += secs;
     }
 
-    /// Per-level rows (level, kind, tests, hits) from counters named `L<n> <KIND> tests|hits`,
-    /// top level first, as in the thesis's tables.
-    pub fn level_table(&self) -> Vec<(u32, String, u64, u64)> {
-        let mut rows: Vec<(u32, String, u64, u64)> = Vec::new();
-        for (k, &v) in &self.counters {
-            let mut it = k.split(' ');
-            let (Some(l), Some(kind), Some(what), None) =
-                (it.next(), it.next(), it.next(), it.next())
-            else {
-                continue;
-            };
-            let Some(level) = l.strip_prefix('L').and_then(|n| n.parse::<u32>().ok()) else {
-                continue;
-            };
-            if what != "tests" {
-                continue;
-            }
-            let hits = self
-                .counters
-                .get(&format!("L{level} {kind} hits"))
-                .copied()
-                .unwrap_or(0);
-            rows.push((level, kind.to_string(), v, hits));
-        }
-        rows.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
-        rows
+    /// Seconds spent in `phase` (0 when the engine has no such phase).
+    pub fn seconds(&self, phase: Phase) -> f64 {
+        self.phases.get(&phase).copied().unwrap_or(0.0)
     }
 
     /// All intersection tests as the thesis counts them (§4.4): node–triangle tests of every
@@ -79,12 +275,6 @@ impl TraceStats {
     pub fn total_tests(&self) -> u64 {
         self.ray_tri_tests + self.node_tri_tests
     }
-}
-
-fn is_level_counter(k: &str) -> bool {
-    let mut it = k.split(' ');
-    matches!((it.next(), it.next(), it.next()), (Some(l), Some(_), Some("tests" | "hits")) if l.starts_with('L') && l[1..].parse::<u32>().is_ok())
-        || (k.starts_with("final ") && k.ends_with(" tests"))
 }
 
 /// Everything a render reports (printed as a table by the CLI; `--stats` writes it as JSON).
@@ -172,11 +362,8 @@ impl RenderStats {
         for (n, v) in rows {
             s += &format!("| {n} | {v} |\n");
         }
-        let levels = self.trace.level_table();
         for (k, v) in &self.trace.counters {
-            if levels.is_empty() || !is_level_counter(k) {
-                s += &format!("| {k} | {v} |\n");
-            }
+            s += &format!("| {k} | {v} |\n");
         }
         s += &format!("| total tests | {} |\n", self.total_tests);
         s += &format!(
@@ -187,22 +374,8 @@ impl RenderStats {
             "| total as % of brute force | {:.3} % |\n",
             pct(self.total_tests, self.brute_force_tests)
         );
-        if !levels.is_empty() {
-            s += "\n| level | kind | tests | hits | misses |\n|---|---|---:|---:|---:|\n";
-            for (level, kind, tests, hits) in &levels {
-                s += &format!(
-                    "| {level} | {kind} | {tests} | {hits} | {} |\n",
-                    tests - hits
-                );
-            }
-            for (k, v) in &self.trace.counters {
-                if let Some(kind) = k
-                    .strip_prefix("final ")
-                    .and_then(|r| r.strip_suffix(" tests"))
-                {
-                    s += &format!("| final (ray-triangle) | {kind} | {v} | | |\n");
-                }
-            }
+        if !self.trace.levels.is_empty() {
+            s += &self.trace.levels.markdown();
         }
         if !self.trace.phases.is_empty() {
             s += "\n| engine phase | time (ms) |\n|---|---:|\n";
@@ -227,12 +400,23 @@ mod tests {
             hits: 1,
             ..Default::default()
         };
-        a.count("L1 SH tests", 5);
-        a.count("traversal steps", 100);
+        a.levels.tests = vec![[0, 5, 0, 0]];
+        a.levels.hits = vec![[0, 2, 0, 0]];
+        a.count(counter::TRAVERSAL_STEPS, 100);
         let mut b = a.clone();
         b.add(&a);
         assert_eq!(b.rays, 4);
-        assert_eq!(b.counters["traversal steps"], 200);
+        assert_eq!(b.counters[counter::TRAVERSAL_STEPS], 200);
+        assert_eq!(b.levels.tests, vec![[0, 10, 0, 0]]);
+        assert_eq!(
+            b.levels.rows(),
+            vec![LevelRow {
+                level: 1,
+                kind: "SH",
+                tests: 10,
+                hits: 4
+            }]
+        );
         assert_eq!(
             b.total_tests(),
             30,

@@ -8,7 +8,8 @@ use crate::traverse::{Counters, NodeTest, SceneData, Traversal};
 use geom::tri::RayPre;
 use geom::{intersect, Aabb, Sphere, Vec3};
 use rayon::prelude::*;
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use render::stats::{counter, LevelCounts};
+use render::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::Geometry;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -105,33 +106,23 @@ pub struct RshEngine {
     bounds: Aabb,
 }
 
-const KIND: [&str; 4] = ["PR", "SH", "RE", "RF"];
-
-/// The traversal's counters into `stats` under the names every report uses (also used by
-/// the GPU backend, whose counters are the same).
+/// The traversal's counters into `stats` (also used by the GPU backend, whose counters are
+/// the same): per level and ray kind, and the named ones of `render::stats::counter`.
 pub fn report_counters(c: &Counters, mesh_culling: bool, top_nodes: u64, stats: &mut TraceStats) {
-    for (li, (t, hh)) in c.tests.iter().zip(&c.hits).enumerate() {
-        for k in 0..4 {
-            if t[k] > 0 {
-                stats.count(&format!("L{} {} tests", li + 1, KIND[k]), t[k]);
-                stats.count(&format!("L{} {} hits", li + 1, KIND[k]), hh[k]);
-            }
-            stats.node_tri_tests += t[k];
-        }
-    }
-    for (name, &n) in KIND.iter().zip(&c.final_tests) {
-        if n > 0 {
-            stats.count(&format!("final {name} tests"), n);
-        }
-        stats.ray_tri_tests += n;
-    }
+    stats.levels.add(&LevelCounts {
+        tests: c.tests.clone(),
+        hits: c.hits.clone(),
+        final_tests: c.final_tests,
+    });
+    stats.node_tri_tests += c.tests.iter().flatten().sum::<u64>();
+    stats.ray_tri_tests += c.final_tests.iter().sum::<u64>();
     if mesh_culling {
-        stats.count("mesh-sphere tests", c.mesh_tests);
-        stats.count("mesh-sphere passes", c.mesh_passes);
+        stats.count(counter::MESH_SPHERE_TESTS, c.mesh_tests);
+        stats.count(counter::MESH_SPHERE_PASSES, c.mesh_passes);
     }
-    stats.count("triangle batches", c.batches);
-    stats.count("budget splits", c.splits);
-    stats.count("top nodes", top_nodes);
+    stats.count(counter::TRIANGLE_BATCHES, c.batches);
+    stats.count(counter::BUDGET_SPLITS, c.splits);
+    stats.count(counter::TOP_NODES, top_nodes);
 }
 
 impl RshEngine {
@@ -186,7 +177,7 @@ impl Tracer for RshEngine {
             self.cfg.levels,
             self.cfg.union,
         );
-        stats.time("hierarchy creation", t0.elapsed().as_secs_f64());
+        stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
         let pre: Vec<RayPre> = (0..n)
             .into_par_iter()
             .map(|i| RayPre::new(&rays.ray(i)))
@@ -213,8 +204,8 @@ impl Tracer for RshEngine {
             trav.run(&mut c);
         }
         let total = t1.elapsed().as_secs_f64();
-        stats.time("traversal", total - c.final_seconds);
-        stats.time("final tests", c.final_seconds);
+        stats.time(Phase::Traversal, total - c.final_seconds);
+        stats.time(Phase::FinalTests, c.final_seconds);
         // Records: recompute the winner with the shared kernel (bit-identical to brute force).
         hits.par_iter_mut().enumerate().for_each(|(i, out)| {
             let b = best[i].load(Ordering::Relaxed);

@@ -6,7 +6,8 @@ use crate::hash::{morton64_key, screen_key, thesis_key, HashBits, HashKind};
 use geom::Aabb;
 use par::{compact_pairs, compress_runs, expand_runs, sort_pairs, SortScratch};
 use rayon::prelude::*;
-use render::{RayBatch, TraceStats};
+use render::stats::counter;
+use render::{Phase, RayBatch, TraceStats};
 use std::time::Instant;
 
 /// How leaves are ordered before they are grouped into nodes.
@@ -18,7 +19,7 @@ pub enum Grouping {
     Screen,
 }
 
-fn timed<T>(stats: &mut TraceStats, phase: &str, f: impl FnOnce() -> T) -> T {
+fn timed<T>(stats: &mut TraceStats, phase: Phase, f: impl FnOnce() -> T) -> T {
     let t0 = Instant::now();
     let r = f();
     stats.time(phase, t0.elapsed().as_secs_f64());
@@ -41,7 +42,7 @@ pub fn leaf_order(
         .collect();
     match grouping {
         Grouping::Hash(HashKind::Thesis) => {
-            let keys: Vec<u32> = timed(stats, "hash", || {
+            let keys: Vec<u32> = timed(stats, Phase::Hash, || {
                 (0..n)
                     .into_par_iter()
                     .map(|i| thesis_key(rays, i, scene, bits))
@@ -50,7 +51,7 @@ pub fn leaf_order(
             chunked_order(keys, ids, &valid, 32, stats)
         }
         Grouping::Hash(HashKind::Morton64) => {
-            let keys: Vec<u64> = timed(stats, "hash", || {
+            let keys: Vec<u64> = timed(stats, Phase::Hash, || {
                 (0..n)
                     .into_par_iter()
                     .map(|i| morton64_key(rays, i, scene))
@@ -59,19 +60,19 @@ pub fn leaf_order(
             chunked_order(keys, ids, &valid, 64, stats)
         }
         Grouping::Screen => {
-            let keys: Vec<u32> = timed(stats, "screen order", || {
+            let keys: Vec<u32> = timed(stats, Phase::ScreenOrder, || {
                 (0..n)
                     .into_par_iter()
                     .map(|i| screen_key(rays, i))
                     .collect()
             });
             let (mut k, mut v) = (vec![0u32; n], vec![0u32; n]);
-            let m = timed(stats, "trim", || {
+            let m = timed(stats, Phase::Trim, || {
                 compact_pairs(&keys, &ids, &valid, &mut k, &mut v)
             });
             k.truncate(m);
             v.truncate(m);
-            timed(stats, "screen order", || {
+            timed(stats, Phase::ScreenOrder, || {
                 sort_pairs(&mut k, &mut v, 32, &mut SortScratch::new())
             });
             v
@@ -90,23 +91,23 @@ fn chunked_order<K: par::RadixKey + PartialEq>(
     let n = keys.len();
     // Trim (§3.2.3): drop rays that cannot hit (empty t range), keeping key and ray index.
     let (mut tk, mut tv) = (vec![K::default(); n], vec![0u32; n]);
-    let m = timed(stats, "trim", || {
+    let m = timed(stats, Phase::Trim, || {
         compact_pairs(&keys, &ids, valid, &mut tk, &mut tv)
     });
     // Compress (§3.2.4): runs of equal consecutive keys become (key, base, size) chunks.
     let (mut ck, mut cb, mut cs) = (vec![K::default(); m], vec![0u32; m], vec![0u32; m]);
-    let chunks = timed(stats, "compress", || {
+    let chunks = timed(stats, Phase::Compress, || {
         compress_runs(&tk[..m], &mut ck, &mut cb, &mut cs)
     });
-    stats.count("chunks", chunks as u64);
+    stats.count(counter::CHUNKS, chunks as u64);
     ck.truncate(chunks);
     // Sort (§3.2.5): the chunk keys with the chunk index as value (stable radix sort).
     let mut order: Vec<u32> = (0..chunks as u32).collect();
-    timed(stats, "sort", || {
+    timed(stats, Phase::Sort, || {
         sort_pairs(&mut ck, &mut order, bits, &mut SortScratch::new())
     });
     // Decompress (§3.2.6): expand the sorted chunks back to positions, then to ray indices.
-    timed(stats, "decompress", || {
+    timed(stats, Phase::Decompress, || {
         let mut offs = vec![0u32; chunks];
         let mut pos = vec![0u32; m];
         expand_runs(&order, &cb[..chunks], &cs[..chunks], &mut offs, &mut pos);

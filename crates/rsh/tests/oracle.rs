@@ -144,11 +144,11 @@ fn tiny_budget_forces_batches_and_keeps_every_pair() {
     e.trace(&rays, TraceMode::Closest, &mut got, &mut st);
     assert_eq!(got, expect);
     assert!(
-        st.counters["triangle batches"] > 1,
+        st.counters[render::stats::counter::TRIANGLE_BATCHES] > 1,
         "the budget forced triangle batches"
     );
     assert!(
-        st.counters["budget splits"] > 0,
+        st.counters[render::stats::counter::BUDGET_SPLITS] > 0,
         "the budget forced split expansions"
     );
 }

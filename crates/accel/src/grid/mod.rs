@@ -409,7 +409,7 @@ impl render::Tracer for GridEngine {
         stats.rays += rays.len() as u64;
         stats.ray_tri_tests += tests;
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
-        stats.count("traversal steps", steps);
+        stats.count(render::stats::counter::TRAVERSAL_STEPS, steps);
     }
 }
 
