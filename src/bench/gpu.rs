@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use super::Spec;
 
-use gpu::engine::comparable_counters as counters;
+use gpu::rsh::engine::comparable_counters as counters;
 
 /// Run the comparison (with RAH beside CRSH when `rah`); returns the markdown report.
 pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {

@@ -1,11 +1,10 @@
-//! The WGSL kernels, compiled once per device, and [`Exec`]: a command recorder that runs one
-//! compute pass per kernel launch, with a timestamp pair per pass attributed to the current
-//! phase (GPU time, not wall-clock), and the data-parallel primitives the pipeline is made
-//! of (scan, compaction, radix sort) as host functions that record passes.
+//! The WGSL kernels, compiled once per device and named by [`Kernel`], and [`Exec`]: a
+//! command recorder that runs one compute pass per kernel launch, with a timestamp pair per
+//! pass attributed to the current phase (GPU time, not wall-clock). The data-parallel
+//! primitives built on it are in [`crate::prims`].
 
 use crate::device::{Gpu, PhaseTimer};
 use render::Phase;
-use std::collections::HashMap;
 use std::time::Instant;
 
 /// Launch parameters, the `Params` block of `common.wgsl`. `f[1][3]` is reserved: [`Exec::run`]
@@ -30,6 +29,161 @@ impl Params {
 
 const COMMON: &str = include_str!("shaders/common.wgsl");
 const GEOM: &str = include_str!("shaders/geom.wgsl");
+const PRIM_BINDINGS: &str = include_str!("prims/bindings.wgsl");
+
+/// A compiled WGSL module: its files after the shared prelude (constants, `common.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Module {
+    Scan,
+    Sort,
+    Compact,
+    Runs,
+    Permute,
+    Kinds,
+    Hash,
+    Build,
+    Traverse,
+    Final,
+    Stages,
+}
+
+impl Module {
+    const ALL: [Module; 11] = [
+        Module::Scan,
+        Module::Sort,
+        Module::Compact,
+        Module::Runs,
+        Module::Permute,
+        Module::Kinds,
+        Module::Hash,
+        Module::Build,
+        Module::Traverse,
+        Module::Final,
+        Module::Stages,
+    ];
+
+    /// The module's source after the prelude.
+    fn source(self) -> String {
+        match self {
+            Module::Scan => include_str!("prims/scan.wgsl").into(),
+            Module::Sort => include_str!("prims/sort.wgsl").into(),
+            Module::Compact => format!("{PRIM_BINDINGS}{}", include_str!("prims/compact.wgsl")),
+            Module::Runs => format!("{PRIM_BINDINGS}{}", include_str!("prims/runs.wgsl")),
+            Module::Permute => format!("{PRIM_BINDINGS}{}", include_str!("prims/permute.wgsl")),
+            Module::Kinds => format!("{PRIM_BINDINGS}{}", include_str!("rsh/kinds.wgsl")),
+            Module::Hash => format!("{GEOM}{}", include_str!("rsh/hash.wgsl")),
+            Module::Build => format!("{GEOM}{}", include_str!("rsh/build.wgsl")),
+            Module::Traverse => format!("{GEOM}{}", include_str!("rsh/traverse.wgsl")),
+            Module::Final => format!("{GEOM}{}", include_str!("rsh/final.wgsl")),
+            Module::Stages => include_str!("stages.wgsl").into(),
+        }
+    }
+}
+
+/// Every compute kernel, by a key the compiler checks: a launch cannot name a kernel that
+/// does not exist, and every key's entry point is compiled (and so checked against its WGSL)
+/// when the kernels are built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    ScanReduce,
+    ScanDown,
+    KeyBits,
+    SortCount,
+    SortScatter,
+    Compact,
+    RunHeads,
+    RunChunks,
+    RunSizes,
+    ExpandRuns,
+    Iota,
+    Gather,
+    KindHist,
+    HashKeys,
+    BuildLeafLevel,
+    BuildUpperLevel,
+    MeshTest,
+    TopCount,
+    TopEmit,
+    PairTest,
+    ChildCount,
+    ChildEmit,
+    FinalTests,
+    Records,
+    ShadowRays,
+    BounceRays,
+    ShadeLocal,
+}
+
+impl Kernel {
+    pub const ALL: [Kernel; 27] = [
+        Kernel::ScanReduce,
+        Kernel::ScanDown,
+        Kernel::KeyBits,
+        Kernel::SortCount,
+        Kernel::SortScatter,
+        Kernel::Compact,
+        Kernel::RunHeads,
+        Kernel::RunChunks,
+        Kernel::RunSizes,
+        Kernel::ExpandRuns,
+        Kernel::Iota,
+        Kernel::Gather,
+        Kernel::KindHist,
+        Kernel::HashKeys,
+        Kernel::BuildLeafLevel,
+        Kernel::BuildUpperLevel,
+        Kernel::MeshTest,
+        Kernel::TopCount,
+        Kernel::TopEmit,
+        Kernel::PairTest,
+        Kernel::ChildCount,
+        Kernel::ChildEmit,
+        Kernel::FinalTests,
+        Kernel::Records,
+        Kernel::ShadowRays,
+        Kernel::BounceRays,
+        Kernel::ShadeLocal,
+    ];
+
+    /// The WGSL entry point and the module that holds it.
+    fn def(self) -> (&'static str, Module) {
+        use Kernel::*;
+        match self {
+            ScanReduce => ("scan_reduce", Module::Scan),
+            ScanDown => ("scan_down", Module::Scan),
+            KeyBits => ("key_bits", Module::Sort),
+            SortCount => ("sort_count", Module::Sort),
+            SortScatter => ("sort_scatter", Module::Sort),
+            Compact => ("compact", Module::Compact),
+            RunHeads => ("run_heads", Module::Runs),
+            RunChunks => ("run_chunks", Module::Runs),
+            RunSizes => ("run_sizes", Module::Runs),
+            ExpandRuns => ("expand_runs", Module::Runs),
+            Iota => ("iota", Module::Permute),
+            Gather => ("gather", Module::Permute),
+            KindHist => ("kind_hist", Module::Kinds),
+            HashKeys => ("hash_keys", Module::Hash),
+            BuildLeafLevel => ("build_leaf_level", Module::Build),
+            BuildUpperLevel => ("build_upper_level", Module::Build),
+            MeshTest => ("mesh_test", Module::Traverse),
+            TopCount => ("top_count", Module::Traverse),
+            TopEmit => ("top_emit", Module::Traverse),
+            PairTest => ("pair_test", Module::Traverse),
+            ChildCount => ("child_count", Module::Traverse),
+            ChildEmit => ("child_emit", Module::Traverse),
+            FinalTests => ("final_tests", Module::Final),
+            Records => ("records", Module::Final),
+            ShadowRays => ("shadow_rays", Module::Stages),
+            BounceRays => ("bounce_rays", Module::Stages),
+            ShadeLocal => ("shade_local", Module::Stages),
+        }
+    }
+
+    /// The WGSL entry point's name.
+    pub fn entry(self) -> &'static str {
+        self.def().0
+    }
+}
 
 /// Constants as exact bit patterns (see `common.wgsl`): the f32 values the CPU code uses,
 /// folded in f32 as Rust folds them.
@@ -86,86 +240,33 @@ fn hex_f32(v: f32) -> String {
     format!("{sign}0x1.{mant:06x}p{exp}f")
 }
 
-/// Every pipeline by entry-point name.
+/// Every pipeline, indexed by [`Kernel`].
 pub struct Kernels {
-    pipes: HashMap<&'static str, wgpu::ComputePipeline>,
+    pipes: Vec<wgpu::ComputePipeline>,
 }
 
 impl Kernels {
+    /// Compile every module and create every kernel's pipeline.
     pub fn new(g: &Gpu) -> Kernels {
         let prelude = format!("{}\n{COMMON}\n", constants());
-        let modules: [(&str, String, &[&'static str]); 8] = [
-            (
-                "scan",
-                format!("{prelude}{}", include_str!("shaders/scan.wgsl")),
-                &["scan_reduce", "scan_down"],
-            ),
-            (
-                "sort",
-                format!("{prelude}{}", include_str!("shaders/sort.wgsl")),
-                &["key_bits", "sort_count", "sort_scatter"],
-            ),
-            (
-                "misc",
-                format!("{prelude}{}", include_str!("shaders/misc.wgsl")),
-                &[
-                    "compact",
-                    "run_heads",
-                    "run_chunks",
-                    "run_sizes",
-                    "iota",
-                    "gather",
-                    "expand_runs",
-                    "kind_hist",
-                ],
-            ),
-            (
-                "order",
-                format!("{prelude}{GEOM}{}", include_str!("shaders/order.wgsl")),
-                &["hash_keys"],
-            ),
-            (
-                "build",
-                format!("{prelude}{GEOM}{}", include_str!("shaders/build.wgsl")),
-                &["build_leaf_level", "build_upper_level"],
-            ),
-            (
-                "traverse",
-                format!("{prelude}{GEOM}{}", include_str!("shaders/traverse.wgsl")),
-                &[
-                    "mesh_test",
-                    "top_count",
-                    "top_emit",
-                    "pair_test",
-                    "child_count",
-                    "child_emit",
-                ],
-            ),
-            (
-                "stages",
-                format!("{prelude}{}", include_str!("shaders/stages.wgsl")),
-                &["shadow_rays", "bounce_rays", "shade_local"],
-            ),
-            (
-                "final",
-                format!("{prelude}{GEOM}{}", include_str!("shaders/final.wgsl")),
-                &["final_tests", "records"],
-            ),
-        ];
-        let mut pipes = HashMap::new();
-        for (label, src, entries) in modules {
-            let m = g.shader(label, &src);
-            for &e in entries {
-                pipes.insert(e, g.pipeline(&m, e));
+        let mut pipes: Vec<Option<wgpu::ComputePipeline>> =
+            Kernel::ALL.iter().map(|_| None).collect();
+        for m in Module::ALL {
+            let module = g.shader(&format!("{m:?}"), &format!("{prelude}{}", m.source()));
+            for k in Kernel::ALL.into_iter().filter(|k| k.def().1 == m) {
+                pipes[k as usize] = Some(g.pipeline(&module, k.entry()));
             }
         }
-        Kernels { pipes }
+        Kernels {
+            pipes: pipes
+                .into_iter()
+                .map(|p| p.expect("every kernel belongs to a module"))
+                .collect(),
+        }
     }
 
-    pub fn get(&self, name: &str) -> &wgpu::ComputePipeline {
-        self.pipes
-            .get(name)
-            .unwrap_or_else(|| panic!("no kernel {name}"))
+    pub fn get(&self, k: Kernel) -> &wgpu::ComputePipeline {
+        &self.pipes[k as usize]
     }
 }
 
@@ -263,7 +364,7 @@ impl<'a> Exec<'a> {
     /// and `binds` (binding, buffer) after it.
     pub fn run(
         &mut self,
-        kernel: &str,
+        kernel: Kernel,
         params: Params,
         binds: &[(u32, &wgpu::Buffer)],
         threads: u64,
@@ -291,7 +392,7 @@ impl<'a> Exec<'a> {
             });
         }
         let bg = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(kernel),
+            label: Some(kernel.entry()),
             layout: &pipe.get_bind_group_layout(0),
             entries: &entries,
         });
@@ -315,7 +416,7 @@ impl<'a> Exec<'a> {
             .get_or_insert_with(|| g.device.create_command_encoder(&Default::default()));
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(kernel),
+                label: Some(kernel.entry()),
                 timestamp_writes: ts,
             });
             pass.set_pipeline(pipe);
@@ -379,137 +480,6 @@ impl<'a> Exec<'a> {
         enc.copy_buffer_to_buffer(buf, i as u64 * 4, &tmp, 0, 4);
         self.g.queue.submit([enc.finish()]);
         self.g.read::<u32>(&tmp, 1)[0]
-    }
-
-    // ------------------------------------------------------------ primitives
-
-    /// Exclusive scan of `n` u32 of `input` into `out` (n + 1 entries: the total last).
-    pub fn scan(&mut self, input: &wgpu::Buffer, out: &wgpu::Buffer, n: u64) {
-        const BLOCK: u64 = 256 * 4;
-        if n == 0 {
-            return;
-        }
-        let blocks = n.div_ceil(BLOCK);
-        let dummy;
-        let sums_scanned;
-        let single = blocks == 1;
-        let sums_ref = if single {
-            dummy = self.g.storage("scan dummy", 4);
-            &dummy
-        } else {
-            let sums = self.g.storage("scan sums", blocks * 4);
-            self.run(
-                "scan_reduce",
-                Params::n(n as u32, 0, 0, 0),
-                &[(1, input), (3, &sums)],
-                blocks * 256,
-                256,
-            );
-            sums_scanned = self.g.storage("scan sums scanned", (blocks + 1) * 4);
-            self.scan(&sums, &sums_scanned, blocks);
-            &sums_scanned
-        };
-        self.run(
-            "scan_down",
-            Params::n(n as u32, single as u32, 0, 0),
-            &[(1, input), (2, out), (3, sums_ref)],
-            blocks * 256,
-            256,
-        );
-    }
-
-    /// Stable key–value radix sort of `n` pairs over the low `bits` key bits; the result is
-    /// back in `keys`/`vals`.
-    pub fn sort_pairs(&mut self, keys: &wgpu::Buffer, vals: &wgpu::Buffer, n: u64, bits: u32) {
-        if n <= 1 {
-            return;
-        }
-        // A tile is 256 threads × 16 elements (sort.wgsl).
-        const SORT_TILE: u64 = 256 * 16;
-        let tiles = n.div_ceil(SORT_TILE);
-        let hist = self.g.storage("sort hist", 16 * tiles * 4);
-        let hist_s = self.g.storage("sort hist scanned", (16 * tiles + 1) * 4);
-        let k2 = self.g.storage("sort keys", n * 4);
-        let v2 = self.g.storage("sort vals", n * 4);
-        // Digits that are equal in every key need no pass (as in `par::sort_pairs`).
-        let kb = self.g.upload("key bits", &[0u32, u32::MAX]);
-        self.run(
-            "key_bits",
-            Params::n(n as u32, 0, 0, 0),
-            &[(1, keys), (6, &kb)],
-            tiles * 256,
-            256,
-        );
-        let ka: Vec<u32> = self.read(&kb, 2);
-        let varying = (ka[0] ^ ka[1])
-            & if bits >= 32 {
-                u32::MAX
-            } else {
-                (1 << bits) - 1
-            };
-        let digits: Vec<u32> = (0..bits.div_ceil(4))
-            .filter(|&p| (varying >> (4 * p)) & 15 != 0)
-            .collect();
-        let passes = digits.len() as u32;
-        let (mut src, mut dst) = ((keys, vals), (&k2, &v2));
-        for &p in &digits {
-            let prm = Params::n(n as u32, 4 * p, tiles as u32, 0);
-            self.run(
-                "sort_count",
-                prm,
-                &[(1, src.0), (3, &hist)],
-                tiles * 256,
-                256,
-            );
-            self.scan(&hist, &hist_s, 16 * tiles);
-            self.run(
-                "sort_scatter",
-                prm,
-                &[(1, src.0), (2, src.1), (3, &hist_s), (4, dst.0), (5, dst.1)],
-                tiles * 256,
-                256,
-            );
-            std::mem::swap(&mut src, &mut dst);
-        }
-        if passes % 2 == 1 {
-            self.copy(&k2, 0, keys, n * 4);
-            self.copy(&v2, 0, vals, n * 4);
-        }
-    }
-
-    /// Compact (a, b) by `flags` (n entries) into new buffers; `b == None` stores the index.
-    /// Returns the outputs and their length.
-    pub fn compact(
-        &mut self,
-        flags: &wgpu::Buffer,
-        a: &wgpu::Buffer,
-        b: Option<&wgpu::Buffer>,
-        n: u64,
-    ) -> (wgpu::Buffer, wgpu::Buffer, u64) {
-        let offs = self.g.storage("compact offsets", (n + 1) * 4);
-        self.scan(flags, &offs, n);
-        let m = self.read_at(&offs, n as usize) as u64;
-        let (oa, ob) = (
-            self.g.storage("compacted a", m * 4),
-            self.g.storage("compacted b", m * 4),
-        );
-        if m > 0 {
-            self.run(
-                "compact",
-                Params::n(n as u32, b.is_none() as u32, 0, 0),
-                &[
-                    (1, flags),
-                    (2, &offs),
-                    (3, a),
-                    (4, b.unwrap_or(a)),
-                    (5, &oa),
-                    (6, &ob),
-                ],
-                n,
-                256,
-            );
-        }
-        (oa, ob, m)
     }
 }
 

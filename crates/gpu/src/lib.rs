@@ -2,11 +2,13 @@
 //! without a GPU).
 //!
 //! - [`device`]: adapter and device set-up, buffers, read-back.
-//! - [`kernels`]: the WGSL kernels (`src/shaders/`) and the launch recorder with per-phase
-//!   timestamp queries, plus the data-parallel primitives (reduce-then-scan, compaction,
-//!   stable radix sort) built from them.
-//! - [`engine`]: CRSH and RAH as a [`render::Tracer`], kernel for kernel the pipeline of
-//!   the `rsh` crate, with the same counters.
+//! - [`kernels`]: the WGSL kernels, named by the typed key [`kernels::Kernel`], and the
+//!   launch recorder with per-phase timestamp queries.
+//! - [`prims`]: the GPU's `par` — reduce-then-scan, compaction, runs, stable radix sort
+//!   (`src/prims/*.wgsl`).
+//! - [`rsh`]: CRSH and RAH as a [`render::Tracer`], file for file the `rsh` crate's pipeline
+//!   (`hash → order → build → traverse`, `src/rsh/*.rs` beside `src/rsh/*.wgsl`), with the
+//!   same counters.
 //! - [`raster`]: primary visibility by real rasterization (render pipeline, depth test) into
 //!   the G-buffer's render targets.
 //! - [`stages`]: the Whitted loop's shadow-ray generation, reflection/refraction-ray
@@ -17,12 +19,13 @@
 //! the CPU engines are this backend's oracle (see `tests/`).
 
 pub mod device;
-pub mod engine;
 pub mod kernels;
+pub mod prims;
 pub mod raster;
+pub mod rsh;
 pub mod stages;
 
+pub use crate::rsh::GpuRsh;
 pub use device::{Gpu, GpuError};
-pub use engine::GpuRsh;
 pub use raster::GpuRaster;
 pub use stages::GpuStages;

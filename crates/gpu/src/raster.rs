@@ -73,7 +73,7 @@ impl<'g> GpuRaster<'g> {
             .iter()
             .flat_map(|m| [v4(m.diffuse, 0.0), v4(m.specular, m.shininess)])
             .collect();
-        let module = gpu.shader("raster", include_str!("shaders/raster.wgsl"));
+        let module = gpu.shader("raster", include_str!("raster.wgsl"));
         let targets: Vec<Option<wgpu::ColorTargetState>> =
             FORMATS.iter().map(|&format| Some(format.into())).collect();
         let pipe = gpu

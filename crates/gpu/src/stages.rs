@@ -1,4 +1,4 @@
-//! The Whitted loop's per-generation passes as kernels (`shaders/stages.wgsl`): shadow-ray
+//! The Whitted loop's per-generation passes as kernels (`stages.wgsl`): shadow-ray
 //! generation, reflection/refraction-ray generation and Blinn-Phong shading, implementing
 //! [`render::whitted::Stages`] so `render_with` runs them in place of the CPU passes.
 //!
@@ -9,7 +9,7 @@
 //! exponent and may differ from the CPU's in the last bits.
 
 use crate::device::Gpu;
-use crate::kernels::{Exec, Kernels, Params};
+use crate::kernels::{Exec, Kernel, Kernels, Params};
 use geom::Vec3;
 use render::secondary::Surfaces;
 use render::whitted::Stages;
@@ -149,7 +149,7 @@ impl Stages for GpuStages<'_> {
             let m = (n * nl) as u64;
             let (org, dir) = (g.storage("org", m * 16), g.storage("dir", m * 16));
             ex.run(
-                "shadow_rays",
+                Kernel::ShadowRays,
                 Params::n(n as u32, nl as u32, 0, 0),
                 &[
                     (1, &sf.pos),
@@ -201,7 +201,7 @@ impl Stages for GpuStages<'_> {
             let ob = g.upload("occluded", &occ);
             let out = g.storage("colour", n as u64 * 16);
             ex.run(
-                "shade_local",
+                Kernel::ShadeLocal,
                 Params::n(n as u32, lights.len() as u32, 0, 0),
                 &[sf.binds(), vec![(7, &lb), (8, &mb), (11, &out), (12, &ob)]].concat(),
                 n as u64,
@@ -229,7 +229,7 @@ impl Stages for GpuStages<'_> {
                 g.storage("weight", m * 16),
             );
             ex.run(
-                "bounce_rays",
+                Kernel::BounceRays,
                 Params::n(n as u32, 0, 0, 0),
                 &[sf.binds(), vec![(8, &mb), (9, &org), (10, &dir), (11, &w)]].concat(),
                 n as u64,

@@ -23,7 +23,7 @@ fn lavapipe(g: &Gpu) -> bool {
     g.info.device_type == wgpu::DeviceType::Cpu
 }
 
-use gpu::engine::comparable_counters as counters;
+use gpu::rsh::engine::comparable_counters as counters;
 
 fn compare(
     cpu: &RshEngine,

@@ -171,26 +171,39 @@ fn scatter_block<K: RadixKey>(
     }
 }
 
-/// One scatter pass with per-block offsets in `hist`. The source is either item buffer
-/// `src_items` or the split arrays `src_split`. When `next` is given, counts the next digit
+/// Where a scatter pass reads: an item buffer or the caller's split key and value arrays.
+#[derive(Clone, Copy)]
+enum Src<'a, K> {
+    Items(&'a [Item<K>]),
+    Split(&'a [K], &'a [u32]),
+}
+
+impl<K> Src<'_, K> {
+    fn len(&self) -> usize {
+        match self {
+            Src::Items(v) => v.len(),
+            Src::Split(k, _) => k.len(),
+        }
+    }
+}
+
+/// One scatter pass over all of `src` with per-block offsets in `hist`. When `next` is given, counts the next digit
 /// of every written item per destination block into `partial` and leaves the next pass's
 /// per-block histograms in `hist`.
 ///
 /// SAFETY of the writes: each (digit, block) destination range comes from the exclusive scan
 /// of the histograms, so the ranges are disjoint and cover 0..n once, and every destination
 /// buffer has length n.
-#[allow(clippy::too_many_arguments)]
 fn scatter<K: RadixKey>(
-    n: usize,
     bl: usize,
     digit: Digit,
     next: Option<Digit>,
     hist: &mut [u32],
     partial: &mut [u32],
-    src_items: Option<&[Item<K>]>,
-    src_split: Option<(&[K], &[u32])>,
+    src: Src<K>,
     dst: Dst<K>,
 ) {
+    let n = src.len();
     let nb = hist.len() / BUCKETS;
     let stride = nb * BUCKETS;
     debug_assert!(bl.is_power_of_two());
@@ -203,8 +216,8 @@ fn scatter<K: RadixKey>(
                 part.fill(0);
             }
             let r = b * bl..((b + 1) * bl).min(n);
-            match (src_items, src_split) {
-                (Some(items), _) => scatter_block(
+            match src {
+                Src::Items(items) => scatter_block(
                     items[r].iter().copied(),
                     digit,
                     next,
@@ -213,7 +226,7 @@ fn scatter<K: RadixKey>(
                     part,
                     dst,
                 ),
-                (None, Some((ks, vs))) => scatter_block(
+                Src::Split(ks, vs) => scatter_block(
                     ks[r.clone()]
                         .iter()
                         .zip(&vs[r])
@@ -225,7 +238,6 @@ fn scatter<K: RadixKey>(
                     part,
                     dst,
                 ),
-                (None, None) => unreachable!("scatter needs a source"),
             }
         });
     if next.is_some() {
@@ -348,14 +360,12 @@ pub fn sort_pairs<K: RadixKey>(
             // Reads the caller's arrays; with one live digit the result goes to scratch and
             // is copied back, since a pass cannot write the arrays it is reading.
             scatter(
-                n,
                 bl,
                 digit,
                 next,
                 hist,
                 partial,
-                None,
-                Some((&*keys, &*vals)),
+                Src::Split(&*keys, &*vals),
                 to_items,
             );
             if is_last {
@@ -373,20 +383,10 @@ pub fn sort_pairs<K: RadixKey>(
             }
         } else if is_last {
             let split = Dst::Split(SharedMut(keys.as_mut_ptr()), SharedMut(vals.as_mut_ptr()));
-            scatter(n, bl, digit, None, hist, partial, Some(&*cur), None, split);
+            scatter(bl, digit, None, hist, partial, Src::Items(&*cur), split);
             return;
         } else {
-            scatter(
-                n,
-                bl,
-                digit,
-                next,
-                hist,
-                partial,
-                Some(&*cur),
-                None,
-                to_items,
-            );
+            scatter(bl, digit, next, hist, partial, Src::Items(&*cur), to_items);
         }
         std::mem::swap(&mut cur, &mut other);
     }

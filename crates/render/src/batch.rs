@@ -90,7 +90,6 @@ impl RayBatch {
         self.org.is_empty()
     }
 
-    #[allow(clippy::too_many_arguments)]
     pub fn push(
         &mut self,
         ray: Ray,

@@ -1,5 +1,7 @@
-// The leaf order (thesis §3.2.3–3.2.6), mirroring rsh::hash and rsh::order:
-// hash → trim → compress → (radix sort, sort.wgsl) → decompress.
+// The ray hash (thesis §3.2.3, eqs. 3.3–3.11), mirroring rsh::hash: the thesis's 32-bit
+// typed key of every ray, or RAH's screen key, with the validity flag trimming reads and the
+// ray constants of the intersection kernel. The rest of the leaf order (trim, compress, sort,
+// decompress) is prims/*.wgsl, sequenced by rsh/order.rs.
 
 // ---------------------------------------------------------------- hash_keys
 // Params u0 = (rays, method (0 thesis hash, 1 RAH screen key), width, light bits)

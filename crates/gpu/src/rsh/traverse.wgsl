@@ -1,4 +1,5 @@
-// Top-down traversal (thesis §3.2.8) and final tests (§3.2.9), mirroring rsh::traverse.
+// Top-down traversal (thesis §3.2.8), mirroring rsh::traverse; its final tests (§3.2.9)
+// are final.wgsl.
 // Counters: cnt[kind] = node–triangle tests, cnt[4 + kind] = passes (or, for the final
 // tests, cnt[kind] = ray–triangle tests), gathered per workgroup then added once.
 //

@@ -1,0 +1,220 @@
+//! The GPU's `par`: exclusive scan, stream compaction, run-length compression and expansion
+//! and the stable radix sort, as host functions that record kernel launches on an [`Exec`]
+//! (kernels in `prims/*.wgsl`). Each mirrors its CPU twin in `crates/par`, so the CRSH
+//! pipeline calls the same primitives in the same order on both backends.
+
+use crate::kernels::{Exec, Kernel, Params};
+
+impl Exec<'_> {
+    /// Exclusive scan of `n` u32 of `input` into `out` (n + 1 entries: the total last).
+    pub fn scan(&mut self, input: &wgpu::Buffer, out: &wgpu::Buffer, n: u64) {
+        const BLOCK: u64 = 256 * 4;
+        if n == 0 {
+            return;
+        }
+        let blocks = n.div_ceil(BLOCK);
+        let dummy;
+        let sums_scanned;
+        let single = blocks == 1;
+        let sums_ref = if single {
+            dummy = self.g.storage("scan dummy", 4);
+            &dummy
+        } else {
+            let sums = self.g.storage("scan sums", blocks * 4);
+            self.run(
+                Kernel::ScanReduce,
+                Params::n(n as u32, 0, 0, 0),
+                &[(1, input), (3, &sums)],
+                blocks * 256,
+                256,
+            );
+            sums_scanned = self.g.storage("scan sums scanned", (blocks + 1) * 4);
+            self.scan(&sums, &sums_scanned, blocks);
+            &sums_scanned
+        };
+        self.run(
+            Kernel::ScanDown,
+            Params::n(n as u32, single as u32, 0, 0),
+            &[(1, input), (2, out), (3, sums_ref)],
+            blocks * 256,
+            256,
+        );
+    }
+
+    /// Stable key–value radix sort of `n` pairs over the low `bits` key bits; the result is
+    /// back in `keys`/`vals`.
+    pub fn sort_pairs(&mut self, keys: &wgpu::Buffer, vals: &wgpu::Buffer, n: u64, bits: u32) {
+        if n <= 1 {
+            return;
+        }
+        // A tile is 256 threads × 16 elements (sort.wgsl).
+        const SORT_TILE: u64 = 256 * 16;
+        let tiles = n.div_ceil(SORT_TILE);
+        let hist = self.g.storage("sort hist", 16 * tiles * 4);
+        let hist_s = self.g.storage("sort hist scanned", (16 * tiles + 1) * 4);
+        let k2 = self.g.storage("sort keys", n * 4);
+        let v2 = self.g.storage("sort vals", n * 4);
+        // Digits that are equal in every key need no pass (as in `par::sort_pairs`).
+        let kb = self.g.upload("key bits", &[0u32, u32::MAX]);
+        self.run(
+            Kernel::KeyBits,
+            Params::n(n as u32, 0, 0, 0),
+            &[(1, keys), (6, &kb)],
+            tiles * 256,
+            256,
+        );
+        let ka: Vec<u32> = self.read(&kb, 2);
+        let varying = (ka[0] ^ ka[1])
+            & if bits >= 32 {
+                u32::MAX
+            } else {
+                (1 << bits) - 1
+            };
+        let digits: Vec<u32> = (0..bits.div_ceil(4))
+            .filter(|&p| (varying >> (4 * p)) & 15 != 0)
+            .collect();
+        let passes = digits.len() as u32;
+        let (mut src, mut dst) = ((keys, vals), (&k2, &v2));
+        for &p in &digits {
+            let prm = Params::n(n as u32, 4 * p, tiles as u32, 0);
+            self.run(
+                Kernel::SortCount,
+                prm,
+                &[(1, src.0), (3, &hist)],
+                tiles * 256,
+                256,
+            );
+            self.scan(&hist, &hist_s, 16 * tiles);
+            self.run(
+                Kernel::SortScatter,
+                prm,
+                &[(1, src.0), (2, src.1), (3, &hist_s), (4, dst.0), (5, dst.1)],
+                tiles * 256,
+                256,
+            );
+            std::mem::swap(&mut src, &mut dst);
+        }
+        if passes % 2 == 1 {
+            self.copy(&k2, 0, keys, n * 4);
+            self.copy(&v2, 0, vals, n * 4);
+        }
+    }
+
+    /// Compact (a, b) by `flags` (n entries) into new buffers; `b == None` stores the index.
+    /// Returns the outputs and their length.
+    pub fn compact(
+        &mut self,
+        flags: &wgpu::Buffer,
+        a: &wgpu::Buffer,
+        b: Option<&wgpu::Buffer>,
+        n: u64,
+    ) -> (wgpu::Buffer, wgpu::Buffer, u64) {
+        let offs = self.g.storage("compact offsets", (n + 1) * 4);
+        self.scan(flags, &offs, n);
+        let m = self.read_at(&offs, n as usize) as u64;
+        let (oa, ob) = (
+            self.g.storage("compacted a", m * 4),
+            self.g.storage("compacted b", m * 4),
+        );
+        if m > 0 {
+            self.run(
+                Kernel::Compact,
+                Params::n(n as u32, b.is_none() as u32, 0, 0),
+                &[
+                    (1, flags),
+                    (2, &offs),
+                    (3, a),
+                    (4, b.unwrap_or(a)),
+                    (5, &oa),
+                    (6, &ob),
+                ],
+                n,
+                256,
+            );
+        }
+        (oa, ob, m)
+    }
+}
+
+/// Runs of equal consecutive keys on the device (the GPU's `par::compress_runs`): each run's
+/// key, first position and length.
+pub struct Runs {
+    pub keys: wgpu::Buffer,
+    pub bases: wgpu::Buffer,
+    pub sizes: wgpu::Buffer,
+    pub len: u64,
+}
+
+impl Exec<'_> {
+    /// The runs of the `n > 0` keys (thesis §3.2.4, compression).
+    pub fn compress_runs(&mut self, keys: &wgpu::Buffer, n: u64) -> Runs {
+        let g = self.g;
+        let heads = g.storage("heads", n * 4);
+        let p = Params::n(n as u32, 0, 0, 0);
+        self.run(Kernel::RunHeads, p, &[(3, keys), (5, &heads)], n, 256);
+        let offs = g.storage("head offsets", (n + 1) * 4);
+        self.scan(&heads, &offs, n);
+        let len = self.read_at(&offs, n as usize) as u64;
+        let runs = Runs {
+            keys: g.storage("chunk keys", len * 4),
+            bases: g.storage("chunk bases", len * 4),
+            sizes: g.storage("chunk sizes", len * 4),
+            len,
+        };
+        let binds = [
+            (1, &heads),
+            (2, &offs),
+            (3, keys),
+            (5, &runs.keys),
+            (6, &runs.bases),
+        ];
+        self.run(Kernel::RunChunks, p, &binds, n, 256);
+        let p = Params::n(len as u32, 0, n as u32, 0);
+        let binds = [(4, &runs.bases), (7, &runs.sizes)];
+        self.run(Kernel::RunSizes, p, &binds, len, 256);
+        runs
+    }
+
+    /// The values 0..n (what travels with keys through a sort to name their origin).
+    pub fn iota(&mut self, n: u64) -> wgpu::Buffer {
+        let out = self.g.storage("iota", n.max(1) * 4);
+        self.run(
+            Kernel::Iota,
+            Params::n(n as u32, 0, 0, 0),
+            &[(5, &out)],
+            n,
+            256,
+        );
+        out
+    }
+
+    /// Decompression (thesis §3.2.6, the GPU's `par::expand_runs`): the runs taken in
+    /// `order` (run indices) expanded back to their `n` elements, each element's value
+    /// looked up in `vals` at its position.
+    pub fn expand_runs(
+        &mut self,
+        runs: &Runs,
+        order: &wgpu::Buffer,
+        vals: &wgpu::Buffer,
+        n: u64,
+    ) -> wgpu::Buffer {
+        let g = self.g;
+        let len = runs.len;
+        let p = Params::n(len as u32, 0, 0, 0);
+        let sizes = g.storage("sorted sizes", len * 4);
+        let binds = [(3, order), (4, &runs.sizes), (5, &sizes)];
+        self.run(Kernel::Gather, p, &binds, len, 256);
+        let offs = g.storage("sorted offsets", (len + 1) * 4);
+        self.scan(&sizes, &offs, len);
+        let out = g.storage("expanded", n * 4);
+        let binds = [
+            (1, vals),
+            (2, &offs),
+            (3, order),
+            (4, &runs.bases),
+            (5, &out),
+        ];
+        self.run(Kernel::ExpandRuns, p, &binds, len, 256);
+        out
+    }
+}

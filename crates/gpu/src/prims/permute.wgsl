@@ -1,0 +1,20 @@
+// Permutation helpers of the chunk sort: identity values and gathers; bindings in
+// bindings.wgsl.
+
+// Identity values 0..n (the chunk indices that travel with the chunk keys through the sort).
+@compute @workgroup_size(256)
+fn iota(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = lin(gid, nwg);
+    if i < P.u0.x {
+        y_a[i] = i;
+    }
+}
+
+// Sizes of the chunks in sorted order: y[j] = size[order[j]] (order in binding 3, sizes in 4).
+@compute @workgroup_size(256)
+fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = lin(gid, nwg);
+    if i < P.u0.x {
+        y_a[i] = x_b[x_a[i]];
+    }
+}

@@ -1,0 +1,114 @@
+//! The hierarchy's construction on the GPU, the twin of `crates/rsh/src/build.rs`: level 1
+//! over the sorted leaves, then unions level by level (thesis §3.2.7; `build.wgsl`), with
+//! the CPU's stop rules; the kinds' starts among the leaves come from `kinds.wgsl`.
+
+use super::engine::{DeviceRays, GpuRsh};
+use crate::kernels::{Exec, Kernel, Params};
+use ::rsh::Union;
+
+/// One level of nodes on the device (structure of arrays, as `rsh::build::Level`).
+pub struct Level {
+    pub sphere: wgpu::Buffer,
+    pub cone: wgpu::Buffer,
+    pub sc: wgpu::Buffer,
+    pub first: wgpu::Buffer,
+    /// Nodes per kind (kinds are sorted, so this is the level's whole layout).
+    pub per_kind: [u32; 4],
+}
+
+impl Level {
+    /// Nodes in the level.
+    pub fn len(&self) -> u32 {
+        self.per_kind.iter().sum()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Bottom-up build: level 1 over the sorted leaves, then unions, as `rsh::build::build`.
+pub fn build(
+    eng: &GpuRsh,
+    ex: &mut Exec,
+    rays: &DeviceRays,
+    leaves: &wgpu::Buffer,
+    m: u64,
+) -> Vec<Level> {
+    let g = &eng.gpu;
+    let (org, dir, kl) = (&rays.org, &rays.dir, &rays.kl);
+    let b = eng.cfg.branching;
+    // Leaf counts per kind (kinds are sorted: find where each starts).
+    let mut counts = [0u32; 4];
+    if m > 0 {
+        let starts = g.upload("kind starts", &[0u32; 4]);
+        let present = g.upload("kind present", &[0u32; 4]);
+        ex.run(
+            Kernel::KindHist,
+            Params::n(m as u32, 0, 0, 0),
+            &[(3, kl), (4, leaves), (5, &starts), (6, &present)],
+            m,
+            256,
+        );
+        let st: Vec<u32> = ex.read(&starts, 4);
+        let pr: Vec<u32> = ex.read(&present, 4);
+        for k in 0..4 {
+            if pr[k] != 0 {
+                let end = (k + 1..4)
+                    .find(|&j| pr[j] != 0)
+                    .map(|j| st[j])
+                    .unwrap_or(m as u32);
+                counts[k] = end - st[k];
+            }
+        }
+    }
+    let union = (eng.cfg.union == Union::Thesis) as u32;
+    let mut levels: Vec<Level> = Vec::new();
+    let mut below = counts;
+    loop {
+        let nodes: [u32; 4] = below.map(|c| c.div_ceil(b));
+        let total: u32 = nodes.iter().sum();
+        let children: u32 = below.iter().sum();
+        let mut run = [0u32; 4];
+        let mut cum = [0u32; 4];
+        for k in 1..4 {
+            run[k] = run[k - 1] + below[k - 1];
+            cum[k] = cum[k - 1] + nodes[k - 1];
+        }
+        let lv = Level {
+            sphere: g.storage("node spheres", total as u64 * 16),
+            cone: g.storage("node cones", total as u64 * 16),
+            sc: g.storage("node sc", total as u64 * 16),
+            first: g.storage("node first", (total as u64 + 1) * 4),
+            per_kind: nodes,
+        };
+        let prm = Params {
+            u: [[total, b, union, children], run, cum, below],
+            f: [[0.0; 4]; 2],
+        };
+        let outs = [(5, &lv.sphere), (6, &lv.cone), (7, &lv.sc), (8, &lv.first)];
+        if levels.is_empty() {
+            let mut binds = vec![(1, leaves), (2, org), (3, dir), (4, &eng.shuffles)];
+            binds.extend(outs);
+            ex.run(Kernel::BuildLeafLevel, prm, &binds, total as u64, 64);
+        } else {
+            let c = levels.last().unwrap();
+            let mut binds = vec![(9, &c.sphere), (10, &c.cone), (11, &c.sc)];
+            binds.extend(outs);
+            ex.run(Kernel::BuildUpperLevel, prm, &binds, total as u64, 64);
+        }
+        levels.push(lv);
+        // Stop rules of rsh::build.
+        let top = levels.last().unwrap();
+        let done = if eng.cfg.levels == 0 {
+            top.per_kind.iter().all(|&c| c <= 1)
+        } else {
+            levels.len() as u32 >= eng.cfg.levels
+        };
+        if done || top.len() <= 1 {
+            break;
+        }
+        below = top.per_kind;
+    }
+    levels
+}

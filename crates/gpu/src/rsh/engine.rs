@@ -1,0 +1,323 @@
+//! CRSH and RAH on the GPU, the twin of `crates/rsh/src/engine.rs`: [`GpuRsh`] implements
+//! [`render::Tracer`] with the same configuration ([`::rsh::RshConfig`]), the same phases and
+//! the same counters as [`::rsh::RshEngine`], every step a WGSL kernel. Per trace call:
+//! upload the rays, order them ([`super::order`]), build the hierarchy ([`super::build`]),
+//! traverse it with the final tests ([`super::traverse`]), then recompute the records and
+//! read them back. The host only sequences the kernels, reads back the few totals that size
+//! the next buffers (as a CUDA/CUB version would), and mirrors the CPU's batching decisions
+//! (triangle batches, budget splits), so the pair streams, and therefore all counters, are
+//! the CPU's.
+
+use super::build::{build, Level};
+use super::order::leaf_order;
+use super::traverse::GpuTraversal;
+use crate::device::{Gpu, GpuError};
+use crate::kernels::{Exec, Kernel, Kernels, Params};
+use ::rsh::traverse::Counters;
+use ::rsh::{HashKind, Method, RshConfig};
+use geom::{Pcg32, Sphere};
+use render::stats::counter;
+use render::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
+use scene::Geometry;
+use std::sync::Mutex;
+
+/// The GPU engine. Scene data is uploaded once; each trace call builds its hierarchy.
+pub struct GpuRsh {
+    pub(super) gpu: Gpu,
+    pub(super) kernels: Kernels,
+    pub(super) cfg: RshConfig,
+    pub(super) ntri: u32,
+    pub(super) tris: wgpu::Buffer,
+    pub(super) tri_sphere: wgpu::Buffer,
+    pub(super) tri_mesh: wgpu::Buffer,
+    pub(super) mesh_sphere: wgpu::Buffer,
+    pub(super) mesh_first: Vec<u32>,
+    pub(super) shuffles: wgpu::Buffer,
+    pub(super) box_min: [f32; 4],
+    pub(super) box_ext: [f32; 4],
+    /// Most rays per hierarchy, from the binding limit (a larger batch is traced in parts).
+    max_rays: usize,
+    /// GPU seconds per phase of the last trace calls (drained by [`GpuRsh::take_times`]).
+    times: Mutex<Vec<(Phase, f64)>>,
+}
+
+/// The CPU's fixed minimal-ball shuffle (`geom::miniball`) for every count 1..=b, as rows of
+/// source indices; row c starts at c·(c−1)/2.
+fn shuffle_table(b: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    for c in 1..=b as usize {
+        let mut perm: Vec<u32> = (0..c as u32).collect();
+        let mut rng = Pcg32::new(0x6d696e69, 0x62616c6c);
+        for i in (1..c).rev() {
+            let j = rng.below(i as u32 + 1) as usize;
+            perm.swap(i, j);
+        }
+        out.extend(perm);
+    }
+    out
+}
+
+fn v4(s: &Sphere) -> [f32; 4] {
+    [s.center.x, s.center.y, s.center.z, s.radius]
+}
+
+impl GpuRsh {
+    /// Upload the scene; fails when no adapter is found or the configuration is one the GPU
+    /// pipeline does not implement (the 64-bit Morton hash).
+    pub fn new(gpu: Gpu, geo: &Geometry, cfg: RshConfig) -> Result<GpuRsh, GpuError> {
+        cfg.validate().map_err(GpuError::Config)?;
+        if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
+            return Err(GpuError::Config(
+                "the GPU backend implements the thesis's 32-bit hash only".into(),
+            ));
+        }
+        let kernels = Kernels::new(&gpu);
+        let ntri = geo.tris.len();
+        // Pair buffers hold at most `pair_budget` u32s each (as on the CPU, where the budget
+        // bounds the same buffers); they must fit one binding.
+        if cfg.pair_budget as u64 * 4 > gpu.max_binding() {
+            return Err(GpuError::Limits(format!(
+                "--pair-budget {} needs {} MiB per binding; this device allows {} MiB (use at most {})",
+                cfg.pair_budget,
+                (cfg.pair_budget as u64 * 4) >> 20,
+                gpu.max_binding() >> 20,
+                gpu.max_binding() / 4
+            )));
+        }
+        let max_tris = gpu.max_binding() / 48;
+        if ntri as u64 > max_tris {
+            return Err(GpuError::Limits(format!(
+                "{ntri} triangles exceed one binding ({max_tris} at most)"
+            )));
+        }
+        let tris: Vec<[f32; 4]> = geo
+            .tris
+            .iter()
+            .flat_map(|t| t.map(|v| [v.x, v.y, v.z, 0.0]))
+            .collect();
+        let spheres: Vec<[f32; 4]> = geo
+            .tris
+            .iter()
+            .map(|t| v4(&Sphere::of_triangle(t[0], t[1], t[2])))
+            .collect();
+        let nm = geo.mesh_first.len() - 1;
+        let mut tri_mesh = vec![0u32; ntri];
+        for m in 0..nm {
+            for t in geo.mesh_first[m]..geo.mesh_first[m + 1] {
+                tri_mesh[t as usize] = m as u32;
+            }
+        }
+        let meshes: Vec<[f32; 4]> = geo.mesh_sphere.iter().map(v4).collect();
+        let ext = geo.bounds.extent().max(geom::Vec3::splat(1e-30));
+        let b = geo.bounds.min;
+        // Rays: 16 bytes of origin and of direction per ray in one binding. The top level has
+        // at most ⌈rays / b⌉ + 3 nodes, and its node × mesh pass bits must fit one binding
+        // too (and index in u32); a larger batch is traced in parts.
+        let bit_entries = (gpu.max_binding() * 8).min(1 << 31);
+        let by_pass = (bit_entries / nm.max(1) as u64).saturating_sub(4) * cfg.branching as u64;
+        let max_rays = (gpu.max_binding() / 16).min(1 << 26).min(by_pass).max(1) as usize;
+        Ok(GpuRsh {
+            tris: gpu.upload("triangles", &tris),
+            tri_sphere: gpu.upload("triangle spheres", &spheres),
+            tri_mesh: gpu.upload("triangle meshes", &tri_mesh),
+            mesh_sphere: gpu.upload("mesh spheres", &meshes),
+            shuffles: gpu.upload("miniball shuffles", &shuffle_table(cfg.branching)),
+            mesh_first: geo.mesh_first.clone(),
+            ntri: ntri as u32,
+            box_min: [b.x, b.y, b.z, 0.0],
+            box_ext: [ext.x, ext.y, ext.z, 0.0],
+            max_rays,
+            gpu,
+            kernels,
+            cfg,
+            times: Mutex::new(Vec::new()),
+        })
+    }
+
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// The compiled kernels (shared with [`crate::GpuStages`], so nothing compiles twice).
+    pub fn kernels(&self) -> &Kernels {
+        &self.kernels
+    }
+
+    /// GPU time per phase accumulated since the last call (empty without timestamp queries).
+    pub fn take_times(&self) -> Vec<(Phase, f64)> {
+        std::mem::take(&mut *self.times.lock().unwrap())
+    }
+
+    fn trace_part(&self, rays: &RayBatch, hits: &mut [Hit], stats: &mut TraceStats) {
+        let n = rays.len();
+        let g = &self.gpu;
+        let mut ex = Exec::new(g, &self.kernels);
+        let dr = DeviceRays::upload(g, rays);
+        let (leaves, m) = leaf_order(self, &mut ex, &dr, stats);
+        // Hierarchy (thesis §3.2.7).
+        ex.phase(Phase::HierarchyCreation);
+        let levels = build(self, &mut ex, &dr, &leaves, m);
+        // Traversal and final tests (thesis §3.2.8–3.2.9).
+        let best = g.upload("best", &vec![u64::MAX; n]);
+        let mut c = Counters {
+            tests: vec![[0; 4]; levels.len()],
+            hits: vec![[0; 4]; levels.len()],
+            ..Default::default()
+        };
+        if self.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
+            let trav = GpuTraversal {
+                eng: self,
+                levels: &levels,
+                rays: &dr,
+                leaves: &leaves,
+                best: &best,
+            };
+            trav.run(&mut ex, &mut c);
+        }
+        // Records: the winner's hit recomputed with the shared kernel, as on the CPU.
+        ex.phase(Phase::FinalTests);
+        let n64 = n as u64;
+        let rec = g.storage("records", n64 * 16);
+        ex.run(
+            Kernel::Records,
+            Params::n(0, 0, n as u32, 0),
+            &[
+                (6, &dr.org),
+                (7, &dr.dir),
+                (8, &dr.pre),
+                (9, &self.tris),
+                (11, &best),
+                (13, &rec),
+            ],
+            n64,
+            256,
+        );
+        ex.phase(Phase::ReadBack);
+        let recs: Vec<[u32; 4]> = ex.read(&rec, n);
+        for (h, r) in hits.iter_mut().zip(&recs) {
+            *h = if r[0] == geom::NO_HIT {
+                Hit::MISS
+            } else {
+                Hit {
+                    tri: r[0],
+                    t: f32::from_bits(r[1]),
+                    u: f32::from_bits(r[2]),
+                    v: f32::from_bits(r[3]),
+                }
+            };
+        }
+        ex.finish();
+        let mut times = self.times.lock().unwrap();
+        for (p, t) in ex.times.drain(..) {
+            stats.time(p, t);
+            match times.iter_mut().find(|(q, _)| *q == p) {
+                Some(e) => e.1 += t,
+                None => times.push((p, t)),
+            }
+        }
+        stats.count(counter::GPU_KERNEL_LAUNCHES, ex.launches);
+        self.report(&c, &levels, hits, stats);
+    }
+
+    /// Counters into `stats`, as the CPU engine reports them.
+    fn report(&self, c: &Counters, levels: &[Level], hits: &[Hit], stats: &mut TraceStats) {
+        stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
+        let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
+        ::rsh::engine::report_counters(c, self.cfg.mesh_culling, top, stats);
+    }
+}
+
+/// A ray batch on the device: origin | t_min and direction | t_max as vec4, kind | light << 2,
+/// pixel, and the intersection kernel's per-ray constants (written by the hash kernel).
+pub struct DeviceRays {
+    pub org: wgpu::Buffer,
+    pub dir: wgpu::Buffer,
+    pub kl: wgpu::Buffer,
+    pub pix: wgpu::Buffer,
+    pub pre: wgpu::Buffer,
+    pub len: u64,
+    /// The image width (RAH's screen key).
+    pub width: u32,
+}
+
+impl DeviceRays {
+    fn upload(g: &Gpu, rays: &RayBatch) -> DeviceRays {
+        let n = rays.len();
+        let org: Vec<[f32; 4]> = (0..n)
+            .map(|i| {
+                let o = rays.org[i];
+                [o.x, o.y, o.z, rays.t_min[i]]
+            })
+            .collect();
+        let dir: Vec<[f32; 4]> = (0..n)
+            .map(|i| {
+                let d = rays.dir[i];
+                [d.x, d.y, d.z, rays.t_max[i]]
+            })
+            .collect();
+        let kl: Vec<u32> = (0..n)
+            .map(|i| (rays.kind[i] as u32 & 3) | (rays.light[i] & 0x3fff_ffff) << 2)
+            .collect();
+        DeviceRays {
+            org: g.upload("ray org", &org),
+            dir: g.upload("ray dir", &dir),
+            kl: g.upload("ray kind", &kl),
+            pix: g.upload("ray pixel", &rays.pixel),
+            pre: g.storage("ray constants", n as u64 * 16),
+            len: n as u64,
+            width: rays.width,
+        }
+    }
+}
+
+/// The counts of a trace that the GPU engine must reproduce: everything in `s` (rays, hits,
+/// test totals, per-level counts, engine counters) but the times and the GPU-only counter.
+pub fn comparable_counters(s: &TraceStats) -> TraceStats {
+    let mut c = s.clone();
+    c.phases.clear();
+    c.counters.remove(counter::GPU_KERNEL_LAUNCHES);
+    c
+}
+
+/// Rays `r` of `rays` as a batch of their own.
+fn sub_batch(rays: &RayBatch, r: std::ops::Range<usize>) -> RayBatch {
+    RayBatch {
+        org: rays.org[r.clone()].to_vec(),
+        dir: rays.dir[r.clone()].to_vec(),
+        t_min: rays.t_min[r.clone()].to_vec(),
+        t_max: rays.t_max[r.clone()].to_vec(),
+        kind: rays.kind[r.clone()].to_vec(),
+        pixel: rays.pixel[r.clone()].to_vec(),
+        light: rays.light[r.clone()].to_vec(),
+        throughput: rays.throughput[r.clone()].to_vec(),
+        depth: rays.depth[r].to_vec(),
+        width: rays.width,
+    }
+}
+
+impl Tracer for GpuRsh {
+    fn name(&self) -> &str {
+        match self.cfg.method {
+            Method::Crsh => "crsh-gpu",
+            Method::Rah => "rah-gpu",
+        }
+    }
+
+    fn trace(&self, rays: &RayBatch, _mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+        assert_eq!(hits.len(), rays.len(), "one hit record per ray");
+        stats.rays += rays.len() as u64;
+        if rays.is_empty() {
+            return;
+        }
+        if rays.len() <= self.max_rays {
+            self.trace_part(rays, hits, stats);
+            return;
+        }
+        // Larger than one binding: consecutive parts, each with its own hierarchy.
+        for (p, out) in hits.chunks_mut(self.max_rays).enumerate() {
+            let lo = p * self.max_rays;
+            let part = sub_batch(rays, lo..lo + out.len());
+            self.trace_part(&part, out, stats);
+        }
+    }
+}

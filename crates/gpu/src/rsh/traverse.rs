@@ -1,0 +1,286 @@
+//! The top-down traversal on the GPU, the twin of `crates/rsh/src/traverse.rs` (thesis
+//! §3.2.8–3.2.9; `traverse.wgsl`, `final.wgsl`): mesh culling at the top, then node chunks ×
+//! triangle batches within the pair budget on the CPU's schedule
+//! (`rsh::traverse::batches`); each level's (node, triangle) pairs are tested, compacted and
+//! expanded to the children, halved when over budget, and level 1's survivors go to the
+//! final ray–triangle tests. [`GpuTraversal`] holds what stays fixed over one trace call, as
+//! `rsh::traverse::Traversal` does on the CPU.
+
+use super::build::Level;
+use super::engine::{DeviceRays, GpuRsh};
+use crate::kernels::{Exec, Kernel, Params};
+use ::rsh::traverse::Counters;
+use ::rsh::NodeTest;
+use render::Phase;
+
+/// Triangles per thread of the top-level candidate kernels (more when the per-thread count
+/// buffer would not fit one binding; the pair order, node-major then triangle, is the same).
+const TILE: u32 = 256;
+
+/// One trace call's traversal state: the engine's scene buffers, the hierarchy and the rays.
+pub struct GpuTraversal<'a> {
+    pub eng: &'a GpuRsh,
+    pub levels: &'a [Level],
+    pub rays: &'a DeviceRays,
+    /// The sorted leaves (ray indices).
+    pub leaves: &'a wgpu::Buffer,
+    /// Per ray, the closest hit so far as (t bits << 32 | triangle), by 64-bit atomic min.
+    pub best: &'a wgpu::Buffer,
+}
+
+/// (node, triangle) pairs of one level on the device.
+struct Pairs {
+    node: wgpu::Buffer,
+    tri: wgpu::Buffer,
+    len: u64,
+}
+
+fn add4(a: &mut [u64; 4], c: &[u32]) {
+    for k in 0..4 {
+        a[k] += c[k] as u64;
+    }
+}
+
+impl GpuTraversal<'_> {
+    fn exact(&self) -> u32 {
+        (self.eng.cfg.node_test == NodeTest::Exact) as u32
+    }
+
+    /// Mesh culling, then the top level's batches.
+    pub fn run(&self, ex: &mut Exec, c: &mut Counters) {
+        let eng = self.eng;
+        let g = &eng.gpu;
+        ex.phase(Phase::Traversal);
+        let top = self.levels.last().unwrap();
+        let nt = top.len() as usize;
+        let nm = eng.mesh_first.len() - 1;
+        // The node × mesh pass table: tested in node ranges whose flags fit one binding,
+        // kept as a bit set (the ray-count limit of `GpuRsh::new` keeps it within one
+        // binding).
+        let pass: Vec<u8> = if eng.cfg.mesh_culling {
+            c.mesh_tests += (nt * nm) as u64;
+            let per = ((g.max_binding() / 4) as usize / nm.max(1)).max(1);
+            let mut pass = Vec::with_capacity(nt * nm);
+            for first in (0..nt).step_by(per) {
+                let k = per.min(nt - first);
+                let out = g.storage("mesh pass", (k * nm) as u64 * 4);
+                ex.run(
+                    Kernel::MeshTest,
+                    Params::n((k * nm) as u32, nm as u32, first as u32, self.exact()),
+                    &[
+                        (1, &top.sphere),
+                        (2, &top.cone),
+                        (3, &top.sc),
+                        (6, &eng.mesh_sphere),
+                        (10, &out),
+                    ],
+                    (k * nm) as u64,
+                    256,
+                );
+                let flags: Vec<u32> = ex.read(&out, k * nm);
+                pass.extend(flags.iter().map(|&f| f as u8));
+            }
+            pass
+        } else {
+            vec![1; nt * nm]
+        };
+        c.mesh_passes += pass.iter().map(|&p| p as u64).sum::<u64>();
+        let mut bits = vec![0u32; (nt * nm).div_ceil(32)];
+        for (i, &p) in pass.iter().enumerate() {
+            bits[i >> 5] |= (p as u32) << (i & 31);
+        }
+        let pass_buf = g.upload("mesh pass bits", &bits);
+        let budget = eng.cfg.pair_budget;
+        for (nodes, tris) in ::rsh::traverse::batches(&pass, nm, &eng.mesh_first, budget) {
+            self.top_batch(ex, &pass_buf, nodes, tris, c);
+        }
+    }
+
+    /// One batch of the top level: its candidate pairs counted, scanned and emitted.
+    fn top_batch(
+        &self,
+        ex: &mut Exec,
+        pass: &wgpu::Buffer,
+        nodes: std::ops::Range<usize>,
+        tris: std::ops::Range<usize>,
+        c: &mut Counters,
+    ) {
+        let eng = self.eng;
+        let g = &eng.gpu;
+        c.batches += 1;
+        let li = self.levels.len() - 1;
+        let top = &self.levels[li];
+        let nm = (eng.mesh_first.len() - 1) as u32;
+        let max_slots = (g.max_binding() / 4 - 1).min(u32::MAX as u64 / 2);
+        let mut tile = TILE;
+        while nodes.len() as u64 * (tris.len() as u64).div_ceil(tile as u64) > max_slots {
+            tile *= 2;
+        }
+        let tiles = (tris.len() as u32).div_ceil(tile);
+        let slots = nodes.len() as u64 * tiles as u64;
+        let prm = Params {
+            u: [
+                [slots as u32, tiles, nodes.start as u32, self.exact()],
+                [tris.start as u32, tris.end as u32, nm, tile],
+                [0; 4],
+                [0; 4],
+            ],
+            f: [[0.0; 4]; 2],
+        };
+        let counts = g.storage("top counts", slots * 4);
+        let cnt = g.upload("counters", &[0u32; 8]);
+        let common = [
+            (1, &top.sphere),
+            (2, &top.cone),
+            (3, &top.sc),
+            (5, &eng.tri_sphere),
+            (6, &eng.tri_mesh),
+            (7, pass),
+        ];
+        // top_count shares its candidate loop with top_emit, so its layout has the emit
+        // bindings too; they are never written when counting.
+        let (unused_a, unused_b) = (g.storage("unused", 4), g.storage("unused", 4));
+        let mut binds = common.to_vec();
+        binds.extend([(10, &counts), (11, &unused_a), (12, &cnt), (13, &unused_b)]);
+        ex.run(Kernel::TopCount, prm, &binds, slots, 256);
+        let offs = g.storage("top offsets", (slots + 1) * 4);
+        ex.scan(&counts, &offs, slots);
+        let cv: Vec<u32> = ex.read(&cnt, 8);
+        add4(&mut c.tests[li], &cv[0..4]);
+        add4(&mut c.hits[li], &cv[4..8]);
+        let total = ex.read_at(&offs, slots as usize) as u64;
+        if total == 0 {
+            return;
+        }
+        let pairs = Pairs {
+            node: g.storage("pairs node", total * 4),
+            tri: g.storage("pairs tri", total * 4),
+            len: total,
+        };
+        let mut binds = common.to_vec();
+        binds.extend([(10, &pairs.node), (11, &pairs.tri), (13, &offs)]);
+        ex.run(Kernel::TopEmit, prm, &binds, slots, 256);
+        self.survivors(ex, li, pairs, c);
+    }
+
+    /// Surviving pairs at level index `li`: the final tests at level 1, else expansion.
+    fn survivors(&self, ex: &mut Exec, li: usize, pairs: Pairs, c: &mut Counters) {
+        if li > 0 {
+            self.expand(ex, li, pairs, c);
+            return;
+        }
+        ex.phase(Phase::FinalTests);
+        let cnt = self.eng.gpu.upload("counters", &[0u32; 4]);
+        let l1 = &self.levels[0];
+        ex.run(
+            Kernel::FinalTests,
+            Params::n(pairs.len as u32, 0, 0, 0),
+            &[
+                (1, &pairs.node),
+                (2, &pairs.tri),
+                (3, &l1.first),
+                (4, &l1.sc),
+                (5, self.leaves),
+                (6, &self.rays.org),
+                (7, &self.rays.dir),
+                (8, &self.rays.pre),
+                (9, &self.eng.tris),
+                (10, self.best),
+                (12, &cnt),
+            ],
+            pairs.len,
+            256,
+        );
+        let cv: Vec<u32> = ex.read(&cnt, 4);
+        add4(&mut c.final_tests, &cv);
+        ex.phase(Phase::Traversal);
+    }
+
+    /// Test pairs at level index `li`, compact the survivors, go on.
+    fn process(&self, ex: &mut Exec, li: usize, pairs: Pairs, c: &mut Counters) {
+        let g = &self.eng.gpu;
+        let lv = &self.levels[li];
+        let flags = g.storage("flags", pairs.len * 4);
+        let cnt = g.upload("counters", &[0u32; 8]);
+        ex.run(
+            Kernel::PairTest,
+            Params::n(pairs.len as u32, 0, 0, self.exact()),
+            &[
+                (1, &lv.sphere),
+                (2, &lv.cone),
+                (3, &lv.sc),
+                (5, &self.eng.tri_sphere),
+                (8, &pairs.node),
+                (9, &pairs.tri),
+                (10, &flags),
+                (12, &cnt),
+            ],
+            pairs.len,
+            256,
+        );
+        let cv: Vec<u32> = ex.read(&cnt, 8);
+        add4(&mut c.tests[li], &cv[0..4]);
+        add4(&mut c.hits[li], &cv[4..8]);
+        let (node, tri, len) = ex.compact(&flags, &pairs.node, Some(&pairs.tri), pairs.len);
+        drop((pairs, flags));
+        if len > 0 {
+            self.survivors(ex, li, Pairs { node, tri, len }, c);
+        }
+    }
+
+    /// Children of the survivors at `li` become pairs at `li − 1`; halves when over budget.
+    fn expand(&self, ex: &mut Exec, li: usize, pairs: Pairs, c: &mut Counters) {
+        let g = &self.eng.gpu;
+        let lv = &self.levels[li];
+        let count = pairs.len;
+        let counts = g.storage("child counts", count * 4);
+        ex.run(
+            Kernel::ChildCount,
+            Params::n(count as u32, 0, 0, 0),
+            &[(4, &lv.first), (8, &pairs.node), (10, &counts)],
+            count,
+            256,
+        );
+        let offs = g.storage("child offsets", (count + 1) * 4);
+        ex.scan(&counts, &offs, count);
+        let total = ex.read_at(&offs, count as usize) as u64;
+        if total > self.eng.cfg.pair_budget as u64 && count > 1 {
+            c.splits += 1;
+            let h = count / 2;
+            for (start, len) in [(0, h), (h, count - h)] {
+                let half = Pairs {
+                    node: g.storage("half node", len * 4),
+                    tri: g.storage("half tri", len * 4),
+                    len,
+                };
+                ex.copy(&pairs.node, start * 4, &half.node, len * 4);
+                ex.copy(&pairs.tri, start * 4, &half.tri, len * 4);
+                self.expand(ex, li, half, c);
+            }
+            return;
+        }
+        let children = Pairs {
+            node: g.storage("pairs node", total * 4),
+            tri: g.storage("pairs tri", total * 4),
+            len: total,
+        };
+        ex.run(
+            Kernel::ChildEmit,
+            Params::n(count as u32, 0, 0, 0),
+            &[
+                (4, &lv.first),
+                (8, &pairs.node),
+                (9, &pairs.tri),
+                (10, &children.node),
+                (11, &children.tri),
+                (13, &offs),
+            ],
+            count,
+            256,
+        );
+        drop(pairs);
+        if total > 0 {
+            self.process(ex, li - 1, children, c);
+        }
+    }
+}
