@@ -9,9 +9,12 @@ fn bin() -> Command {
 }
 
 fn tmp(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rayspace-cli-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    testkit::temp_dir(&format!("cli-{tag}"))
+}
+
+/// A command line's words (test paths have no spaces).
+fn words(line: &str) -> Vec<&str> {
+    line.split_whitespace().collect()
 }
 
 /// Run the binary and require success (stderr in the message otherwise).
@@ -45,20 +48,11 @@ fn render_writes_png_and_stats() {
     let d = tmp("ok");
     let png = d.join("a.png");
     let json = d.join("a.json");
-    let out = ok(&[
-        "render",
-        "spheres",
-        "--width",
-        "40",
-        "--height",
-        "30",
-        "--bounces",
-        "1",
-        "--out",
-        png.to_str().unwrap(),
-        "--stats",
-        json.to_str().unwrap(),
-    ]);
+    let out = ok(&words(&format!(
+        "render spheres --width 40 --height 30 --bounces 1 --out {} --stats {}",
+        png.display(),
+        json.display()
+    )));
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains("| rasterize |") && stdout.contains("brute force (rays x triangles)"),
@@ -163,14 +157,7 @@ fn bad_options() {
         &["--hash-bits"],
     );
     fails(
-        &[
-            "render",
-            "cornell",
-            "--engine",
-            "grid",
-            "--grid-top-density",
-            "0",
-        ],
+        &words("render cornell --engine grid --grid-top-density 0"),
         &["--engine grid", "densities"],
     );
     fails(
@@ -337,27 +324,17 @@ fn ray_files_and_identical_hits_across_engines() {
         &["junk.rays"],
     );
     fails(
-        &[
-            "rays",
-            "cornell",
-            "--viewpoint",
-            "1,2,3",
-            "--out",
-            a.to_str().unwrap(),
-        ],
+        &words(&format!(
+            "rays cornell --viewpoint 1,2,3 --out {}",
+            a.display()
+        )),
         &["--viewpoint"],
     );
     fails(
-        &[
-            "rays",
-            "cornell",
-            "--kind",
-            "ao",
-            "--ao-distance",
-            "-1",
-            "--out",
-            a.to_str().unwrap(),
-        ],
+        &words(&format!(
+            "rays cornell --kind ao --ao-distance -1 --out {}",
+            a.display()
+        )),
         &["--ao-distance"],
     );
 }
@@ -366,22 +343,11 @@ fn ray_files_and_identical_hits_across_engines() {
 fn bench_rsh_writes_tables() {
     let d = tmp("bench");
     let (csv, json) = (d.join("b.csv"), d.join("b.json"));
-    let out = ok(&[
-        "bench",
-        "rsh",
-        "--scenes",
-        "cornell",
-        "--configs",
-        "8/2,4/0",
-        "--width",
-        "32",
-        "--height",
-        "32",
-        "--csv",
-        csv.to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-    ]);
+    let out = ok(&words(&format!(
+        "bench rsh --scenes cornell --configs 8/2,4/0 --width 32 --height 32 --csv {} --json {}",
+        csv.display(),
+        json.display()
+    )));
     let md = String::from_utf8_lossy(&out.stdout);
     assert!(
         md.contains("| 8/2 |") && md.contains("| 4/0 |") && md.contains("phase times"),
@@ -404,26 +370,7 @@ fn bench_grid_writes_tables_and_charts() {
     let (csv, grids, json) = (d.join("t3.csv"), d.join("g.csv"), d.join("g.json"));
     let charts = d.join("charts");
     std::fs::create_dir_all(&charts).unwrap();
-    let out = ok(&[
-        "bench",
-        "grid",
-        "--scenes",
-        "cornell",
-        "--width",
-        "24",
-        "--height",
-        "16",
-        "--repeats",
-        "1",
-        "--csv",
-        csv.to_str().unwrap(),
-        "--grids-csv",
-        grids.to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-        "--charts",
-        charts.to_str().unwrap(),
-    ]);
+    let out = ok(&words(&format!("bench grid --scenes cornell --width 24 --height 16 --repeats 1 --csv {} --grids-csv {} --json {} --charts {}", csv.display(), grids.display(), json.display(), charts.display())));
     let md = String::from_utf8_lossy(&out.stdout);
     for t in [
         "Table 1",
@@ -484,24 +431,7 @@ fn frames_time_and_budget() {
     let pat = d.join("f%03d.png");
     let csv = d.join("frames.csv");
     let gif = d.join("a.gif");
-    ok(&[
-        "render",
-        scene.to_str().unwrap(),
-        "--frames",
-        "4",
-        "--width",
-        "32",
-        "--height",
-        "24",
-        "--engine",
-        "grid",
-        "--out",
-        pat.to_str().unwrap(),
-        "--frame-csv",
-        csv.to_str().unwrap(),
-        "--gif",
-        gif.to_str().unwrap(),
-    ]);
+    ok(&words(&format!("render {} --frames 4 --width 32 --height 24 --engine grid --out {} --frame-csv {} --gif {}", scene.display(), pat.display(), csv.display(), gif.display())));
     for i in 0..4 {
         assert!(d.join(format!("f{i:03}.png")).exists());
     }
@@ -516,30 +446,17 @@ fn frames_time_and_budget() {
     let f0 = std::fs::read(d.join("f000.png")).unwrap();
     assert_ne!(f0, std::fs::read(d.join("f003.png")).unwrap());
     let one = d.join("one.png");
-    ok(&[
-        "render",
-        scene.to_str().unwrap(),
-        "--time",
-        "0",
-        "--width",
-        "32",
-        "--height",
-        "24",
-        "--engine",
-        "grid",
-        "--out",
-        one.to_str().unwrap(),
-    ]);
+    ok(&words(&format!(
+        "render {} --time 0 --width 32 --height 24 --engine grid --out {}",
+        scene.display(),
+        one.display()
+    )));
     assert_eq!(std::fs::read(&one).unwrap(), f0, "--time 0 renders frame 0");
     fails(
-        &[
-            "render",
-            "cornell",
-            "--frames",
-            "3",
-            "--out",
-            pat.to_str().unwrap(),
-        ],
+        &words(&format!(
+            "render cornell --frames 3 --out {}",
+            pat.display()
+        )),
         &["--frames", "not animated"],
     );
     fails(
@@ -558,34 +475,15 @@ fn frames_time_and_budget() {
         &["--out", "%04d"],
     );
     fails(
-        &[
-            "render",
-            scene.to_str().unwrap(),
-            "--frames",
-            "3",
-            "--fps",
-            "-2",
-            "--out",
-            pat.to_str().unwrap(),
-        ],
+        &words(&format!(
+            "render {} --frames 3 --fps -2 --out {}",
+            scene.display(),
+            pat.display()
+        )),
         &["--fps"],
     );
     // Table 4 in miniature.
-    let o = ok(&[
-        "bench",
-        "budget",
-        scene.to_str().unwrap(),
-        "--width",
-        "32",
-        "--height",
-        "32",
-        "--frames",
-        "2",
-        "--engines",
-        "grid,grid2l,obvhs-bvh2",
-        "--ms",
-        "100,5",
-    ]);
+    let o = ok(&words(&format!("bench budget {} --width 32 --height 32 --frames 2 --engines grid,grid2l,obvhs-bvh2 --ms 100,5", scene.display())));
     let md = String::from_utf8_lossy(&o.stdout);
     assert!(
         md.contains("AO spp in 100 ms")
@@ -632,7 +530,7 @@ fn gpu_backend_renders_or_says_why() {
             err.contains("--backend gpu") && (err.contains("no GPU") || err.contains("lacks")),
             "{err}"
         );
-        eprintln!("skipping: {err}");
+        testkit::skip(&err);
         return;
     }
     let out = String::from_utf8_lossy(&o.stdout);
@@ -659,16 +557,7 @@ fn gpu_backend_rejects_what_it_does_not_run() {
         &["--backend gpu", "crsh"],
     );
     fails(
-        &[
-            "render",
-            "cornell",
-            "--backend",
-            "gpu",
-            "--frames",
-            "2",
-            "--out",
-            "x%d.png",
-        ],
+        &words("render cornell --backend gpu --frames 2 --out x%d.png"),
         &["--backend gpu", "--frames"],
     );
 }

@@ -2,12 +2,11 @@
 
 use accel::BruteForce;
 use render::whitted::{render, RenderOptions};
-use scene::{load, scenes_dir, Geometry, LoadOptions};
+use scene::{load, Geometry, LoadOptions};
 
 #[test]
 fn real_scenes_render() {
-    let Some(dir) = scenes_dir() else {
-        eprintln!("skipped: no shared scenes (set RAYSPACE_SCENES or provide ../shared/scenes)");
+    let Some(dir) = testkit::scenes() else {
         return;
     };
     for rel in [
@@ -20,7 +19,7 @@ fn real_scenes_render() {
     ] {
         let path = dir.join(rel);
         if !path.exists() {
-            eprintln!("skipped: {} not present", path.display());
+            testkit::skip(format!("{} not present", path.display()));
             continue;
         }
         let t0 = std::time::Instant::now();
@@ -62,12 +61,10 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
     use render::raygen::{generate, Kind, Options};
     use render::{Hit, RayKind, TraceMode, TraceStats, Tracer};
 
-    let Some(dir) = scenes_dir() else {
-        eprintln!("skipped: no shared scenes (set RAYSPACE_SCENES or provide ../shared/scenes)");
+    let Some(dir) = testkit::scenes() else {
         return;
     };
-    let tmp = std::env::temp_dir().join(format!("rayspace-real-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).unwrap();
+    let tmp = testkit::temp_dir("real");
     for rel in [
         "dabrovic-sponza/sponza.obj",
         "bart-kitchen/kitchen.obj",
@@ -75,7 +72,7 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
     ] {
         let path = dir.join(rel);
         if !path.exists() {
-            eprintln!("skipped: {} not present", path.display());
+            testkit::skip(format!("{} not present", path.display()));
             continue;
         }
         let s = load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();
@@ -148,8 +145,7 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
 #[test]
 fn bart_animations_load_animate_and_match_brute_force() {
     use accel::oracle::{assert_same_hits, record_render};
-    let Some(dir) = scenes_dir() else {
-        eprintln!("skipped: no shared scenes (set RAYSPACE_SCENES or provide ../shared/scenes)");
+    let Some(dir) = testkit::scenes() else {
         return;
     };
     for (rel, tris, times, key) in [
@@ -169,7 +165,7 @@ fn bart_animations_load_animate_and_match_brute_force() {
     ] {
         let path = dir.join(rel);
         if !path.exists() {
-            eprintln!("skipped: {} not present", path.display());
+            testkit::skip(format!("{} not present", path.display()));
             continue;
         }
         let s = load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();

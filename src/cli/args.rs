@@ -6,6 +6,7 @@
 use accel::grid::{GridConfig, Subdivision};
 use clap::builder::TypedValueParser as _;
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use rayspace::bench::Spec;
 use rayspace::engines::{Engine, EngineOptions};
 use render::raygen::Kind;
 use render::whitted::{MAX_BOUNCES, MAX_SIDE};
@@ -102,14 +103,8 @@ pub struct BenchBudgetArgs {
 
 #[derive(Args, Clone)]
 pub struct BenchGridArgs {
-    /// Scenes, comma-separated (default: cornell, office, stadium, and Sponza, Conference
-    /// and Kitchen when the shared scenes are present).
-    #[arg(long)]
-    pub scenes: Option<String>,
-    #[arg(long, default_value_t = 512, value_parser = side())]
-    pub width: u32,
-    #[arg(long, default_value_t = 512, value_parser = side())]
-    pub height: u32,
+    #[command(flatten)]
+    pub spec: SceneArgs,
     /// Ambient-occlusion rays per pixel.
     #[arg(long = "ao-spp", default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=64))]
     pub ao_spp: u32,
@@ -118,28 +113,39 @@ pub struct BenchGridArgs {
     /// Timed runs per engine and ray kind (the best is reported).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub repeats: u32,
-    /// Also write every row as JSON.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
-    /// Also write Table 3's rows (engine × ray kind) as CSV.
-    #[arg(long)]
-    pub csv: Option<PathBuf>,
     /// Also write the grid builds of Tables 1, 2 and 5 as CSV.
     #[arg(long = "grids-csv")]
     pub grids_csv: Option<PathBuf>,
+    #[command(flatten)]
+    pub out: ReportArgs,
+}
+
+/// Where a benchmark's report goes besides stdout.
+#[derive(Args, Clone)]
+pub struct ReportArgs {
+    /// Also write every row (with every counter) as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Also write the main table's rows as CSV (`bench grid`: Table 3, engine × ray kind).
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
     /// Also write the markdown report to this file.
     #[arg(long)]
     pub md: Option<PathBuf>,
-    /// Write charts (PNG and SVG) into this directory: MRays/s by ray kind and engine.
+    /// Write charts (PNG and SVG) into this directory (`bench grid`: MRays/s by ray kind and
+    /// engine; `bench rsh`: intersections per hierarchy level by configuration, like the
+    /// thesis's Figures 4.7–4.23).
     #[arg(long)]
     pub charts: Option<PathBuf>,
 }
 
-/// Scenes and configurations of the ray-hierarchy benchmarks (`bench rsh`, `bench gpu`).
+/// The scenes and image size of a benchmark.
 #[derive(Args, Clone)]
-pub struct RshBenchSpec {
-    /// Scenes, comma-separated (default: cornell and office (rsh) or cornell (gpu), and
-    /// Sponza when the shared scenes are present).
+pub struct SceneArgs {
+    /// Scenes, comma-separated (default: the built-in scenes the benchmark reports on, and
+    /// the real scenes of its paper when the shared scenes are present: `bench rsh` cornell,
+    /// office, Sponza; `bench gpu` cornell, Sponza; `bench grid` cornell, office, stadium,
+    /// Sponza, Conference, Kitchen).
     #[arg(long)]
     pub scenes: Option<String>,
     #[arg(long, default_value_t = 512, value_parser = side())]
@@ -148,35 +154,37 @@ pub struct RshBenchSpec {
     pub height: u32,
 }
 
+impl SceneArgs {
+    /// The benchmark's spec with the scenes to run (see `bench::scenes`).
+    pub fn spec(&self, scenes: Vec<String>, configs: Vec<(u32, u32)>, bounces: u32) -> Spec {
+        Spec {
+            scenes,
+            configs,
+            width: self.width,
+            height: self.height,
+            bounces,
+        }
+    }
+}
+
 #[derive(Args, Clone)]
 pub struct BenchRshArgs {
     #[command(flatten)]
-    pub spec: RshBenchSpec,
+    pub spec: SceneArgs,
     /// Configurations B/D (branching/levels), comma-separated.
     #[arg(long, default_value = "8/2,8/3,8/4,16/2,16/3,16/4")]
     pub configs: String,
     /// Reflection/refraction generations (the thesis's tables use shadows + 1 bounce).
     #[arg(long, default_value_t = 1, value_parser = bounces())]
     pub bounces: u32,
-    /// Also write the rows (with every counter) as JSON.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
-    /// Also write the summary rows as CSV.
-    #[arg(long)]
-    pub csv: Option<PathBuf>,
-    /// Also write the markdown report to this file.
-    #[arg(long)]
-    pub md: Option<PathBuf>,
-    /// Write charts (PNG and SVG) into this directory: intersections per hierarchy level by
-    /// configuration (like the thesis's Figures 4.7–4.23).
-    #[arg(long)]
-    pub charts: Option<PathBuf>,
+    #[command(flatten)]
+    pub out: ReportArgs,
 }
 
 #[derive(Args, Clone)]
 pub struct BenchGpuArgs {
     #[command(flatten)]
-    pub spec: RshBenchSpec,
+    pub spec: SceneArgs,
     /// Configurations B/D (branching/levels), comma-separated.
     #[arg(long, default_value = "8/2")]
     pub configs: String,

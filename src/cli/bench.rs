@@ -23,13 +23,7 @@ pub fn cmd_bench_gpu(a: &BenchGpuArgs) -> Result<()> {
     let scenes = bench::scenes(a.spec.scenes.as_deref(), &["cornell"], &["sponza"]);
     let per = 1 + configs.len() as u64 * if a.rah { 2 } else { 1 };
     let bar = step_bar(scenes.len() as u64 * per);
-    let spec = bench::Spec {
-        scenes,
-        configs,
-        width: a.spec.width,
-        height: a.spec.height,
-        bounces: a.bounces,
-    };
+    let spec = a.spec.spec(scenes, configs, a.bounces);
     let md = bench::gpu::run(&spec, a.rah, &|m| bar.step(m))?;
     bar.0.finish_and_clear();
     let report = format!("# rayspace bench gpu\n\n{}\n{md}", provenance());
@@ -47,7 +41,7 @@ pub fn cmd_bench_gpu(_a: &BenchGpuArgs) -> Result<()> {
 }
 
 pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
-    for p in [&a.json, &a.csv, &a.md].into_iter().flatten() {
+    for p in [&a.out.json, &a.out.csv, &a.out.md].into_iter().flatten() {
         check_out_dir("--json/--csv/--md", p)?;
     }
     let configs =
@@ -57,20 +51,14 @@ pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
         &["cornell", "office"],
         &["sponza"],
     );
-    if let Some(d) = &a.charts {
+    if let Some(d) = &a.out.charts {
         check_dir("--charts", d)?;
     }
     let bar = step_bar(scenes.len() as u64 * (1 + 2 * configs.len() as u64));
-    let spec = bench::Spec {
-        scenes,
-        configs,
-        width: a.spec.width,
-        height: a.spec.height,
-        bounces: a.bounces,
-    };
+    let spec = a.spec.spec(scenes, configs, a.bounces);
     let (rows, md) = bench::rsh::run(&spec, &|m| bar.step(m))?;
     bar.0.finish_and_clear();
-    if let Some(d) = &a.charts {
+    if let Some(d) = &a.out.charts {
         report_charts(bench::rsh::charts(&rows, d));
     }
     let report = format!(
@@ -81,14 +69,14 @@ pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
         provenance()
     );
     say!("{report}");
-    if let Some(p) = &a.md {
+    if let Some(p) = &a.out.md {
         std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
     }
-    if let Some(p) = &a.json {
+    if let Some(p) = &a.out.json {
         std::fs::write(p, serde_json::to_string_pretty(&rows)?)
             .with_context(|| format!("--json {}", p.display()))?;
     }
-    if let Some(p) = &a.csv {
+    if let Some(p) = &a.out.csv {
         std::fs::write(p, bench::rsh::csv(&rows))
             .with_context(|| format!("--csv {}", p.display()))?;
     }
@@ -105,22 +93,25 @@ fn report_charts(charts: Result<Vec<PathBuf>>) {
 }
 
 pub fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
-    for p in [&a.json, &a.csv, &a.grids_csv, &a.md].into_iter().flatten() {
+    for p in [&a.out.json, &a.out.csv, &a.grids_csv, &a.out.md]
+        .into_iter()
+        .flatten()
+    {
         check_out_dir("--json/--csv/--grids-csv/--md", p)?;
     }
-    if let Some(d) = &a.charts {
+    if let Some(d) = &a.out.charts {
         check_dir("--charts", d)?;
     }
     let scenes = bench::scenes(
-        a.scenes.as_deref(),
+        a.spec.scenes.as_deref(),
         &["cornell", "office", "stadium"],
         &["sponza", "conference", "kitchen"],
     );
     let bar = step_bar(scenes.len() as u64 * bench::grid::STEPS_PER_SCENE);
     let spec = bench::grid::Spec {
         scenes,
-        width: a.width,
-        height: a.height,
+        width: a.spec.width,
+        height: a.spec.height,
         ao_spp: a.ao_spp,
         seed: a.seed,
         repeats: a.repeats,
@@ -142,15 +133,15 @@ pub fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
         rep.markdown
     );
     say!("{report}");
-    if let Some(p) = &a.md {
+    if let Some(p) = &a.out.md {
         std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
     }
-    if let Some(p) = &a.json {
+    if let Some(p) = &a.out.json {
         let v = serde_json::json!({ "table3": rep.perf, "grids": rep.grids });
         std::fs::write(p, serde_json::to_string_pretty(&v)?)
             .with_context(|| format!("--json {}", p.display()))?;
     }
-    if let Some(p) = &a.csv {
+    if let Some(p) = &a.out.csv {
         std::fs::write(p, bench::grid::perf_csv(&rep.perf))
             .with_context(|| format!("--csv {}", p.display()))?;
     }
@@ -158,7 +149,7 @@ pub fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
         std::fs::write(p, bench::grid::grid_csv(&rep.grids))
             .with_context(|| format!("--grids-csv {}", p.display()))?;
     }
-    if let Some(d) = &a.charts {
+    if let Some(d) = &a.out.charts {
         report_charts(bench::grid::charts(&rep.perf, d));
     }
     Ok(())

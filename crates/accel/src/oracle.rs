@@ -1,8 +1,8 @@
 //! The brute-force oracle as a test harness for any engine: record the batches a render
 //! traces (answered by brute force), and check another engine against them.
 
-use geom::{Pcg32, Ray, Vec3};
-use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
+use geom::{Ray, Vec3};
+use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use std::sync::Mutex;
 
 /// A tracer that forwards to `inner` and keeps every batch it was given with the answers.
@@ -177,69 +177,6 @@ impl Agreement {
             }
         }
     }
-}
-
-/// A random case for property tests: a soup (with degenerate triangles) in one mesh; rays from inside and outside the grid,
-/// axis-parallel, with ±0.0 components, aimed at vertices and cell boundaries.
-pub fn random_case(seed: u64, ntri: usize, nray: usize) -> (scene::Geometry, RayBatch) {
-    let mut rng = Pcg32::new(seed, 9);
-    let mut tris: Vec<[Vec3; 3]> = (0..ntri)
-        .map(|_| {
-            let c = Vec3::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            );
-            let s = rng.range(0.01, 0.4);
-            [0, 1, 2].map(|_| c + rng.unit_vector() * s)
-        })
-        .collect();
-    // Degenerate triangles: a point and a segment.
-    tris.push([Vec3::splat(0.1); 3]);
-    tris.push([Vec3::ZERO, Vec3::ZERO, Vec3::X]);
-    let mut b = RayBatch::default();
-    for i in 0..nray {
-        let org = match i % 4 {
-            0 => Vec3::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            ),
-            1 => rng.unit_vector() * rng.range(2.0, 5.0),
-            // On a grid-friendly plane (cell boundaries are often at such coordinates).
-            2 => Vec3::new(0.0, rng.range(-1.0, 1.0), 0.5),
-            _ => Vec3::new(rng.range(-1.0, 1.0), -0.0, rng.range(-1.0, 1.0)),
-        };
-        let dir = match i % 7 {
-            0 => [Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::X][i % 4],
-            1 => Vec3::new(-0.0, 1.0, 0.0),
-            2 => Vec3::new(
-                std::f32::consts::FRAC_1_SQRT_2,
-                -0.0,
-                std::f32::consts::FRAC_1_SQRT_2,
-            ),
-            3 => {
-                // Aimed at a vertex.
-                let t = tris[rng.below(ntri as u32) as usize];
-                (t[rng.below(3) as usize] - org).normalize_or(Vec3::X)
-            }
-            _ => rng.unit_vector(),
-        };
-        let t_max = if i % 5 == 0 {
-            rng.range(0.0, 4.0)
-        } else {
-            f32::INFINITY
-        };
-        b.push(
-            Ray::new(org, dir, 0.0, t_max),
-            RayKind::Reflection,
-            i as u32,
-            0,
-            Vec3::ONE,
-            0,
-        );
-    }
-    (scene::Geometry::soup(tris, Vec3::Y), b)
 }
 
 /// Distance from `p` to the triangle `t` (closest point by regions, Ericson 2005 §5.1.5).

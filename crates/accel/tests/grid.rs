@@ -4,7 +4,7 @@
 
 use accel::grid::voxelmap::{INDEX, LOG_DIM_SHIFT};
 use accel::grid::{build_grid, Grid, GridConfig, GridEngine, Subdivision, NODE};
-use accel::oracle::{assert_same_hits, random_case, record_render};
+use accel::oracle::{assert_same_hits, record_render};
 use accel::BruteForce;
 use geom::aabb::tri_overlaps_box;
 use geom::Vec3;
@@ -12,6 +12,7 @@ use proptest::prelude::*;
 use render::whitted::trace_primary;
 use render::{Hit, TraceMode, TraceStats, Tracer, View};
 use scene::{builtin, Geometry};
+use testkit::grid_case as random_case;
 
 fn configs() -> Vec<(&'static str, GridConfig)> {
     vec![

@@ -87,9 +87,9 @@ fn embree_agrees_with_brute_force() {
 
 mod random {
     use super::*;
-    use accel::oracle::random_case;
     use accel::BruteForce;
     use proptest::prelude::*;
+    use testkit::grid_case as random_case;
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]

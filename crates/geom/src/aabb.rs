@@ -133,9 +133,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn v3(r: f32) -> impl Strategy<Value = Vec3> {
-        (-r..r, -r..r, -r..r).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-    }
+    use testkit::v3;
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(1024))]

@@ -2,8 +2,20 @@
 //!
 //! A ray-space node is an origin sphere (centre C, radius r) plus a direction cone (unit axis
 //! x, half-angle α): every ray of the node starts in the sphere and points into the cone. The
-//! cone operations here implement thesis §3.2.7 (eqs. 3.8–3.13) with the guards and the
-//! misprint fix from `shared/notes/geometry-and-references.md`.
+//! cone operations here implement thesis §3.2.7 (eqs. 3.8–3.13) with these guards and fixes:
+//!
+//! - Cone of a cone and one ray (eqs. 3.8–3.11), only when the ray is outside the cone:
+//!   q = normalize((x·r)x − r) must point *away* from r (the flipped sign never encloses);
+//!   e = x cos α + q sin α, x' = normalize(e + r), α' = (θ + α)/2 — the exact minimal cone.
+//!   θ + α ≥ π makes the cone wider than a hemisphere: the node is marked *wide* and always
+//!   passes; r = −x leaves q undefined; (cos, sin) pairs are kept instead of sin(acos(·))
+//!   near 0; angles are padded by a few ulps.
+//! - Union of two cones: exact minimal (keep the larger when it contains the other, else
+//!   α = (θ + α₁ + α₂)/2 about the great-circle interpolation of the axes), or the thesis's
+//!   cheap form (eqs. 3.12–3.13: x = normalize(x₁ + x₂), α = θ/2 + max(α₁, α₂)), conservative
+//!   but about 0.13 rad wider on average. Eq. 3.13 is misprinted in the thesis as a cosine;
+//!   the angle is meant.
+//! - The RAH node test (eq. 3.16) is conservative only for α < 90°: wider nodes always pass.
 
 use crate::sphere::Sphere;
 use glam::Vec3;

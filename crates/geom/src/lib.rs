@@ -9,6 +9,7 @@ pub mod aabb;
 pub mod cone;
 pub mod miniball;
 pub mod pmath;
+pub mod polyhedra;
 pub mod ray;
 pub mod rng;
 pub mod sphere;

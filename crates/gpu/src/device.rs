@@ -132,18 +132,6 @@ impl Gpu {
         })
     }
 
-    /// A device, or `None` after printing why there is none: what the GPU tests call, so they
-    /// skip (and pass) on machines without a Vulkan/Metal/DX12 driver.
-    pub fn or_skip() -> Option<Gpu> {
-        match Gpu::new() {
-            Ok(g) => Some(g),
-            Err(e) => {
-                eprintln!("skipping GPU test: {e}");
-                None
-            }
-        }
-    }
-
     /// One line naming the adapter, for reports.
     pub fn describe(&self) -> String {
         format!(

@@ -14,7 +14,7 @@ use geom::Vec3;
 use render::secondary::Surfaces;
 use render::whitted::Stages;
 use render::{RayBatch, RayKind};
-use scene::{Light, Material};
+use scene::{Light, Material, Scene};
 use std::cell::RefCell;
 
 /// GPU passes of the Whitted loop, with the seconds they took (wall clock, including the
@@ -180,13 +180,8 @@ impl Stages for GpuStages<'_> {
         })
     }
 
-    fn local_shading(
-        &self,
-        s: &Surfaces,
-        materials: &[Material],
-        lights: &[Light],
-        occluded: &[bool],
-    ) -> Vec<Vec3> {
+    fn local_shading(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+        let (materials, lights) = (&scene.materials, &scene.lights);
         let n = s.len();
         if n == 0 {
             return Vec::new();

@@ -16,7 +16,7 @@ use rsh::{NodeTest, RshConfig, RshEngine, Union};
 use scene::{builtin, Geometry};
 
 fn gpu() -> Option<Gpu> {
-    Gpu::or_skip()
+    testkit::or_skip(Gpu::new(), "no GPU")
 }
 
 fn lavapipe(g: &Gpu) -> bool {

@@ -20,7 +20,7 @@ use rsh::{RshConfig, RshEngine};
 use scene::{builtin, Geometry};
 
 fn gpu() -> Option<Gpu> {
-    Gpu::or_skip()
+    testkit::or_skip(Gpu::new(), "no GPU")
 }
 
 fn bytes(p: &[geom::Vec3]) -> Vec<u8> {
@@ -178,8 +178,8 @@ fn ray_generation_and_shading_match_the_cpu_passes() {
             let occ: Vec<bool> = (0..surf.len() * s.lights.len())
                 .map(|k| k % 3 == 1)
                 .collect();
-            let ca = CpuStages.local_shading(surf, &s.materials, &s.lights, &occ);
-            let cb = stages.local_shading(surf, &s.materials, &s.lights, &occ);
+            let ca = CpuStages.local_shading(surf, &s, &occ);
+            let cb = stages.local_shading(surf, &s, &occ);
             for (i, (x, y)) in ca.iter().zip(&cb).enumerate() {
                 let tol = 1e-4 * x.abs().max_element().max(1e-3);
                 assert!(

@@ -123,18 +123,24 @@ enum Dst<K> {
     Split(SharedMut<K>, SharedMut<u32>),
 }
 
-/// Scatter one block's items (in order) to their offsets, optionally counting the next
-/// digit per destination block. A plain loop over an iterator: this is the hot loop.
-#[inline(always)]
-fn scatter_block<K: RadixKey>(
-    items: impl Iterator<Item = Item<K>>,
+/// One block's share of a scatter pass: the digit it scatters by (and the next pass's, to
+/// count), its running offsets per digit, its partial counts of the next digit, and where
+/// it writes.
+struct Block<'a, K> {
     digit: Digit,
     next: Option<Digit>,
     log_bl: u32,
-    off: &mut [u32],
-    part: &mut [u32],
+    off: &'a mut [u32],
+    part: &'a mut [u32],
     dst: Dst<K>,
-) {
+}
+
+/// Scatter one block's items (in order) to their offsets, optionally counting the next
+/// digit per destination block. A plain loop over an iterator: this is the hot loop.
+#[inline(always)]
+fn scatter_block<K: RadixKey>(items: impl Iterator<Item = Item<K>>, block: Block<K>) {
+    let (digit, next, log_bl) = (block.digit, block.next, block.log_bl);
+    let (off, part, dst) = (block.off, block.part, block.dst);
     let off: &mut [u32; BUCKETS] = off.try_into().unwrap();
     match (dst, next) {
         (Dst::Items(out), Some(nd)) => {
@@ -216,27 +222,22 @@ fn scatter<K: RadixKey>(
                 part.fill(0);
             }
             let r = b * bl..((b + 1) * bl).min(n);
+            let block = Block {
+                digit,
+                next,
+                log_bl,
+                off,
+                part,
+                dst,
+            };
             match src {
-                Src::Items(items) => scatter_block(
-                    items[r].iter().copied(),
-                    digit,
-                    next,
-                    log_bl,
-                    off,
-                    part,
-                    dst,
-                ),
+                Src::Items(items) => scatter_block(items[r].iter().copied(), block),
                 Src::Split(ks, vs) => scatter_block(
                     ks[r.clone()]
                         .iter()
                         .zip(&vs[r])
                         .map(|(&key, &val)| Item { key, val }),
-                    digit,
-                    next,
-                    log_bl,
-                    off,
-                    part,
-                    dst,
+                    block,
                 ),
             }
         });

@@ -112,15 +112,11 @@ pub trait Stages {
         shadow_rays(s, lights)
     }
 
-    /// Local illumination of every surface times its throughput ([`shade::local`]);
-    /// `occluded[i · lights + l]` says whether light l is hidden from surface i.
-    fn local_shading(
-        &self,
-        s: &Surfaces,
-        materials: &[Material],
-        lights: &[Light],
-        occluded: &[bool],
-    ) -> Vec<Vec3> {
+    /// Local illumination of every surface times its throughput ([`shade::local`]) under
+    /// the scene's materials and lights; `occluded[i · lights + l]` says whether light l is
+    /// hidden from surface i.
+    fn local_shading(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+        let (materials, lights) = (&scene.materials, &scene.lights);
         let nl = lights.len();
         (0..s.len())
             .into_par_iter()
@@ -203,7 +199,7 @@ pub fn render_with(
         progress.stage(&format!("shading, generation {generation}"));
         timed(&mut stats, "shading", || {
             let occluded: Vec<bool> = occl.iter().map(|h| h.is_hit()).collect();
-            let local = stages.local_shading(&surfaces, &scene.materials, lights, &occluded);
+            let local = stages.local_shading(&surfaces, scene, &occluded);
             for (i, c) in local.into_iter().enumerate() {
                 pixels[surfaces.pixel[i] as usize] += c;
             }

@@ -217,41 +217,9 @@ pub fn build(rays: &RayBatch, order: Vec<u32>, b: usize, levels: u32, union: Uni
 #[cfg(test)]
 mod tests {
     use super::*;
-    use geom::{Pcg32, Ray};
     use proptest::prelude::*;
-    use render::RayKind;
 
-    /// Random rays in clusters (so the hierarchy has coherent and incoherent nodes), of mixed
-    /// kinds, some with bounded length.
-    fn batch(seed: u64, n: usize) -> RayBatch {
-        let mut rng = Pcg32::new(seed, 77);
-        let mut b = RayBatch::default();
-        let mut c = Vec3::ZERO;
-        let mut d = Vec3::X;
-        for i in 0..n {
-            if i % 13 == 0 {
-                c = rng.unit_vector() * rng.range(0.0, 10.0);
-                d = rng.unit_vector();
-            }
-            let org = c + rng.unit_vector() * rng.range(0.0, 0.5);
-            let dir = (d + rng.unit_vector() * rng.range(0.0, 1.5)).normalize_or(d);
-            let kind = [RayKind::Shadow, RayKind::Reflection, RayKind::Refraction][(i / 40) % 3];
-            let t_max = if kind == RayKind::Shadow {
-                rng.range(0.1, 20.0)
-            } else {
-                f32::INFINITY
-            };
-            b.push(
-                Ray::new(org, dir, 0.0, t_max),
-                kind,
-                i as u32,
-                0,
-                Vec3::ONE,
-                0,
-            );
-        }
-        b
-    }
+    use testkit::clustered_batch as batch;
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]

@@ -13,6 +13,7 @@ use proptest::prelude::*;
 use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 use rsh::{HashKind, NodeTest, RshConfig, RshEngine, Union};
 use scene::{builtin, Geometry};
+use testkit::soup_case as random_case;
 
 #[test]
 fn builtin_scenes_all_configs_match_brute_force() {
@@ -151,58 +152,6 @@ fn tiny_budget_forces_batches_and_keeps_every_pair() {
         st.counters[render::stats::counter::BUDGET_SPLITS] > 0,
         "the budget forced split expansions"
     );
-}
-
-fn random_case(seed: u64, ntri: usize, nray: usize) -> (Geometry, RayBatch) {
-    let mut rng = Pcg32::new(seed, 1);
-    let mut s = builtin::soup(ntri, seed);
-    // A few degenerate (zero-area) triangles must not disturb any engine.
-    if let Some(m) = s.meshes.first_mut() {
-        let p = m.positions[0];
-        m.positions.extend_from_slice(&[p, p, p + Vec3::X]);
-        m.normals.extend_from_slice(&[Vec3::Y; 3]);
-        let b = m.positions.len() as u32 - 3;
-        m.triangles.push([b, b + 1, b + 2]);
-        m.materials.push(0);
-    }
-    let geo = Geometry::from_scene(&s);
-    let mut batch = RayBatch::default();
-    for i in 0..nray {
-        let inside = rng.next_f32() < 0.5;
-        let org = if inside {
-            Vec3::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            )
-        } else {
-            rng.unit_vector() * rng.range(2.0, 6.0)
-        };
-        let mut dir = if inside || rng.next_f32() < 0.3 {
-            rng.unit_vector()
-        } else {
-            (-org + rng.unit_vector() * 0.8).normalize()
-        };
-        if i % 17 == 0 {
-            dir = [Vec3::X, -Vec3::Y, Vec3::new(-0.0, 0.0, 1.0)][i % 3];
-        }
-        let kind = [RayKind::Shadow, RayKind::Reflection, RayKind::Refraction][i % 3];
-        let t_max = if rng.next_f32() < 0.3 {
-            rng.range(0.0, 3.0)
-        } else {
-            f32::INFINITY
-        };
-        batch.push(
-            Ray::new(org, dir, 0.0, t_max),
-            kind,
-            i as u32,
-            (i % 2) as u32,
-            Vec3::ONE,
-            0,
-        );
-    }
-    batch.width = 37;
-    (geo, batch)
 }
 
 proptest! {

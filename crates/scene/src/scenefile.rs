@@ -35,12 +35,13 @@
 //! end = 2
 //! ```
 
+use crate::anim::{Animation, Interp, RotKey, Track, VecKey, VertexKeys, Xform};
 use crate::error::SceneError;
 use crate::model::{Camera, Light, LoadReport, Material, Scene};
 use crate::{builtin, gltf_load, obj, shapes, MeshSplit};
 use geom::{Mat4, Quat, Vec3};
 use serde::Deserialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -200,10 +201,105 @@ pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
     parse_scene_file(&text, path, t0)
 }
 
+/// One `[[meshes]]` entry's contribution: its meshes, their materials and, for a sequence,
+/// its vertex keys.
+type Entry = (Vec<crate::Mesh>, Vec<Material>, Option<VertexKeys>);
+
+/// What the parse of one file needs everywhere: the file (for errors and relative paths)
+/// and the load report the loaders add to.
+struct Ctx<'a> {
+    path: &'a Path,
+    report: LoadReport,
+}
+
+impl Ctx<'_> {
+    /// A file path of the scene: relative to the scene file, or `scenes:REL` in the shared
+    /// scenes directory (`$RAYSPACE_SCENES`).
+    fn resolve(&self, what: &str, f: &str) -> Result<PathBuf, SceneError> {
+        Ok(match f.strip_prefix("scenes:") {
+            Some(rel) => crate::scenes_dir()
+                .ok_or_else(|| {
+                    self.bad(what, format!("'{f}': no scenes directory (set RAYSPACE_SCENES or provide ../shared/scenes)"))
+                })?
+                .join(rel),
+            None => self.path.parent().unwrap_or(Path::new(".")).join(f),
+        })
+    }
+
+    fn bad(&self, what: &str, msg: String) -> SceneError {
+        SceneError::invalid(self.path, format!("{what}: {msg}"))
+    }
+}
+
 fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<Scene, SceneError> {
-    let file: File = toml::from_str(text).map_err(|e| {
-        // toml's message spans several lines (a source excerpt); keep the first line, with
-        // the line number computed from the span.
+    let file = parse_toml(text, path)?;
+    let mut ctx = Ctx {
+        path,
+        report: LoadReport {
+            source: Some(path.to_path_buf()),
+            ..Default::default()
+        },
+    };
+    let mut scene = Scene::from_file(path, Vec::new(), Vec::new(), LoadReport::default());
+    if let Some(n) = &file.name {
+        scene.name = n.clone();
+    }
+    if let Some(b) = file.background {
+        scene.background = Vec3::from_array(b);
+    }
+    if file.meshes.is_empty() {
+        return Err(SceneError::invalid(path, "no [[meshes]] entries"));
+    }
+    // Per mesh of the scene: its keyframe track and vertex keys, if animated.
+    let mut anim_meshes: Vec<(usize, Option<Track>, Option<VertexKeys>)> = Vec::new();
+    for (i, def) in file.meshes.iter().enumerate() {
+        let what = format!("meshes[{i}]");
+        let (mut meshes, mut materials, vertex_keys) = mesh_entry(&mut ctx, &what, def)?;
+        if let Some(md) = &def.material {
+            for m in &mut materials {
+                md.apply(m);
+            }
+        }
+        let xf = placement(def.translate, def.rotate, def.scale.as_ref())
+            .map_err(|e| ctx.bad(&what, e))?;
+        for m in &mut meshes {
+            m.transform = xf * m.transform;
+            if let Some(n) = &def.name {
+                m.name = format!("{n}/{}", m.name);
+            }
+        }
+        let first_mesh = scene.meshes.len();
+        let count = meshes.len();
+        scene.append_meshes(meshes, materials);
+        let track = match &def.animation {
+            None => None,
+            Some(a) => {
+                let name = def.name.clone().unwrap_or_else(|| what.clone());
+                Some(keyframe_track(a, name).map_err(|e| ctx.bad(&what, e))?)
+            }
+        };
+        for m in first_mesh..first_mesh + count {
+            anim_meshes.push((m, track.clone(), vertex_keys.clone()));
+        }
+    }
+    scene.report = ctx.report;
+    scene.report.source = Some(path.to_path_buf());
+    camera_and_lights(&file, &mut scene);
+    if anim_meshes
+        .iter()
+        .any(|(_, t, v)| t.is_some() || v.is_some())
+    {
+        let start = animate(&file, path, &mut scene, anim_meshes)?;
+        scene = scene.at_time(start);
+    }
+    scene.report.load_seconds = t0.elapsed().as_secs_f64();
+    Ok(scene)
+}
+
+/// The TOML document; a syntax error names its line (toml's message spans several lines, a
+/// source excerpt: keep the first, with the line number computed from the span).
+fn parse_toml(text: &str, path: &Path) -> Result<File, SceneError> {
+    toml::from_str(text).map_err(|e| {
         let line = e
             .span()
             .map(|s| {
@@ -219,220 +315,213 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
             line,
             msg: e.message().to_string(),
         }
-    })?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let mut report = LoadReport {
-        source: Some(path.to_path_buf()),
-        ..Default::default()
+    })
+}
+
+/// The meshes of one `[[meshes]]` entry, from exactly one of its sources.
+fn mesh_entry(ctx: &mut Ctx, what: &str, def: &MeshDef) -> Result<Entry, SceneError> {
+    let sources = def.file.is_some() as u32
+        + def.shape.is_some() as u32
+        + def.builtin.is_some() as u32
+        + def.sequence.is_some() as u32;
+    if sources != 1 {
+        return Err(ctx.bad(
+            what,
+            "give exactly one of file, shape, builtin or sequence".into(),
+        ));
+    }
+    // A bad `split` is an error whatever the source (it only applies to OBJ files).
+    let split: MeshSplit = match &def.split {
+        Some(s) => s.parse().map_err(|e| ctx.bad(what, e))?,
+        None => MeshSplit::Groups,
     };
-    let mut scene = Scene::from_file(path, Vec::new(), Vec::new(), LoadReport::default());
-    if let Some(n) = &file.name {
-        scene.name = n.clone();
+    if let Some(pat) = &def.sequence {
+        return sequence_meshes(ctx, what, def, pat);
     }
-    if let Some(b) = file.background {
-        scene.background = Vec3::from_array(b);
+    if let Some(f) = &def.file {
+        let (m, mats) = file_meshes(ctx, what, f, split)?;
+        return Ok((m, mats, None));
     }
-    if file.meshes.is_empty() {
-        return Err(SceneError::invalid(path, "no [[meshes]] entries"));
+    if let Some(b) = &def.builtin {
+        let s = builtin::by_name(b)
+            .ok_or_else(|| ctx.bad(what, format!("unknown built-in scene '{b}'")))?;
+        return Ok((s.meshes, s.materials, None));
     }
-    let mut anim_meshes: Vec<(
-        usize,
-        Option<crate::anim::Track>,
-        Option<crate::anim::VertexKeys>,
-    )> = Vec::new();
-    for (i, def) in file.meshes.iter().enumerate() {
-        let what = format!("meshes[{i}]");
-        let bad = |msg: String| SceneError::invalid(path, format!("{what}: {msg}"));
-        let sources = def.file.is_some() as u32
-            + def.shape.is_some() as u32
-            + def.builtin.is_some() as u32
-            + def.sequence.is_some() as u32;
-        if sources != 1 {
-            return Err(bad(
-                "give exactly one of file, shape, builtin or sequence".into()
+    let shape = def.shape.as_deref().unwrap_or("");
+    let m = shape_mesh(shape, def.detail).map_err(|e| ctx.bad(what, e))?;
+    Ok((vec![m], vec![Material::default()], None))
+}
+
+/// `file = ...`: an OBJ (cut by `split`) or a glTF file.
+fn file_meshes(
+    ctx: &mut Ctx,
+    what: &str,
+    f: &str,
+    split: MeshSplit,
+) -> Result<(Vec<crate::Mesh>, Vec<Material>), SceneError> {
+    let p = ctx.resolve(what, f)?;
+    let ext = p
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "obj" => obj::load_obj_meshes(&p, split, &mut ctx.report),
+        "gltf" | "glb" => {
+            let s = gltf_load::load_gltf_scene(&p)?;
+            ctx.report.degenerate_skipped += s.report.degenerate_skipped;
+            Ok((s.meshes, s.materials))
+        }
+        _ => Err(ctx.bad(
+            what,
+            format!("unsupported mesh file '{f}' (expected .obj, .gltf or .glb)"),
+        )),
+    }
+}
+
+/// `shape = ...`: a tessellated primitive of `scene::shapes`.
+fn shape_mesh(shape: &str, detail: Option<u32>) -> Result<crate::Mesh, String> {
+    Ok(match shape {
+        "sphere" => shapes::icosphere("sphere", Vec3::ZERO, 1.0, detail.unwrap_or(3).min(7), 0),
+        "box" => shapes::cuboid("box", Vec3::splat(-1.0), Vec3::ONE, false, 0),
+        "plane" => shapes::quad_grid(
+            "plane",
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::Z * 2.0,
+            Vec3::X * 2.0,
+            detail.unwrap_or(1).clamp(1, 1024),
+            0,
+        ),
+        "torus" => shapes::torus("torus", Vec3::ZERO, 1.0, 0.35, 48, 16, 0),
+        _ => {
+            return Err(format!(
+                "unknown shape '{shape}' (expected sphere, box, plane or torus)"
+            ))
+        }
+    })
+}
+
+/// `sequence = ...`: numbered OBJ files of one topology, frame i at time i / fps.
+fn sequence_meshes(
+    ctx: &mut Ctx,
+    what: &str,
+    def: &MeshDef,
+    pat: &str,
+) -> Result<Entry, SceneError> {
+    let n = def
+        .frames
+        .ok_or_else(|| ctx.bad(what, "sequence needs frames".into()))?;
+    let fps = def.fps.unwrap_or(24.0);
+    if !((1..=100_000).contains(&n) && fps.is_finite() && fps > 0.0) {
+        return Err(ctx.bad(
+            what,
+            format!("frames {n} must be 1..=100000 and fps {fps} positive"),
+        ));
+    }
+    let mut keys = Vec::new();
+    let mut first: Option<(crate::Mesh, Vec<Material>)> = None;
+    for i in 0..n {
+        let f = numbered(pat, i).ok_or_else(|| {
+            ctx.bad(
+                what,
+                format!("sequence '{pat}' needs a %d or %0Nd frame number"),
+            )
+        })?;
+        let p = ctx.resolve(what, &f)?;
+        let (mut ms, mats) = obj::load_obj_meshes(&p, MeshSplit::Single, &mut ctx.report)?;
+        let m = ms
+            .pop()
+            .ok_or_else(|| ctx.bad(what, format!("{}: no triangles", p.display())))?;
+        if let Some((m0, _)) = &first {
+            if m0.positions.len() != m.positions.len() || m0.triangles != m.triangles {
+                return Err(ctx.bad(
+                    what,
+                    format!(
+                        "{}: topology differs from frame 0 ({} vertices, {} triangles vs {}, {})",
+                        p.display(),
+                        m.positions.len(),
+                        m.triangles.len(),
+                        m0.positions.len(),
+                        m0.triangles.len()
+                    ),
+                ));
+            }
+        } else {
+            first = Some((m.clone(), mats));
+        }
+        keys.push(m.positions);
+    }
+    let (m0, mats) = first.expect("n >= 1");
+    let vk = VertexKeys {
+        times: (0..n).map(|i| i as f32 / fps).collect(),
+        positions: keys,
+    };
+    Ok((vec![m0], mats, Some(vk)))
+}
+
+fn scale_vec(s: Option<&Scale>) -> Vec3 {
+    match s {
+        Some(Scale::Uniform(s)) => Vec3::splat(*s),
+        Some(Scale::Axes(a)) => Vec3::from_array(*a),
+        None => Vec3::ONE,
+    }
+}
+
+/// `translate`, `rotate` (Euler XYZ, degrees) and `scale` as one transform.
+fn placement(
+    translate: Option<[f32; 3]>,
+    rotate: Option<[f32; 3]>,
+    scale: Option<&Scale>,
+) -> Result<Mat4, String> {
+    let t = translate.map(Vec3::from_array).unwrap_or(Vec3::ZERO);
+    let r = rotate.map(euler).unwrap_or(Quat::IDENTITY);
+    let s = scale_vec(scale);
+    if !(s.cmpgt(Vec3::ZERO).all() && s.is_finite()) {
+        return Err(format!("scale {s} must be positive and finite"));
+    }
+    Ok(Mat4::from_scale_rotation_translation(s, r, t))
+}
+
+/// `[meshes.animation]`: linear translation and scale, slerp rotation, keyed at increasing t.
+fn keyframe_track(a: &AnimDef, name: String) -> Result<Track, String> {
+    if a.keys.is_empty()
+        || a.keys
+            .windows(2)
+            .any(|w| w[1].t.partial_cmp(&w[0].t) != Some(std::cmp::Ordering::Greater))
+    {
+        return Err("animation keys must be given with increasing t".into());
+    }
+    let mut tr = Track {
+        name,
+        translation: vec![],
+        rotation: vec![],
+        scale: vec![],
+        interp: Interp::Linear,
+        looping: a.looping,
+    };
+    for k in &a.keys {
+        if !k.t.is_finite() {
+            return Err(format!("animation key time {} is not finite", k.t));
+        }
+        let tcb = [0.0; 3];
+        let v = Vec3::from_array(k.translate.unwrap_or([0.0; 3]));
+        tr.translation.push(VecKey { t: k.t, v, tcb });
+        let q = k.rotate.map(euler).unwrap_or(Quat::IDENTITY);
+        tr.rotation.push(RotKey { t: k.t, q, tcb });
+        let sc = scale_vec(k.scale.as_ref());
+        if !(sc.cmpgt(Vec3::ZERO).all() && sc.is_finite() && v.is_finite()) {
+            return Err(format!(
+                "animation key at t = {}: scale must be positive, values finite",
+                k.t
             ));
         }
-        let resolve = |f: &str| -> Result<std::path::PathBuf, SceneError> {
-            // `scenes:REL` names a file in the shared scenes directory ($RAYSPACE_SCENES).
-            Ok(match f.strip_prefix("scenes:") {
-                Some(rel) => crate::scenes_dir()
-                    .ok_or_else(|| bad(format!("'{f}': no scenes directory (set RAYSPACE_SCENES or provide ../shared/scenes)")))?
-                    .join(rel),
-                None => base.join(f),
-            })
-        };
-        let mut vertex_keys = None;
-        let split: MeshSplit = match &def.split {
-            Some(s) => s.parse().map_err(bad)?,
-            None => MeshSplit::Groups,
-        };
-        let (mut meshes, mut materials) = if let Some(pat) = &def.sequence {
-            let n = def
-                .frames
-                .ok_or_else(|| bad("sequence needs frames".into()))?;
-            let fps = def.fps.unwrap_or(24.0);
-            if !((1..=100_000).contains(&n) && fps.is_finite() && fps > 0.0) {
-                return Err(bad(format!(
-                    "frames {n} must be 1..=100000 and fps {fps} positive"
-                )));
-            }
-            let mut keys = Vec::new();
-            let mut first = None;
-            for i in 0..n {
-                let f = numbered(pat, i).ok_or_else(|| {
-                    bad(format!("sequence '{pat}' needs a %d or %0Nd frame number"))
-                })?;
-                let p = resolve(&f)?;
-                let (mut ms, mats) = obj::load_obj_meshes(&p, MeshSplit::Single, &mut report)?;
-                let m = ms
-                    .pop()
-                    .ok_or_else(|| bad(format!("{}: no triangles", p.display())))?;
-                match &first {
-                    None => first = Some((m.clone(), mats)),
-                    Some((m0, _)) => {
-                        if m0.positions.len() != m.positions.len() || m0.triangles != m.triangles {
-                            return Err(bad(format!(
-                                "{}: topology differs from frame 0 ({} vertices, {} triangles vs {}, {})",
-                                p.display(),
-                                m.positions.len(),
-                                m.triangles.len(),
-                                m0.positions.len(),
-                                m0.triangles.len()
-                            )));
-                        }
-                    }
-                }
-                keys.push(m.positions);
-            }
-            let (m0, mats) = first.expect("n >= 1");
-            vertex_keys = Some(crate::anim::VertexKeys {
-                times: (0..n).map(|i| i as f32 / fps).collect(),
-                positions: keys,
-            });
-            (vec![m0], mats)
-        } else if let Some(f) = &def.file {
-            let p = resolve(f)?;
-            let ext = p
-                .extension()
-                .and_then(|e| e.to_str())
-                .unwrap_or("")
-                .to_ascii_lowercase();
-            match ext.as_str() {
-                "obj" => obj::load_obj_meshes(&p, split, &mut report)?,
-                "gltf" | "glb" => {
-                    let s = gltf_load::load_gltf_scene(&p)?;
-                    report.degenerate_skipped += s.report.degenerate_skipped;
-                    (s.meshes, s.materials)
-                }
-                _ => {
-                    return Err(bad(format!(
-                        "unsupported mesh file '{f}' (expected .obj, .gltf or .glb)"
-                    )))
-                }
-            }
-        } else if let Some(b) = &def.builtin {
-            let s =
-                builtin::by_name(b).ok_or_else(|| bad(format!("unknown built-in scene '{b}'")))?;
-            (s.meshes, s.materials)
-        } else {
-            let shape = def.shape.as_deref().unwrap_or("");
-            let detail = def.detail;
-            let m = match shape {
-                "sphere" => {
-                    shapes::icosphere("sphere", Vec3::ZERO, 1.0, detail.unwrap_or(3).min(7), 0)
-                }
-                "box" => shapes::cuboid("box", Vec3::splat(-1.0), Vec3::ONE, false, 0),
-                "plane" => shapes::quad_grid(
-                    "plane",
-                    Vec3::new(-1.0, 0.0, -1.0),
-                    Vec3::Z * 2.0,
-                    Vec3::X * 2.0,
-                    detail.unwrap_or(1).clamp(1, 1024),
-                    0,
-                ),
-                "torus" => shapes::torus("torus", Vec3::ZERO, 1.0, 0.35, 48, 16, 0),
-                _ => {
-                    return Err(bad(format!(
-                        "unknown shape '{shape}' (expected sphere, box, plane or torus)"
-                    )))
-                }
-            };
-            (vec![m], vec![Material::default()])
-        };
-        if let Some(md) = &def.material {
-            for m in &mut materials {
-                md.apply(m);
-            }
-        }
-        let t = def.translate.map(Vec3::from_array).unwrap_or(Vec3::ZERO);
-        let r = def.rotate.map(euler).unwrap_or(Quat::IDENTITY);
-        let s = match def.scale {
-            Some(Scale::Uniform(s)) => Vec3::splat(s),
-            Some(Scale::Axes(a)) => Vec3::from_array(a),
-            None => Vec3::ONE,
-        };
-        if !(s.cmpgt(Vec3::ZERO).all() && s.is_finite()) {
-            return Err(bad(format!("scale {s} must be positive and finite")));
-        }
-        let xf = Mat4::from_scale_rotation_translation(s, r, t);
-        for m in &mut meshes {
-            m.transform = xf * m.transform;
-            if let Some(n) = &def.name {
-                m.name = format!("{n}/{}", m.name);
-            }
-        }
-        let first_mesh = scene.meshes.len();
-        let count = meshes.len();
-        scene.append_meshes(meshes, materials);
-        let track = match &def.animation {
-            None => None,
-            Some(a) => {
-                if a.keys.is_empty()
-                    || a.keys
-                        .windows(2)
-                        .any(|w| w[1].t.partial_cmp(&w[0].t) != Some(std::cmp::Ordering::Greater))
-                {
-                    return Err(bad("animation keys must be given with increasing t".into()));
-                }
-                let mut tr = crate::anim::Track {
-                    name: def.name.clone().unwrap_or_else(|| what.clone()),
-                    translation: vec![],
-                    rotation: vec![],
-                    scale: vec![],
-                    interp: crate::anim::Interp::Linear,
-                    looping: a.looping,
-                };
-                for k in &a.keys {
-                    if !k.t.is_finite() {
-                        return Err(bad(format!("animation key time {} is not finite", k.t)));
-                    }
-                    let tcb = [0.0; 3];
-                    let v = Vec3::from_array(k.translate.unwrap_or([0.0; 3]));
-                    tr.translation.push(crate::anim::VecKey { t: k.t, v, tcb });
-                    let q = k.rotate.map(euler).unwrap_or(Quat::IDENTITY);
-                    tr.rotation.push(crate::anim::RotKey { t: k.t, q, tcb });
-                    let sc = match k.scale {
-                        Some(Scale::Uniform(s)) => Vec3::splat(s),
-                        Some(Scale::Axes(a)) => Vec3::from_array(a),
-                        None => Vec3::ONE,
-                    };
-                    if !(sc.cmpgt(Vec3::ZERO).all() && sc.is_finite() && v.is_finite()) {
-                        return Err(bad(format!(
-                            "animation key at t = {}: scale must be positive, values finite",
-                            k.t
-                        )));
-                    }
-                    tr.scale.push(crate::anim::VecKey { t: k.t, v: sc, tcb });
-                }
-                Some(tr)
-            }
-        };
-        for m in first_mesh..first_mesh + count {
-            anim_meshes.push((m, track.clone(), vertex_keys.clone()));
-        }
+        tr.scale.push(VecKey { t: k.t, v: sc, tcb });
     }
-    scene.report = report;
-    scene.report.source = Some(path.to_path_buf());
+    Ok(tr)
+}
+
+/// `[camera]` (or a framing of the scene) and `[[lights]]` (or one light above the camera).
+fn camera_and_lights(file: &File, scene: &mut Scene) {
     match &file.camera {
         Some(c) => {
             scene.camera = Camera {
@@ -442,7 +531,7 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
                 vfov: c.fov.unwrap_or(45.0),
             };
         }
-        None => obj::auto_camera_and_light(&mut scene),
+        None => obj::auto_camera_and_light(scene),
     }
     if !file.lights.is_empty() {
         scene.lights = file
@@ -462,67 +551,68 @@ fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<S
             1.0,
         )];
     }
-    if anim_meshes
-        .iter()
-        .any(|(_, t, v)| t.is_some() || v.is_some())
-    {
-        use crate::anim::{Animation, Xform};
-        let n = scene.meshes.len();
-        let mut tracks = Vec::new();
-        let mut chains = vec![Vec::new(); n];
-        let mut vkeys = vec![None; n];
-        let mut last_time = 0.0f32;
-        for (m, track, vk) in anim_meshes {
-            if let Some(tr) = track {
-                last_time = last_time.max(tr.translation.last().map_or(0.0, |k| k.t));
-                // One track per [[meshes]] entry, shared by the meshes it produced.
-                let i = match tracks.iter().position(|x: &crate::anim::Track| *x == tr) {
-                    Some(i) => i,
-                    None => {
-                        tracks.push(tr);
-                        tracks.len() - 1
-                    }
-                };
-                chains[m] = vec![
-                    Xform::Track(i as u32),
-                    Xform::Static(scene.meshes[m].transform),
-                ];
-            }
-            if let Some(v) = vk {
-                last_time = last_time.max(v.times.last().copied().unwrap_or(0.0));
-                vkeys[m] = Some(v);
-            }
-        }
-        let local_spheres = crate::anim::local_spheres(&scene.meshes, &vkeys);
-        let (start, end, frames) = match &file.animation {
-            Some(a) => {
-                if !(a.start.is_finite() && a.end.is_finite() && a.end >= a.start) {
-                    return Err(SceneError::invalid(
-                        path,
-                        format!(
-                            "[animation]: start {} and end {} must be finite, end ≥ start",
-                            a.start, a.end
-                        ),
-                    ));
+}
+
+/// The scene's animation from its animated meshes and `[animation]`; returns the start time.
+fn animate(
+    file: &File,
+    path: &Path,
+    scene: &mut Scene,
+    anim_meshes: Vec<(usize, Option<Track>, Option<VertexKeys>)>,
+) -> Result<f32, SceneError> {
+    let n = scene.meshes.len();
+    let mut tracks: Vec<Track> = Vec::new();
+    let mut chains = vec![Vec::new(); n];
+    let mut vkeys = vec![None; n];
+    let mut last_time = 0.0f32;
+    for (m, track, vk) in anim_meshes {
+        if let Some(tr) = track {
+            last_time = last_time.max(tr.translation.last().map_or(0.0, |k| k.t));
+            // One track per [[meshes]] entry, shared by the meshes it produced.
+            let i = match tracks.iter().position(|x| *x == tr) {
+                Some(i) => i,
+                None => {
+                    tracks.push(tr);
+                    tracks.len() - 1
                 }
-                (a.start, a.end, a.frames.unwrap_or(30))
-            }
-            None => (0.0, last_time, 30),
-        };
-        scene.animation = Some(Animation {
-            start,
-            end,
-            frames,
-            tracks,
-            chains,
-            vertex_keys: vkeys,
-            camera: None,
-            local_spheres,
-        });
-        scene = scene.at_time(start);
+            };
+            chains[m] = vec![
+                Xform::Track(i as u32),
+                Xform::Static(scene.meshes[m].transform),
+            ];
+        }
+        if let Some(v) = vk {
+            last_time = last_time.max(v.times.last().copied().unwrap_or(0.0));
+            vkeys[m] = Some(v);
+        }
     }
-    scene.report.load_seconds = t0.elapsed().as_secs_f64();
-    Ok(scene)
+    let local_spheres = crate::anim::local_spheres(&scene.meshes, &vkeys);
+    let (start, end, frames) = match &file.animation {
+        Some(a) => {
+            if !(a.start.is_finite() && a.end.is_finite() && a.end >= a.start) {
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "[animation]: start {} and end {} must be finite, end ≥ start",
+                        a.start, a.end
+                    ),
+                ));
+            }
+            (a.start, a.end, a.frames.unwrap_or(30))
+        }
+        None => (0.0, last_time, 30),
+    };
+    scene.animation = Some(Animation {
+        start,
+        end,
+        frames,
+        tracks,
+        chains,
+        vertex_keys: vkeys,
+        camera: None,
+        local_spheres,
+    });
+    Ok(start)
 }
 
 #[cfg(test)]

@@ -72,46 +72,9 @@ pub fn cuboid(name: &str, min: Vec3, max: Vec3, inward: bool, material: u32) -> 
 
 /// An icosphere: an icosahedron subdivided `level` times (20·4^level triangles).
 pub fn icosphere(name: &str, center: Vec3, radius: f32, level: u32, material: u32) -> Mesh {
-    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
-    let mut pos: Vec<Vec3> = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
-    .collect();
-    let mut tris: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
+    let (v, f) = geom::polyhedra::icosahedron();
+    let mut pos: Vec<Vec3> = v.iter().map(|p| p.normalize()).collect();
+    let mut tris: Vec<[u32; 3]> = f.to_vec();
     for _ in 0..level {
         let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
         let mut next = Vec::with_capacity(tris.len() * 4);
@@ -211,6 +174,53 @@ pub fn torus_knot(
         center + Vec3::new(r * (p * s).cos(), -(q * s).sin(), r * (p * s).sin()) * (scale / 3.0)
     };
     tube(name, curve, 0.12 * scale, n, k, material)
+}
+
+/// The open side wall of a cone or cylinder from `base` (radius `r0`) to `apex` (radius
+/// `r1`), `segments` around, as a triangle soup without degenerate triangles (NFF/AFF cones
+/// have no caps). `base` and `apex` must differ.
+pub fn cone_wall(base: Vec3, r0: f32, apex: Vec3, r1: f32, segments: usize) -> Vec<[Vec3; 3]> {
+    let axis = (apex - base).normalize();
+    let (u, v) = axis.any_orthonormal_pair();
+    let ring = |c: Vec3, r: f32, k: usize| {
+        let a = std::f32::consts::TAU * k as f32 / segments as f32;
+        c + r * (a.cos() * u + a.sin() * v)
+    };
+    let mut out = Vec::with_capacity(2 * segments);
+    for k in 0..segments {
+        let (p0, p1) = (ring(base, r0, k), ring(base, r0, k + 1));
+        let (q0, q1) = (ring(apex, r1, k), ring(apex, r1, k + 1));
+        for t in [[p0, p1, q1], [p0, q1, q0]] {
+            if !geom::tri::is_degenerate(t[0], t[1], t[2]) {
+                out.push(t);
+            }
+        }
+    }
+    out
+}
+
+/// A UV sphere of `stacks` × `slices`, as a triangle soup without the degenerate triangles
+/// at the poles (the AFF `s` entity).
+pub fn uv_sphere(c: Vec3, r: f32, stacks: usize, slices: usize) -> Vec<[Vec3; 3]> {
+    let p = |i: usize, j: usize| {
+        let th = std::f32::consts::PI * i as f32 / stacks as f32;
+        let ph = std::f32::consts::TAU * j as f32 / slices as f32;
+        c + r * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin())
+    };
+    let mut out = Vec::with_capacity(2 * stacks * slices);
+    for i in 0..stacks {
+        for j in 0..slices {
+            for t in [
+                [p(i, j), p(i + 1, j), p(i + 1, j + 1)],
+                [p(i, j), p(i + 1, j + 1), p(i, j + 1)],
+            ] {
+                if !geom::tri::is_degenerate(t[0], t[1], t[2]) {
+                    out.push(t);
+                }
+            }
+        }
+    }
+    out
 }
 
 #[cfg(test)]

@@ -7,9 +7,7 @@ use scene::{load, Geometry, LoadOptions, SceneError};
 use std::path::{Path, PathBuf};
 
 fn dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rayspace-aff-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    testkit::temp_dir(&format!("aff-{tag}"))
 }
 
 fn write(d: &Path, name: &str, text: &str) -> PathBuf {

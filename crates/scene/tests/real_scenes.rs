@@ -1,15 +1,14 @@
 //! The shared real scenes load with the expected triangle counts (skipped when absent).
 
-use scene::{load, scenes_dir, LoadOptions, MeshSplit};
+use scene::{load, LoadOptions, MeshSplit};
 
 fn check(rel: &str, split: MeshSplit, expect_tris: usize, expect_degenerate: usize) {
-    let Some(dir) = scenes_dir() else {
-        eprintln!("skipped: no shared scenes (set RAYSPACE_SCENES or provide ../shared/scenes)");
+    let Some(dir) = testkit::scenes() else {
         return;
     };
     let path = dir.join(rel);
     if !path.exists() {
-        eprintln!("skipped: {} not present", path.display());
+        testkit::skip(format!("{} not present", path.display()));
         return;
     }
     let s = load(path.to_str().unwrap(), &LoadOptions { split }).unwrap();

@@ -6,9 +6,7 @@ use scene::{load, Geometry, LoadOptions};
 use std::path::{Path, PathBuf};
 
 fn dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rayspace-tanim-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    testkit::temp_dir(&format!("tanim-{tag}"))
 }
 
 fn tri_obj(y: f32) -> String {

@@ -13,139 +13,21 @@
 //!
 //! Every error names the file and line.
 
-use crate::anim::{Animation, Interp, RotKey, Track, VecKey, VertexKeys, Xform};
-use crate::error::SceneError;
-use crate::model::{smooth_normals, Camera, Light, LoadReport, Material, Mesh, Scene};
-use geom::{Mat4, Quat, Vec3};
-use std::path::{Path, PathBuf};
+mod blocks;
+mod lex;
 
-struct Tok {
-    text: String,
-    line: usize,
-}
-
-fn tokenize(src: &str) -> Vec<Tok> {
-    let mut out = Vec::new();
-    for (ln, line) in src.lines().enumerate() {
-        let line = match line.find(['#', '%']) {
-            Some(i) => &line[..i],
-            None => line,
-        };
-        for w in line.split_whitespace() {
-            // Braces may be glued to other tokens ("{i", "}").
-            let mut rest = w;
-            while !rest.is_empty() {
-                if let Some(i) = rest.find(['{', '}']) {
-                    if i > 0 {
-                        out.push(Tok {
-                            text: rest[..i].to_string(),
-                            line: ln + 1,
-                        });
-                    }
-                    out.push(Tok {
-                        text: rest[i..i + 1].to_string(),
-                        line: ln + 1,
-                    });
-                    rest = &rest[i + 1..];
-                } else {
-                    out.push(Tok {
-                        text: rest.to_string(),
-                        line: ln + 1,
-                    });
-                    rest = "";
-                }
-            }
-        }
-    }
-    out
-}
-
-/// A cursor over one file's tokens.
-struct Cursor<'a> {
-    toks: &'a [Tok],
-    pos: usize,
-    path: &'a Path,
-}
-
-impl Cursor<'_> {
-    fn line(&self) -> usize {
-        self.toks
-            .get(self.pos)
-            .or_else(|| self.toks.last())
-            .map_or(1, |t| t.line)
-    }
-    fn err(&self, msg: impl Into<String>) -> SceneError {
-        SceneError::Parse {
-            path: self.path.to_path_buf(),
-            line: self.line(),
-            msg: msg.into(),
-        }
-    }
-    fn peek(&self) -> Option<&str> {
-        self.toks.get(self.pos).map(|t| t.text.as_str())
-    }
-    fn word(&mut self, what: &str) -> Result<String, SceneError> {
-        match self.toks.get(self.pos) {
-            Some(t) => {
-                self.pos += 1;
-                Ok(t.text.clone())
-            }
-            None => Err(self.err(format!("unexpected end of file: expected {what}"))),
-        }
-    }
-    fn num(&mut self, what: &str) -> Result<f32, SceneError> {
-        let line = self.line();
-        let w = self.word(what)?;
-        match w.parse::<f32>() {
-            Ok(x) if x.is_finite() => Ok(x),
-            Ok(_) => Err(SceneError::Parse {
-                path: self.path.to_path_buf(),
-                line,
-                msg: format!("{what}: '{w}' is not finite"),
-            }),
-            Err(_) => Err(SceneError::Parse {
-                path: self.path.to_path_buf(),
-                line,
-                msg: format!("expected {what} (a number), found '{w}'"),
-            }),
-        }
-    }
-    fn count(&mut self, what: &str, max: usize) -> Result<usize, SceneError> {
-        let line = self.line();
-        let w = self.word(what)?;
-        match w.parse::<usize>() {
-            Ok(n) if n <= max => Ok(n),
-            _ => Err(SceneError::Parse {
-                path: self.path.to_path_buf(),
-                line,
-                msg: format!("expected {what} (a count up to {max}), found '{w}'"),
-            }),
-        }
-    }
-    fn vec3(&mut self, what: &str) -> Result<Vec3, SceneError> {
-        Ok(Vec3::new(self.num(what)?, self.num(what)?, self.num(what)?))
-    }
-    fn expect(&mut self, w: &str) -> Result<(), SceneError> {
-        let line = self.line();
-        let got = self.word(&format!("'{w}'"))?;
-        if got == w {
-            Ok(())
-        } else {
-            Err(SceneError::Parse {
-                path: self.path.to_path_buf(),
-                line,
-                msg: format!("expected '{w}', found '{got}'"),
-            })
-        }
-    }
-    fn is_number(&self) -> bool {
-        self.peek().is_some_and(|w| w.parse::<f32>().is_ok())
-    }
-}
+use crate::anim::{Animation, Interp, Track, VertexKeys, Xform};
+use lex::{tokenize, Cursor};
 
 /// Largest element counts accepted (absurd sizes are errors, not allocations).
 const MAX_COUNT: usize = 50_000_000;
+/// Deepest include nesting (deeper is taken for a cycle).
 const MAX_INCLUDE_DEPTH: usize = 32;
+use crate::error::SceneError;
+use crate::model::{smooth_normals, Camera, Light, LoadReport, Material, Mesh, Scene};
+use crate::shapes;
+use geom::{Mat4, Quat, Vec3};
+use std::path::{Path, PathBuf};
 
 /// A mesh being collected: loose polygons of one transform group, or an `m` block.
 #[derive(Default)]
@@ -167,6 +49,12 @@ impl Builder {
         }
         self.triangles.push([b, b + 1, b + 2]);
         self.materials.push(mat);
+    }
+    /// Triangles without normals (tessellated shapes).
+    fn add_soup(&mut self, tris: &[[Vec3; 3]], mat: u32) {
+        for &t in tris {
+            self.add_tri(t, None, mat);
+        }
     }
     fn add_fan(&mut self, p: &[Vec3], n: Option<&[Vec3]>, mat: u32) {
         for k in 1..p.len().saturating_sub(1) {
@@ -322,6 +210,7 @@ impl Parser {
         Ok(())
     }
 
+    /// The entities of one file (or of one include), up to its end.
     fn block(
         &mut self,
         c: &mut Cursor,
@@ -335,157 +224,34 @@ impl Parser {
             c.pos += 1;
             let mat = self.current_material;
             match w.as_str() {
-                "v" => {
-                    c.expect("from")?;
-                    let eye = c.vec3("from")?;
-                    c.expect("at")?;
-                    let target = c.vec3("at")?;
-                    c.expect("up")?;
-                    let up = c.vec3("up")?;
-                    c.expect("angle")?;
-                    let vfov = c.num("angle")?;
-                    c.expect("hither")?;
-                    c.num("hither")?;
-                    c.expect("resolution")?;
-                    c.num("resolution")?;
-                    c.num("resolution")?;
-                    if !(vfov > 0.0 && vfov < 180.0) || (target - eye).length() == 0.0 {
-                        return Err(SceneError::Parse {
-                            path: path.to_path_buf(),
-                            line,
-                            msg: "view: angle must be in (0, 180) and 'at' differ from 'from'"
-                                .into(),
-                        });
-                    }
-                    self.camera = Some(Camera {
-                        eye,
-                        target,
-                        up,
-                        vfov,
-                    });
-                }
+                "v" => self.view(c, line)?,
                 "b" => self.background = c.vec3("background colour")?,
                 "am" => {
                     c.vec3("ambient colour")?;
                 }
-                "l" | "la" => {
-                    if w == "la" {
-                        c.word("light name")?;
-                        self.notes
-                            .push("animated lights placed at their given position".into());
-                    }
-                    let p = c.vec3("light position")?;
-                    let col = if c.is_number() {
-                        c.vec3("light colour")?
-                    } else {
-                        Vec3::ONE
-                    };
-                    self.lights.push(Light {
-                        position: p,
-                        color: col,
-                        intensity: 1.0,
-                        attenuation: [1.0, 0.0, 0.0],
-                    });
-                }
-                "f" => {
-                    let col = c.vec3("fill colour")?;
-                    let kd = c.num("Kd")?;
-                    let ks = c.num("Ks")?;
-                    let shine = c.num("shine")?;
-                    let t = c.num("transmittance")?;
-                    let ior = c.num("index of refraction")?;
-                    self.material(col * kd, Vec3::splat(ks), shine, t, ior);
-                }
-                "fm" => {
-                    c.vec3("ambient")?;
-                    let d = c.vec3("diffuse")?;
-                    let s = c.vec3("specular")?;
-                    let shine = c.num("shine")?;
-                    let t = c.num("transmittance")?;
-                    let ior = c.num("index of refraction")?;
-                    self.material(d, s, shine, t, ior);
-                }
-                "p" | "pp" => {
-                    let n = c.count("vertex count", 1 << 20)?;
-                    let mut ps = Vec::with_capacity(n);
-                    let mut ns = Vec::with_capacity(n);
-                    for _ in 0..n {
-                        ps.push(c.vec3("polygon vertex")?);
-                        if w == "pp" {
-                            ns.push(c.vec3("polygon normal")?);
-                        }
-                    }
-                    self.loose.add_fan(&ps, (w == "pp").then_some(&ns[..]), mat);
-                }
-                "tt" | "ttp" => {
-                    c.word("texture name")?;
-                    let mut ps = [Vec3::ZERO; 3];
-                    let mut ns = [Vec3::ZERO; 3];
-                    for k in 0..3 {
-                        ps[k] = c.vec3("triangle vertex")?;
-                        if w == "ttp" {
-                            ns[k] = c.vec3("triangle normal")?;
-                        }
-                        c.num("texture u")?;
-                        c.num("texture v")?;
-                    }
-                    self.loose.add_tri(ps, (w == "ttp").then_some(ns), mat);
-                }
+                "l" | "la" => self.light(c, w == "la")?,
+                "f" => self.fill(c)?,
+                "fm" => self.fill_material(c)?,
+                "p" | "pp" => self.polygon(c, w == "pp", mat)?,
+                "tt" | "ttp" => self.textured_triangle(c, w == "ttp", mat)?,
                 "c" => {
                     let b = c.vec3("cone base")?;
                     let r0 = c.num("base radius")?.abs();
                     let a = c.vec3("cone apex")?;
                     let r1 = c.num("apex radius")?.abs();
                     if (a - b).length() == 0.0 {
-                        return Err(SceneError::Parse {
-                            path: path.to_path_buf(),
-                            line,
-                            msg: "cone: base and apex coincide".into(),
-                        });
+                        return Err(c.err_at(line, "cone: base and apex coincide"));
                     }
-                    cone(&mut self.loose, b, r0, a, r1, mat);
+                    self.loose
+                        .add_soup(&shapes::cone_wall(b, r0, a, r1, 32), mat);
                 }
                 "s" => {
                     let ctr = c.vec3("sphere centre")?;
                     let r = c.num("sphere radius")?.abs();
-                    sphere(&mut self.loose, ctr, r, mat);
+                    self.loose.add_soup(&shapes::uv_sphere(ctr, r, 16, 32), mat);
                 }
                 "m" => self.mesh(c, label, mat)?,
-                "tpa" => {
-                    let nk = c.count("key count", 1 << 16)?;
-                    let mut times = Vec::with_capacity(nk);
-                    let mut pos = Vec::with_capacity(nk);
-                    for _ in 0..nk {
-                        times.push(c.num("key time")?);
-                        let mut p = [Vec3::ZERO; 3];
-                        for v in &mut p {
-                            *v = c.vec3("animated vertex")?;
-                            c.vec3("animated normal")?;
-                        }
-                        pos.push(p);
-                    }
-                    if nk == 0 || times.windows(2).any(|w| w[1] < w[0]) {
-                        return Err(SceneError::Parse {
-                            path: path.to_path_buf(),
-                            line,
-                            msg: "tpa: key times must be given and increasing".into(),
-                        });
-                    }
-                    // All animated triangles of one group share the key times (BART's do);
-                    // otherwise the group is split.
-                    if self.tpa.as_ref().is_some_and(|(t, _, _)| *t != times) {
-                        let b = std::mem::take(&mut self.loose);
-                        self.flush(label);
-                        self.loose = b;
-                    }
-                    let e = self
-                        .tpa
-                        .get_or_insert_with(|| (times.clone(), vec![Vec::new(); nk], Vec::new()));
-                    for (k, p) in pos.iter().enumerate() {
-                        e.1[k].extend_from_slice(p);
-                    }
-                    e.2.push(mat);
-                }
+                "tpa" => self.animated_triangle(c, line, label, mat)?,
                 "xs" => {
                     let s = c.vec3("scale")?;
                     let axis = c.vec3("rotation axis")?;
@@ -504,53 +270,204 @@ impl Parser {
                 }
                 "}" => {
                     if self.stack.len() <= depth0 {
-                        return Err(SceneError::Parse {
-                            path: path.to_path_buf(),
-                            line,
-                            msg: "'}' without a matching '{'".into(),
-                        });
+                        return Err(c.err_at(line, "'}' without a matching '{'"));
                     }
                     self.flush(label);
                     self.stack.pop();
                 }
                 "k" => self.keys(c)?,
-                "a" => {
-                    let s = c.num("animation start")?;
-                    let e = c.num("animation end")?;
-                    let n = c.count("frame count", 1 << 20)?;
-                    if e < s {
-                        return Err(SceneError::Parse {
-                            path: path.to_path_buf(),
-                            line,
-                            msg: format!("animation end {e} is before its start {s}"),
-                        });
-                    }
-                    self.anim = Some((s, e, n as u32));
-                }
-                "i" => {
-                    c.num("detail level")?;
-                    let f = c.word("include file name")?;
-                    let p = path.parent().unwrap_or(Path::new(".")).join(&f);
-                    if !p.exists() {
-                        return Err(SceneError::Parse {
-                            path: path.to_path_buf(),
-                            line,
-                            msg: format!("included file {} does not exist", p.display()),
-                        });
-                    }
-                    self.flush(label);
-                    self.file(&p)?;
-                }
-                other => {
-                    return Err(SceneError::Parse {
-                        path: path.to_path_buf(),
-                        line,
-                        msg: format!("unknown AFF entity '{other}'"),
-                    })
-                }
+                "a" => self.interval(c, line)?,
+                "i" => self.include(c, line, label, path)?,
+                other => return Err(c.err_at(line, format!("unknown AFF entity '{other}'"))),
             }
         }
         Ok(())
+    }
+
+    /// `v from .. at .. up .. angle .. hither .. resolution .. ..`: the camera.
+    fn view(&mut self, c: &mut Cursor, line: usize) -> Result<(), SceneError> {
+        c.expect("from")?;
+        let eye = c.vec3("from")?;
+        c.expect("at")?;
+        let target = c.vec3("at")?;
+        c.expect("up")?;
+        let up = c.vec3("up")?;
+        c.expect("angle")?;
+        let vfov = c.num("angle")?;
+        c.expect("hither")?;
+        c.num("hither")?;
+        c.expect("resolution")?;
+        c.num("resolution")?;
+        c.num("resolution")?;
+        if !(vfov > 0.0 && vfov < 180.0) || (target - eye).length() == 0.0 {
+            return Err(c.err_at(
+                line,
+                "view: angle must be in (0, 180) and 'at' differ from 'from'",
+            ));
+        }
+        self.camera = Some(Camera {
+            eye,
+            target,
+            up,
+            vfov,
+        });
+        Ok(())
+    }
+
+    /// `l X Y Z [R G B]` or `la NAME X Y Z [R G B]` (animated lights stay where given).
+    fn light(&mut self, c: &mut Cursor, animated: bool) -> Result<(), SceneError> {
+        if animated {
+            c.word("light name")?;
+            self.notes
+                .push("animated lights placed at their given position".into());
+        }
+        let p = c.vec3("light position")?;
+        let col = if c.is_number() {
+            c.vec3("light colour")?
+        } else {
+            Vec3::ONE
+        };
+        self.lights.push(Light {
+            position: p,
+            color: col,
+            intensity: 1.0,
+            attenuation: [1.0, 0.0, 0.0],
+        });
+        Ok(())
+    }
+
+    /// `f R G B Kd Ks shine T ior`: NFF fill material.
+    fn fill(&mut self, c: &mut Cursor) -> Result<(), SceneError> {
+        let col = c.vec3("fill colour")?;
+        let kd = c.num("Kd")?;
+        let ks = c.num("Ks")?;
+        let shine = c.num("shine")?;
+        let t = c.num("transmittance")?;
+        let ior = c.num("index of refraction")?;
+        self.material(col * kd, Vec3::splat(ks), shine, t, ior);
+        Ok(())
+    }
+
+    /// `fm amb diff spec shine T ior`: AFF's full material.
+    fn fill_material(&mut self, c: &mut Cursor) -> Result<(), SceneError> {
+        c.vec3("ambient")?;
+        let d = c.vec3("diffuse")?;
+        let s = c.vec3("specular")?;
+        let shine = c.num("shine")?;
+        let t = c.num("transmittance")?;
+        let ior = c.num("index of refraction")?;
+        self.material(d, s, shine, t, ior);
+        Ok(())
+    }
+
+    /// `p N v...` or `pp N (v n)...`: a polygon, as a triangle fan.
+    fn polygon(&mut self, c: &mut Cursor, normals: bool, mat: u32) -> Result<(), SceneError> {
+        let n = c.count("vertex count", 1 << 20)?;
+        let mut ps = Vec::with_capacity(n);
+        let mut ns = Vec::with_capacity(n);
+        for _ in 0..n {
+            ps.push(c.vec3("polygon vertex")?);
+            if normals {
+                ns.push(c.vec3("polygon normal")?);
+            }
+        }
+        self.loose.add_fan(&ps, normals.then_some(&ns[..]), mat);
+        Ok(())
+    }
+
+    /// `tt NAME (v u v)×3` or `ttp NAME (v n u v)×3`: a textured triangle (texture ignored).
+    fn textured_triangle(
+        &mut self,
+        c: &mut Cursor,
+        normals: bool,
+        mat: u32,
+    ) -> Result<(), SceneError> {
+        c.word("texture name")?;
+        let mut ps = [Vec3::ZERO; 3];
+        let mut ns = [Vec3::ZERO; 3];
+        for k in 0..3 {
+            ps[k] = c.vec3("triangle vertex")?;
+            if normals {
+                ns[k] = c.vec3("triangle normal")?;
+            }
+            c.num("texture u")?;
+            c.num("texture v")?;
+        }
+        self.loose.add_tri(ps, normals.then_some(ns), mat);
+        Ok(())
+    }
+
+    /// `tpa N (t (v n)×3)×N`: a triangle with keyframed vertices.
+    fn animated_triangle(
+        &mut self,
+        c: &mut Cursor,
+        line: usize,
+        label: &str,
+        mat: u32,
+    ) -> Result<(), SceneError> {
+        let nk = c.count("key count", 1 << 16)?;
+        let mut times = Vec::with_capacity(nk);
+        let mut pos = Vec::with_capacity(nk);
+        for _ in 0..nk {
+            times.push(c.num("key time")?);
+            let mut p = [Vec3::ZERO; 3];
+            for v in &mut p {
+                *v = c.vec3("animated vertex")?;
+                c.vec3("animated normal")?;
+            }
+            pos.push(p);
+        }
+        if nk == 0 || times.windows(2).any(|w| w[1] < w[0]) {
+            return Err(c.err_at(line, "tpa: key times must be given and increasing"));
+        }
+        // All animated triangles of one group share the key times (BART's do); otherwise
+        // the group is split.
+        if self.tpa.as_ref().is_some_and(|(t, _, _)| *t != times) {
+            let b = std::mem::take(&mut self.loose);
+            self.flush(label);
+            self.loose = b;
+        }
+        let e = self
+            .tpa
+            .get_or_insert_with(|| (times.clone(), vec![Vec::new(); nk], Vec::new()));
+        for (k, p) in pos.iter().enumerate() {
+            e.1[k].extend_from_slice(p);
+        }
+        e.2.push(mat);
+        Ok(())
+    }
+
+    /// `a START END FRAMES`: the animation interval.
+    fn interval(&mut self, c: &mut Cursor, line: usize) -> Result<(), SceneError> {
+        let s = c.num("animation start")?;
+        let e = c.num("animation end")?;
+        let n = c.count("frame count", 1 << 20)?;
+        if e < s {
+            return Err(c.err_at(line, format!("animation end {e} is before its start {s}")));
+        }
+        self.anim = Some((s, e, n as u32));
+        Ok(())
+    }
+
+    /// `i DETAIL FILE`: an included file, relative to this one.
+    fn include(
+        &mut self,
+        c: &mut Cursor,
+        line: usize,
+        label: &str,
+        path: &Path,
+    ) -> Result<(), SceneError> {
+        c.num("detail level")?;
+        let f = c.word("include file name")?;
+        let p = path.parent().unwrap_or(Path::new(".")).join(&f);
+        if !p.exists() {
+            return Err(c.err_at(
+                line,
+                format!("included file {} does not exist", p.display()),
+            ));
+        }
+        self.flush(label);
+        self.file(&p)
     }
 
     fn material(&mut self, d: Vec3, s: Vec3, shine: f32, t: f32, ior: f32) {
@@ -579,161 +496,6 @@ impl Parser {
             }
         };
     }
-
-    fn mesh(&mut self, c: &mut Cursor, label: &str, mat: u32) -> Result<(), SceneError> {
-        c.expect("vertices")?;
-        let nv = c.count("vertex count", MAX_COUNT)?;
-        let mut pos = Vec::with_capacity(nv);
-        for _ in 0..nv {
-            pos.push(c.vec3("mesh vertex")?);
-        }
-        let mut normals: Vec<Vec3> = Vec::new();
-        let mut ntex = 0usize;
-        loop {
-            match c.peek() {
-                Some("normals") => {
-                    c.pos += 1;
-                    let n = c.count("normal count", MAX_COUNT)?;
-                    for _ in 0..n {
-                        normals.push(c.vec3("mesh normal")?);
-                    }
-                }
-                Some("texturecoords") => {
-                    c.pos += 1;
-                    ntex = c.count("texture coordinate count", MAX_COUNT)?;
-                    c.word("texture name")?;
-                    for _ in 0..ntex {
-                        c.num("texture u")?;
-                        c.num("texture v")?;
-                    }
-                }
-                _ => break,
-            }
-        }
-        c.expect("triangles")?;
-        let nt = c.count("triangle count", MAX_COUNT)?;
-        let mut b = Builder {
-            name: format!("{label} mesh #{}", self.meshes.len()),
-            ..Default::default()
-        };
-        for _ in 0..nt {
-            let line = c.line();
-            let mut idx = [0usize; 3];
-            for v in &mut idx {
-                *v = c.count("vertex index", MAX_COUNT)?;
-            }
-            let mut nidx = None;
-            if !normals.is_empty() {
-                let mut n = [0usize; 3];
-                for v in &mut n {
-                    *v = c.count("normal index", MAX_COUNT)?;
-                }
-                nidx = Some(n);
-            }
-            if ntex > 0 {
-                for _ in 0..3 {
-                    c.count("texture index", MAX_COUNT)?;
-                }
-            }
-            let bad =
-                idx.iter().find(|&&i| i >= nv).copied().or_else(|| {
-                    nidx.and_then(|n| n.iter().find(|&&i| i >= normals.len()).copied())
-                });
-            if let Some(i) = bad {
-                return Err(SceneError::Parse {
-                    path: c.path.to_path_buf(),
-                    line,
-                    msg: format!(
-                        "mesh index {i} out of range ({nv} vertices, {} normals)",
-                        normals.len()
-                    ),
-                });
-            }
-            let p = idx.map(|i| pos[i]);
-            b.add_tri(p, nidx.map(|n| n.map(|i| normals[i])), mat);
-        }
-        self.push_mesh(b, None);
-        Ok(())
-    }
-
-    fn keys(&mut self, c: &mut Cursor) -> Result<(), SceneError> {
-        let name = c.word("keyframe name")?;
-        c.expect("{")?;
-        let mut tr = Track {
-            name: name.clone(),
-            translation: vec![],
-            rotation: vec![],
-            scale: vec![],
-            interp: Interp::KochanekBartels,
-            looping: false,
-        };
-        loop {
-            let line = c.line();
-            let w = c.word("'transl', 'rot', 'scale', 'visibility' or '}'")?;
-            match w.as_str() {
-                "}" => break,
-                "transl" | "scale" => {
-                    let n = c.count("key count", 1 << 20)?;
-                    let mut v = Vec::with_capacity(n);
-                    for _ in 0..n {
-                        let t = c.num("key time")?;
-                        let x = c.vec3(&w)?;
-                        let tcb = [c.num("tension")?, c.num("continuity")?, c.num("bias")?];
-                        v.push(VecKey { t, v: x, tcb });
-                    }
-                    if w == "transl" {
-                        tr.translation = v;
-                    } else {
-                        tr.scale = v;
-                    }
-                }
-                "rot" => {
-                    let n = c.count("key count", 1 << 20)?;
-                    for _ in 0..n {
-                        let t = c.num("key time")?;
-                        let axis = c.vec3("rotation axis")?;
-                        let deg = c.num("rotation angle")?;
-                        let tcb = [c.num("tension")?, c.num("continuity")?, c.num("bias")?];
-                        tr.rotation.push(RotKey {
-                            t,
-                            q: axis_angle(axis, deg),
-                            tcb,
-                        });
-                    }
-                }
-                "visibility" => {
-                    let n = c.count("key count", 1 << 20)?;
-                    for _ in 0..n {
-                        c.num("key time")?;
-                        c.num("visibility")?;
-                    }
-                }
-                other => {
-                    return Err(SceneError::Parse {
-                        path: c.path.to_path_buf(),
-                        line,
-                        msg: format!("unknown keyframe channel '{other}' in 'k {name}'"),
-                    })
-                }
-            }
-        }
-        for keys in [
-            tr.translation.iter().map(|k| k.t).collect::<Vec<_>>(),
-            tr.rotation.iter().map(|k| k.t).collect(),
-            tr.scale.iter().map(|k| k.t).collect(),
-        ] {
-            // Equal times occur in BART Kitchen (the toy car's wheels): allowed, the later
-            // key wins from that instant on. Decreasing times are an error.
-            if keys.windows(2).any(|w| w[1] < w[0]) {
-                return Err(c.err(format!("keyframes of '{name}': key times decrease")));
-            }
-        }
-        match self.tracks.iter_mut().find(|t| t.name == name) {
-            Some(t) => *t = tr,
-            None => self.tracks.push(tr),
-        }
-        Ok(())
-    }
 }
 
 fn axis_angle(axis: Vec3, deg: f32) -> Quat {
@@ -742,49 +504,6 @@ fn axis_angle(axis: Vec3, deg: f32) -> Quat {
         Quat::IDENTITY
     } else {
         Quat::from_axis_angle(a, deg.to_radians())
-    }
-}
-
-/// The open side wall of a cone or cylinder (NFF cones have no caps), 32 segments.
-fn cone(b: &mut Builder, base: Vec3, r0: f32, apex: Vec3, r1: f32, mat: u32) {
-    const N: usize = 32;
-    let axis = (apex - base).normalize();
-    let (u, v) = axis.any_orthonormal_pair();
-    let ring = |c: Vec3, r: f32, k: usize| {
-        let a = std::f32::consts::TAU * k as f32 / N as f32;
-        c + r * (a.cos() * u + a.sin() * v)
-    };
-    for k in 0..N {
-        let (p0, p1) = (ring(base, r0, k), ring(base, r0, k + 1));
-        let (q0, q1) = (ring(apex, r1, k), ring(apex, r1, k + 1));
-        for t in [[p0, p1, q1], [p0, q1, q0]] {
-            if !geom::tri::is_degenerate(t[0], t[1], t[2]) {
-                b.add_tri(t, None, mat);
-            }
-        }
-    }
-}
-
-/// A UV sphere (16 stacks × 32 slices).
-fn sphere(b: &mut Builder, c: Vec3, r: f32, mat: u32) {
-    const S: usize = 16;
-    const L: usize = 32;
-    let p = |i: usize, j: usize| {
-        let th = std::f32::consts::PI * i as f32 / S as f32;
-        let ph = std::f32::consts::TAU * j as f32 / L as f32;
-        c + r * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin())
-    };
-    for i in 0..S {
-        for j in 0..L {
-            for t in [
-                [p(i, j), p(i + 1, j), p(i + 1, j + 1)],
-                [p(i, j), p(i + 1, j + 1), p(i, j + 1)],
-            ] {
-                if !geom::tri::is_degenerate(t[0], t[1], t[2]) {
-                    b.add_tri(t, None, mat);
-                }
-            }
-        }
     }
 }
 

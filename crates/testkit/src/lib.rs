@@ -1,0 +1,202 @@
+//! Shared test support for the rayspace crates (a dev-dependency only, never built into the
+//! library): proptest strategies, random scenes and ray batches, small closed meshes,
+//! scratch directories and the skip rule. The generators are deterministic in their seed, so
+//! a property-test failure reproduces with `PROPTEST_RNG_SEED`.
+
+use geom::{Pcg32, Ray, Vec3};
+use proptest::prelude::*;
+use render::{RayBatch, RayKind};
+use scene::{builtin, Geometry};
+use std::path::PathBuf;
+
+/// Points uniform in the cube [−r, r)³.
+pub fn v3(r: f32) -> impl Strategy<Value = Vec3> {
+    (-r..r, -r..r, -r..r).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// An icosahedron scaled by `scale` and moved by `offset`, as a triangle soup: a closed mesh
+/// whose every edge and vertex is shared (watertightness tests).
+pub fn icosahedron(scale: f32, offset: Vec3) -> Vec<[Vec3; 3]> {
+    let (v, f) = geom::polyhedra::icosahedron();
+    let v = v.map(|p| p * scale + offset);
+    f.iter().map(|i| i.map(|k| v[k as usize])).collect()
+}
+
+/// A fresh scratch directory for one test (`tag` names it; the process id keeps parallel
+/// test runs apart).
+pub fn temp_dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rayspace-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A test that cannot run here (no GPU driver, no shared scenes): prints one visible
+/// `SKIPPED: why` line; the caller then returns. A skipped test is not a passed test.
+pub fn skip(why: impl std::fmt::Display) {
+    eprintln!("SKIPPED: {why}");
+}
+
+/// The shared real scenes' directory, or `None` after skipping (see [`skip`]).
+pub fn scenes() -> Option<PathBuf> {
+    let d = scene::scenes_dir();
+    if d.is_none() {
+        skip("no shared scenes (set RAYSPACE_SCENES or provide ../shared/scenes)");
+    }
+    d
+}
+
+/// `Ok(v)` as `Some(v)`; an error skips the test (see [`skip`]) with `what` and the error.
+pub fn or_skip<T, E: std::fmt::Display>(r: Result<T, E>, what: &str) -> Option<T> {
+    r.map_err(|e| skip(format!("{what}: {e}"))).ok()
+}
+
+/// A random case for the grids' property tests: a soup (with degenerate triangles) in one
+/// mesh; rays from inside and outside the grid, axis-parallel, with ±0.0 components, aimed
+/// at vertices and cell boundaries.
+pub fn grid_case(seed: u64, ntri: usize, nray: usize) -> (Geometry, RayBatch) {
+    let mut rng = Pcg32::new(seed, 9);
+    let mut tris: Vec<[Vec3; 3]> = (0..ntri)
+        .map(|_| {
+            let c = Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
+            let s = rng.range(0.01, 0.4);
+            [0, 1, 2].map(|_| c + rng.unit_vector() * s)
+        })
+        .collect();
+    // Degenerate triangles: a point and a segment.
+    tris.push([Vec3::splat(0.1); 3]);
+    tris.push([Vec3::ZERO, Vec3::ZERO, Vec3::X]);
+    let mut b = RayBatch::default();
+    for i in 0..nray {
+        let org = match i % 4 {
+            0 => Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            ),
+            1 => rng.unit_vector() * rng.range(2.0, 5.0),
+            // On a grid-friendly plane (cell boundaries are often at such coordinates).
+            2 => Vec3::new(0.0, rng.range(-1.0, 1.0), 0.5),
+            _ => Vec3::new(rng.range(-1.0, 1.0), -0.0, rng.range(-1.0, 1.0)),
+        };
+        let dir = match i % 7 {
+            0 => [Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::X][i % 4],
+            1 => Vec3::new(-0.0, 1.0, 0.0),
+            2 => Vec3::new(
+                std::f32::consts::FRAC_1_SQRT_2,
+                -0.0,
+                std::f32::consts::FRAC_1_SQRT_2,
+            ),
+            3 => {
+                // Aimed at a vertex.
+                let t = tris[rng.below(ntri as u32) as usize];
+                (t[rng.below(3) as usize] - org).normalize_or(Vec3::X)
+            }
+            _ => rng.unit_vector(),
+        };
+        let t_max = if i % 5 == 0 {
+            rng.range(0.0, 4.0)
+        } else {
+            f32::INFINITY
+        };
+        b.push(
+            Ray::new(org, dir, 0.0, t_max),
+            RayKind::Reflection,
+            i as u32,
+            0,
+            Vec3::ONE,
+            0,
+        );
+    }
+    (Geometry::soup(tris, Vec3::Y), b)
+}
+
+/// A random case for the ray hierarchies' property tests: the `soup` built-in with a
+/// degenerate triangle; rays of the three secondary kinds from inside and outside, some
+/// axis-parallel, some bounded, on two lights.
+pub fn soup_case(seed: u64, ntri: usize, nray: usize) -> (Geometry, RayBatch) {
+    let mut rng = Pcg32::new(seed, 1);
+    let mut s = builtin::soup(ntri, seed);
+    // A few degenerate (zero-area) triangles must not disturb any engine.
+    if let Some(m) = s.meshes.first_mut() {
+        let p = m.positions[0];
+        m.positions.extend_from_slice(&[p, p, p + Vec3::X]);
+        m.normals.extend_from_slice(&[Vec3::Y; 3]);
+        let b = m.positions.len() as u32 - 3;
+        m.triangles.push([b, b + 1, b + 2]);
+        m.materials.push(0);
+    }
+    let geo = Geometry::from_scene(&s);
+    let mut batch = RayBatch::default();
+    for i in 0..nray {
+        let inside = rng.next_f32() < 0.5;
+        let org = if inside {
+            Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            )
+        } else {
+            rng.unit_vector() * rng.range(2.0, 6.0)
+        };
+        let mut dir = if inside || rng.next_f32() < 0.3 {
+            rng.unit_vector()
+        } else {
+            (-org + rng.unit_vector() * 0.8).normalize()
+        };
+        if i % 17 == 0 {
+            dir = [Vec3::X, -Vec3::Y, Vec3::new(-0.0, 0.0, 1.0)][i % 3];
+        }
+        let kind = [RayKind::Shadow, RayKind::Reflection, RayKind::Refraction][i % 3];
+        let t_max = if rng.next_f32() < 0.3 {
+            rng.range(0.0, 3.0)
+        } else {
+            f32::INFINITY
+        };
+        batch.push(
+            Ray::new(org, dir, 0.0, t_max),
+            kind,
+            i as u32,
+            (i % 2) as u32,
+            Vec3::ONE,
+            0,
+        );
+    }
+    batch.width = 37;
+    (geo, batch)
+}
+
+/// Random rays in clusters (so the hierarchy has coherent and incoherent nodes), of mixed
+/// kinds, some with bounded length.
+pub fn clustered_batch(seed: u64, n: usize) -> RayBatch {
+    let mut rng = Pcg32::new(seed, 77);
+    let mut b = RayBatch::default();
+    let mut c = Vec3::ZERO;
+    let mut d = Vec3::X;
+    for i in 0..n {
+        if i % 13 == 0 {
+            c = rng.unit_vector() * rng.range(0.0, 10.0);
+            d = rng.unit_vector();
+        }
+        let org = c + rng.unit_vector() * rng.range(0.0, 0.5);
+        let dir = (d + rng.unit_vector() * rng.range(0.0, 1.5)).normalize_or(d);
+        let kind = [RayKind::Shadow, RayKind::Reflection, RayKind::Refraction][(i / 40) % 3];
+        let t_max = if kind == RayKind::Shadow {
+            rng.range(0.1, 20.0)
+        } else {
+            f32::INFINITY
+        };
+        b.push(
+            Ray::new(org, dir, 0.0, t_max),
+            kind,
+            i as u32,
+            0,
+            Vec3::ONE,
+            0,
+        );
+    }
+    b
+}
