@@ -1,5 +1,5 @@
 //! rayspace as a library: the engine registry ([`engines`]) and the papers' evaluations
-//! ([`bench`]), shared by the `rayspace` command line and the bindings.
+//! ([`bench`](mod@bench)), shared by the `rayspace` command line and the bindings.
 
 pub mod bench;
 pub mod engines;

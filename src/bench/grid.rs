@@ -198,7 +198,7 @@ fn mb(b: u64) -> f64 {
     b as f64 / (1024.0 * 1024.0)
 }
 
-/// Run the whole evaluation; `progress(msg)` is called before each step ([`steps`] in all).
+/// Run the whole evaluation; `progress(msg)` is called before each step (`STEPS_PER_SCENE` per scene).
 pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
     let mut perf = Vec::new();
     let mut grids = Vec::new();

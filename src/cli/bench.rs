@@ -37,7 +37,7 @@ pub fn cmd_bench_gpu(a: &BenchGpuArgs) -> Result<()> {
 
 #[cfg(not(feature = "gpu"))]
 pub fn cmd_bench_gpu(_a: &BenchGpuArgs) -> Result<()> {
-    bail!("bench gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
+    anyhow::bail!("bench gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
 }
 
 pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {

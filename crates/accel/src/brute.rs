@@ -11,6 +11,7 @@ pub struct BruteForce {
 }
 
 impl BruteForce {
+    /// The engine over `geo`'s triangles (no build beyond a copy).
     pub fn new(geo: &Geometry) -> Self {
         BruteForce {
             tris: geo.tris.clone(),

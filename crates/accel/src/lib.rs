@@ -5,6 +5,8 @@
 //! bit-identical t and barycentrics, because all use [`geom::intersect`]) and the same
 //! any-hit booleans.
 
+#![warn(missing_docs)]
+
 pub mod brute;
 pub mod grid;
 pub mod oracle;

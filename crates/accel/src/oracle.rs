@@ -9,11 +9,14 @@ use std::sync::Mutex;
 /// Wrapping brute force records the oracle's answers; wrapping another engine records the
 /// exact rays a render traced (benchmarks replay them for every configuration).
 pub struct Recorder<'a> {
+    /// The engine asked.
     pub inner: &'a dyn Tracer,
+    /// Every batch traced, with its mode and the answers.
     pub batches: Mutex<Vec<(RayBatch, TraceMode, Vec<Hit>)>>,
 }
 
 impl<'a> Recorder<'a> {
+    /// A recorder around `inner`.
     pub fn new(inner: &'a dyn Tracer) -> Self {
         Recorder {
             inner,

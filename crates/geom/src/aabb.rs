@@ -6,7 +6,9 @@ use glam::Vec3;
 /// An axis-aligned box `[min, max]`. The empty box has `min > max`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// Smallest corner.
     pub min: Vec3,
+    /// Largest corner.
     pub max: Vec3,
 }
 
@@ -17,15 +19,18 @@ impl Default for Aabb {
 }
 
 impl Aabb {
+    /// The empty box (min = +∞, max = −∞): the identity of [`Aabb::union`] and [`Aabb::grow`].
     pub const EMPTY: Aabb = Aabb {
         min: Vec3::splat(f32::INFINITY),
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
+    /// The box with corners `min` and `max`.
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Aabb { min, max }
     }
 
+    /// The smallest box containing `pts` ([`Aabb::EMPTY`] for none).
     pub fn from_points(pts: impl IntoIterator<Item = Vec3>) -> Self {
         let mut b = Self::EMPTY;
         for p in pts {
@@ -34,12 +39,14 @@ impl Aabb {
         b
     }
 
+    /// Grow the box to contain `p`.
     #[inline]
     pub fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
     }
 
+    /// The smallest box containing both boxes.
     #[inline]
     pub fn union(&self, o: &Aabb) -> Aabb {
         Aabb {
@@ -48,11 +55,13 @@ impl Aabb {
         }
     }
 
+    /// Whether the box contains no point (some min > max).
     #[inline]
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
+    /// max − min (0 for an empty box).
     #[inline]
     pub fn extent(&self) -> Vec3 {
         if self.is_empty() {
@@ -62,11 +71,13 @@ impl Aabb {
         }
     }
 
+    /// The centre point.
     #[inline]
     pub fn center(&self) -> Vec3 {
         (self.min + self.max) * 0.5
     }
 
+    /// The length of the diagonal (0 for an empty box).
     #[inline]
     pub fn diagonal(&self) -> f32 {
         self.extent().length()
@@ -79,6 +90,7 @@ impl Aabb {
         e.x * e.y + e.y * e.z + e.z * e.x
     }
 
+    /// Whether `p` lies in the closed box.
     #[inline]
     pub fn contains(&self, p: Vec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
@@ -264,6 +276,7 @@ pub struct TriBoxSat {
 }
 
 impl TriBoxSat {
+    /// The 13 axes of triangle `t` and its extent along each (once per triangle).
     pub fn new(t: &[Vec3; 3]) -> Self {
         let e = [t[1] - t[0], t[2] - t[1], t[0] - t[2]];
         let mut axis = [Vec3::ZERO; 13];

@@ -25,7 +25,9 @@ use std::f32::consts::{FRAC_PI_2, PI};
 /// A cone with `angle >= π/2` is *wide*: wider than a hemisphere, it always passes node tests.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cone {
+    /// Unit axis.
     pub axis: Vec3,
+    /// Half-angle in radians.
     pub angle: f32,
 }
 
@@ -70,6 +72,7 @@ fn rotate_towards(x: Vec3, ax: f32, y: Vec3, ay: f32, beta: f32) -> Cone {
 }
 
 impl Cone {
+    /// The cone of every direction (half-angle π).
     pub const WIDE: Cone = Cone {
         axis: Vec3::Z,
         angle: PI,
@@ -85,6 +88,7 @@ impl Cone {
         }
     }
 
+    /// Wider than a hemisphere (α ≥ π/2): node tests must accept it.
     #[inline]
     pub fn is_wide(&self) -> bool {
         self.angle >= FRAC_PI_2
@@ -167,9 +171,13 @@ impl Cone {
 /// (no trigonometry per node–triangle test), and whether it is wide (α ≥ 90°).
 #[derive(Clone, Copy, Debug)]
 pub struct ConeSc {
+    /// Unit axis.
     pub axis: Vec3,
+    /// sin α.
     pub sin: f32,
+    /// cos α.
     pub cos: f32,
+    /// α ≥ 90°: the RAH test is not conservative, the node always passes.
     pub wide: bool,
     /// α ≥ π: every direction.
     pub full: bool,

@@ -5,6 +5,8 @@
 //! ray–box slab test, spheres and cones (the two halves of a ray-space hierarchy node), the
 //! conservative node tests, and the minimal enclosing ball used to cull meshes.
 
+#![warn(missing_docs)]
+
 pub mod aabb;
 pub mod cone;
 pub mod miniball;

@@ -19,11 +19,13 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// tan(3π/8) and tan(π/8): the range-reduction thresholds of Cephes `atanf`.
 pub const T3P8: f32 = 2.414_213_5;
+/// tan(π/8).
 pub const TP8: f32 = 0.414_213_57;
 /// Cephes `atanf` polynomial coefficients (magnitudes; signs as written in [`atan`]).
 pub const AT: [f32; 4] = [8.053_744_5e-2, 1.387_768_6e-1, 1.997_771_1e-1, 3.333_295e-1];
 /// Cephes `sinf` and `cosf` polynomial coefficients (magnitudes; signs as in [`sin_cos`]).
 pub const SN: [f32; 3] = [1.951_529_6e-4, 8.332_161e-3, 1.666_665_5e-1];
+/// Cephes `cosf` polynomial coefficients (magnitudes; signs as in [`sin_cos`]).
 pub const CS: [f32; 3] = [2.443_315_7e-5, 1.388_731_6e-3, 4.166_664_6e-2];
 
 /// Arc tangent (radians, in [−π/2, π/2]).
@@ -84,8 +86,11 @@ pub fn acos(x: f32) -> f32 {
 
 /// π/2 split in three parts (Cody–Waite): q · DP1 is exact for the quadrant counts used here.
 pub const DP1: f32 = 1.570_312_5;
+/// Second part of the Cody–Waite split of π/2.
 pub const DP2: f32 = 4.837_513e-4;
+/// Third part of the Cody–Waite split of π/2.
 pub const DP3: f32 = 7.549_79e-8;
+/// 2/π, the quadrant scale of [`sin_cos`].
 pub const TWO_OVER_PI: f32 = std::f32::consts::FRAC_2_PI;
 
 /// (sin x, cos x) for |x| ≤ 8192 (larger arguments lose accuracy; no caller uses them).

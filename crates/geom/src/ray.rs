@@ -8,13 +8,18 @@ use glam::Vec3;
 /// rayspace produces unit directions so that `t` is a distance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
+    /// Origin.
     pub org: Vec3,
+    /// Direction (unit length for every ray the renderer makes; the kernels do not require it).
     pub dir: Vec3,
+    /// Hits at t ≤ t_min are ignored (open interval).
     pub t_min: f32,
+    /// Hits at t ≥ t_max are ignored (open interval; a shadow ray ends at its light).
     pub t_max: f32,
 }
 
 impl Ray {
+    /// A ray with the open parameter interval (t_min, t_max).
     pub fn new(org: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Self {
         Ray {
             org,
@@ -24,6 +29,7 @@ impl Ray {
         }
     }
 
+    /// The point at parameter `t`.
     #[inline]
     pub fn at(&self, t: f32) -> Vec3 {
         self.org + self.dir * t

@@ -12,6 +12,7 @@ pub struct Pcg32 {
 }
 
 impl Pcg32 {
+    /// A generator from `seed`; different `stream`s give independent sequences.
     pub fn new(seed: u64, stream: u64) -> Self {
         let mut r = Pcg32 {
             state: 0,
@@ -23,6 +24,7 @@ impl Pcg32 {
         r
     }
 
+    /// The next 32 random bits.
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;

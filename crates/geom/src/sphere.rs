@@ -6,7 +6,9 @@ use glam::{Mat4, Vec3};
 /// A ball `|p - center| <= radius`.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Sphere {
+    /// Centre.
     pub center: Vec3,
+    /// Radius (≥ 0).
     pub radius: f32,
 }
 
@@ -21,10 +23,12 @@ fn padded(r: f32, c: Vec3) -> f32 {
 }
 
 impl Sphere {
+    /// The sphere of `center` and `radius`.
     pub fn new(center: Vec3, radius: f32) -> Self {
         Sphere { center, radius }
     }
 
+    /// Whether `p` lies in the closed ball.
     #[inline]
     pub fn contains(&self, p: Vec3) -> bool {
         (p - self.center).length() <= self.radius

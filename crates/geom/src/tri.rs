@@ -17,26 +17,39 @@ use glam::Vec3;
 /// (the point is `(1-u-v)·v0 + u·v1 + v·v2`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriHit {
+    /// Distance along the ray (in units of its direction's length).
     pub t: f32,
+    /// Barycentric weight of vertex 1.
     pub u: f32,
+    /// Barycentric weight of vertex 2.
     pub v: f32,
 }
 
 /// Per-ray constants of the watertight test (the shear that maps the ray to +z).
 #[derive(Clone, Copy, Debug)]
 pub struct RayPre {
+    /// The ray's origin.
     pub org: Vec3,
+    /// The dimension mapped to x by the shear.
     pub kx: usize,
+    /// The dimension mapped to y by the shear.
     pub ky: usize,
+    /// The dimension of the direction's largest magnitude, mapped to z.
     pub kz: usize,
+    /// Shear of x: `d[kx] / d[kz]` (subtracted, times the vertex z, from the vertex x).
     pub sx: f32,
+    /// Shear of y: `d[ky] / d[kz]`.
     pub sy: f32,
+    /// Scale of z: `1 / d[kz]`.
     pub sz: f32,
+    /// The ray's t_min.
     pub t_min: f32,
+    /// The ray's t_max.
     pub t_max: f32,
 }
 
 impl RayPre {
+    /// The constants of `ray` (once per ray, shared by all its triangle tests).
     #[inline]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir;

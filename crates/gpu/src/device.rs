@@ -39,9 +39,13 @@ impl std::error::Error for GpuError {}
 
 /// A device, its queue, and what the backend needs to know about it.
 pub struct Gpu {
+    /// The logical device.
     pub device: wgpu::Device,
+    /// Its queue.
     pub queue: wgpu::Queue,
+    /// What the adapter says of itself.
     pub info: wgpu::AdapterInfo,
+    /// The device's limits (as requested: the adapter's).
     pub limits: wgpu::Limits,
     /// Timestamp queries between passes are available.
     pub timestamps: bool,
@@ -50,8 +54,10 @@ pub struct Gpu {
     pub timer: PhaseTimer,
 }
 
+/// How [`crate::kernels::Exec`] times phases.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PhaseTimer {
+    /// GPU timestamp queries around every pass.
     Timestamps,
     /// lavapipe writes a timestamp when the command is reached, without waiting for the
     /// compute dispatches before it (they run on its thread pool), so its timestamps do not
@@ -149,6 +155,7 @@ impl Gpu {
         self.limits.max_storage_buffer_binding_size
     }
 
+    /// Compile WGSL `src` (a naga error names `label` and the line).
     pub fn shader(&self, label: &str, src: &str) -> wgpu::ShaderModule {
         self.device
             .create_shader_module(wgpu::ShaderModuleDescriptor {

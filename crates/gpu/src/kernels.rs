@@ -12,7 +12,9 @@ use std::time::Instant;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Params {
+    /// u0..u3: integer parameters (counts, offsets, flags), as each kernel documents.
     pub u: [[u32; 4]; 4],
+    /// f0, f1: float parameters (f1.w is reserved, always 0).
     pub f: [[f32; 4]; 2],
 }
 const _: () = assert!(std::mem::size_of::<Params>() == 96);
@@ -85,36 +87,64 @@ impl Module {
 /// when the kernels are built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kernel {
+    /// Block sums of a scan.
     ScanReduce,
+    /// Exclusive scan within blocks, plus the scanned block sums.
     ScanDown,
+    /// The AND and OR of all keys (digits equal in every key need no sort pass).
     KeyBits,
+    /// Per-tile digit histograms of a radix pass.
     SortCount,
+    /// Stable scatter of a radix pass.
     SortScatter,
+    /// Stream compaction by flags and scanned offsets.
     Compact,
+    /// Head flags of runs of equal keys.
     RunHeads,
+    /// Each run's key and first position.
     RunChunks,
+    /// Each run's length.
     RunSizes,
+    /// Runs expanded back to elements (decompression).
     ExpandRuns,
+    /// The values 0..n.
     Iota,
+    /// `y[i] = x[order[i]]`.
     Gather,
+    /// Where each ray kind starts among the sorted leaves.
     KindHist,
+    /// Ray hash keys, validity flags and intersection constants.
     HashKeys,
+    /// Level 1 of the hierarchy over the sorted leaves.
     BuildLeafLevel,
+    /// A level of the hierarchy over the level below.
     BuildUpperLevel,
+    /// Top nodes against the mesh spheres.
     MeshTest,
+    /// Candidate (top node, triangle) pairs counted per slot.
     TopCount,
+    /// Candidate (top node, triangle) pairs written.
     TopEmit,
+    /// (Node, triangle) pairs tested.
     PairTest,
+    /// Children of the surviving pairs counted.
     ChildCount,
+    /// (Child, triangle) pairs written.
     ChildEmit,
+    /// Exact ray–triangle tests of level 1's survivors.
     FinalTests,
+    /// Hit records from the best hits.
     Records,
+    /// Shadow rays of the surfaces.
     ShadowRays,
+    /// Reflection and refraction rays of the surfaces.
     BounceRays,
+    /// Blinn-Phong shading of the surfaces.
     ShadeLocal,
 }
 
 impl Kernel {
+    /// Every kernel.
     pub const ALL: [Kernel; 27] = [
         Kernel::ScanReduce,
         Kernel::ScanDown,
@@ -265,6 +295,7 @@ impl Kernels {
         }
     }
 
+    /// The pipeline of kernel `k`.
     pub fn get(&self, k: Kernel) -> &wgpu::ComputePipeline {
         &self.pipes[k as usize]
     }
@@ -283,7 +314,9 @@ const MAX_QUERIES: u32 = 4096;
 
 /// Records kernel launches; submits at read-backs (the pipeline's only synchronisation).
 pub struct Exec<'a> {
+    /// The device.
     pub g: &'a Gpu,
+    /// The compiled kernels.
     pub k: &'a Kernels,
     enc: Option<wgpu::CommandEncoder>,
     phase: Phase,
@@ -291,11 +324,13 @@ pub struct Exec<'a> {
     /// Seconds per phase, in first-seen order: GPU time from timestamps, or wall-clock time
     /// with a wait at each phase boundary ([`PhaseTimer`]).
     pub times: Vec<(Phase, f64)>,
+    /// Kernel launches recorded.
     pub launches: u64,
     wall_start: Option<Instant>,
 }
 
 impl<'a> Exec<'a> {
+    /// A recorder on `g` with kernels `k`, in the upload phase.
     pub fn new(g: &'a Gpu, k: &'a Kernels) -> Exec<'a> {
         let mut timer = Timer::default();
         let wall = g.timer == PhaseTimer::WallClock;
@@ -426,6 +461,7 @@ impl<'a> Exec<'a> {
         self.launches += 1;
     }
 
+    /// Copy `bytes` from `src` at `src_off` to the start of `dst`.
     pub fn copy(&mut self, src: &wgpu::Buffer, src_off: u64, dst: &wgpu::Buffer, bytes: u64) {
         if bytes > 0 {
             self.encoder()
@@ -433,6 +469,7 @@ impl<'a> Exec<'a> {
         }
     }
 
+    /// Zero `buf`.
     pub fn clear(&mut self, buf: &wgpu::Buffer) {
         self.encoder().clear_buffer(buf, 0, None);
     }

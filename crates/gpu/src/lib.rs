@@ -13,10 +13,11 @@
 //!   the G-buffer's render targets.
 //! - [`stages`]: the Whitted loop's shadow-ray generation, reflection/refraction-ray
 //!   generation and shading as kernels.
-
 //!
 //! Every kernel mirrors a CPU pass over flat structure-of-arrays buffers of the same layout;
 //! the CPU engines are this backend's oracle (see `tests/`).
+
+#![warn(missing_docs)]
 
 pub mod device;
 pub mod kernels;

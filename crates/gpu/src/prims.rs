@@ -139,9 +139,13 @@ impl Exec<'_> {
 /// Runs of equal consecutive keys on the device (the GPU's `par::compress_runs`): each run's
 /// key, first position and length.
 pub struct Runs {
+    /// Each run's key.
     pub keys: wgpu::Buffer,
+    /// Each run's first position.
     pub bases: wgpu::Buffer,
+    /// Each run's length.
     pub sizes: wgpu::Buffer,
+    /// Number of runs.
     pub len: u64,
 }
 

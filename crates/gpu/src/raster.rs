@@ -50,6 +50,7 @@ pub struct GpuRaster<'g> {
 }
 
 impl<'g> GpuRaster<'g> {
+    /// Upload the scene's triangles and materials and build the render pipeline.
     pub fn new(gpu: &'g Gpu, geo: &Geometry, materials: &[Material]) -> Result<Self, GpuError> {
         let bytes = 16 * FORMATS.len() as u32;
         if gpu.limits.max_color_attachment_bytes_per_sample < bytes {

@@ -22,6 +22,7 @@ use std::cell::RefCell;
 pub struct GpuStages<'g> {
     gpu: &'g Gpu,
     kernels: &'g Kernels,
+    /// Seconds per pass (`shadow-ray kernel`, `shading kernel`, `bounce-ray kernel`).
     pub times: RefCell<Vec<(&'static str, f64)>>,
 }
 

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 /// A head/keep flag: set when non-zero (the thesis stores 0/1 integers).
 pub trait Flag: Copy + Send + Sync {
+    /// Whether the flag is set.
     fn is_set(self) -> bool;
 }
 

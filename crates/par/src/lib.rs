@@ -11,6 +11,8 @@
 //! elements; below that the same code runs as one block. Results never depend on the number
 //! of threads.
 
+#![warn(missing_docs)]
+
 pub mod compact;
 pub mod runs;
 pub mod scan;

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 /// An element that can be prefix-summed. u32 sums wrap modulo 2^32 (as on a GPU); use u64
 /// where counts can exceed u32.
 pub trait Elem: Copy + Send + Sync + Default + PartialEq + std::fmt::Debug + 'static {
+    /// The sum (wrapping for u32).
     fn add(self, o: Self) -> Self;
 }
 

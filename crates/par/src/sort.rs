@@ -24,6 +24,7 @@ const BUCKETS: usize = 1 << RADIX_BITS;
 
 /// An unsigned integer key.
 pub trait RadixKey: Copy + Send + Sync + Default + 'static {
+    /// Width of the key in bits.
     const BITS: u32;
     /// `(self >> shift)` truncated to u32.
     fn shifted(self, shift: u32) -> u32;
@@ -80,6 +81,7 @@ impl<K: RadixKey> Default for SortScratch<K> {
 }
 
 impl<K: RadixKey> SortScratch<K> {
+    /// Empty scratch; buffers grow on first use and are reused by later sorts.
     pub fn new() -> Self {
         SortScratch {
             a: Vec::new(),

@@ -6,13 +6,18 @@ use geom::{Ray, Vec3, NO_HIT};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[repr(u8)]
 pub enum RayKind {
+    /// From the camera (traced only when primary visibility is not rasterized).
     Primary = 0,
+    /// From a surface towards a light (any hit).
     Shadow = 1,
+    /// Mirror reflection (closest hit).
     Reflection = 2,
+    /// Refraction through a transparent surface (closest hit).
     Refraction = 3,
 }
 
 impl RayKind {
+    /// Every kind, in the order of their numbers.
     pub const ALL: [RayKind; 4] = [
         RayKind::Primary,
         RayKind::Shadow,
@@ -20,6 +25,7 @@ impl RayKind {
         RayKind::Refraction,
     ];
 
+    /// The kind numbered `k` (unknown numbers are primary).
     pub fn from_u8(k: u8) -> RayKind {
         match k {
             1 => RayKind::Shadow,
@@ -34,6 +40,7 @@ impl RayKind {
         ["PR", "SH", "RE", "RF"][self as usize]
     }
 
+    /// The kind's name in reports (`shadow`, ...).
     pub fn name(self) -> &'static str {
         match self {
             RayKind::Primary => "primary",
@@ -47,9 +54,13 @@ impl RayKind {
 /// A structure-of-arrays batch of rays. All vectors have the same length.
 #[derive(Clone, Debug, Default)]
 pub struct RayBatch {
+    /// Origins.
     pub org: Vec<Vec3>,
+    /// Directions (unit length).
     pub dir: Vec<Vec3>,
+    /// Hits at t ≤ t_min are ignored.
     pub t_min: Vec<f32>,
+    /// Hits at t ≥ t_max are ignored (a shadow ray ends at its light).
     pub t_max: Vec<f32>,
     /// [`RayKind`] as u8.
     pub kind: Vec<u8>,
@@ -67,6 +78,7 @@ pub struct RayBatch {
 }
 
 impl RayBatch {
+    /// An empty batch with room for `n` rays.
     pub fn with_capacity(n: usize) -> Self {
         RayBatch {
             org: Vec::with_capacity(n),
@@ -82,14 +94,17 @@ impl RayBatch {
         }
     }
 
+    /// Number of rays.
     pub fn len(&self) -> usize {
         self.org.len()
     }
 
+    /// Whether the batch has no rays.
     pub fn is_empty(&self) -> bool {
         self.org.is_empty()
     }
 
+    /// Append one ray with its kind, pixel, light, throughput and depth.
     pub fn push(
         &mut self,
         ray: Ray,
@@ -119,6 +134,7 @@ impl RayBatch {
         b
     }
 
+    /// Ray `i` as a [`Ray`].
     #[inline]
     pub fn ray(&self, i: usize) -> Ray {
         Ray {
@@ -180,13 +196,18 @@ impl RayBatch {
 /// every engine returns bit-identical records. Any-hit queries return some hit in range.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
+    /// Triangle index into the scene's `Geometry` ([`NO_HIT`] for a miss).
     pub tri: u32,
+    /// Distance along the ray (∞ for a miss).
     pub t: f32,
+    /// Barycentric weight of vertex 1.
     pub u: f32,
+    /// Barycentric weight of vertex 2.
     pub v: f32,
 }
 
 impl Hit {
+    /// The record of a ray that hit nothing.
     pub const MISS: Hit = Hit {
         tri: NO_HIT,
         t: f32::INFINITY,
@@ -194,6 +215,7 @@ impl Hit {
         v: 0.0,
     };
 
+    /// Whether the ray hit a triangle.
     #[inline]
     pub fn is_hit(&self) -> bool {
         self.tri != NO_HIT

@@ -6,6 +6,8 @@
 //! with Blinn-Phong and distance attenuation (eqs. 3.17–3.19, [`shade`]) in a batched
 //! Whitted loop ([`whitted`]) that records per-phase times and counters ([`stats`]).
 
+#![warn(missing_docs)]
+
 pub mod batch;
 pub mod output;
 pub mod raster;

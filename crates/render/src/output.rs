@@ -15,6 +15,7 @@ pub fn srgb_encode(c: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
+/// The pixels (linear RGB, row-major) as an 8-bit sRGB image.
 pub fn to_rgb8(pixels: &[Vec3], width: u32, height: u32) -> image::RgbImage {
     let mut img = image::RgbImage::new(width, height);
     for (i, p) in img.pixels_mut().enumerate() {
@@ -24,6 +25,7 @@ pub fn to_rgb8(pixels: &[Vec3], width: u32, height: u32) -> image::RgbImage {
     img
 }
 
+/// Write the pixels as an sRGB PNG; the error names the file.
 pub fn write_png(pixels: &[Vec3], width: u32, height: u32, path: &Path) -> Result<(), String> {
     to_rgb8(pixels, width, height)
         .save_with_format(path, image::ImageFormat::Png)

@@ -31,21 +31,28 @@ const GUARD: f32 = 4.0;
 /// `tri == NO_HIT`.
 #[derive(Clone, Debug, Default)]
 pub struct GBuffer {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// Triangle seen at each pixel ([`NO_HIT`] where uncovered).
     pub tri: Vec<u32>,
     /// Barycentrics (u, v) of vertices 1 and 2 of `tri`.
     pub bary: Vec<[f32; 2]>,
     /// 1 / camera-space depth (larger is closer; 0 where uncovered).
     pub inv_depth: Vec<f32>,
+    /// World-space surface point.
     pub position: Vec<Vec3>,
+    /// Unit interpolated shading normal.
     pub normal: Vec<Vec3>,
+    /// Diffuse colour of the surface's material.
     pub diffuse: Vec<Vec3>,
     /// Specular colour and shininess.
     pub specular: Vec<[f32; 4]>,
 }
 
 impl GBuffer {
+    /// Pixels that see a triangle.
     pub fn covered(&self) -> usize {
         self.tri.iter().filter(|&&t| t != NO_HIT).count()
     }
@@ -54,6 +61,7 @@ impl GBuffer {
 /// Counters of one rasterization.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RasterStats {
+    /// Triangles submitted.
     pub triangles: u64,
     /// Screen-space triangles after clipping (a clipped triangle may become several).
     pub setup: u64,

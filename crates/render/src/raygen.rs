@@ -26,10 +26,15 @@ pub enum Kind {
     Random,
 }
 
+/// What [`generate`] makes: the image (for primary, shadow, reflection and AO rays), samples, seed and AO length.
 pub struct Options {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Rays per pixel (AO and random rays).
     pub spp: u32,
+    /// Seed of the random rays (AO directions, random rays): same seed, same rays.
     pub seed: u64,
     /// AO ray length; `None` = 10 % of the scene box diagonal.
     pub ao_distance: Option<f32>,
@@ -51,6 +56,7 @@ fn basis(n: Vec3) -> (Vec3, Vec3) {
     )
 }
 
+/// Make the rays of `kind` for the scene (see [`Kind`]).
 pub fn generate(scene: &Scene, geo: &Geometry, kind: Kind, o: &Options) -> RayBatch {
     let view = View::new(&scene.camera, o.width, o.height);
     let mut b = match kind {

@@ -14,7 +14,9 @@ use scene::{Geometry, Light, Material};
 /// Surface points to shade, structure of arrays.
 #[derive(Clone, Debug, Default)]
 pub struct Surfaces {
+    /// Pixel index (y · width + x) the surface contributes to.
     pub pixel: Vec<u32>,
+    /// World-space surface point.
     pub pos: Vec<Vec3>,
     /// Unit geometric normal as stored (right-handed winding: outward for closed meshes).
     pub ng: Vec<Vec3>,
@@ -22,8 +24,11 @@ pub struct Surfaces {
     pub ns: Vec<Vec3>,
     /// Unit direction of the ray that arrived here.
     pub incident: Vec<Vec3>,
+    /// Material index.
     pub material: Vec<u32>,
+    /// Colour weight of the surface's contribution to its pixel.
     pub throughput: Vec<Vec3>,
+    /// Whitted recursion depth (0 for the rasterized surfaces).
     pub depth: Vec<u8>,
     /// Largest absolute vertex coordinate of the surface's triangle: the magnitude the
     /// self-intersection offset is scaled by ([`offset_point`]).
@@ -38,10 +43,12 @@ fn tri_scale(geo: &Geometry, t: u32) -> f32 {
 }
 
 impl Surfaces {
+    /// Number of surfaces.
     pub fn len(&self) -> usize {
         self.pixel.len()
     }
 
+    /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.pixel.is_empty()
     }

@@ -15,16 +15,27 @@ use std::collections::BTreeMap;
 /// the frame CSV and the benchmarks all name phases through this type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Phase {
+    /// GPU: the rays uploaded before the first kernel.
     Upload,
+    /// CRSH: every ray's hash key (§3.2.3).
     Hash,
+    /// Rays that can hit nothing removed (stream compaction, §3.2.3).
     Trim,
+    /// Runs of equal keys into chunks (§3.2.4).
     Compress,
+    /// Chunks radix-sorted by key (§3.2.5).
     Sort,
+    /// Chunks expanded back to rays in sorted order (§3.2.6).
     Decompress,
+    /// RAH: rays in screen (pixel Z-) order.
     ScreenOrder,
+    /// Sphere-cone nodes built bottom-up (§3.2.7).
     HierarchyCreation,
+    /// Triangles pushed top-down through the nodes (§3.2.8).
     Traversal,
+    /// Exact ray–triangle tests of the surviving pairs (§3.2.9).
     FinalTests,
+    /// GPU: the hit records read back.
     ReadBack,
 }
 
@@ -119,10 +130,13 @@ pub struct LevelCounts {
 /// One row of [`LevelCounts::rows`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct LevelRow {
+    /// Hierarchy level (1: the nodes just above the rays).
     pub level: u32,
     /// The kind's short name (`SH`, `RE`, `RF`, `PR`).
     pub kind: &'static str,
+    /// Node–triangle tests.
     pub tests: u64,
+    /// Tests that passed.
     pub hits: u64,
 }
 
@@ -132,6 +146,7 @@ impl LevelCounts {
         self.tests.iter().all(|t| *t == [0; 4]) && self.final_tests == [0; 4]
     }
 
+    /// Add another call's counts.
     pub fn add(&mut self, o: &LevelCounts) {
         let n = self.tests.len().max(o.tests.len());
         self.tests.resize(n, [0; 4]);
@@ -241,6 +256,7 @@ pub struct TraceStats {
 }
 
 impl TraceStats {
+    /// Add another call's counters and times.
     pub fn add(&mut self, o: &TraceStats) {
         self.rays += o.rays;
         self.ray_tri_tests += o.ray_tri_tests;
@@ -280,20 +296,31 @@ impl TraceStats {
 /// Everything a render reports (printed as a table by the CLI; `--stats` writes it as JSON).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct RenderStats {
+    /// Scene name.
     pub scene: String,
+    /// Engine name.
     pub engine: String,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Triangles in the scene.
     pub triangles: u64,
+    /// Meshes (the unit of bounding-sphere culling).
     pub meshes: u64,
+    /// Lights.
     pub lights: u64,
+    /// Reflection/refraction generations after the rasterized one.
     pub bounces: u32,
     /// Pixels covered by rasterized geometry (the primary "rays" that were not traced).
     pub covered_pixels: u64,
     /// Traced rays by kind.
     pub rays_shadow: u64,
+    /// Traced reflection rays.
     pub rays_reflection: u64,
+    /// Traced refraction rays.
     pub rays_refraction: u64,
+    /// Traced primary rays (none when primary visibility is rasterized).
     pub rays_primary_traced: u64,
     /// Ray–triangle tests, node tests etc. from the engine.
     pub trace: TraceStats,
@@ -306,10 +333,12 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
+    /// All traced rays.
     pub fn rays_traced(&self) -> u64 {
         self.rays_shadow + self.rays_reflection + self.rays_refraction + self.rays_primary_traced
     }
 
+    /// Add `secs` to the renderer phase `name` (appended in first-seen order).
     pub fn add_phase(&mut self, name: &str, secs: f64) {
         match self.phases.iter_mut().find(|(n, _)| n == name) {
             Some((_, s)) => *s += secs,

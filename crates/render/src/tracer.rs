@@ -4,6 +4,7 @@
 use crate::batch::{Hit, RayBatch};
 use crate::stats::TraceStats;
 
+/// What a trace call asks for each ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TraceMode {
     /// Nearest hit in (t_min, t_max): reflection, refraction, primary rays.
@@ -12,6 +13,9 @@ pub enum TraceMode {
     Any,
 }
 
+/// An engine: traces batches of rays against the scene it was built for. Every engine
+/// returns brute force's records (closest hit: same triangle, same t bits), so engines are
+/// swapped and compared on identical rays.
 pub trait Tracer: Sync {
     /// Engine name as used on the command line.
     fn name(&self) -> &str;

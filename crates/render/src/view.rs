@@ -9,19 +9,26 @@ use scene::Camera;
 /// (x + 0.5, y + 0.5); y grows downwards.
 #[derive(Clone, Copy, Debug)]
 pub struct View {
+    /// Camera position.
     pub eye: Vec3,
+    /// Unit right vector.
     pub right: Vec3,
+    /// Unit up vector.
     pub up: Vec3,
+    /// Unit forward vector (towards the target).
     pub fwd: Vec3,
     /// tan(vfov / 2).
     pub tan_y: f32,
     /// tan(vfov / 2) · width / height.
     pub tan_x: f32,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
 }
 
 impl View {
+    /// The view of `cam` at `width × height` pixels.
     pub fn new(cam: &Camera, width: u32, height: u32) -> View {
         let (right, up, fwd) = cam.basis();
         let tan_y = (cam.vfov.to_radians() * 0.5).tan();

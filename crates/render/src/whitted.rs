@@ -19,11 +19,15 @@ use std::time::Instant;
 
 /// Largest accepted image side and bounce count (the CLI validates against these).
 pub const MAX_SIDE: u32 = 16384;
+/// Largest accepted Whitted recursion depth.
 pub const MAX_BOUNCES: u32 = 16;
 
+/// The image and the recursion depth of a render.
 #[derive(Clone, Copy, Debug)]
 pub struct RenderOptions {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Reflection/refraction generations after the rasterized one.
     pub bounces: u32,
@@ -41,6 +45,7 @@ impl Default for RenderOptions {
 
 /// Receives stage names while a render runs (the CLI shows them on a progress bar).
 pub trait Progress: Sync {
+    /// A stage of the render begins (e.g. `shading, generation 2`).
     fn stage(&self, name: &str);
 }
 
@@ -50,9 +55,13 @@ impl Progress for () {
 
 /// The result of a render: linear RGB pixels, the G-buffer and the statistics.
 pub struct Rendered {
+    /// Linear RGB, row-major.
     pub pixels: Vec<Vec3>,
+    /// The rasterized primary visibility.
     pub gbuffer: GBuffer,
+    /// The rasterizer's counters.
     pub raster: RasterStats,
+    /// Counters and times of the whole render.
     pub stats: RenderStats,
 }
 
@@ -81,6 +90,9 @@ fn trace(
     hits
 }
 
+/// Render `scene` with `tracer`: the G-buffer from the CPU rasterizer, then the Whitted
+/// generations (shadow, reflection and refraction rays traced by `tracer`) and shading on the
+/// CPU ([`render_with`] lets a backend replace the rasterizer and the passes).
 pub fn render(
     scene: &Scene,
     geo: &Geometry,

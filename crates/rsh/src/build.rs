@@ -26,13 +26,17 @@ pub enum Union {
 /// One level of nodes (structure of arrays).
 #[derive(Clone, Debug, Default)]
 pub struct Level {
+    /// Origin sphere centres.
     pub center: Vec<Vec3>,
+    /// Origin sphere radii.
     pub radius: Vec<f32>,
+    /// Unit cone axes.
     pub axis: Vec<Vec3>,
     /// Cone half-angle in radians; ≥ π/2 means *wide* (always passes).
     pub angle: Vec<f32>,
     /// sin α and cos α, precomputed for the node tests.
     pub sin: Vec<f32>,
+    /// cos α (with `sin`).
     pub cos: Vec<f32>,
     /// Longest t_max of the node's rays (∞ for unbounded rays): the far cap of the tests.
     pub max_t: Vec<f32>,
@@ -43,14 +47,17 @@ pub struct Level {
 }
 
 impl Level {
+    /// Number of nodes.
     pub fn len(&self) -> usize {
         self.radius.len()
     }
 
+    /// Whether the level has no nodes.
     pub fn is_empty(&self) -> bool {
         self.radius.is_empty()
     }
 
+    /// Node i's origin sphere.
     #[inline]
     pub fn sphere(&self, i: usize) -> Sphere {
         Sphere {
@@ -59,6 +66,7 @@ impl Level {
         }
     }
 
+    /// Node i's direction cone.
     #[inline]
     pub fn cone(&self, i: usize) -> Cone {
         Cone {
@@ -80,6 +88,7 @@ impl Level {
         }
     }
 
+    /// Node i's children in the level below (leaf positions for level 1).
     #[inline]
     pub fn children(&self, i: usize) -> std::ops::Range<usize> {
         self.first[i] as usize..self.first[i + 1] as usize
@@ -109,6 +118,7 @@ impl Level {
 /// The hierarchy over one ray batch: leaves in `order` (ray indices) and levels 1..=d.
 #[derive(Clone, Debug, Default)]
 pub struct Hierarchy {
+    /// Ray indices in leaf order (the rays that can hit anything).
     pub order: Vec<u32>,
     /// `levels[0]` is level 1 (parents of leaves); the last is the top level.
     pub levels: Vec<Level>,

@@ -23,8 +23,10 @@ pub enum Method {
     Rah,
 }
 
+/// Configuration of CRSH or RAH (the thesis's parameters and ours).
 #[derive(Clone, Debug)]
 pub struct RshConfig {
+    /// Which paper's method.
     pub method: Method,
     /// Children per node (thesis: 8 or 16; RAH's pyramid: 4).
     pub branching: u32,
@@ -32,8 +34,11 @@ pub struct RshConfig {
     pub levels: u32,
     /// CRSH's hash (ignored by RAH).
     pub hash: HashKind,
+    /// Bit budgets of the thesis hash.
     pub hash_bits: HashBits,
+    /// Sphere and cone union formulas.
     pub union: Union,
+    /// Node–triangle test.
     pub node_test: NodeTest,
     /// Test top nodes against per-mesh bounding spheres first.
     pub mesh_culling: bool,
@@ -45,6 +50,7 @@ pub struct RshConfig {
 pub const DEFAULT_PAIR_BUDGET: usize = 1 << 24;
 
 impl RshConfig {
+    /// CRSH's defaults: B = 8, D = 2, thesis hash, exact unions, RAH node test, mesh culling.
     pub fn crsh() -> Self {
         RshConfig {
             method: Method::Crsh,
@@ -59,6 +65,7 @@ impl RshConfig {
         }
     }
 
+    /// RAH's defaults: CRSH's without mesh culling (the leaf order is RAH's screen order).
     pub fn rah() -> Self {
         RshConfig {
             method: Method::Rah,
@@ -126,6 +133,8 @@ pub fn report_counters(c: &Counters, mesh_culling: bool, top_nodes: u64, stats: 
 }
 
 impl RshEngine {
+    /// The engine over `geo` (per-triangle and per-mesh spheres); the configuration is
+    /// validated first.
     pub fn new(geo: &Geometry, cfg: RshConfig) -> Result<Self, String> {
         cfg.validate()?;
         let spheres: Vec<Sphere> = geo
@@ -144,6 +153,7 @@ impl RshEngine {
         })
     }
 
+    /// The configuration.
     pub fn config(&self) -> &RshConfig {
         &self.cfg
     }

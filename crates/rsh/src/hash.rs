@@ -26,6 +26,7 @@
 use geom::{pmath, Aabb, Vec3};
 use render::{RayBatch, RayKind};
 
+/// Which key orders CRSH's leaves (thesis §3.2.3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum HashKind {
@@ -38,6 +39,7 @@ pub enum HashKind {
 /// Bit budgets of the 32-bit hash (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct HashBits {
+    /// Bits of the light index for shadow rays.
     pub light: u32,
     /// Bits per angle for shadow rays.
     pub shadow_dir: u32,

@@ -7,6 +7,8 @@
 //! ([`traverse`]) and finish with exact ray–triangle tests. Every step is a flat,
 //! data-parallel pass built on `par`.
 
+#![warn(missing_docs)]
+
 pub mod build;
 pub mod engine;
 pub mod hash;

@@ -21,6 +21,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
+/// The conservative test of a node against a triangle's bounding sphere.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum NodeTest {
@@ -32,33 +33,55 @@ pub enum NodeTest {
 
 /// Scene data the traversal reads.
 pub struct SceneData<'a> {
+    /// World-space triangles.
     pub tris: &'a [[Vec3; 3]],
+    /// Triangle bounding-sphere centres.
     pub tri_center: &'a [Vec3],
+    /// Triangle bounding-sphere radii.
     pub tri_radius: &'a [f32],
+    /// Prefix offsets of the meshes' triangles.
     pub mesh_first: &'a [u32],
+    /// Per-mesh culling spheres (thesis §3.2.2).
     pub mesh_sphere: &'a [Sphere],
 }
 
 /// Counts by level (index 0 = level 1) and ray kind.
 #[derive(Clone, Debug, Default)]
 pub struct Counters {
+    /// Node–triangle tests per level and kind.
     pub tests: Vec<[u64; 4]>,
+    /// Tests that passed, per level and kind.
     pub hits: Vec<[u64; 4]>,
+    /// Final ray–triangle tests per kind.
     pub final_tests: [u64; 4],
+    /// Node–mesh-sphere tests at the top level.
     pub mesh_tests: u64,
+    /// (Node, mesh) pairs that passed.
     pub mesh_passes: u64,
+    /// Triangle batches of the top level.
     pub batches: u64,
+    /// Levels halved because their children exceeded the pair budget.
     pub splits: u64,
+    /// Seconds in the final tests (the rest of the traversal is the traversal phase).
     pub final_seconds: f64,
 }
 
+/// One trace call's traversal: the hierarchy, the scene, the rays' constants and their best
+/// hits so far, and the test, culling and budget it runs with.
 pub struct Traversal<'a> {
+    /// The ray hierarchy.
     pub h: &'a Hierarchy,
+    /// The scene's triangles and spheres.
     pub scene: SceneData<'a>,
+    /// Per-ray constants of the intersection kernel.
     pub pre: &'a [RayPre],
+    /// Per ray, the closest hit so far as (t bits << 32 | triangle), by atomic minimum.
     pub best: &'a [AtomicU64],
+    /// The node test.
     pub test: NodeTest,
+    /// Cull top nodes by mesh spheres first.
     pub mesh_culling: bool,
+    /// Most (node, triangle) pairs held at once.
     pub budget: usize,
 }
 
@@ -131,6 +154,7 @@ fn add4(a: [u64; 4], b: [u64; 4]) -> [u64; 4] {
 }
 
 impl Traversal<'_> {
+    /// Run the traversal and the final tests, adding to `c`.
     pub fn run(&self, c: &mut Counters) {
         let nl = self.h.levels.len();
         c.tests = vec![[0; 4]; nl];

@@ -1,5 +1,5 @@
 //! Animation: keyframed rigid transforms per mesh (a transform chain of static matrices and
-//! named tracks), vertex-animated meshes, and an animated camera. [`Scene::at_time`] turns an
+//! named tracks), vertex-animated meshes, and an animated camera. [`Scene::at_time`](crate::Scene::at_time) turns an
 //! animated scene into the static scene of one instant, which every engine then rebuilds
 //! its structures for (the papers' per-frame rebuild).
 //!
@@ -9,13 +9,14 @@
 //! tangents: the curve runs from key 1 to key n−2 and is clamped outside. Tracks with fewer
 //! than four keys, and tracks from TOML scene files, interpolate linearly (rotations by slerp).
 
-use crate::model::{smooth_normals, Camera, Mesh, Scene};
 use geom::{Mat4, Quat, Sphere, Vec3};
 
 /// One key of a vector track (translation or scale).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VecKey {
+    /// Key time (seconds, scene time).
     pub t: f32,
+    /// Value at the key.
     pub v: Vec3,
     /// Kochanek–Bartels tension, continuity, bias.
     pub tcb: [f32; 3],
@@ -24,8 +25,11 @@ pub struct VecKey {
 /// One key of a rotation track: a unit quaternion (from BART's axis + angle in degrees).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RotKey {
+    /// Key time (seconds, scene time).
     pub t: f32,
+    /// Rotation at the key.
     pub q: Quat,
+    /// Kochanek–Bartels tension, continuity, bias.
     pub tcb: [f32; 3],
 }
 
@@ -42,10 +46,15 @@ pub enum Interp {
 /// T·R·S (BART's order).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Track {
+    /// The track's name (BART's `x` groups name the track they follow).
     pub name: String,
+    /// Translation keys (none: no translation).
     pub translation: Vec<VecKey>,
+    /// Rotation keys (none: no rotation).
     pub rotation: Vec<RotKey>,
+    /// Scale keys (none: unit scale).
     pub scale: Vec<VecKey>,
+    /// How keys are interpolated.
     pub interp: Interp,
     /// Repeat the keyed interval forever (TOML `loop = true`); BART tracks clamp.
     pub looping: bool,
@@ -54,6 +63,7 @@ pub struct Track {
 /// One link of a mesh's transform chain, outermost first.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Xform {
+    /// A fixed matrix.
     Static(Mat4),
     /// Index into [`Animation::tracks`].
     Track(u32),
@@ -62,19 +72,24 @@ pub enum Xform {
 /// Vertex animation of one mesh: positions at key times, linearly interpolated, clamped.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VertexKeys {
+    /// Key times, increasing.
     pub times: Vec<f32>,
     /// `positions[k]` has one entry per mesh vertex.
     pub positions: Vec<Vec<Vec3>>,
 }
 
+/// A scene's motion: keyframed rigid tracks per transform chain and vertex keys per mesh.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Animation {
     /// The animation interval and its suggested frame count (BART's `a` line).
     pub start: f32,
+    /// End of the interval.
     pub end: f32,
+    /// Suggested frame count over the interval.
     pub frames: u32,
+    /// The rigid-motion tracks the chains refer to.
     pub tracks: Vec<Track>,
-    /// Per mesh (same order as [`Scene::meshes`]): the transform chain, outermost first.
+    /// Per mesh (same order as [`Scene::meshes`](crate::Scene::meshes)): the transform chain, outermost first.
     /// An empty chain leaves the mesh's own `transform`.
     pub chains: Vec<Vec<Xform>>,
     /// Per mesh: vertex animation, if any.
@@ -328,6 +343,7 @@ impl Animation {
 }
 
 impl VertexKeys {
+    /// The vertex positions at time `t` (linear between keys, clamped outside them).
     pub fn at(&self, t: f32) -> Vec<Vec3> {
         let (a, b, u) = lerp_segment(|k| self.times[k], self.times.len(), t);
         if a == b {
@@ -339,65 +355,4 @@ impl VertexKeys {
             .map(|(p, q)| p.lerp(*q, u))
             .collect()
     }
-}
-
-impl Scene {
-    /// The static scene at time `t`: mesh transforms from their chains, vertex-animated
-    /// positions (with recomputed smooth normals), the animated camera. A scene without
-    /// animation is returned unchanged.
-    pub fn at_time(&self, t: f32) -> Scene {
-        let mut s = self.clone();
-        let Some(a) = &self.animation else {
-            return s;
-        };
-        for (m, mesh) in s.meshes.iter_mut().enumerate() {
-            if let Some(x) = a.mesh_transform(m, t) {
-                mesh.transform = x;
-            }
-            if let Some(Some(vk)) = a.vertex_keys.get(m) {
-                mesh.positions = vk.at(t);
-                mesh.normals = smooth_normals(&mesh.positions, &mesh.triangles);
-            }
-        }
-        if let Some(ci) = a.camera {
-            let tr = &a.tracks[ci as usize];
-            let (pos, rot, _) = tr.trs(t);
-            let base = &self.camera;
-            let eye = if tr.translation.is_empty() {
-                base.eye
-            } else {
-                pos
-            };
-            let (dir, up) = if tr.rotation.is_empty() {
-                (base.target - base.eye, base.up)
-            } else {
-                // BART's GetCamera: the viewer looks along −z with y up, rotated.
-                (rot * -Vec3::Z, rot * Vec3::Y)
-            };
-            s.camera = Camera {
-                eye,
-                target: eye + dir.normalize_or(-Vec3::Z),
-                up,
-                vfov: base.vfov,
-            };
-        }
-        s
-    }
-}
-
-/// The object-space culling sphere of each mesh, valid at every time: the minimal ball of
-/// the mesh's vertices, or for a vertex-animated mesh of all its key positions together (see
-/// [`Animation::local_spheres`]).
-pub fn local_spheres(meshes: &[Mesh], keys: &[Option<VertexKeys>]) -> Vec<Sphere> {
-    meshes
-        .iter()
-        .enumerate()
-        .map(|(i, m)| match keys.get(i) {
-            Some(Some(k)) => {
-                let all: Vec<Vec3> = k.positions.iter().flatten().copied().collect();
-                geom::miniball::minimal_ball(&all).unwrap_or_default()
-            }
-            _ => m.local_bound().unwrap_or_default(),
-        })
-        .collect()
 }

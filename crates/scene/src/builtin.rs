@@ -12,8 +12,10 @@ use crate::model::{Camera, Light, LoadReport, Material, Mesh, Scene};
 use crate::shapes::{cuboid, icosphere, quad_grid, torus, torus_knot};
 use geom::{Mat4, Pcg32, Quat, Vec3};
 
+/// The built-in scenes' names.
 pub const NAMES: [&str; 5] = ["cornell", "spheres", "soup", "stadium", "office"];
 
+/// The built-in scene `name`, or `None`.
 pub fn by_name(name: &str) -> Option<Scene> {
     Some(match name {
         "cornell" => cornell(),

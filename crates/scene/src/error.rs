@@ -2,25 +2,51 @@
 
 use std::path::PathBuf;
 
+/// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
+    /// The file could not be read.
     #[error("{path}: {cause}")]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The system's error.
         cause: std::io::Error,
     },
+    /// A syntax error at a line.
     #[error("{path}:{line}: {msg}")]
     Parse {
+        /// The file.
         path: PathBuf,
+        /// The line (1-based).
         line: usize,
+        /// What is wrong.
         msg: String,
     },
+    /// Well-formed but unusable content (bad values, missing parts).
     #[error("{path}: {msg}")]
-    Invalid { path: PathBuf, msg: String },
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        msg: String,
+    },
+    /// Nothing to render.
     #[error("{path}: the scene has no triangles{detail}")]
-    Empty { path: PathBuf, detail: String },
+    Empty {
+        /// The file.
+        path: PathBuf,
+        /// Why, when known (e.g. every triangle degenerate).
+        detail: String,
+    },
+    /// Neither a file nor a built-in scene.
     #[error("unknown scene '{name}': not a file and not a built-in scene ({builtins})")]
-    UnknownScene { name: String, builtins: String },
+    UnknownScene {
+        /// The name given.
+        name: String,
+        /// The built-in scenes' names.
+        builtins: String,
+    },
 }
 
 impl SceneError {

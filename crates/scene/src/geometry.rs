@@ -7,6 +7,8 @@ use crate::model::Scene;
 use geom::{Aabb, Mat3, Sphere, Vec3};
 use rayon::prelude::*;
 
+/// A scene flattened for the engines: world-space triangles in flat arrays, grouped by mesh,
+/// with the meshes' culling spheres (what every `Tracer` is built from).
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
     /// World-space vertices of each triangle.
@@ -24,6 +26,7 @@ pub struct Geometry {
     /// World-space culling sphere of each mesh: the local sphere updated by the mesh
     /// transform (thesis §3.2.2), never recomputed from the vertices.
     pub mesh_sphere: Vec<Sphere>,
+    /// Bounding box of all triangles.
     pub bounds: Aabb,
 }
 
@@ -87,14 +90,17 @@ impl Geometry {
         }
     }
 
+    /// Number of triangles.
     pub fn len(&self) -> usize {
         self.tris.len()
     }
 
+    /// Whether there are no triangles.
     pub fn is_empty(&self) -> bool {
         self.tris.is_empty()
     }
 
+    /// Number of meshes.
     pub fn mesh_count(&self) -> usize {
         self.mesh_first.len().saturating_sub(1)
     }
@@ -118,6 +124,7 @@ impl Geometry {
         }
     }
 
+    /// The point of triangle `t` at barycentrics (u, v).
     #[inline]
     pub fn point(&self, t: u32, u: f32, v: f32) -> Vec3 {
         let [a, b, c] = self.tris[t as usize];

@@ -38,6 +38,8 @@ fn convert(m: &gltf::Material) -> Material {
     }
 }
 
+/// Load a glTF 2.0 scene (`.gltf` or `.glb`): its meshes with their node transforms and
+/// materials; errors name the file.
 pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let bad = |msg: String| SceneError::invalid(path, msg);

@@ -6,6 +6,8 @@
 //! ([`obj`]), glTF 2.0 files ([`gltf_load`]) and TOML scene files ([`scenefile`]) that compose
 //! them. Engines never see a `Scene`: they consume its flattened world-space [`Geometry`].
 
+#![warn(missing_docs)]
+
 pub mod aff;
 pub mod anim;
 pub mod builtin;
@@ -53,6 +55,7 @@ impl std::str::FromStr for MeshSplit {
 /// Options that apply to whatever loader handles a scene.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct LoadOptions {
+    /// How OBJ files are cut into meshes.
     pub split: MeshSplit,
 }
 

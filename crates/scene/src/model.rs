@@ -1,5 +1,6 @@
 //! Scene model types.
 
+use crate::anim::VertexKeys;
 use crate::error::SceneError;
 use geom::{finite3, miniball, tri, Mat4, Sphere, Vec3};
 use std::path::PathBuf;
@@ -7,9 +8,13 @@ use std::path::PathBuf;
 /// A Blinn-Phong material with Whitted-style reflection and refraction weights.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// Name (from the file, or made up).
     pub name: String,
+    /// Diffuse colour (Blinn-Phong k_d, eq. 3.17).
     pub diffuse: Vec3,
+    /// Specular colour (Blinn-Phong k_s).
     pub specular: Vec3,
+    /// Blinn-Phong exponent.
     pub shininess: f32,
     /// Weight of the mirror reflection (0 = none).
     pub reflectivity: f32,
@@ -17,6 +22,7 @@ pub struct Material {
     pub transparency: f32,
     /// Index of refraction of the material (the outside is 1).
     pub ior: f32,
+    /// Emitted colour, added unlit.
     pub emission: Vec3,
 }
 
@@ -36,6 +42,7 @@ impl Default for Material {
 }
 
 impl Material {
+    /// A plain diffuse material of colour `c`.
     pub fn diffuse(name: &str, c: Vec3) -> Self {
         Material {
             name: name.into(),
@@ -43,6 +50,7 @@ impl Material {
             ..Default::default()
         }
     }
+    /// A mirror of `reflectivity` tinted by `tint`.
     pub fn mirror(name: &str, tint: Vec3, reflectivity: f32) -> Self {
         Material {
             name: name.into(),
@@ -53,6 +61,7 @@ impl Material {
             ..Default::default()
         }
     }
+    /// Clear glass of index of refraction `ior`.
     pub fn glass(name: &str, ior: f32) -> Self {
         Material {
             name: name.into(),
@@ -70,14 +79,18 @@ impl Material {
 /// A point light with the thesis's attenuation 1 / (c + l·d + q·d²) (eq. 3.19c).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Light {
+    /// Position.
     pub position: Vec3,
+    /// Colour.
     pub color: Vec3,
+    /// Intensity (scales the colour).
     pub intensity: f32,
     /// (constant, linear, quadratic).
     pub attenuation: [f32; 3],
 }
 
 impl Light {
+    /// A white light of `intensity` without attenuation.
     pub fn white(position: Vec3, intensity: f32) -> Self {
         Light {
             position,
@@ -91,9 +104,13 @@ impl Light {
 /// A pinhole camera. `vfov` is the vertical field of view in degrees.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
+    /// Position.
     pub eye: Vec3,
+    /// The point looked at.
     pub target: Vec3,
+    /// The up direction (need not be orthogonal to the view direction).
     pub up: Vec3,
+    /// Vertical field of view in degrees.
     pub vfov: f32,
 }
 
@@ -125,13 +142,17 @@ impl Camera {
 /// A named triangle mesh in its own object space, placed by `transform`.
 #[derive(Clone, Debug)]
 pub struct Mesh {
+    /// Name (from the file's group, material or node).
     pub name: String,
+    /// Object-space vertex positions.
     pub positions: Vec<Vec3>,
     /// Per-vertex normals (same length as `positions`).
     pub normals: Vec<Vec3>,
+    /// Vertex indices of each triangle.
     pub triangles: Vec<[u32; 3]>,
     /// Per-triangle index into [`Scene::materials`].
     pub materials: Vec<u32>,
+    /// Object-to-world transform.
     pub transform: Mat4,
 }
 
@@ -214,21 +235,34 @@ pub fn smooth_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
 /// What a loader noticed and handled (printed by the CLI).
 #[derive(Clone, Debug, Default)]
 pub struct LoadReport {
+    /// The file loaded (None for built-in scenes).
     pub source: Option<PathBuf>,
+    /// Degenerate (zero-area) triangles dropped.
     pub degenerate_skipped: usize,
+    /// Vertices whose normals were computed because the file had none.
     pub normals_computed: usize,
+    /// Seconds spent loading.
     pub load_seconds: f64,
+    /// Anything else worth a line (approximations, ignored features).
     pub notes: Vec<String>,
 }
 
+/// A loaded scene: meshes with transforms, materials, lights, camera, and its animation.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// Name (the file stem or the built-in's name).
     pub name: String,
+    /// Meshes, each in its own object space.
     pub meshes: Vec<Mesh>,
+    /// Materials, indexed by the meshes' per-triangle ids.
     pub materials: Vec<Material>,
+    /// Point lights.
     pub lights: Vec<Light>,
+    /// The camera (files without one are framed automatically).
     pub camera: Camera,
+    /// Colour of rays that leave the scene.
     pub background: Vec3,
+    /// What the loader noticed.
     pub report: LoadReport,
     /// Keyframed motion, when the scene is animated ([`Scene::at_time`]).
     pub animation: Option<crate::anim::Animation>,
@@ -263,6 +297,7 @@ impl Scene {
         }
     }
 
+    /// Triangles over all meshes.
     pub fn triangle_count(&self) -> usize {
         self.meshes.iter().map(|m| m.triangles.len()).sum()
     }
@@ -396,4 +431,65 @@ impl Scene {
         self.materials.extend(materials);
         self.meshes.extend(meshes);
     }
+}
+
+impl Scene {
+    /// The static scene at time `t`: mesh transforms from their chains, vertex-animated
+    /// positions (with recomputed smooth normals), the animated camera. A scene without
+    /// animation is returned unchanged.
+    pub fn at_time(&self, t: f32) -> Scene {
+        let mut s = self.clone();
+        let Some(a) = &self.animation else {
+            return s;
+        };
+        for (m, mesh) in s.meshes.iter_mut().enumerate() {
+            if let Some(x) = a.mesh_transform(m, t) {
+                mesh.transform = x;
+            }
+            if let Some(Some(vk)) = a.vertex_keys.get(m) {
+                mesh.positions = vk.at(t);
+                mesh.normals = smooth_normals(&mesh.positions, &mesh.triangles);
+            }
+        }
+        if let Some(ci) = a.camera {
+            let tr = &a.tracks[ci as usize];
+            let (pos, rot, _) = tr.trs(t);
+            let base = &self.camera;
+            let eye = if tr.translation.is_empty() {
+                base.eye
+            } else {
+                pos
+            };
+            let (dir, up) = if tr.rotation.is_empty() {
+                (base.target - base.eye, base.up)
+            } else {
+                // BART's GetCamera: the viewer looks along −z with y up, rotated.
+                (rot * -Vec3::Z, rot * Vec3::Y)
+            };
+            s.camera = Camera {
+                eye,
+                target: eye + dir.normalize_or(-Vec3::Z),
+                up,
+                vfov: base.vfov,
+            };
+        }
+        s
+    }
+}
+
+/// The object-space culling sphere of each mesh, valid at every time: the minimal ball of
+/// the mesh's vertices, or for a vertex-animated mesh of all its key positions together (see
+/// [`Animation::local_spheres`](crate::anim::Animation::local_spheres)).
+pub fn local_spheres(meshes: &[Mesh], keys: &[Option<VertexKeys>]) -> Vec<Sphere> {
+    meshes
+        .iter()
+        .enumerate()
+        .map(|(i, m)| match keys.get(i) {
+            Some(Some(k)) => {
+                let all: Vec<Vec3> = k.positions.iter().flatten().copied().collect();
+                geom::miniball::minimal_ball(&all).unwrap_or_default()
+            }
+            _ => m.local_bound().unwrap_or_default(),
+        })
+        .collect()
 }

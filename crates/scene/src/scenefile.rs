@@ -192,6 +192,7 @@ impl MaterialDef {
     }
 }
 
+/// Load a TOML scene file (format above); errors name the file and line.
 pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
@@ -586,7 +587,7 @@ fn animate(
             vkeys[m] = Some(v);
         }
     }
-    let local_spheres = crate::anim::local_spheres(&scene.meshes, &vkeys);
+    let local_spheres = crate::model::local_spheres(&scene.meshes, &vkeys);
     let (start, end, frames) = match &file.animation {
         Some(a) => {
             if !(a.start.is_finite() && a.end.is_finite() && a.end >= a.start) {

@@ -3,6 +3,8 @@
 //! scratch directories and the skip rule. The generators are deterministic in their seed, so
 //! a property-test failure reproduces with `PROPTEST_RNG_SEED`.
 
+#![warn(missing_docs)]
+
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
 use render::{RayBatch, RayKind};

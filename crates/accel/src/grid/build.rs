@@ -17,7 +17,7 @@
 //!   top cell (rounded up to a power of two, §4.1); non-empty nodes split until depth D.
 //! - `adaptive` (the paper's §7 future work, "changing the initial subdivision scheme"): as
 //!   `paper`, and below depth D a node keeps splitting while its *own* count calls for it:
-//!   λ₂ · (its references to triangles at most half its size) ≥ [`ADAPTIVE_SPLIT`] (eq. 1 on
+//!   λ₂ · (its references to triangles at most half its size) ≥ `ADAPTIVE_SPLIT` (eq. 1 on
 //!   the node asks for 4 cells per axis), up to the maximum depth. A small dense object in a
 //!   huge top cell (the teapot in a stadium) thus gets cells its own size, while regions the
 //!   paper's rule already resolves are unchanged.

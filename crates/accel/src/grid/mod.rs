@@ -64,14 +64,19 @@ impl std::str::FromStr for Subdivision {
 /// Conference twice the build time for 3 % fewer tests, so it is not the default).
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridConfig {
+    /// Top-level density λ₁ (eq. 1: top cells ≈ λ₁ · triangles, cubic in the box's shape).
     pub top_density: f32,
+    /// Second-level density λ₂ (each top cell's octree depth from its own count).
     pub leaf_density: f32,
     /// Merge rounds stop when a round keeps at least α of the cells.
     pub alpha: f32,
+    /// Merge cells by the SAH (§4.2).
     pub merge: bool,
+    /// Expansion passes (§4.3).
     pub expansion_passes: u32,
     /// Largest octree depth per top cell.
     pub max_depth: u32,
+    /// Which octree nodes split.
     pub subdivision: Subdivision,
     /// Merge and expand empty cells only: Devillers's macro regions (1989), which the paper
     /// (§6, Table 5) describes as this restriction of its merge and expansion steps.
@@ -154,12 +159,19 @@ impl GridConfig {
 /// Times (seconds) and sizes of a build.
 #[derive(Clone, Debug, Default)]
 pub struct BuildStats {
+    /// Top-level cell references.
     pub top_refs_seconds: f64,
+    /// Sparse octrees, level by level.
     pub octree_seconds: f64,
+    /// Cells and voxel map.
     pub voxel_map_seconds: f64,
+    /// Merging.
     pub merge_seconds: f64,
+    /// Expansion.
     pub expand_seconds: f64,
+    /// Cells before merging.
     pub initial_cells: usize,
+    /// Merge rounds run.
     pub merge_rounds: usize,
 }
 
@@ -181,9 +193,13 @@ impl BuildStats {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(C)]
 pub struct CellRec {
+    /// Expanded exit box, minimum corner (virtual grid units).
     pub lo: [u32; 3],
+    /// Expanded exit box, maximum corner (exclusive).
     pub hi: [u32; 3],
+    /// First reference.
     pub begin: u32,
+    /// One past the last reference.
     pub end: u32,
 }
 
@@ -192,31 +208,39 @@ pub struct CellRec {
 pub struct Grid {
     /// Padded scene box.
     pub bounds: Aabb,
+    /// Top-grid resolution.
     pub top_dims: [u32; 3],
     /// log2 of the virtual voxels per top cell along each axis (the largest octree depth).
     pub shift: u32,
     /// Virtual grid resolution: top_dims << shift.
     pub dims: [u32; 3],
+    /// Size of one virtual voxel.
     pub voxel: Vec3,
+    /// 1 / voxel size.
     pub inv_voxel: Vec3,
     /// Voxel-map footprint of each cell on the virtual grid, [min, max).
     pub cell_min: Vec<[u32; 3]>,
+    /// Footprint maximum corners (exclusive), as `cell_min`.
     pub cell_max: Vec<[u32; 3]>,
     /// Expanded box (virtual grid units) used to exit the cell during traversal.
     pub exp_min: Vec<[u32; 3]>,
+    /// Expanded box maximum corners (exclusive), as `exp_min`.
     pub exp_max: Vec<[u32; 3]>,
     /// Traversal records, built from the boxes and ranges once the build is done.
     pub trav: Vec<CellRec>,
     /// References of cell c: `refs[ref_first[c] .. ref_first[c + 1]]`, ascending.
     pub ref_first: Vec<u32>,
+    /// Triangle indices of every cell, cell after cell.
     pub refs: Vec<u32>,
     /// Voxel map ([`voxelmap`]): entries `0..top cells` for the top grid, then the blocks;
     /// each entry a cell index or a block.
     pub entries: Vec<u32>,
+    /// Times and sizes of the build.
     pub build: BuildStats,
 }
 
 impl Grid {
+    /// Number of cells.
     pub fn cells(&self) -> usize {
         self.cell_min.len()
     }
@@ -228,6 +252,7 @@ impl Grid {
         (cells, self.refs.len() * 4, self.entries.len() * 4)
     }
 
+    /// Voxel-map index of top cell `t`.
     #[inline]
     pub fn top_index(&self, t: [u32; 3]) -> usize {
         (t[0] + self.top_dims[0] * (t[1] + self.top_dims[1] * t[2])) as usize
@@ -252,6 +277,7 @@ impl Grid {
         )
     }
 
+    /// The triangle indices of cell `c`.
     #[inline]
     pub fn cell_refs(&self, c: usize) -> &[u32] {
         &self.refs[self.ref_first[c] as usize..self.ref_first[c + 1] as usize]
@@ -351,12 +377,16 @@ pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> 
 
 /// The irregular grid (or two-level grid) as a tracing engine.
 pub struct GridEngine {
+    /// The grid.
     pub grid: Grid,
+    /// The triangles it indexes (a copy of the scene's).
     pub tris: Vec<[Vec3; 3]>,
+    /// `grid` or `grid2l`.
     pub name: &'static str,
 }
 
 impl GridEngine {
+    /// Build the grid of `cfg` over `geo` (errors name the limit or option at fault).
     pub fn new(geo: &scene::Geometry, cfg: &GridConfig) -> Result<Self, String> {
         let grid = build_grid(&geo.tris, cfg)?;
         let name = if cfg.merge || cfg.expansion_passes > 0 {

@@ -16,7 +16,9 @@ use render::{Hit, RayBatch, TraceMode};
 /// Per-ray counters: traversal steps (cells visited, N_T) and triangle tests (N_I).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RayCounts {
+    /// Cells visited.
     pub steps: u64,
+    /// Ray–triangle tests.
     pub tests: u64,
 }
 

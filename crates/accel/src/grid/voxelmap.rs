@@ -107,8 +107,11 @@ fn paint(sparse: &[u32], e: u32, lo: [u32; 3], lk: [u32; 2], start: usize, out: 
 
 /// What [`flatten`] returns.
 pub struct Flattened {
+    /// The voxel map: top entries, then the blocks.
     pub entries: Vec<u32>,
+    /// New cell k is old cell `order[k]`.
     pub order: Vec<u32>,
+    /// Old cell c is new cell `new_index[c]`.
     pub new_index: Vec<u32>,
 }
 

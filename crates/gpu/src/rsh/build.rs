@@ -8,9 +8,13 @@ use ::rsh::Union;
 
 /// One level of nodes on the device (structure of arrays, as `rsh::build::Level`).
 pub struct Level {
+    /// Origin spheres (centre, radius).
     pub sphere: wgpu::Buffer,
+    /// Cone axes and half-angles.
     pub cone: wgpu::Buffer,
+    /// Per node: sin α, cos α, longest t_max, kind (bits).
     pub sc: wgpu::Buffer,
+    /// Children of node i: `first[i] .. first[i + 1]` in the level below.
     pub first: wgpu::Buffer,
     /// Nodes per kind (kinds are sorted, so this is the level's whole layout).
     pub per_kind: [u32; 4],
@@ -22,6 +26,7 @@ impl Level {
         self.per_kind.iter().sum()
     }
 
+    /// Whether the level has no nodes.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

@@ -134,6 +134,7 @@ impl GpuRsh {
         })
     }
 
+    /// The device.
     pub fn gpu(&self) -> &Gpu {
         &self.gpu
     }
@@ -230,11 +231,17 @@ impl GpuRsh {
 /// A ray batch on the device: origin | t_min and direction | t_max as vec4, kind | light << 2,
 /// pixel, and the intersection kernel's per-ray constants (written by the hash kernel).
 pub struct DeviceRays {
+    /// Origin | t_min.
     pub org: wgpu::Buffer,
+    /// Direction | t_max.
     pub dir: wgpu::Buffer,
+    /// Kind | light << 2.
     pub kl: wgpu::Buffer,
+    /// Pixel index.
     pub pix: wgpu::Buffer,
+    /// Per-ray intersection constants (written by the hash kernel).
     pub pre: wgpu::Buffer,
+    /// Number of rays.
     pub len: u64,
     /// The image width (RAH's screen key).
     pub width: u32,

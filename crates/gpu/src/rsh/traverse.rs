@@ -19,8 +19,11 @@ const TILE: u32 = 256;
 
 /// One trace call's traversal state: the engine's scene buffers, the hierarchy and the rays.
 pub struct GpuTraversal<'a> {
+    /// The engine (scene buffers, configuration).
     pub eng: &'a GpuRsh,
+    /// The hierarchy, level 1 first.
     pub levels: &'a [Level],
+    /// The rays.
     pub rays: &'a DeviceRays,
     /// The sorted leaves (ray indices).
     pub leaves: &'a wgpu::Buffer,

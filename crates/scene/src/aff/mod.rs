@@ -589,7 +589,7 @@ pub fn load_aff_scene(path: &Path) -> Result<Scene, SceneError> {
             .iter()
             .position(|t| t.name == "camera")
             .map(|i| i as u32);
-        let local_spheres = crate::anim::local_spheres(&scene.meshes, &p.vertex_keys);
+        let local_spheres = crate::model::local_spheres(&scene.meshes, &p.vertex_keys);
         scene.animation = Some(Animation {
             start,
             end,
