@@ -33,14 +33,34 @@ fn fails(args: &[&str], needles: &[&str]) {
     for n in needles {
         assert!(err.contains(n), "{args:?}: '{n}' not in: {err}");
     }
-    if !args.iter().any(|a| a.starts_with("--"))
-        || args
-            .iter()
-            .any(|a| a.ends_with(".obj") || a.ends_with(".toml") || a.ends_with(".gltf"))
-    {
-        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-        assert_eq!(lines.len(), 1, "{args:?}: one line expected: {err}");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{args:?}: one line expected: {err}");
+}
+
+#[test]
+fn usage_errors_are_one_line_with_status_2() {
+    for args in [
+        &["render", "--width", "abc"][..],
+        &["render", "--engine", "warp"],
+        &["render", "--no-such-option"],
+        &["bench"],
+    ] {
+        let out = bin().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(err.starts_with("error: "), "{err}");
     }
+    // A run-time error (the file, not the usage) exits with 1.
+    let out = bin()
+        .args(["render", "no-such-scene.obj"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    // --help still prints the help and succeeds.
+    let out = bin().args(["render", "--help"]).output().unwrap();
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("--engine"));
 }
 
 #[test]
@@ -623,4 +643,77 @@ fn grid_build_passes_in_stats() {
         &["render", "cornell", "--grid-subdivision", "dense"],
         &["--grid-subdivision"],
     );
+}
+
+#[test]
+fn outputs_are_checked_before_work_and_never_clobber_inputs() {
+    let d = tmp("outputs");
+    let obj = write(&d, "victim.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let before = std::fs::read(&obj).unwrap();
+    // An output that is an input is refused, and the input stays as it was.
+    fails(
+        &words(&format!("rays {obj} --width 4 --height 4 --out {obj}")),
+        &["--out", "is an input"],
+    );
+    assert_eq!(std::fs::read(&obj).unwrap(), before);
+    let rays = d.join("r.rays");
+    ok(&words(&format!(
+        "rays cornell --width 4 --height 4 --out {}",
+        rays.display()
+    )));
+    let rays_before = std::fs::read(&rays).unwrap();
+    fails(
+        &words(&format!(
+            "trace {} --scene cornell --out {}",
+            rays.display(),
+            rays.display()
+        )),
+        &["--out", "is an input"],
+    );
+    assert_eq!(std::fs::read(&rays).unwrap(), rays_before);
+    // The format is the file name's: PNG bytes are not written to x.jpg.
+    fails(
+        &words(&format!(
+            "render cornell --out {}",
+            d.join("x.jpg").display()
+        )),
+        &["--out", ".png"],
+    );
+    // Special files are never written (`--out /dev/full` used to exit 0 saying "wrote").
+    fails(
+        &[
+            "rays",
+            "cornell",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "--out",
+            "/dev/full",
+        ],
+        &["--out", "/dev/full", "regular file"],
+    );
+    // An unwritable --stats is found before the image is rendered or replaced.
+    let png = d.join("keep.png");
+    std::fs::write(&png, b"previous image").unwrap();
+    fails(
+        &words(&format!(
+            "render cornell --width 8 --height 8 --out {} --stats /nonexistent-dir/s.json",
+            png.display()
+        )),
+        &["--stats", "does not exist"],
+    );
+    assert_eq!(std::fs::read(&png).unwrap(), b"previous image");
+    // A successful write replaces the file whole and leaves no temporary beside it.
+    ok(&words(&format!(
+        "render cornell --width 8 --height 8 --out {}",
+        png.display()
+    )));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let stray: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(stray.is_empty(), "temporaries left: {stray:?}");
 }

@@ -29,7 +29,7 @@ pub fn cmd_bench_gpu(a: &BenchGpuArgs) -> Result<()> {
     let report = format!("# rayspace bench gpu\n\n{}\n{md}", provenance());
     say!("{report}");
     if let Some(p) = &a.md {
-        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+        super::write_out("--md", p, &report)?;
         say!("wrote {}", p.display());
     }
     Ok(())
@@ -70,15 +70,13 @@ pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
     );
     say!("{report}");
     if let Some(p) = &a.out.md {
-        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+        super::write_out("--md", p, &report)?;
     }
     if let Some(p) = &a.out.json {
-        std::fs::write(p, serde_json::to_string_pretty(&rows)?)
-            .with_context(|| format!("--json {}", p.display()))?;
+        super::write_out("--json", p, serde_json::to_string_pretty(&rows)?)?;
     }
     if let Some(p) = &a.out.csv {
-        std::fs::write(p, bench::rsh::csv(&rows))
-            .with_context(|| format!("--csv {}", p.display()))?;
+        super::write_out("--csv", p, bench::rsh::csv(&rows))?;
     }
     Ok(())
 }
@@ -134,20 +132,17 @@ pub fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
     );
     say!("{report}");
     if let Some(p) = &a.out.md {
-        std::fs::write(p, &report).with_context(|| format!("--md {}", p.display()))?;
+        super::write_out("--md", p, &report)?;
     }
     if let Some(p) = &a.out.json {
         let v = serde_json::json!({ "table3": rep.perf, "grids": rep.grids });
-        std::fs::write(p, serde_json::to_string_pretty(&v)?)
-            .with_context(|| format!("--json {}", p.display()))?;
+        super::write_out("--json", p, serde_json::to_string_pretty(&v)?)?;
     }
     if let Some(p) = &a.out.csv {
-        std::fs::write(p, bench::grid::perf_csv(&rep.perf))
-            .with_context(|| format!("--csv {}", p.display()))?;
+        super::write_out("--csv", p, bench::grid::perf_csv(&rep.perf))?;
     }
     if let Some(p) = &a.grids_csv {
-        std::fs::write(p, bench::grid::grid_csv(&rep.grids))
-            .with_context(|| format!("--grids-csv {}", p.display()))?;
+        super::write_out("--grids-csv", p, bench::grid::grid_csv(&rep.grids))?;
     }
     if let Some(d) = &a.out.charts {
         report_charts(bench::grid::charts(&rep.perf, d));
@@ -218,7 +213,7 @@ pub fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
                 );
             }
         }
-        std::fs::write(p, csv).with_context(|| format!("--csv {}", p.display()))?;
+        super::write_out("--csv", p, csv)?;
     }
     Ok(())
 }

@@ -187,7 +187,7 @@ pub fn render_frames(
             }
             csv += "\n";
         }
-        std::fs::write(p, csv).with_context(|| format!("--frame-csv {}", p.display()))?;
+        super::write_out("--frame-csv", p, csv)?;
         say!("wrote {}", p.display());
     }
     if let Some(p) = &a.gif {

@@ -22,9 +22,48 @@ use anyhow::{bail, Result};
 use args::{BenchCommand, Cli, Command};
 use clap::Parser;
 
+/// A command-line usage error (exit status 2), as one line.
+#[derive(Debug)]
+pub struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UsageError {}
+
+/// clap's message (3–7 lines: the error, context, usage, a hint) as one line: the error and
+/// its context lines, without the usage and the help hint.
+fn one_line(e: &clap::Error) -> String {
+    if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        let args: Vec<String> = std::env::args().skip(1).collect();
+        return format!(
+            "'rayspace {}' needs a subcommand; see 'rayspace {} --help'",
+            args.join(" "),
+            args.join(" ")
+        );
+    }
+    let text = e.render().to_string();
+    text.lines()
+        .map(str::trim)
+        .filter(|l| {
+            !l.is_empty() && !l.starts_with("Usage:") && !l.starts_with("For more information")
+        })
+        .map(|l| l.strip_prefix("error: ").unwrap_or(l))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
 /// Parse the command line and run the command (`render` with its defaults when none).
+/// `--help` and `--version` print and exit here; a usage error is a [`UsageError`].
 pub fn run() -> Result<()> {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) if !e.use_stderr() => e.exit(),
+        Err(e) => return Err(UsageError(one_line(&e)).into()),
+    };
     match cli.command {
         Some(Command::Render(a)) => render::cmd_render(&a),
         Some(Command::Rays(a)) => trace::cmd_rays(&a),
@@ -39,18 +78,47 @@ pub fn run() -> Result<()> {
     }
 }
 
-/// An output file's directory must exist (checked before any work is done).
+/// An output file must be writable before any work is done: its directory exists, it is
+/// not a directory or a special file (`render::output::check_output`).
 fn check_out_dir(opt: &str, out: &std::path::Path) -> Result<()> {
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
+    ::render::output::check_output(out).map_err(|e| anyhow::anyhow!("{opt} {e}"))
+}
+
+/// An output must not be one of the command's inputs (`render scene.obj --out scene.obj`
+/// would replace the scene).
+fn check_not_input(opt: &str, out: &std::path::Path, inputs: &[&std::path::Path]) -> Result<()> {
+    let Ok(o) = out.canonicalize() else {
+        return Ok(()); // not there yet: it cannot be an input
+    };
+    for i in inputs {
+        if i.canonicalize().is_ok_and(|i| i == o) {
             bail!(
-                "{opt} {}: directory {} does not exist",
-                out.display(),
-                dir.display()
+                "{opt} {}: is an input of this command; refusing to overwrite it",
+                out.display()
             );
         }
     }
     Ok(())
+}
+
+/// An output's file name must end in `.ext` (any case): `--out x.jpg` would get PNG bytes.
+fn check_extension(opt: &str, out: &std::path::Path, ext: &str) -> Result<()> {
+    let ok = out
+        .extension()
+        .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case(ext));
+    if !ok {
+        bail!(
+            "{opt} {}: the file name must end in .{ext} (the format written)",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// Write an output file atomically (`render::output::write_atomic`); the error names the
+/// option and the file.
+fn write_out(opt: &str, path: &std::path::Path, bytes: impl AsRef<[u8]>) -> Result<()> {
+    ::render::output::write_atomic(path, bytes.as_ref()).map_err(|e| anyhow::anyhow!("{opt} {e}"))
 }
 
 /// An output directory must exist.

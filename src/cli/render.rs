@@ -4,8 +4,8 @@
 //! `--backend gpu` every pass runs as a wgpu kernel (`crates/gpu`).
 
 use super::args::{engine_options, Backend, RenderArgs};
-use super::check_out_dir;
 use super::progress::progress_bar;
+use super::{check_extension, check_not_input, check_out_dir};
 use anyhow::{bail, Context, Result};
 use rayspace::engines::{self, Engine};
 use render::whitted::{render, RenderOptions};
@@ -32,6 +32,23 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     let opts = engine_options(&a.rsh, &a.grid, a.frames.is_some());
     opts.validate(a.engine)?;
     check_out_dir("--out", &a.out)?;
+    check_extension("--out", &a.out, "png")?;
+    // Every output is checked before the work: none may be an input, or unwritable.
+    let scene_file = std::path::Path::new(&a.scene);
+    check_not_input("--out", &a.out, &[scene_file])?;
+    for (opt, p) in [
+        ("--stats", &a.stats),
+        ("--frame-csv", &a.frame_csv),
+        ("--gif", &a.gif),
+    ] {
+        if let Some(p) = p {
+            check_out_dir(opt, p)?;
+            check_not_input(opt, p, &[scene_file])?;
+        }
+    }
+    if let Some(g) = &a.gif {
+        check_extension("--gif", g, "gif")?;
+    }
     let t0 = Instant::now();
     let scene = scene::load(&a.scene, &LoadOptions { split })?;
     let geo = Geometry::from_scene(&scene);
@@ -130,7 +147,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             gpu_phase_seconds: gpu_phases.clone(),
         };
         let json = serde_json::to_string_pretty(&f)?;
-        std::fs::write(p, json).with_context(|| format!("--stats {}", p.display()))?;
+        super::write_out("--stats", p, json)?;
         say!("wrote {}", p.display());
     }
     Ok(())

@@ -3,7 +3,7 @@
 //! `render::rayfile`'s; hagrid's headerless ray files are read too.
 
 use super::args::{engine_options, RaysArgs, TraceArgs};
-use super::check_out_dir;
+use super::{check_not_input, check_out_dir};
 use anyhow::{bail, Result};
 use rayspace::engines;
 use scene::{Geometry, LoadOptions};
@@ -31,6 +31,7 @@ fn parse_viewpoint(s: &str) -> Result<scene::Camera> {
 
 pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
     check_out_dir("--out", &a.out)?;
+    check_not_input("--out", &a.out, &[std::path::Path::new(&a.scene)])?;
     let mut scene = scene::load(&a.scene, &LoadOptions { split: a.meshes })?;
     if let Some(v) = &a.viewpoint {
         scene.camera = parse_viewpoint(v)?;
@@ -78,6 +79,7 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
     opts.validate(a.engine)?;
     if let Some(o) = &a.out {
         check_out_dir("--out", o)?;
+        check_not_input("--out", o, &[&a.rays, std::path::Path::new(&a.scene)])?;
     }
     let rays = render::rayfile::read_rays(&a.rays, render::RayKind::Primary)
         .map_err(anyhow::Error::msg)?;

@@ -52,7 +52,7 @@ pub fn write_rays(path: &Path, rays: &RayBatch) -> Result<(), String> {
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::write(path, out).map_err(|e| format!("{}: {e}", path.display()))
+    crate::output::write_atomic(path, &out)
 }
 
 /// Read a version-1 ray file or a headerless hagrid file. Rays are checked (finite origin,
@@ -121,7 +121,7 @@ pub fn write_hits(path: &Path, hits: &[Hit], mode: TraceMode) -> Result<(), Stri
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::write(path, out).map_err(|e| format!("{}: {e}", path.display()))
+    crate::output::write_atomic(path, &out)
 }
 
 /// Read a hit file.
