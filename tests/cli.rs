@@ -550,7 +550,7 @@ fn gpu_backend_renders_or_says_why() {
             err.contains("--backend gpu") && (err.contains("no GPU") || err.contains("lacks")),
             "{err}"
         );
-        testkit::skip(&err);
+        testkit::skip("gpu", &err);
         return;
     }
     let out = String::from_utf8_lossy(&o.stdout);

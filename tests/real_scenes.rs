@@ -19,7 +19,7 @@ fn real_scenes_render() {
     ] {
         let path = dir.join(rel);
         if !path.exists() {
-            testkit::skip(format!("{} not present", path.display()));
+            testkit::skip("scenes", format!("{} not present", path.display()));
             continue;
         }
         let t0 = std::time::Instant::now();
@@ -72,7 +72,7 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
     ] {
         let path = dir.join(rel);
         if !path.exists() {
-            testkit::skip(format!("{} not present", path.display()));
+            testkit::skip("scenes", format!("{} not present", path.display()));
             continue;
         }
         let s = load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();
@@ -165,7 +165,7 @@ fn bart_animations_load_animate_and_match_brute_force() {
     ] {
         let path = dir.join(rel);
         if !path.exists() {
-            testkit::skip(format!("{} not present", path.display()));
+            testkit::skip("scenes", format!("{} not present", path.display()));
             continue;
         }
         let s = load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();

@@ -16,7 +16,7 @@ use rsh::{NodeTest, RshConfig, RshEngine, Union};
 use scene::{builtin, Geometry};
 
 fn gpu() -> Option<Gpu> {
-    testkit::or_skip(Gpu::new(), "no GPU")
+    testkit::or_skip(Gpu::new(), "gpu")
 }
 
 fn lavapipe(g: &Gpu) -> bool {

@@ -7,7 +7,7 @@ use gpu::kernels::{Exec, Kernels};
 use gpu::Gpu;
 
 fn gpu() -> Option<Gpu> {
-    testkit::or_skip(Gpu::new(), "no GPU")
+    testkit::or_skip(Gpu::new(), "gpu")
 }
 
 const SIZES: [usize; 9] = [1, 2, 1023, 1024, 1025, 4096, 4097, 70_001, 1_100_000];

@@ -20,7 +20,7 @@ use rsh::{RshConfig, RshEngine};
 use scene::{builtin, Geometry};
 
 fn gpu() -> Option<Gpu> {
-    testkit::or_skip(Gpu::new(), "no GPU")
+    testkit::or_skip(Gpu::new(), "gpu")
 }
 
 fn bytes(p: &[geom::Vec3]) -> Vec<u8> {

@@ -8,7 +8,7 @@ fn check(rel: &str, split: MeshSplit, expect_tris: usize, expect_degenerate: usi
     };
     let path = dir.join(rel);
     if !path.exists() {
-        testkit::skip(format!("{} not present", path.display()));
+        testkit::skip("scenes", format!("{} not present", path.display()));
         return;
     }
     let s = load(path.to_str().unwrap(), &LoadOptions { split }).unwrap();

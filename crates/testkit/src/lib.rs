@@ -32,24 +32,50 @@ pub fn temp_dir(tag: &str) -> PathBuf {
     d
 }
 
-/// A test that cannot run here (no GPU driver, no shared scenes): prints one visible
-/// `SKIPPED: why` line; the caller then returns. A skipped test is not a passed test.
-pub fn skip(why: impl std::fmt::Display) {
-    eprintln!("SKIPPED: {why}");
+/// A test that cannot run here for want of `need` (`gpu`: a GPU driver; `scenes`: the shared
+/// real scenes): prints one `SKIPPED: why` line straight to the terminal (the test harness
+/// hides a passing test's captured output), and the caller returns. A skipped test is not
+/// a passed test: where `need` is listed in `RAYSPACE_REQUIRE` (comma-separated; `.ci/run`
+/// sets it), it panics instead, so CI fails rather than reporting "ok".
+pub fn skip(need: &str, why: impl std::fmt::Display) {
+    if required(need) {
+        panic!("RAYSPACE_REQUIRE lists '{need}', but this test cannot run: {why}");
+    }
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr(), "SKIPPED: {why}");
 }
 
-/// The shared real scenes' directory, or `None` after skipping (see [`skip`]).
+/// Whether `RAYSPACE_REQUIRE` lists `need` (or `all`).
+pub fn required(need: &str) -> bool {
+    std::env::var("RAYSPACE_REQUIRE")
+        .unwrap_or_default()
+        .split(',')
+        .map(str::trim)
+        .any(|r| r == need || r == "all")
+}
+
+/// The shared real scenes' directory, or `None` after skipping (see [`skip`]). A
+/// `RAYSPACE_SCENES` that names no directory is a mistake, not a reason to skip: it panics.
 pub fn scenes() -> Option<PathBuf> {
+    if let Ok(v) = std::env::var("RAYSPACE_SCENES") {
+        assert!(
+            std::path::Path::new(&v).is_dir(),
+            "RAYSPACE_SCENES={v} is not a directory"
+        );
+    }
     let d = scene::scenes_dir();
     if d.is_none() {
-        skip("no shared scenes (set RAYSPACE_SCENES or provide ../shared/scenes)");
+        skip(
+            "scenes",
+            "no shared scenes (set RAYSPACE_SCENES or provide ../shared/scenes)",
+        );
     }
     d
 }
 
-/// `Ok(v)` as `Some(v)`; an error skips the test (see [`skip`]) with `what` and the error.
-pub fn or_skip<T, E: std::fmt::Display>(r: Result<T, E>, what: &str) -> Option<T> {
-    r.map_err(|e| skip(format!("{what}: {e}"))).ok()
+/// `Ok(v)` as `Some(v)`; an error skips the test for want of `need` (see [`skip`]).
+pub fn or_skip<T, E: std::fmt::Display>(r: Result<T, E>, need: &str) -> Option<T> {
+    r.map_err(|e| skip(need, format!("no {need}: {e}"))).ok()
 }
 
 /// A random case for the grids' property tests: a soup (with degenerate triangles) in one
