@@ -671,6 +671,11 @@ fn outputs_are_checked_before_work_and_never_clobber_inputs() {
         &["--out", "is an input"],
     );
     assert_eq!(std::fs::read(&rays).unwrap(), rays_before);
+    // A device is not a ray file (it used to be read without bound).
+    fails(
+        &["trace", "/dev/zero", "--scene", "cornell"],
+        &["/dev/zero", "regular file"],
+    );
     // The format is the file name's: PNG bytes are not written to x.jpg.
     fails(
         &words(&format!(

@@ -148,11 +148,18 @@ pub fn geometric_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     (b - a).cross(c - a).normalize_or_zero()
 }
 
-/// True when the triangle has positive, finite area (the loaders drop the rest).
+/// True when the triangle has no positive area: zero area, or a non-finite vertex (the
+/// loaders drop these). Huge finite triangles are not degenerate.
 #[inline]
 pub fn is_degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
     let n = (b - a).cross(c - a);
     let l2 = n.length_squared();
+    if l2.is_infinite() && a.is_finite() && b.is_finite() && c.is_finite() {
+        // Huge but finite triangles (edges beyond ~1e9) overflow the f32 squared length;
+        // they are not degenerate. f64 holds the product of any two f32 differences.
+        let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+        return (b - a).cross(c - a).length_squared() == 0.0;
+    }
     !(l2 > 0.0 && l2.is_finite())
 }
 
@@ -163,6 +170,31 @@ mod tests {
     use proptest::prelude::*;
 
     use testkit::{icosahedron, v3};
+
+    #[test]
+    fn huge_triangles_are_not_degenerate() {
+        // Edges of 5·10⁹ overflow the f32 squared length of the normal.
+        let s = 5e9;
+        assert!(!is_degenerate(Vec3::ZERO, Vec3::X * s, Vec3::Y * s));
+        assert!(!is_degenerate(
+            Vec3::splat(1e18),
+            Vec3::new(2e18, 1e18, 1e18),
+            Vec3::new(1e18, 2e18, 1e18)
+        ));
+        // Still degenerate: collinear, repeated and non-finite vertices.
+        assert!(is_degenerate(Vec3::ZERO, Vec3::X * s, Vec3::X * 2.0 * s));
+        assert!(is_degenerate(Vec3::ONE, Vec3::ONE, Vec3::ZERO));
+        assert!(is_degenerate(
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::new(f32::NAN, 0.0, 0.0)
+        ));
+        assert!(is_degenerate(
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::splat(f32::INFINITY)
+        ));
+    }
 
     fn pre(o: Vec3, d: Vec3) -> RayPre {
         RayPre::new(&Ray::new(o, d, 0.0, f32::INFINITY))

@@ -58,7 +58,7 @@ pub fn write_rays(path: &Path, rays: &RayBatch) -> Result<(), String> {
 /// Read a version-1 ray file or a headerless hagrid file. Rays are checked (finite origin,
 /// finite non-zero direction, t_min ≤ t_max).
 pub fn read_rays(path: &Path, kind: RayKind) -> Result<RayBatch, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let bytes = scene::io::read_file(path).map_err(|e| e.to_string())?;
     let bad = |msg: String| format!("{}: {msg}", path.display());
     let mut rays = Vec::new();
     if bytes.len() >= 8 && &bytes[..8] == RAY_MAGIC {
@@ -126,7 +126,7 @@ pub fn write_hits(path: &Path, hits: &[Hit], mode: TraceMode) -> Result<(), Stri
 
 /// Read a hit file.
 pub fn read_hits(path: &Path) -> Result<(Vec<Hit>, TraceMode), String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let bytes = scene::io::read_file(path).map_err(|e| e.to_string())?;
     let bad = |msg: &str| format!("{}: {msg}", path.display());
     if bytes.len() < HEADER || &bytes[..8] != HIT_MAGIC {
         return Err(bad("not a rayspace hit file"));

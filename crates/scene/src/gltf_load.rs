@@ -49,8 +49,19 @@ pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
             cause: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         });
     }
+    crate::io::check_regular(path)?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::open(path).map_err(|e| bad(format!("glTF: {e}")))?;
+    // External buffers are files too: regular ones only, bounded.
+    for b in document.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            if !uri.starts_with("data:") {
+                let p = path.parent().unwrap_or(Path::new(".")).join(uri);
+                crate::io::check_regular(&p)
+                    .map_err(|e| bad(format!("buffer {}: {e}", b.index())))?;
+            }
+        }
+    }
     let buffers = gltf::import_buffers(&document, path.parent(), blob)
         .map_err(|e| bad(format!("glTF buffers: {e}")))?;
     let mut report = LoadReport {
@@ -66,7 +77,16 @@ pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
         .or_else(|| document.scenes().next())
         .ok_or_else(|| bad("glTF file has no scene".into()))?;
     let mut stack: Vec<(gltf::Node, Mat4)> = gscene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    // glTF nodes form trees (§5.25: a node has at most one parent, no cycles); a node met
+    // twice is a cycle or a shared child, which would otherwise be walked forever.
+    let mut seen = vec![false; document.nodes().len()];
     while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut seen[node.index()], true) {
+            return Err(bad(format!(
+                "node {} is reached twice: the node hierarchy has a cycle or a shared child",
+                node.index()
+            )));
+        }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         for c in node.children() {
             stack.push((c, world));

@@ -14,6 +14,7 @@ pub mod builtin;
 pub mod error;
 pub mod geometry;
 pub mod gltf_load;
+pub mod io;
 pub mod model;
 pub mod obj;
 pub mod scenefile;

@@ -127,10 +127,7 @@ pub fn load_obj_meshes(
     split: MeshSplit,
     report: &mut LoadReport,
 ) -> Result<(Vec<Mesh>, Vec<Material>), SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
-        path: path.to_path_buf(),
-        cause: e,
-    })?;
+    let text = crate::io::read_text(path)?;
     validate_obj(&text, path)?;
     let opts = tobj::LoadOptions {
         triangulate: true,
@@ -142,7 +139,14 @@ pub fn load_obj_meshes(
     let mtl_errors = std::cell::RefCell::new(Vec::new());
     let (models, mats) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |p| {
         let full = base.join(p);
-        let r = tobj::load_mtl(&full);
+        // Through our bounded reader: `mtllib /dev/zero` is refused, not read forever.
+        let r = match crate::io::read_text(&full) {
+            Ok(t) => tobj::load_mtl_buf(&mut t.as_bytes()),
+            Err(e) => {
+                mtl_errors.borrow_mut().push(e.to_string());
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
+        };
         if let Err(e) = &r {
             mtl_errors
                 .borrow_mut()

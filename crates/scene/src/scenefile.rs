@@ -195,10 +195,7 @@ impl MaterialDef {
 /// Load a TOML scene file (format above); errors name the file and line.
 pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
-        path: path.to_path_buf(),
-        cause: e,
-    })?;
+    let text = crate::io::read_text(path)?;
     parse_scene_file(&text, path, t0)
 }
 

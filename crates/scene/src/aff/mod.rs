@@ -23,6 +23,9 @@ use lex::{tokenize, Cursor};
 const MAX_COUNT: usize = 50_000_000;
 /// Deepest include nesting (deeper is taken for a cycle).
 const MAX_INCLUDE_DEPTH: usize = 32;
+/// Most file loads of one scene, includes counted each time (BART's kitchen loads 200):
+/// files that include the next one twice would otherwise load 2^depth files.
+const MAX_FILES: usize = 10_000;
 use crate::error::SceneError;
 use crate::model::{smooth_normals, Camera, Light, LoadReport, Material, Mesh, Scene};
 use crate::shapes;
@@ -182,11 +185,14 @@ impl Parser {
                 format!("includes nested deeper than {MAX_INCLUDE_DEPTH} (a cycle?)"),
             ));
         }
+        if self.files >= MAX_FILES {
+            return Err(SceneError::invalid(
+                path,
+                format!("more than {MAX_FILES} file loads (includes fanning out?)"),
+            ));
+        }
         // Some BART files carry Latin-1 bytes in comments; the syntax itself is ASCII.
-        let bytes = std::fs::read(path).map_err(|e| SceneError::Io {
-            path: path.to_path_buf(),
-            cause: e,
-        })?;
+        let bytes = crate::io::read_file(path)?;
         let src = String::from_utf8_lossy(&bytes);
         self.files += 1;
         self.include_stack.push(path.to_path_buf());
