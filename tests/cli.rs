@@ -722,3 +722,38 @@ fn outputs_are_checked_before_work_and_never_clobber_inputs() {
         .collect();
     assert!(stray.is_empty(), "temporaries left: {stray:?}");
 }
+
+#[test]
+fn absurd_sizes_are_refused_before_allocating() {
+    // Within the advertised 16384 limit, but far beyond this machine's memory: refused at
+    // once by the memory model (these used to abort in the rasterizer and in `rays`).
+    let d = tmp("sizes");
+    let out = d.join("x.png");
+    let t0 = std::time::Instant::now();
+    fails(
+        &words(&format!(
+            "render cornell --width 16384 --height 16384 --out {}",
+            out.display()
+        )),
+        &["--width/--height", "GiB", "--max-memory"],
+    );
+    fails(
+        &words(&format!(
+            "rays cornell --width 16384 --height 16384 --out {}",
+            d.join("r.rays").display()
+        )),
+        &["--width/--height/--spp", "--max-memory"],
+    );
+    assert!(t0.elapsed().as_secs() < 30, "refused before any work");
+    assert!(!out.exists());
+    // --max-memory is the limit: a 64 × 48 render needs about 1.7 MiB.
+    let small = format!(
+        "render cornell --width 64 --height 48 --out {}",
+        out.display()
+    );
+    fails(
+        &words(&format!("{small} --max-memory 1")),
+        &["--max-memory"],
+    );
+    ok(&words(&format!("{small} --max-memory 64")));
+}

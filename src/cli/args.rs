@@ -225,6 +225,9 @@ pub struct RaysArgs {
     /// Output ray file.
     #[arg(long)]
     pub out: PathBuf,
+    /// Most memory the command may use, in MiB (default: 80 % of this machine's memory).
+    #[arg(long = "max-memory", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_memory: Option<u64>,
 }
 
 #[derive(Args, Clone)]
@@ -416,4 +419,8 @@ pub struct RenderArgs {
     /// With --frames: also assemble the frames into this animated GIF.
     #[arg(long)]
     pub gif: Option<PathBuf>,
+    /// Most memory the render may use, in MiB (default: 80 % of this machine's memory);
+    /// a size whose memory model needs more is refused before anything is allocated.
+    #[arg(long = "max-memory", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_memory: Option<u64>,
 }

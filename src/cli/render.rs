@@ -5,7 +5,7 @@
 
 use super::args::{engine_options, Backend, RenderArgs};
 use super::progress::progress_bar;
-use super::{check_extension, check_not_input, check_out_dir};
+use super::{check_extension, check_memory, check_not_input, check_out_dir};
 use anyhow::{bail, Context, Result};
 use rayspace::engines::{self, Engine};
 use render::whitted::{render, RenderOptions};
@@ -53,6 +53,12 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     let scene = scene::load(&a.scene, &LoadOptions { split })?;
     let geo = Geometry::from_scene(&scene);
     let load_s = t0.elapsed().as_secs_f64();
+    check_memory(
+        "the render",
+        "--width/--height",
+        render::whitted::render_bytes(a.width, a.height, scene.lights.len()),
+        a.max_memory,
+    )?;
     let r = scene.report.clone();
     say!(
         "loaded {} in {:.2} s: {} triangles, {} meshes, {} materials, {} lights{}{}",

@@ -3,7 +3,7 @@
 //! `render::rayfile`'s; hagrid's headerless ray files are read too.
 
 use super::args::{engine_options, RaysArgs, TraceArgs};
-use super::{check_not_input, check_out_dir};
+use super::{check_memory, check_not_input, check_out_dir};
 use anyhow::{bail, Result};
 use rayspace::engines;
 use scene::{Geometry, LoadOptions};
@@ -51,6 +51,16 @@ pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
     if n > 1 << 28 {
         bail!("--width × --height × --spp = {n} rays is more than 2^28");
     }
+    // The rays, their file image (32 bytes each) and, for the kinds made from rasterized
+    // surfaces, a render's worth of G-buffer and surfaces.
+    let rasterized = !matches!(kind, render::raygen::Kind::Random);
+    let need = n * (render::whitted::BYTES_PER_RAY + 32)
+        + if rasterized {
+            a.width as u64 * a.height as u64 * render::whitted::BYTES_PER_PIXEL
+        } else {
+            0
+        };
+    check_memory("the rays", "--width/--height/--spp", need, a.max_memory)?;
     let rays = generate(
         &scene,
         &geo,

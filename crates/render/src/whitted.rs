@@ -22,6 +22,25 @@ pub const MAX_SIDE: u32 = 16384;
 /// Largest accepted Whitted recursion depth.
 pub const MAX_BOUNCES: u32 = 16;
 
+/// The memory model of a CPU render, in bytes per pixel: the G-buffer (68: triangle,
+/// barycentrics, depth, position, normal, diffuse, specular), the image (12), one
+/// generation's surfaces (88) and the rasterizer's tile bins (16, four triangles per pixel
+/// on average), plus per ray of a generation — one shadow ray per light and two
+/// reflection/refraction rays per surface — the batch (54), its hits (16) and an engine's
+/// per-ray arrays (64: keys, order, leaves, constants).
+pub const BYTES_PER_PIXEL: u64 = 68 + 12 + 88 + 16;
+/// Bytes per traced ray in the model of [`BYTES_PER_PIXEL`].
+pub const BYTES_PER_RAY: u64 = 54 + 16 + 64;
+
+/// The peak bytes of a `width × height` render with `lights` lights, by the model of
+/// [`BYTES_PER_PIXEL`] (checked before anything is allocated; the scene and the engine's
+/// structure come on top).
+pub fn render_bytes(width: u32, height: u32, lights: usize) -> u64 {
+    let px = width as u64 * height as u64;
+    let rays_per_pixel = lights.max(1) as u64 + 2;
+    px * (BYTES_PER_PIXEL + rays_per_pixel * BYTES_PER_RAY)
+}
+
 /// The image and the recursion depth of a render.
 #[derive(Clone, Copy, Debug)]
 pub struct RenderOptions {
