@@ -437,6 +437,19 @@ fn bench_grid_writes_tables_and_charts() {
         &["--charts", "not a directory"],
     );
     fails(&["bench", "grid", "--ao-spp", "0"], &["--ao-spp"]);
+    // Values that used to be accepted with a meaningless result.
+    fails(
+        &["bench", "budget", "cornell", "--ms", "1e30"],
+        &["--ms", "1e30"],
+    );
+    fails(
+        &["bench", "rsh", "--scenes", ","],
+        &["--scenes", "no scene"],
+    );
+    fails(
+        &["bench", "grid", "--scenes", " , "],
+        &["--scenes", "no scene"],
+    );
 }
 
 #[test]

@@ -82,15 +82,22 @@ pub fn record(name: &str, width: u32, height: u32, bounces: u32) -> Result<Recor
     Ok((s, geo, batches))
 }
 
-/// The scenes of a benchmark: `--scenes a,b,...` as given, or the built-in `builtins` plus
-/// each `bench/scenes/<real>.toml` when the shared scenes are present.
-pub fn scenes(arg: Option<&str>, builtins: &[&str], real: &[&str]) -> Vec<String> {
-    match arg {
-        Some(s) => s
-            .split(',')
-            .map(|x| x.trim().to_string())
-            .filter(|x| !x.is_empty())
-            .collect(),
+/// The scenes of a benchmark: `--scenes a,b,...` as given (at least one name), or the
+/// built-in `builtins` plus each `bench/scenes/<real>.toml` when the shared scenes are
+/// present.
+pub fn scenes(arg: Option<&str>, builtins: &[&str], real: &[&str]) -> Result<Vec<String>> {
+    Ok(match arg {
+        Some(s) => {
+            let v: Vec<String> = s
+                .split(',')
+                .map(|x| x.trim().to_string())
+                .filter(|x| !x.is_empty())
+                .collect();
+            if v.is_empty() {
+                anyhow::bail!("--scenes '{s}': no scene named");
+            }
+            v
+        }
         None => {
             let mut v: Vec<String> = builtins.iter().map(|s| s.to_string()).collect();
             if scene::scenes_dir().is_some() {
@@ -103,7 +110,7 @@ pub fn scenes(arg: Option<&str>, builtins: &[&str], real: &[&str]) -> Vec<String
             }
             v
         }
-    }
+    })
 }
 
 /// Machine, build and revision, recorded with every benchmark.

@@ -20,7 +20,7 @@ pub fn cmd_bench_gpu(a: &BenchGpuArgs) -> Result<()> {
     }
     let configs =
         bench::parse_configs(&a.configs).map_err(|e| anyhow::anyhow!("--configs: {e}"))?;
-    let scenes = bench::scenes(a.spec.scenes.as_deref(), &["cornell"], &["sponza"]);
+    let scenes = bench::scenes(a.spec.scenes.as_deref(), &["cornell"], &["sponza"])?;
     let per = 1 + configs.len() as u64 * if a.rah { 2 } else { 1 };
     let bar = step_bar(scenes.len() as u64 * per);
     let spec = a.spec.spec(scenes, configs, a.bounces);
@@ -50,7 +50,7 @@ pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
         a.spec.scenes.as_deref(),
         &["cornell", "office"],
         &["sponza"],
-    );
+    )?;
     if let Some(d) = &a.out.charts {
         check_dir("--charts", d)?;
     }
@@ -104,7 +104,7 @@ pub fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
         a.spec.scenes.as_deref(),
         &["cornell", "office", "stadium"],
         &["sponza", "conference", "kitchen"],
-    );
+    )?;
     let bar = step_bar(scenes.len() as u64 * bench::grid::STEPS_PER_SCENE);
     let spec = bench::grid::Spec {
         scenes,
@@ -157,9 +157,11 @@ pub fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
     let budgets: Vec<f64> =
         a.ms.split(',')
             .map(|x| match x.trim().parse::<f64>() {
-                Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+                // At most an hour: a frame budget beyond that has no meaning, and the
+                // samples that fit in it would overflow the count.
+                Ok(v) if v.is_finite() && v > 0.0 && v <= 3.6e6 => Ok(v),
                 _ => Err(anyhow::anyhow!(
-                    "--ms: '{x}' is not a positive number of milliseconds"
+                    "--ms: '{x}' is not a number of milliseconds in (0, 3600000]"
                 )),
             })
             .collect::<Result<_>>()?;

@@ -42,6 +42,42 @@ impl Default for Material {
 }
 
 impl Material {
+    /// Check the values shading relies on: colours finite and non-negative, shininess finite
+    /// and non-negative, reflectivity and transparency in [0, 1], and for a transparent
+    /// material an index of refraction in [0.01, 100].
+    pub fn validate(&self) -> Result<(), String> {
+        for (what, c) in [
+            ("diffuse", self.diffuse),
+            ("specular", self.specular),
+            ("emission", self.emission),
+        ] {
+            if !(c.is_finite() && c.min_element() >= 0.0) {
+                return Err(format!("{what} colour {c} must be finite and non-negative"));
+            }
+        }
+        if !(self.shininess.is_finite() && self.shininess >= 0.0) {
+            return Err(format!(
+                "shininess {} must be finite and non-negative",
+                self.shininess
+            ));
+        }
+        for (what, v) in [
+            ("reflectivity", self.reflectivity),
+            ("transparency", self.transparency),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(format!("{what} {v} must be in [0, 1]"));
+            }
+        }
+        if self.transparency > 0.0 && !(0.01..=100.0).contains(&self.ior) {
+            return Err(format!(
+                "index of refraction {} of a transparent material must be in [0.01, 100]",
+                self.ior
+            ));
+        }
+        Ok(())
+    }
+
     /// A plain diffuse material of colour `c`.
     pub fn diffuse(name: &str, c: Vec3) -> Self {
         Material {
@@ -336,6 +372,10 @@ impl Scene {
         }
         if self.triangle_count() > u32::MAX as usize / 2 {
             return Err(SceneError::invalid(&path, "more than 2^31 triangles"));
+        }
+        for m in &self.materials {
+            m.validate()
+                .map_err(|e| SceneError::invalid(&path, format!("material '{}': {e}", m.name)))?;
         }
         for m in &self.meshes {
             let det = m.transform.determinant();

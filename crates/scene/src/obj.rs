@@ -80,7 +80,8 @@ pub fn validate_obj(text: &str, path: &Path) -> Result<(), SceneError> {
 
 /// Map an MTL material to ours. `illum` 3/5 → mirror; 4/6/7 → refractive with `Ni`
 /// (`Ni 0`, BART's convention for opaque, stays opaque).
-pub fn convert_material(m: &tobj::Material) -> Material {
+pub fn convert_material(m: &tobj::Material) -> Result<Material, String> {
+    check_mtl(m)?;
     let v = |a: Option<[f32; 3]>, d: f32| a.map(Vec3::from_array).unwrap_or(Vec3::splat(d));
     let diffuse = v(m.diffuse, 0.7);
     let specular = v(m.specular, 0.0);
@@ -117,7 +118,45 @@ pub fn convert_material(m: &tobj::Material) -> Material {
         }
         _ => {}
     }
-    out
+    Ok(out)
+}
+
+/// The MTL values as written, before conversion clamps or defaults them: a NaN `Tf` would
+/// otherwise become transparency 0.9, a negative `Ns` shininess 1.
+fn check_mtl(m: &tobj::Material) -> Result<(), String> {
+    let bad = |what: &str, v: String| Err(format!("material '{}': {what} {v}", m.name));
+    for (what, c) in [
+        ("Ka", m.ambient),
+        ("Kd", m.diffuse),
+        ("Ks", m.specular),
+        ("Ke", m.emissive),
+    ] {
+        if let Some(c) = c {
+            if !c.iter().all(|x| x.is_finite() && *x >= 0.0) {
+                return bad(what, format!("{c:?} must be finite and non-negative"));
+            }
+        }
+    }
+    for (what, v) in [("Ns", m.shininess), ("Ni", m.optical_density)] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(what, format!("{v} must be finite and non-negative"));
+            }
+        }
+    }
+    if let Some(d) = m.dissolve {
+        if !(0.0..=1.0).contains(&d) {
+            return bad("d", format!("{d} must be in [0, 1]"));
+        }
+    }
+    if let Some(tf) = m.unknown_param.get("Tf") {
+        for x in tf.split_whitespace() {
+            if !x.parse::<f32>().is_ok_and(|f| (0.0..=1.0).contains(&f)) {
+                return bad("Tf", format!("'{x}' must be a number in [0, 1]"));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Load an OBJ (and its MTL files) as meshes split as asked. The meshes' materials index into
@@ -161,7 +200,11 @@ pub fn load_obj_meshes(
             .push(format!("material library not loaded ({e}); using defaults"));
     }
     let tmats = mats.unwrap_or_default();
-    let mut materials: Vec<Material> = tmats.iter().map(convert_material).collect();
+    let mut materials: Vec<Material> = tmats
+        .iter()
+        .map(convert_material)
+        .collect::<Result<_, _>>()
+        .map_err(|e| SceneError::invalid(path, e))?;
     let default_id = materials.len() as u32;
     materials.push(Material::default());
 

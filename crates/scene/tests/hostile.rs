@@ -104,3 +104,34 @@ fn gltf_node_cycles_are_errors() {
         assert!(e.contains(name) && e.contains("cycle"), "{e}");
     }
 }
+
+#[test]
+fn out_of_range_material_values_are_errors() {
+    let d = dir("materials");
+    for (mtl, needle) in [
+        ("Ns -5", "Ns"),
+        ("Tf nan", "Tf"),
+        ("Kd 0.5 -1 0.5", "Kd"),
+        ("d 7", "d 7"),
+    ] {
+        write(&d, "m.mtl", &format!("newmtl m\nKd 0.5 0.5 0.5\n{mtl}\n"));
+        let obj = write(&d, "m.obj", &format!("mtllib m.mtl\nusemtl m\n{TRI}"));
+        let e = err_of(&obj);
+        assert!(e.contains("m.obj") && e.contains(needle), "{mtl}: {e}");
+    }
+    write(&d, "tri.obj", TRI);
+    for (m, needle) in [
+        ("transparency = -5", "transparency"),
+        ("transparency = 0.5, ior = 1e-30", "index of refraction"),
+        ("shininess = -1", "shininess"),
+        ("diffuse = [0.5, nan, 0.5]", "diffuse"),
+    ] {
+        let t = write(
+            &d,
+            "s.toml",
+            &format!("[[meshes]]\nfile = \"tri.obj\"\nmaterial = {{ {m} }}\n"),
+        );
+        let e = err_of(&t);
+        assert!(e.contains("s.toml") && e.contains(needle), "{m}: {e}");
+    }
+}
