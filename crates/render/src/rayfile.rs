@@ -90,6 +90,16 @@ pub fn read_rays(path: &Path, kind: RayKind) -> Result<RayBatch, String> {
             ));
         }
     } else {
+        // A word of letters where hagrid has its first origin coordinate is a file with a
+        // wrong or damaged magic, not hagrid rays (an f32 whose four bytes are all ASCII
+        // letters or digits is no plausible coordinate).
+        if bytes.len() >= 4 && bytes[..4].iter().all(|b| b.is_ascii_alphanumeric()) {
+            return Err(bad(format!(
+                "magic {:?} is not a rayspace ray file's ({:?}), and the file is not hagrid rays",
+                String::from_utf8_lossy(&bytes[..8.min(bytes.len())]),
+                String::from_utf8_lossy(RAY_MAGIC)
+            )));
+        }
         if bytes.is_empty() || bytes.len() % 24 != 0 {
             return Err(bad(format!("not a rayspace ray file and {} bytes is not a whole number of 6 × f32 (hagrid) rays", bytes.len())));
         }
@@ -201,6 +211,14 @@ mod tests {
         assert!(read_rays(&p, RayKind::Primary)
             .unwrap_err()
             .contains("header says"));
+        // A wrong magic is not read as hagrid rays, even when the size would fit.
+        write_rays(&d.join("w.rays"), &b).unwrap();
+        let mut wrong = std::fs::read(d.join("w.rays")).unwrap();
+        wrong[..8].copy_from_slice(b"RSRAYX\0\0");
+        wrong.truncate(72);
+        std::fs::write(d.join("w.rays"), &wrong).unwrap();
+        let e = read_rays(&d.join("w.rays"), RayKind::Primary).unwrap_err();
+        assert!(e.contains("w.rays") && e.contains("magic"), "{e}");
         let mut nan = bytes.clone();
         nan[12..16].copy_from_slice(&f32::NAN.to_le_bytes());
         std::fs::write(&h, &nan).unwrap();

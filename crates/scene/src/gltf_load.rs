@@ -123,9 +123,29 @@ pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
             if let Some(p) = pos.iter().find(|p| !geom::finite3(**p)) {
                 return Err(bad(format!("{what}: non-finite vertex {p}")));
             }
-            let idx: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..pos.len() as u32).collect(),
+            // An index accessor that does not fit its buffer is an error, not a reason to
+            // draw the vertices unindexed.
+            let idx: Vec<u32> = match (prim.indices(), reader.read_indices()) {
+                (Some(acc), Some(i)) => {
+                    let v: Vec<u32> = i.into_u32().collect();
+                    if v.len() != acc.count() {
+                        return Err(bad(format!(
+                            "{what}: index accessor {} has {} of its {} indices in its buffer",
+                            acc.index(),
+                            v.len(),
+                            acc.count()
+                        )));
+                    }
+                    v
+                }
+                (Some(acc), None) => {
+                    return Err(bad(format!(
+                        "{what}: index accessor {} ({} indices) does not fit its buffer",
+                        acc.index(),
+                        acc.count()
+                    )))
+                }
+                (None, _) => (0..pos.len() as u32).collect(),
             };
             if let Some(i) = idx.iter().find(|&&i| i as usize >= pos.len()) {
                 return Err(bad(format!(
@@ -233,6 +253,24 @@ pub(crate) mod tests {
             }
         }
         s
+    }
+
+    #[test]
+    fn an_index_accessor_beyond_its_buffer_is_an_error() {
+        let d = std::env::temp_dir().join(format!("rayspace-gltf-idx-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let p = d.join("long.gltf");
+        let g = quad_gltf().replace(
+            r#""count":6,"type":"SCALAR""#,
+            r#""count":600,"type":"SCALAR""#,
+        );
+        assert_ne!(g, quad_gltf());
+        std::fs::write(&p, g).unwrap();
+        let e = load_gltf_scene(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("long.gltf") && e.contains("index accessor"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -135,3 +135,28 @@ fn out_of_range_material_values_are_errors() {
         assert!(e.contains("s.toml") && e.contains(needle), "{m}: {e}");
     }
 }
+
+#[test]
+fn aff_static_transforms_apply_without_animation() {
+    // The same triangle, once plain and once inside an `xs` group translated by (5, 0, 0):
+    // the second must be moved (it used to be ignored in a file without animation).
+    let d = dir("xs");
+    let tri = "p 3 0 0 0 1 0 0 0 1 0\n";
+    let plain = load_quickly(&write(&d, "plain.aff", tri)).unwrap();
+    let moved = load_quickly(&write(
+        &d,
+        "moved.aff",
+        &format!("xs 1 1 1 0 1 0 0 5 0 0 {{\n{tri}}}\n"),
+    ))
+    .unwrap();
+    let (a, b) = (
+        scene::Geometry::from_scene(&plain),
+        scene::Geometry::from_scene(&moved),
+    );
+    assert_eq!(a.tris.len(), 1);
+    assert_eq!(b.tris.len(), 1);
+    for k in 0..3 {
+        assert_eq!(b.tris[0][k], a.tris[0][k] + geom::Vec3::new(5.0, 0.0, 0.0));
+    }
+    assert!(moved.animation.is_none());
+}

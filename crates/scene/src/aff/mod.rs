@@ -570,6 +570,23 @@ pub fn load_aff_scene(path: &Path) -> Result<Scene, SceneError> {
         notes,
         ..Default::default()
     };
+    let animated = p.anim.is_some()
+        || p.tracks.iter().any(|t| t.name == "camera")
+        || p.chains
+            .iter()
+            .flatten()
+            .any(|x| matches!(x, Xform::Track(_)))
+        || p.vertex_keys.iter().any(Option::is_some);
+    if !animated {
+        // A still scene keeps its `xs` groups' static transforms (without an animation
+        // they are not evaluated per frame, so they are applied here).
+        for (m, chain) in p.meshes.iter_mut().zip(&p.chains) {
+            m.transform = chain.iter().fold(Mat4::IDENTITY, |acc, x| match x {
+                Xform::Static(s) => acc * *s,
+                Xform::Track(_) => unreachable!("a still scene has no tracks"),
+            }) * m.transform;
+        }
+    }
     let mut scene = Scene::from_file(path, p.meshes, p.materials, report);
     scene.background = p.background;
     scene.lights = p.lights;
@@ -581,13 +598,6 @@ pub fn load_aff_scene(path: &Path) -> Result<Scene, SceneError> {
     for l in &mut scene.lights {
         l.intensity = (2.0 / n).min(1.0);
     }
-    let animated = p.anim.is_some()
-        || p.tracks.iter().any(|t| t.name == "camera")
-        || p.chains
-            .iter()
-            .flatten()
-            .any(|x| matches!(x, Xform::Track(_)))
-        || p.vertex_keys.iter().any(Option::is_some);
     if animated {
         let (start, end, frames) = p.anim.unwrap_or((0.0, 1.0, 30));
         let camera = p
