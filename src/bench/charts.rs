@@ -163,8 +163,27 @@ pub fn grouped_bars(stem: &Path, b: &Bars) -> Result<Vec<PathBuf>> {
     let svg = stem.with_extension("svg");
     let w =
         (160 + 90 * b.groups.len() as u32 * (b.series.len() as u32).max(1) / 2).clamp(640, 1600);
-    draw(BitMapBackend::new(&png, (w, 480)).into_drawing_area(), b)?;
-    draw(SVGBackend::new(&svg, (w, 480)).into_drawing_area(), b)?;
+    // Drawn in memory and written atomically, as every output (render::output::write_atomic).
+    let h = 480;
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    draw(
+        BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(),
+        b,
+    )?;
+    let img = image::RgbImage::from_raw(w, h, rgb).ok_or_else(|| anyhow!("chart buffer size"))?;
+    let mut png_bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut png_bytes),
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| anyhow!("{}: {e}", png.display()))?;
+    render::output::write_atomic(&png, &png_bytes).map_err(|e| anyhow!(e))?;
+    let mut svg_text = String::new();
+    draw(
+        SVGBackend::with_string(&mut svg_text, (w, h)).into_drawing_area(),
+        b,
+    )?;
+    render::output::write_atomic(&svg, svg_text.as_bytes()).map_err(|e| anyhow!(e))?;
     Ok(vec![png, svg])
 }
 
