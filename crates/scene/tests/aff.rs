@@ -104,11 +104,17 @@ const PART: &str = "m
   0 2 3  0 0 0  0 2 3
 ";
 
+/// The test scene, written once per process: tests run in parallel, and one test
+/// rewriting the files while another reads them made the reader see an empty file.
 fn scene_dir() -> PathBuf {
-    let d = dir("ok");
-    write(&d, "part.aff", PART);
-    write(&d, "top.aff", TOP);
-    d
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let d = dir("ok");
+        write(&d, "part.aff", PART);
+        write(&d, "top.aff", TOP);
+        d
+    })
+    .clone()
 }
 
 #[test]
