@@ -82,6 +82,8 @@ fn bounces() -> clap::builder::RangedI64ValueParser<u32> {
 pub struct BenchBudgetArgs {
     /// An animated scene (a BART .aff file); a static scene is measured as one still.
     pub scene: String,
+    #[command(flatten)]
+    pub load: LoadArgs,
     /// Frame budgets in milliseconds, comma-separated.
     #[arg(long, default_value = "100,50,33")]
     pub ms: String,
@@ -199,6 +201,29 @@ pub struct BenchGpuArgs {
     pub md: Option<PathBuf>,
 }
 
+/// How a scene file is loaded.
+#[derive(Args, Clone, Debug)]
+pub struct LoadArgs {
+    /// How OBJ files are cut into meshes (the unit of bounding-sphere culling).
+    #[arg(long, value_enum, default_value_t = MeshSplit::Groups)]
+    pub meshes: MeshSplit,
+    /// Read files the scene references (OBJ mtllib, glTF buffers, TOML meshes, AFF
+    /// includes) even where they resolve outside the scene's directory and the scenes
+    /// directory.
+    #[arg(long = "allow-outside-paths")]
+    pub allow_outside_paths: bool,
+}
+
+impl LoadArgs {
+    /// The loader's options.
+    pub fn options(&self) -> scene::LoadOptions {
+        scene::LoadOptions {
+            split: self.meshes,
+            allow_outside_paths: self.allow_outside_paths,
+        }
+    }
+}
+
 #[derive(Args, Clone)]
 pub struct RaysArgs {
     /// A built-in scene, an .obj, .gltf/.glb or .toml file.
@@ -220,8 +245,8 @@ pub struct RaysArgs {
     /// Camera override: EX,EY,EZ,TX,TY,TZ[,FOV] (eye, target, vertical field of view in degrees).
     #[arg(long)]
     pub viewpoint: Option<String>,
-    #[arg(long, value_enum, default_value_t = MeshSplit::Groups)]
-    pub meshes: MeshSplit,
+    #[command(flatten)]
+    pub load: LoadArgs,
     /// Output ray file.
     #[arg(long)]
     pub out: PathBuf,
@@ -246,8 +271,8 @@ pub struct TraceArgs {
     /// Any-hit (occlusion) queries instead of closest hit.
     #[arg(long = "any-hit")]
     pub any_hit: bool,
-    #[arg(long, value_enum, default_value_t = MeshSplit::Groups)]
-    pub meshes: MeshSplit,
+    #[command(flatten)]
+    pub load: LoadArgs,
     /// Output hit file.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -394,9 +419,8 @@ pub struct RenderArgs {
     pub rsh: RshArgs,
     #[command(flatten)]
     pub grid: GridArgs,
-    /// How OBJ files are cut into meshes (the unit of bounding-sphere culling).
-    #[arg(long, value_enum, default_value_t = MeshSplit::Groups)]
-    pub meshes: MeshSplit,
+    #[command(flatten)]
+    pub load: LoadArgs,
     /// Output PNG.
     #[arg(long, default_value = "rayspace.png")]
     pub out: PathBuf,

@@ -9,7 +9,7 @@ use super::{check_extension, check_memory, check_not_input, check_out_dir};
 use anyhow::{bail, Context, Result};
 use rayspace::engines::{self, Engine};
 use render::whitted::{render, RenderOptions};
-use scene::{Geometry, LoadOptions};
+use scene::Geometry;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -28,7 +28,6 @@ struct StatsFile<'a> {
 }
 
 pub fn cmd_render(a: &RenderArgs) -> Result<()> {
-    let split = a.meshes;
     let opts = engine_options(&a.rsh, &a.grid, a.frames.is_some());
     opts.validate(a.engine)?;
     check_out_dir("--out", &a.out)?;
@@ -50,7 +49,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         check_extension("--gif", g, "gif")?;
     }
     let t0 = Instant::now();
-    let scene = scene::load(&a.scene, &LoadOptions { split })?;
+    let scene = scene::load(&a.scene, &a.load.options())?;
     let geo = Geometry::from_scene(&scene);
     let load_s = t0.elapsed().as_secs_f64();
     check_memory(

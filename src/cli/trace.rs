@@ -6,7 +6,7 @@ use super::args::{engine_options, RaysArgs, TraceArgs};
 use super::{check_memory, check_not_input, check_out_dir};
 use anyhow::{bail, Result};
 use rayspace::engines;
-use scene::{Geometry, LoadOptions};
+use scene::Geometry;
 use std::time::Instant;
 
 /// `EX,EY,EZ,TX,TY,TZ[,FOV]` as a camera.
@@ -32,7 +32,7 @@ fn parse_viewpoint(s: &str) -> Result<scene::Camera> {
 pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
     check_out_dir("--out", &a.out)?;
     check_not_input("--out", &a.out, &[std::path::Path::new(&a.scene)])?;
-    let mut scene = scene::load(&a.scene, &LoadOptions { split: a.meshes })?;
+    let mut scene = scene::load(&a.scene, &a.load.options())?;
     if let Some(v) = &a.viewpoint {
         scene.camera = parse_viewpoint(v)?;
         scene
@@ -93,7 +93,7 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
     }
     let rays = render::rayfile::read_rays(&a.rays, render::RayKind::Primary)
         .map_err(anyhow::Error::msg)?;
-    let scene = scene::load(&a.scene, &LoadOptions { split: a.meshes })?;
+    let scene = scene::load(&a.scene, &a.load.options())?;
     let geo = Geometry::from_scene(&scene);
     let t0 = Instant::now();
     let built = engines::build(a.engine, &opts, &geo)?;

@@ -31,6 +31,15 @@ pub enum SceneError {
         /// What is wrong.
         msg: String,
     },
+    /// A file the scene references resolves outside its directory and the scenes
+    /// directory (see [`crate::io::Sandbox`]).
+    #[error("{path}: {msg}")]
+    Outside {
+        /// The referring file.
+        path: PathBuf,
+        /// The reference and where it may be read from.
+        msg: String,
+    },
     /// Nothing to render.
     #[error("{path}: the scene has no triangles{detail}")]
     Empty {

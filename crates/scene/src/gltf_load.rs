@@ -41,6 +41,75 @@ fn convert(m: &gltf::Material) -> Material {
 /// Load a glTF 2.0 scene (`.gltf` or `.glb`): its meshes with their node transforms and
 /// materials; errors name the file.
 pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
+    load_gltf_scene_in(path, &crate::io::Sandbox::for_scene(path, false))
+}
+
+/// Decode a relative URI's `%XX` escapes (RFC 3986); `None` when an escape is malformed or
+/// the result is not UTF-8 (where the `gltf` crate's own import would panic).
+fn percent_decode(uri: &str) -> Option<String> {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            let hex = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
+            out.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
+/// The buffers' bytes: the GLB blob and `data:` URIs as the `gltf` crate decodes them;
+/// files (relative or `file:` URIs) inside the sandbox, through the bounded reader.
+fn import_buffers(
+    document: &gltf::Document,
+    path: &Path,
+    mut blob: Option<Vec<u8>>,
+    sb: &crate::io::Sandbox,
+) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+    let bad = |i: usize, msg: String| SceneError::invalid(path, format!("buffer {i}: {msg}"));
+    let mut out = Vec::new();
+    for b in document.buffers() {
+        let i = b.index();
+        let mut bytes = match b.source() {
+            gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
+                let name = if let Some(rest) = uri.strip_prefix("file://") {
+                    rest.to_string()
+                } else if let Some(rest) = uri.strip_prefix("file:") {
+                    rest.to_string()
+                } else if uri.contains(':') {
+                    return Err(bad(i, format!("unsupported URI scheme in '{uri}'")));
+                } else {
+                    percent_decode(uri).ok_or_else(|| bad(i, format!("malformed URI '{uri}'")))?
+                };
+                let p = sb.resolve(path, &format!("buffer {i} uri"), &name)?;
+                crate::io::read_file(&p)?
+            }
+            source => {
+                gltf::buffer::Data::from_source_and_blob(source, None, &mut blob)
+                    .map_err(|e| bad(i, e.to_string()))?
+                    .0
+            }
+        };
+        if bytes.len() < b.length() {
+            return Err(bad(
+                i,
+                format!("{} bytes, but byteLength says {}", bytes.len(), b.length()),
+            ));
+        }
+        // As the `gltf` crate does: accessors may read to a 4-byte boundary.
+        bytes.resize(bytes.len().next_multiple_of(4), 0);
+        out.push(gltf::buffer::Data(bytes));
+    }
+    Ok(out)
+}
+
+/// [`load_gltf_scene`] with the buffer files it references confined to `sb`.
+pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let bad = |msg: String| SceneError::invalid(path, msg);
     if !path.exists() {
@@ -52,18 +121,7 @@ pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
     crate::io::check_regular(path)?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::open(path).map_err(|e| bad(format!("glTF: {e}")))?;
-    // External buffers are files too: regular ones only, bounded.
-    for b in document.buffers() {
-        if let gltf::buffer::Source::Uri(uri) = b.source() {
-            if !uri.starts_with("data:") {
-                let p = path.parent().unwrap_or(Path::new(".")).join(uri);
-                crate::io::check_regular(&p)
-                    .map_err(|e| bad(format!("buffer {}: {e}", b.index())))?;
-            }
-        }
-    }
-    let buffers = gltf::import_buffers(&document, path.parent(), blob)
-        .map_err(|e| bad(format!("glTF buffers: {e}")))?;
+    let buffers = import_buffers(&document, path, blob, sb)?;
     let mut report = LoadReport {
         source: Some(path.to_path_buf()),
         ..Default::default()

@@ -1,11 +1,14 @@
 //! Reading the files a scene names, defensively: regular files only (a device, FIFO or
 //! socket is refused: `mtllib /dev/zero` or an AFF `i 0 /dev/zero` must not be read until
 //! memory runs out), at most [`MAX_FILE_BYTES`] (checked while reading, since `/proc` files
-//! report a size of 0), with errors that name the file.
+//! report a size of 0), with errors that name the file; and confining the files a scene
+//! *references* (OBJ `mtllib`, glTF buffer URIs, TOML mesh files, AFF includes) to the
+//! scene's own directory and the shared scenes directory ([`Sandbox`]), so that a scene
+//! downloaded from elsewhere cannot make rayspace open `/etc/passwd` or `../../secret`.
 
 use crate::error::SceneError;
 use std::io::Read as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The largest file a loader reads (the largest shared scene file is under 200 MiB).
 pub const MAX_FILE_BYTES: u64 = 2 << 30;
@@ -68,4 +71,109 @@ pub fn read_text(path: &Path) -> Result<String, SceneError> {
         s.drain(..'\u{feff}'.len_utf8());
     }
     Ok(s)
+}
+
+/// Where the files a scene references may live: under the top-level scene file's directory
+/// or the shared scenes directory ([`crate::scenes_dir`]), after `..` and symbolic links are
+/// resolved, unless the user allowed reading outside (`--allow-outside-paths`).
+#[derive(Clone, Debug)]
+pub struct Sandbox {
+    roots: Vec<PathBuf>,
+    allow_outside: bool,
+}
+
+impl Sandbox {
+    /// The sandbox of the scene file `top` (the file the user named is trusted; what it
+    /// references is not).
+    pub fn for_scene(top: &Path, allow_outside: bool) -> Sandbox {
+        let dir = match top.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let roots = [Some(dir), crate::scenes_dir()]
+            .into_iter()
+            .flatten()
+            .filter_map(|d| std::fs::canonicalize(d).ok())
+            .collect();
+        Sandbox {
+            roots,
+            allow_outside,
+        }
+    }
+
+    /// The file `name`, as written in `referrer` (relative to its directory, or absolute),
+    /// if it may be read: it must exist and resolve under one of the roots. The error
+    /// names the referrer and the reference but never reads the target.
+    pub fn resolve(&self, referrer: &Path, what: &str, name: &str) -> Result<PathBuf, SceneError> {
+        let joined = referrer.parent().unwrap_or(Path::new(".")).join(name);
+        self.admit(referrer, what, name, joined)
+    }
+
+    /// [`Sandbox::resolve`] for a reference `name` that the caller already turned into the
+    /// path `joined` (e.g. a TOML `scenes:REL`, relative to the scenes directory). Returns
+    /// `joined` itself, so that names and messages keep the path as written.
+    pub fn admit(
+        &self,
+        referrer: &Path,
+        what: &str,
+        name: &str,
+        joined: PathBuf,
+    ) -> Result<PathBuf, SceneError> {
+        if self.allow_outside {
+            return Ok(joined);
+        }
+        let real = std::fs::canonicalize(&joined)
+            .map_err(|e| SceneError::invalid(referrer, format!("{what} '{name}': {e}")))?;
+        if self.roots.iter().any(|r| real.starts_with(r)) {
+            Ok(joined)
+        } else {
+            Err(SceneError::Outside {
+                path: referrer.to_path_buf(),
+                msg: format!(
+                    "{what} '{name}' resolves outside the scene's directory{} \
+                     (pass --allow-outside-paths to read it)",
+                    if self.roots.len() > 1 {
+                        " and the scenes directory"
+                    } else {
+                        ""
+                    }
+                ),
+            })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn references_outside_the_scene_directory_are_refused_unless_allowed() {
+        let d = std::env::temp_dir().join(format!("rayspace-sandbox-{}", std::process::id()));
+        let inner = d.join("scene");
+        std::fs::create_dir_all(inner.join("sub")).unwrap();
+        std::fs::write(inner.join("sub/a.mtl"), "").unwrap();
+        std::fs::write(d.join("secret.txt"), "x").unwrap();
+        let top = inner.join("s.obj");
+        let sb = Sandbox::for_scene(&top, false);
+        assert!(sb.resolve(&top, "mtllib", "sub/a.mtl").is_ok());
+        assert!(sb.resolve(&top, "mtllib", "sub/../sub/a.mtl").is_ok());
+        for bad in ["../secret.txt", "sub/../../secret.txt", "/etc/passwd"] {
+            let e = sb.resolve(&top, "mtllib", bad).unwrap_err().to_string();
+            assert!(
+                e.contains("outside the scene's directory") && e.contains("--allow-outside-paths"),
+                "{bad}: {e}"
+            );
+        }
+        #[cfg(unix)]
+        {
+            // A link inside that points outside is outside.
+            let _ = std::fs::remove_file(inner.join("link.txt"));
+            std::os::unix::fs::symlink(d.join("secret.txt"), inner.join("link.txt")).unwrap();
+            assert!(sb.resolve(&top, "mtllib", "link.txt").is_err());
+        }
+        let open = Sandbox::for_scene(&top, true);
+        assert!(open.resolve(&top, "mtllib", "../secret.txt").is_ok());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
 }

@@ -58,6 +58,9 @@ impl std::str::FromStr for MeshSplit {
 pub struct LoadOptions {
     /// How OBJ files are cut into meshes.
     pub split: MeshSplit,
+    /// Read files the scene references even where they resolve outside the scene's
+    /// directory and the scenes directory (see [`io::Sandbox`]).
+    pub allow_outside_paths: bool,
 }
 
 /// The directory holding the shared real scenes: `$RAYSPACE_SCENES`, else `../shared/scenes`
@@ -81,11 +84,12 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
+    let sb = io::Sandbox::for_scene(path, opts.allow_outside_paths);
     let scene = match ext.as_deref() {
-        Some("obj") => obj::load_obj_scene(path, opts.split)?,
-        Some("gltf") | Some("glb") => gltf_load::load_gltf_scene(path)?,
-        Some("toml") => scenefile::load_scene_file(path)?,
-        Some("aff") | Some("nff") => aff::load_aff_scene(path)?,
+        Some("obj") => obj::load_obj_scene_in(path, opts.split, &sb)?,
+        Some("gltf") | Some("glb") => gltf_load::load_gltf_scene_in(path, &sb)?,
+        Some("toml") => scenefile::load_scene_file_in(path, &sb)?,
+        Some("aff") | Some("nff") => aff::load_aff_scene_in(path, &sb)?,
         _ => match builtin::by_name(spec) {
             Some(s) => s,
             None if path.exists() => {

@@ -165,6 +165,7 @@ pub fn load_obj_meshes(
     path: &Path,
     split: MeshSplit,
     report: &mut LoadReport,
+    sb: &crate::io::Sandbox,
 ) -> Result<(Vec<Mesh>, Vec<Material>), SceneError> {
     let text = crate::io::read_text(path)?;
     validate_obj(&text, path)?;
@@ -174,11 +175,24 @@ pub fn load_obj_meshes(
         ignore_points: true,
         ignore_lines: true,
     };
-    let base = path.parent().unwrap_or(Path::new("."));
     let mtl_errors = std::cell::RefCell::new(Vec::new());
+    let refused = std::cell::RefCell::new(None);
     let (models, mats) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |p| {
-        let full = base.join(p);
-        // Through our bounded reader: `mtllib /dev/zero` is refused, not read forever.
+        // Inside the sandbox and through our bounded reader: `mtllib /etc/passwd` is
+        // refused unread, `mtllib /dev/zero` is refused, not read forever.
+        // A missing library is common in real data (a note, defaults used); one outside
+        // the sandbox is an error.
+        let full = match sb.resolve(path, "mtllib", &p.to_string_lossy()) {
+            Ok(f) => f,
+            Err(e @ SceneError::Outside { .. }) => {
+                refused.borrow_mut().get_or_insert(e);
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
+            Err(e) => {
+                mtl_errors.borrow_mut().push(e.to_string());
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
+        };
         let r = match crate::io::read_text(&full) {
             Ok(t) => tobj::load_mtl_buf(&mut t.as_bytes()),
             Err(e) => {
@@ -194,6 +208,9 @@ pub fn load_obj_meshes(
         r
     })
     .map_err(|e| SceneError::invalid(path, format!("OBJ parse error: {e}")))?;
+    if let Some(e) = refused.into_inner() {
+        return Err(e);
+    }
     for e in mtl_errors.into_inner() {
         report
             .notes
@@ -284,12 +301,21 @@ fn empty_mesh(name: &str) -> Mesh {
 
 /// A bare OBJ becomes a scene with an automatic camera framing its bounds and one light.
 pub fn load_obj_scene(path: &Path, split: MeshSplit) -> Result<Scene, SceneError> {
+    load_obj_scene_in(path, split, &crate::io::Sandbox::for_scene(path, false))
+}
+
+/// [`load_obj_scene`] with the files it references confined to `sb`.
+pub fn load_obj_scene_in(
+    path: &Path,
+    split: MeshSplit,
+    sb: &crate::io::Sandbox,
+) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let mut report = LoadReport {
         source: Some(path.to_path_buf()),
         ..Default::default()
     };
-    let (meshes, materials) = load_obj_meshes(path, split, &mut report)?;
+    let (meshes, materials) = load_obj_meshes(path, split, &mut report, sb)?;
     report.load_seconds = t0.elapsed().as_secs_f64();
     let mut scene = Scene::from_file(path, meshes, materials, report);
     auto_camera_and_light(&mut scene);
@@ -333,13 +359,14 @@ mod tests {
         let obj = "mtllib m.mtl\r\ng first\r\nv\t0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nv 0 1 0\r\nusemtl red\r\nf 1 2 3 4\r\nusemtl mirror\r\nf -4 -2 -1\r\ng second\r\nv 0 0 1\r\nv 1 0 1\r\nv 1 1 1\r\nusemtl glass\r\nf -3 -2 -1\r\nusemtl opaque\r\nf 5 7 6\r\n";
         let p = write(&d, "s.obj", obj);
         let mut r = LoadReport::default();
-        let (m, mats) = load_obj_meshes(&p, MeshSplit::Groups, &mut r).unwrap();
+        let sb = crate::io::Sandbox::for_scene(&p, false);
+        let (m, mats) = load_obj_meshes(&p, MeshSplit::Groups, &mut r, &sb).unwrap();
         assert_eq!(m.len(), 2);
         assert_eq!(m[0].triangles.len(), 3);
         assert_eq!(m[1].triangles.len(), 2);
-        let (m, _) = load_obj_meshes(&p, MeshSplit::Materials, &mut r).unwrap();
+        let (m, _) = load_obj_meshes(&p, MeshSplit::Materials, &mut r, &sb).unwrap();
         assert_eq!(m.len(), 4);
-        let (m, _) = load_obj_meshes(&p, MeshSplit::Single, &mut r).unwrap();
+        let (m, _) = load_obj_meshes(&p, MeshSplit::Single, &mut r, &sb).unwrap();
         assert_eq!(m.len(), 1);
         assert_eq!(m[0].triangles.len(), 5);
         let by = |n: &str| mats.iter().find(|x| x.name == n).unwrap().clone();

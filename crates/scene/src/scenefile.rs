@@ -194,9 +194,14 @@ impl MaterialDef {
 
 /// Load a TOML scene file (format above); errors name the file and line.
 pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
+    load_scene_file_in(path, &crate::io::Sandbox::for_scene(path, false))
+}
+
+/// [`load_scene_file`] with the files it references confined to `sb`.
+pub fn load_scene_file_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let text = crate::io::read_text(path)?;
-    parse_scene_file(&text, path, t0)
+    parse_scene_file(&text, path, sb, t0)
 }
 
 /// One `[[meshes]]` entry's contribution: its meshes, their materials and, for a sequence,
@@ -207,6 +212,7 @@ type Entry = (Vec<crate::Mesh>, Vec<Material>, Option<VertexKeys>);
 /// and the load report the loaders add to.
 struct Ctx<'a> {
     path: &'a Path,
+    sb: &'a crate::io::Sandbox,
     report: LoadReport,
 }
 
@@ -214,14 +220,15 @@ impl Ctx<'_> {
     /// A file path of the scene: relative to the scene file, or `scenes:REL` in the shared
     /// scenes directory (`$RAYSPACE_SCENES`).
     fn resolve(&self, what: &str, f: &str) -> Result<PathBuf, SceneError> {
-        Ok(match f.strip_prefix("scenes:") {
+        let joined = match f.strip_prefix("scenes:") {
             Some(rel) => crate::scenes_dir()
                 .ok_or_else(|| {
                     self.bad(what, format!("'{f}': no scenes directory (set RAYSPACE_SCENES or provide ../shared/scenes)"))
                 })?
                 .join(rel),
             None => self.path.parent().unwrap_or(Path::new(".")).join(f),
-        })
+        };
+        self.sb.admit(self.path, what, f, joined)
     }
 
     fn bad(&self, what: &str, msg: String) -> SceneError {
@@ -229,10 +236,16 @@ impl Ctx<'_> {
     }
 }
 
-fn parse_scene_file(text: &str, path: &Path, t0: std::time::Instant) -> Result<Scene, SceneError> {
+fn parse_scene_file(
+    text: &str,
+    path: &Path,
+    sb: &crate::io::Sandbox,
+    t0: std::time::Instant,
+) -> Result<Scene, SceneError> {
     let file = parse_toml(text, path)?;
     let mut ctx = Ctx {
         path,
+        sb,
         report: LoadReport {
             source: Some(path.to_path_buf()),
             ..Default::default()
@@ -364,9 +377,9 @@ fn file_meshes(
         .unwrap_or("")
         .to_ascii_lowercase();
     match ext.as_str() {
-        "obj" => obj::load_obj_meshes(&p, split, &mut ctx.report),
+        "obj" => obj::load_obj_meshes(&p, split, &mut ctx.report, ctx.sb),
         "gltf" | "glb" => {
-            let s = gltf_load::load_gltf_scene(&p)?;
+            let s = gltf_load::load_gltf_scene_in(&p, ctx.sb)?;
             ctx.report.degenerate_skipped += s.report.degenerate_skipped;
             Ok((s.meshes, s.materials))
         }
@@ -426,7 +439,7 @@ fn sequence_meshes(
             )
         })?;
         let p = ctx.resolve(what, &f)?;
-        let (mut ms, mats) = obj::load_obj_meshes(&p, MeshSplit::Single, &mut ctx.report)?;
+        let (mut ms, mats) = obj::load_obj_meshes(&p, MeshSplit::Single, &mut ctx.report, ctx.sb)?;
         let m = ms
             .pop()
             .ok_or_else(|| ctx.bad(what, format!("{}: no triangles", p.display())))?;

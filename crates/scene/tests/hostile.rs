@@ -17,8 +17,17 @@ fn write(d: &Path, name: &str, text: &str) -> String {
 
 /// Load `path`, within a generous time bound (the hangs this guards against never end).
 fn load_quickly(path: &str) -> Result<scene::Scene, SceneError> {
+    load_with(path, false)
+}
+
+/// [`load_quickly`], reading outside the scene's directory when `outside`.
+fn load_with(path: &str, outside: bool) -> Result<scene::Scene, SceneError> {
     let t0 = Instant::now();
-    let r = load(path, &LoadOptions::default());
+    let opts = LoadOptions {
+        allow_outside_paths: outside,
+        ..Default::default()
+    };
+    let r = load(path, &opts);
     assert!(
         t0.elapsed() < Duration::from_secs(20),
         "{path} took {:?}",
@@ -28,7 +37,11 @@ fn load_quickly(path: &str) -> Result<scene::Scene, SceneError> {
 }
 
 fn err_of(path: &str) -> String {
-    match load_quickly(path) {
+    err_with(path, false)
+}
+
+fn err_with(path: &str, outside: bool) -> String {
+    match load_with(path, outside) {
         Ok(_) => panic!("{path} loaded"),
         Err(e) => e.to_string(),
     }
@@ -49,8 +62,13 @@ fn a_byte_order_mark_is_not_part_of_the_first_line() {
 #[test]
 fn special_files_are_never_read() {
     let d = dir("special");
-    // An OBJ whose material library is a device: loads with a note, the read refused.
-    let s = load_quickly(&write(&d, "m.obj", &format!("mtllib /dev/zero\n{TRI}"))).unwrap();
+    // Devices are outside the scene's directory; with that allowed, the reader still
+    // refuses them. An OBJ whose material library is a device: loads with a note.
+    let s = load_with(
+        &write(&d, "m.obj", &format!("mtllib /dev/zero\n{TRI}")),
+        true,
+    )
+    .unwrap();
     assert!(
         s.report
             .notes
@@ -60,12 +78,24 @@ fn special_files_are_never_read() {
         s.report.notes
     );
     // An AFF include of a device.
-    let e = err_of(&write(&d, "i.aff", "i 0 /dev/zero\n"));
+    let e = err_with(&write(&d, "i.aff", "i 0 /dev/zero\n"), true);
     assert!(e.contains("/dev/zero") && e.contains("regular file"), "{e}");
     // A glTF buffer that is a device.
     let g = r#"{"asset":{"version":"2.0"},"buffers":[{"byteLength":12,"uri":"/dev/zero"}]}"#;
-    let e = err_of(&write(&d, "b.gltf", g));
+    let e = err_with(&write(&d, "b.gltf", g), true);
     assert!(e.contains("regular file"), "{e}");
+    // Inside the scene's directory, a FIFO is refused too.
+    let fifo = d.join("pipe.mtl");
+    let _ = std::fs::remove_file(&fifo);
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if made.map(|s| s.success()).unwrap_or(false) {
+        let s = load_quickly(&write(&d, "f.obj", &format!("mtllib pipe.mtl\n{TRI}"))).unwrap();
+        assert!(
+            s.report.notes.iter().any(|n| n.contains("regular file")),
+            "{:?}",
+            s.report.notes
+        );
+    }
     // A scene "file" that is a directory.
     let sub = d.join("dir.obj");
     std::fs::create_dir_all(&sub).unwrap();
@@ -159,4 +189,94 @@ fn aff_static_transforms_apply_without_animation() {
         assert_eq!(b.tris[0][k], a.tris[0][k] + geom::Vec3::new(5.0, 0.0, 0.0));
     }
     assert!(moved.animation.is_none());
+}
+
+#[test]
+fn references_outside_the_scene_directory_are_refused() {
+    let d = dir("outside");
+    let inner = d.join("scene");
+    std::fs::create_dir_all(&inner).unwrap();
+    // A file beside the scene's directory, which the references below try to reach.
+    write(&d, "secret.obj", TRI);
+    std::fs::write(d.join("secret.bin"), [0u8; 36]).unwrap();
+    std::fs::write(d.join("secret.mtl"), "newmtl m\nKd 1 0 0\n").unwrap();
+    write(&d, "secret.aff", "p 3\n0 0 0\n1 0 0\n0 1 0\n");
+    let gltf = |uri: &str| {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"byteLength":36,"uri":"{uri}"}}],
+            "bufferViews":[{{"buffer":0,"byteLength":36}}],
+            "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",
+            "min":[0,0,0],"max":[0,0,0]}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+            "nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0}}"#
+        )
+    };
+    let secret = d.join("secret.bin");
+    let cases = [
+        ("g1.gltf", gltf("../secret.bin")),
+        ("g2.gltf", gltf(secret.to_str().unwrap())),
+        ("g3.gltf", gltf(&format!("file://{}", secret.display()))),
+        ("g4.gltf", gltf("/etc/passwd")),
+        ("o1.obj", format!("mtllib ../secret.mtl\n{TRI}")),
+        ("o2.obj", format!("mtllib /etc/passwd\n{TRI}")),
+        (
+            "t1.toml",
+            "[[meshes]]\nfile = \"../secret.obj\"\n".to_string(),
+        ),
+        (
+            "t2.toml",
+            format!(
+                "[[meshes]]\nfile = \"{}\"\n",
+                d.join("secret.obj").display()
+            ),
+        ),
+        (
+            "t3.toml",
+            format!(
+                "[[meshes]]\nfile = \"scenes:{}{}\"\n",
+                "../".repeat(32),
+                d.join("secret.obj")
+                    .display()
+                    .to_string()
+                    .trim_start_matches('/')
+            ),
+        ),
+        ("a1.aff", "i 0 ../secret.aff\n".to_string()),
+        ("a2.aff", "i 0 /etc/passwd\n".to_string()),
+    ];
+    for (name, text) in &cases {
+        let p = write(&inner, name, text);
+        let e = err_of(&p);
+        assert!(
+            e.contains("outside the scene's directory") && e.contains("--allow-outside-paths")
+                || (*name == "t3.toml" && scene::scenes_dir().is_none()),
+            "{name}: {e}"
+        );
+        assert!(
+            e.contains(name),
+            "{name}: the error names the referring file: {e}"
+        );
+        // Never the target's content (an AFF include used to print /etc/passwd's first line).
+        assert!(!e.contains("root:"), "{name}: {e}");
+    }
+    // The user can allow it; then the files beside the scene load.
+    for name in [
+        "g1.gltf", "g2.gltf", "g3.gltf", "o1.obj", "t1.toml", "t2.toml", "a1.aff",
+    ] {
+        let p = inner.join(name);
+        let s = load_with(p.to_str().unwrap(), true);
+        match (name, s) {
+            // The glTF's three zero vertices make a degenerate triangle: loaded and emptied.
+            (n, Err(e)) if n.starts_with('g') => {
+                assert!(e.to_string().contains("no triangles"), "{name}: {e}")
+            }
+            (_, Err(e)) => panic!("{name}: {e}"),
+            (_, Ok(s)) => assert_eq!(s.triangle_count(), 1, "{name}"),
+        }
+    }
+    // A malformed escape in a buffer URI is an error, not a panic in the glTF crate.
+    let e = err_of(&write(&inner, "g5.gltf", &gltf("%FF%FE.bin")));
+    assert!(e.contains("malformed URI"), "{e}");
+    let e = err_of(&write(&inner, "g6.gltf", &gltf("http://example.com/x.bin")));
+    assert!(e.contains("unsupported URI scheme"), "{e}");
 }

@@ -11,7 +11,14 @@ fn check(rel: &str, split: MeshSplit, expect_tris: usize, expect_degenerate: usi
         testkit::skip("scenes", format!("{} not present", path.display()));
         return;
     }
-    let s = load(path.to_str().unwrap(), &LoadOptions { split }).unwrap();
+    let s = load(
+        path.to_str().unwrap(),
+        &LoadOptions {
+            split,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let n = s.triangle_count();
     eprintln!(
         "{rel}: {n} triangles, {} meshes, {} materials, {} degenerate skipped, loaded in {:.2} s",

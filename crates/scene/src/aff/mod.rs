@@ -68,6 +68,8 @@ impl Builder {
 }
 
 struct Parser {
+    /// Where included files may live.
+    sb: crate::io::Sandbox,
     meshes: Vec<Mesh>,
     chains: Vec<Vec<Xform>>,
     vertex_keys: Vec<Option<VertexKeys>>,
@@ -472,6 +474,12 @@ impl Parser {
                 format!("included file {} does not exist", p.display()),
             ));
         }
+        let p = self.sb.admit(path, "include", &f, p).map_err(|e| match e {
+            SceneError::Outside { msg, .. } | SceneError::Invalid { msg, .. } => {
+                c.err_at(line, msg)
+            }
+            e => e,
+        })?;
         self.flush(label);
         self.file(&p)
     }
@@ -515,8 +523,14 @@ fn axis_angle(axis: Vec3, deg: f32) -> Quat {
 
 /// Load a BART/NFF scene: `path` is the top-level `.aff` (or `.nff`) file.
 pub fn load_aff_scene(path: &Path) -> Result<Scene, SceneError> {
+    load_aff_scene_in(path, &crate::io::Sandbox::for_scene(path, false))
+}
+
+/// [`load_aff_scene`] with included files confined to `sb`.
+pub fn load_aff_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let mut p = Parser {
+        sb: sb.clone(),
         meshes: vec![],
         chains: vec![],
         vertex_keys: vec![],
