@@ -770,3 +770,65 @@ fn absurd_sizes_are_refused_before_allocating() {
     );
     ok(&words(&format!("{small} --max-memory 64")));
 }
+
+#[test]
+fn bart_ambient_light_lights_what_the_point_light_does_not() {
+    // A quad facing the camera, its point light behind it: black by eq. 3.19 alone; BART's
+    // `am` × `fm` ambient shows it. GPU and CPU agree where the GPU runs.
+    let d = tmp("ambient");
+    let scene = |am: &str| {
+        format!(
+            "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 16 16\n\
+             b 0 0 0\n{am}l 0 0 -5\nfm 0.5 0.25 1  0.8 0.8 0.8  0 0 0  1 0 1\n\
+             p 4\n-1 -1 0\n1 -1 0\n1 1 0\n-1 1 0\n"
+        )
+    };
+    let centre = |aff: &str, name: &str| {
+        let p = write(
+            &d,
+            aff,
+            &scene(if aff.contains("am") {
+                "am 0.4 0.8 0.2\n"
+            } else {
+                ""
+            }),
+        );
+        let out = d.join(name);
+        ok(&words(&format!(
+            "render {p} --engine brute --width 16 --height 16 --bounces 0 --out {}",
+            out.display()
+        )));
+        let img = image::open(&out).unwrap().to_rgb8();
+        img.get_pixel(8, 8).0
+    };
+    assert_eq!(centre("dark.aff", "dark.png"), [0, 0, 0]);
+    let lit = centre("am.aff", "am.png");
+    // k_a ⊙ L_a = (0.2, 0.2, 0.2) before the display transform: a grey, equal channels.
+    assert!(
+        lit[0] > 0 && lit[0] == lit[1] && lit[1] == lit[2],
+        "{lit:?}"
+    );
+    // The GPU's shading kernel adds the same term: the same image bytes.
+    let gpu = d.join("gpu.png");
+    let o = bin()
+        .args(words(&format!(
+            "render {} --engine crsh --backend gpu --width 16 --height 16 --bounces 0 --out {}",
+            d.join("am.aff").display(),
+            gpu.display()
+        )))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    if !o.status.success() {
+        testkit::skip("gpu", &err);
+        return;
+    }
+    let cpu = d.join("cpu.png");
+    ok(&words(&format!(
+        "render {} --engine crsh --width 16 --height 16 --bounces 0 --out {}",
+        d.join("am.aff").display(),
+        cpu.display()
+    )));
+    assert_eq!(std::fs::read(&gpu).unwrap(), std::fs::read(&cpu).unwrap());
+}

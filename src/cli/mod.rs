@@ -80,6 +80,16 @@ pub fn run() -> Result<()> {
 
 /// An output file must be writable before any work is done: its directory exists, it is
 /// not a directory or a special file (`render::output::check_output`).
+/// Load a scene, printing the loader's warnings (suspicious content loaded anyway, each
+/// naming file:line) as `warning:` lines on stderr.
+fn load_scene(spec: &str, opts: &scene::LoadOptions) -> Result<scene::Scene> {
+    let s = scene::load(spec, opts)?;
+    for w in &s.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(s)
+}
+
 fn check_out_dir(opt: &str, out: &std::path::Path) -> Result<()> {
     ::render::output::check_output(out).map_err(|e| anyhow::anyhow!("{opt} {e}"))
 }

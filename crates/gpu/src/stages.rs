@@ -99,15 +99,18 @@ impl<'g> GpuStages<'g> {
         self.gpu.upload("lights", &l)
     }
 
-    fn materials(&self, m: &[Material]) -> wgpu::Buffer {
+    /// The materials as the kernels read them; the ambient term k_a ⊙ L_a is multiplied
+    /// here, with the same f32 product as `render::shade::local`.
+    fn materials(&self, m: &[Material], ambient: Vec3) -> wgpu::Buffer {
         let v: Vec<[f32; 4]> = m
             .iter()
             .flat_map(|m| {
+                let a = m.ambient * ambient;
                 [
                     v4(m.diffuse, m.shininess),
                     v4(m.specular, m.reflectivity),
                     v4(m.emission, m.transparency),
-                    [m.ior, 0.0, 0.0, 0.0],
+                    [m.ior, a.x, a.y, a.z],
                 ]
             })
             .collect();
@@ -192,7 +195,7 @@ impl Stages for GpuStages<'_> {
             let mut ex = Exec::new(g, self.kernels);
             let sf = self.surf(s);
             let lb = self.lights(lights);
-            let mb = self.materials(materials);
+            let mb = self.materials(materials, scene.ambient);
             let occ: Vec<u32> = occluded.iter().map(|&o| o as u32).collect();
             let ob = g.upload("occluded", &occ);
             let out = g.storage("colour", n as u64 * 16);
@@ -217,7 +220,7 @@ impl Stages for GpuStages<'_> {
             let g = self.gpu;
             let mut ex = Exec::new(g, self.kernels);
             let sf = self.surf(s);
-            let mb = self.materials(materials);
+            let mb = self.materials(materials, Vec3::ZERO);
             let m = 2 * n as u64;
             let (org, dir, w) = (
                 g.storage("org", m * 16),

@@ -4,7 +4,8 @@
 // Surfaces: 1 position, 2 geometric normal, 3 shading normal, 4 incident direction (all
 // xyz, w = 0), 5 (throughput rgb, offset scale), 6 material.
 // Scene: 7 lights (3 × vec4: position + intensity, colour, attenuation), 8 materials
-// (4 × vec4: diffuse + shininess, specular + reflectivity, emission + transparency, ior).
+// (4 × vec4: diffuse + shininess, specular + reflectivity, emission + transparency,
+// ior + the ambient term k_a ⊙ L_a).
 // Params u0 = (count, lights, -, -).
 
 @group(0) @binding(1) var<storage, read> s_pos: array<vec4<f32>>;
@@ -163,7 +164,7 @@ fn shade_local(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     let diffuse = mats[4u * m].xyz;
     let shininess = mats[4u * m].w;
     let specular = mats[4u * m + 1u].xyz;
-    var color = mats[4u * m + 2u].xyz;
+    var color = mats[4u * m + 2u].xyz + mats[4u * m + 3u].yzw;
     let n = facing(i)[1];
     let p = s_pos[i].xyz;
     let view = s_inc[i].xyz;

@@ -154,7 +154,7 @@ pub trait Stages {
             .map(|i| {
                 let visible: Vec<bool> = (0..nl).map(|l| !occluded[i * nl + l]).collect();
                 let m = &materials[s.material[i] as usize];
-                shade::local(s, i, m, lights, &visible) * s.throughput[i]
+                shade::local(s, i, m, lights, &visible, scene.ambient) * s.throughput[i]
             })
             .collect()
     }

@@ -104,7 +104,10 @@ pub struct Animation {
 }
 
 /// The keys a linear interpolation at time `t` mixes: (a, b, u), clamped to the first and
-/// last key (a = b there). `times` is non-empty and non-decreasing.
+/// last key (a = b there). Otherwise the segment is the first in file order whose end time
+/// exceeds `t`, as BART's reference code picks it (`kbsplpos.c`, `ComputeIAndU`), so that
+/// tracks whose times repeat or go back evaluate as BART's own viewer does; for sorted times
+/// this is the usual segment, and `t` always lies in the chosen one (u ∈ [0, 1)).
 fn lerp_segment(times: impl Fn(usize) -> f32, n: usize, t: f32) -> (usize, usize, f32) {
     if n == 1 || t <= times(0) {
         return (0, 0, 0.0);
@@ -112,17 +115,7 @@ fn lerp_segment(times: impl Fn(usize) -> f32, n: usize, t: f32) -> (usize, usize
     if t >= times(n - 1) {
         return (n - 1, n - 1, 0.0);
     }
-    // First key after t (binary search; times are sorted).
-    let (mut lo, mut hi) = (0, n);
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if times(mid) <= t {
-            lo = mid + 1;
-        } else {
-            hi = mid;
-        }
-    }
-    let i = lo.clamp(1, n - 1);
+    let i = (1..n).find(|&i| t < times(i)).unwrap_or(n - 1);
     let span = times(i) - times(i - 1);
     let u = if span > 0.0 {
         (t - times(i - 1)) / span
@@ -169,8 +162,10 @@ fn kb_segment(
         )
     };
     let tk = [times(i - 1), times(i), times(i + 1), times(i + 2)];
-    // Coincident key times would divide by zero; such a key gets no time adjustment.
-    let ratio = |a: f32, b: f32| if b > 0.0 { a / b } else { 0.5 };
+    // BART's time adjustment, negative where times go back, as in the reference code.
+    // Coincident times would divide by zero (NaN in the reference): such a key gets no
+    // adjustment.
+    let ratio = |a: f32, b: f32| if b != 0.0 { a / b } else { 0.5 };
     let adj0 = 2.0 * ratio(tk[2] - tk[1], tk[2] - tk[0]);
     let adj1 = 2.0 * ratio(tk[2] - tk[1], tk[3] - tk[1]);
     let [te0, c0, b0] = tcb(i);

@@ -42,6 +42,7 @@ fn scene(
         lights,
         camera,
         background,
+        ambient: Vec3::ZERO,
         report: LoadReport {
             notes: vec![format!("built-in scene '{name}'")],
             ..Default::default()

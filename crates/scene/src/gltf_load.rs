@@ -35,6 +35,9 @@ fn convert(m: &gltf::Material) -> Material {
         transparency,
         ior: if transparency > 0.0 { 1.5 } else { 1.0 },
         emission: Vec3::from_array(m.emissive_factor()),
+        // glTF has no ambient colour; under a TOML scene's ambient light the diffuse
+        // albedo reflects it (the usual convention).
+        ambient: base * (1.0 - metallic),
     }
 }
 

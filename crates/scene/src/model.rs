@@ -24,6 +24,9 @@ pub struct Material {
     pub ior: f32,
     /// Emitted colour, added unlit.
     pub emission: Vec3,
+    /// Ambient reflectance k_a (OBJ `Ka`, AFF `fm` ambient), lit by the scene's ambient
+    /// light [`Scene::ambient`] alone; zero by default.
+    pub ambient: Vec3,
 }
 
 impl Default for Material {
@@ -37,6 +40,7 @@ impl Default for Material {
             transparency: 0.0,
             ior: 1.0,
             emission: Vec3::ZERO,
+            ambient: Vec3::ZERO,
         }
     }
 }
@@ -50,6 +54,7 @@ impl Material {
             ("diffuse", self.diffuse),
             ("specular", self.specular),
             ("emission", self.emission),
+            ("ambient", self.ambient),
         ] {
             if !(c.is_finite() && c.min_element() >= 0.0) {
                 return Err(format!("{what} colour {c} must be finite and non-negative"));
@@ -108,6 +113,7 @@ impl Material {
             transparency: 0.88,
             ior,
             emission: Vec3::ZERO,
+            ambient: Vec3::ZERO,
         }
     }
 }
@@ -281,6 +287,9 @@ pub struct LoadReport {
     pub load_seconds: f64,
     /// Anything else worth a line (approximations, ignored features).
     pub notes: Vec<String>,
+    /// Suspicious content that was loaded anyway, each naming `file:line` (the CLI prints
+    /// them as `warning:` lines).
+    pub warnings: Vec<String>,
 }
 
 /// A loaded scene: meshes with transforms, materials, lights, camera, and its animation.
@@ -298,6 +307,9 @@ pub struct Scene {
     pub camera: Camera,
     /// Colour of rays that leave the scene.
     pub background: Vec3,
+    /// Ambient light (AFF `am`, TOML `ambient`), reflected by each material's
+    /// [`Material::ambient`]; zero (thesis eq. 3.19 exactly) unless the scene defines one.
+    pub ambient: Vec3,
     /// What the loader noticed.
     pub report: LoadReport,
     /// Keyframed motion, when the scene is animated ([`Scene::at_time`]).
@@ -328,6 +340,7 @@ impl Scene {
                 vfov: 45.0,
             },
             background: Vec3::new(0.1, 0.1, 0.12),
+            ambient: Vec3::ZERO,
             report,
             animation: None,
         }
@@ -376,6 +389,15 @@ impl Scene {
         for m in &self.materials {
             m.validate()
                 .map_err(|e| SceneError::invalid(&path, format!("material '{}': {e}", m.name)))?;
+        }
+        if !(self.ambient.is_finite() && self.ambient.min_element() >= 0.0) {
+            return Err(SceneError::invalid(
+                &path,
+                format!(
+                    "ambient light {} must be finite and non-negative",
+                    self.ambient
+                ),
+            ));
         }
         for m in &self.meshes {
             let det = m.transform.determinant();

@@ -94,6 +94,9 @@ pub fn convert_material(m: &tobj::Material) -> Result<Material, String> {
         specular,
         shininess,
         emission: v(m.emissive, 0.0),
+        // Ka is lit only by a scene's ambient light (a TOML scene's `ambient`), so a bare
+        // OBJ renders by eq. 3.19 exactly whatever its Ka.
+        ambient: v(m.ambient, 0.0),
         ..Default::default()
     };
     let spec_level = specular.max_element().clamp(0.0, 1.0);

@@ -3,6 +3,7 @@
 //!
 //! ```toml
 //! background = [0.1, 0.1, 0.15]
+//! ambient = [0.1, 0.1, 0.1]      # optional ambient light, times each material's ambient (OBJ Ka)
 //! [camera]                       # optional: framed automatically when absent
 //! eye = [0, 1, 5]
 //! target = [0, 1, 0]
@@ -19,7 +20,7 @@
 //! translate = [0, 0, 0]
 //! rotate = [0, 45, 0]            # Euler XYZ, degrees
 //! scale = 1.0                    # or [sx, sy, sz]
-//! material = { diffuse = [0.8, 0.2, 0.2], reflectivity = 0.3 }   # overrides, any subset
+//! material = { diffuse = [0.8, 0.2, 0.2], reflectivity = 0.3 }   # overrides, any subset (also ambient)
 //! [meshes.animation]             # optional keyframed rigid motion, after the placement above
 //! loop = true                    # repeat the keyed interval (default false: clamp)
 //! keys = [                       # linear translation and scale, slerp rotation
@@ -48,6 +49,7 @@ use std::path::{Path, PathBuf};
 struct File {
     name: Option<String>,
     background: Option<[f32; 3]>,
+    ambient: Option<[f32; 3]>,
     camera: Option<CameraDef>,
     #[serde(default)]
     lights: Vec<LightDef>,
@@ -116,6 +118,7 @@ struct MaterialDef {
     transparency: Option<f32>,
     ior: Option<f32>,
     emission: Option<[f32; 3]>,
+    ambient: Option<[f32; 3]>,
 }
 
 #[derive(Deserialize)]
@@ -176,6 +179,9 @@ impl MaterialDef {
         }
         if let Some(x) = self.emission {
             m.emission = v(x)
+        }
+        if let Some(x) = self.ambient {
+            m.ambient = v(x)
         }
         if let Some(x) = self.shininess {
             m.shininess = x
@@ -254,6 +260,9 @@ fn parse_scene_file(
     let mut scene = Scene::from_file(path, Vec::new(), Vec::new(), LoadReport::default());
     if let Some(n) = &file.name {
         scene.name = n.clone();
+    }
+    if let Some(a) = file.ambient {
+        scene.ambient = Vec3::from_array(a);
     }
     if let Some(b) = file.background {
         scene.background = Vec3::from_array(b);

@@ -280,3 +280,93 @@ fn references_outside_the_scene_directory_are_refused() {
     let e = err_of(&write(&inner, "g6.gltf", &gltf("http://example.com/x.bin")));
     assert!(e.contains("unsupported URI scheme"), "{e}");
 }
+
+/// BART's reference evaluation of a position track (`kbsplpos.c`: one cubic per key pair
+/// 1‥n−2 in file order, `ComputeIAndU` picks the first whose end time exceeds t), restated
+/// independently in f64 for the test.
+fn bart_reference_position(keys: &[(f64, f64)], t: f64) -> f64 {
+    let n = keys.len();
+    let polys = n - 3;
+    let poly = |i: usize| {
+        let (i0, i1, i2, i3) = (i, i + 1, i + 2, i + 3);
+        let dp = keys[i2].1 - keys[i1].1;
+        let adj0 = 2.0 * (keys[i2].0 - keys[i1].0) / (keys[i2].0 - keys[i0].0);
+        let adj1 = 2.0 * (keys[i2].0 - keys[i1].0) / (keys[i3].0 - keys[i1].0);
+        // Tension, continuity and bias are 0 here: every multiplier is 0.5·adj.
+        let tout = 0.5 * adj0 * dp + 0.5 * adj0 * (keys[i1].1 - keys[i0].1);
+        let tin = 0.5 * adj1 * (keys[i3].1 - keys[i2].1) + 0.5 * adj1 * dp;
+        let c = [
+            keys[i1].1,
+            tout,
+            3.0 * dp - 2.0 * tout - tin,
+            -2.0 * dp + tout + tin,
+        ];
+        (c, keys[i1].0, keys[i2].0)
+    };
+    let (i, u) = if poly(0).1 < t {
+        if t < poly(polys - 1).2 {
+            let i = (0..polys).find(|&i| t < poly(i).2).unwrap();
+            let (_, lo, hi) = poly(i);
+            (i, (t - lo) / (hi - lo))
+        } else {
+            (polys - 1, 1.0)
+        }
+    } else {
+        (0, 0.0)
+    };
+    let (c, _, _) = poly(i);
+    c[0] + u * (c[1] + u * (c[2] + u * c[3]))
+}
+
+#[test]
+fn bart_tracks_whose_times_go_back_load_with_a_warning_and_evaluate_as_bart_does() {
+    let d = dir("backwards");
+    // Times 0 … 4, then back to 2.5, with a repeated key, as in published BART files.
+    let keys = [
+        (0.0, 0.0),
+        (1.0, 1.0),
+        (2.0, 4.0),
+        (3.0, 2.0),
+        (4.0, 5.0),
+        (2.5, -1.0),
+        (2.5, 3.0),
+        (3.5, 0.5),
+        (5.0, 2.0),
+        (6.0, 6.0),
+    ];
+    let mut track = format!("k mover\n{{\ntransl {}\n", keys.len());
+    for (t, x) in keys {
+        track += &format!("{t} {x} 0 0 0 0 0\n");
+    }
+    track += "}\n";
+    let aff = format!(
+        "a 0 6 25\nv\nfrom 0 0 10\nat 0 0 0\nup 0 1 0\nangle 45\nhither 1\nresolution 64 64\n\
+         l 0 5 5\n\n{track}x mover\n{{\np 3\n0 0 0\n1 0 0\n0 1 0\n}}\n"
+    );
+    let p = write(&d, "back.aff", &aff);
+    let s = load_quickly(&p).unwrap();
+    let w = &s.report.warnings;
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("back.aff:11:") && w[0].contains("mover") && w[0].contains("'transl'"),
+        "the warning names file:line and the track: {w:?}"
+    );
+    let anim = s.animation.as_ref().unwrap();
+    let tr = anim.tracks.iter().find(|t| t.name == "mover").unwrap();
+    for k in 0..=120 {
+        let t = -0.5 + 7.0 * k as f64 / 120.0;
+        let ours = tr.trs(t as f32).0.x as f64;
+        let bart = bart_reference_position(&keys, t);
+        assert!(
+            (ours - bart).abs() <= 1e-4 * (1.0 + bart.abs()),
+            "t = {t}: ours {ours}, BART's {bart}"
+        );
+    }
+    // A sorted track gives no warning.
+    let sorted = aff
+        .replace("2.5 -1", "4.2 -1")
+        .replace("2.5 3", "4.4 3")
+        .replace("3.5 0.5", "4.6 0.5");
+    let s = load_quickly(&write(&d, "sorted.aff", &sorted)).unwrap();
+    assert!(s.report.warnings.is_empty(), "{:?}", s.report.warnings);
+}

@@ -87,6 +87,7 @@ impl Parser {
     }
 
     pub(super) fn keys(&mut self, c: &mut Cursor) -> Result<(), SceneError> {
+        let start = c.line();
         let name = c.word("keyframe name")?;
         c.expect("{")?;
         let mut tr = Track {
@@ -147,15 +148,27 @@ impl Parser {
                 }
             }
         }
-        for keys in [
-            tr.translation.iter().map(|k| k.t).collect::<Vec<_>>(),
-            tr.rotation.iter().map(|k| k.t).collect(),
-            tr.scale.iter().map(|k| k.t).collect(),
+        for (channel, keys) in [
+            (
+                "transl",
+                tr.translation.iter().map(|k| k.t).collect::<Vec<_>>(),
+            ),
+            ("rot", tr.rotation.iter().map(|k| k.t).collect()),
+            ("scale", tr.scale.iter().map(|k| k.t).collect()),
         ] {
-            // Equal times occur in BART Kitchen (the toy car's wheels): allowed, the later
-            // key wins from that instant on. Decreasing times are an error.
-            if keys.windows(2).any(|w| w[1] < w[0]) {
-                return Err(c.err(format!("keyframes of '{name}': key times decrease")));
+            // Equal times occur in BART Kitchen (the toy car's wheels): the later key wins
+            // from that instant on. Published files also hold tracks whose times go back
+            // (0 … 48, then 42 … 50); BART's reference code takes them as they are, and so
+            // do we (`anim`: the first segment in file order whose end time exceeds t).
+            if let Some(k) = keys.windows(2).position(|w| w[1] < w[0]) {
+                self.warnings.push(format!(
+                    "{}:{start}: keyframes of '{name}', '{channel}': key {} at time {} comes \
+                     after time {}; evaluated as BART's reference code does (segments in file order)",
+                    c.path.display(),
+                    k + 2,
+                    keys[k + 1],
+                    keys[k],
+                ));
             }
         }
         match self.tracks.iter_mut().find(|t| t.name == name) {

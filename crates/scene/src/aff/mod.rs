@@ -78,11 +78,15 @@ struct Parser {
     lights: Vec<Light>,
     camera: Option<Camera>,
     background: Vec3,
+    /// The global ambient light (`am`).
+    ambient: Vec3,
     /// The current transform chain (outermost first); track links hold names until the end.
     stack: Vec<Link>,
     tracks: Vec<Track>,
     anim: Option<(f32, f32, u32)>,
     notes: Vec<String>,
+    /// `file:line: ...` warnings (see [`LoadReport::warnings`]).
+    warnings: Vec<String>,
     files: usize,
     /// Animated triangles of the current group: (key times, per-key positions).
     tpa: Option<TpaGroup>,
@@ -234,9 +238,7 @@ impl Parser {
             match w.as_str() {
                 "v" => self.view(c, line)?,
                 "b" => self.background = c.vec3("background colour")?,
-                "am" => {
-                    c.vec3("ambient colour")?;
-                }
+                "am" => self.ambient = c.vec3("ambient colour")?,
                 "l" | "la" => self.light(c, w == "la")?,
                 "f" => self.fill(c)?,
                 "fm" => self.fill_material(c)?,
@@ -352,19 +354,19 @@ impl Parser {
         let shine = c.num("shine")?;
         let t = c.num("transmittance")?;
         let ior = c.num("index of refraction")?;
-        self.material(col * kd, Vec3::splat(ks), shine, t, ior);
+        self.material(Vec3::ZERO, col * kd, Vec3::splat(ks), shine, t, ior);
         Ok(())
     }
 
     /// `fm amb diff spec shine T ior`: AFF's full material.
     fn fill_material(&mut self, c: &mut Cursor) -> Result<(), SceneError> {
-        c.vec3("ambient")?;
+        let a = c.vec3("ambient")?;
         let d = c.vec3("diffuse")?;
         let s = c.vec3("specular")?;
         let shine = c.num("shine")?;
         let t = c.num("transmittance")?;
         let ior = c.num("index of refraction")?;
-        self.material(d, s, shine, t, ior);
+        self.material(a, d, s, shine, t, ior);
         Ok(())
     }
 
@@ -484,7 +486,7 @@ impl Parser {
         self.file(&p)
     }
 
-    fn material(&mut self, d: Vec3, s: Vec3, shine: f32, t: f32, ior: f32) {
+    fn material(&mut self, a: Vec3, d: Vec3, s: Vec3, shine: f32, t: f32, ior: f32) {
         let transparent = t > 0.0 && ior > 0.0;
         let m = Material {
             name: format!("aff{}", self.materials.len()),
@@ -495,6 +497,7 @@ impl Parser {
             transparency: if transparent { t.min(1.0) } else { 0.0 },
             ior: if transparent { ior } else { 1.0 },
             emission: Vec3::ZERO,
+            ambient: a,
         };
         self.current_material = match self.materials.iter().position(|x| {
             x.diffuse == m.diffuse
@@ -539,10 +542,12 @@ pub fn load_aff_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, 
         lights: vec![],
         camera: None,
         background: Vec3::ZERO,
+        ambient: Vec3::ZERO,
         stack: vec![],
         tracks: vec![],
         anim: None,
         notes: vec![],
+        warnings: vec![],
         files: 0,
         tpa: None,
         loose: Builder::default(),
@@ -582,6 +587,7 @@ pub fn load_aff_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, 
         degenerate_skipped: degenerate,
         load_seconds: t0.elapsed().as_secs_f64(),
         notes,
+        warnings: p.warnings.clone(),
         ..Default::default()
     };
     let animated = p.anim.is_some()
@@ -603,6 +609,7 @@ pub fn load_aff_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, 
     }
     let mut scene = Scene::from_file(path, p.meshes, p.materials, report);
     scene.background = p.background;
+    scene.ambient = p.ambient;
     scene.lights = p.lights;
     let bounds = scene.bounds();
     scene.camera = p.camera.unwrap_or_else(|| Camera::framing(&bounds));
