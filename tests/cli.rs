@@ -769,6 +769,19 @@ fn absurd_sizes_are_refused_before_allocating() {
         &["--max-memory"],
     );
     ok(&words(&format!("{small} --max-memory 64")));
+    // The grid's memory model gets what the render leaves: densities in range but beyond
+    // 64 MiB are refused level by level before allocating (the bunny at λ = 10⁴ used to
+    // take 7 GB and abort), and the message names the options on both sides.
+    for g in [
+        "--grid-top-density 1000",
+        "--grid-top-density 10 --grid-leaf-density 10000",
+    ] {
+        fails(
+            &words(&format!("{small} --engine grid {g} --max-memory 64")),
+            &["--max-memory", "--grid-top-density", "MiB"],
+        );
+    }
+    ok(&words(&format!("{small} --engine grid --max-memory 64")));
 }
 
 #[test]

@@ -52,7 +52,7 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
         let t0 = Instant::now();
         let (cpu_gb, _) = rasterize(&geo, &s.materials, &view, near);
         let cpu_raster = t0.elapsed().as_secs_f64();
-        let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
+        let g = device()?;
         let raster = gpu::GpuRaster::new(&g, &geo, &s.materials)
             .map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
         raster
@@ -92,7 +92,7 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
                 };
                 progress(&format!("{name}: {method:?} {b}/{d} on the CPU"));
                 let cpu = rsh::RshEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?;
-                let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
+                let g = device()?;
                 let gpu = gpu::GpuRsh::new(g, &geo, cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
                 // Warm-up on the first batch: drivers compile pipelines at first use (lavapipe
                 // JIT-compiles every kernel), which is not the pipeline's cost.
@@ -163,4 +163,14 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
         }
     }
     Ok(md)
+}
+
+/// A device whose errors outside any call (device memory) end the run with one line.
+fn device() -> anyhow::Result<gpu::Gpu> {
+    let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
+    g.on_device_error(|e| {
+        eprintln!("error: bench gpu: the device failed ({e}); lower --width/--height");
+        std::process::exit(1);
+    });
+    Ok(g)
 }

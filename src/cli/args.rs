@@ -324,6 +324,7 @@ impl GridArgs {
             max_depth: self.max_depth,
             subdivision: self.subdivision,
             empty_only: d.empty_only,
+            max_bytes: d.max_bytes,
         }
     }
 }

@@ -134,39 +134,16 @@ fn write_out(opt: &str, path: &std::path::Path, bytes: impl AsRef<[u8]>) -> Resu
 /// The memory a command may use: `--max-memory` (MiB) when given, else 80 % of the
 /// smaller of the machine's memory and the process's address-space limit.
 fn memory_limit(max_mib: Option<u64>) -> u64 {
-    if let Some(m) = max_mib {
-        return m.saturating_mul(1 << 20);
-    }
-    let kib = |text: &str, key: &str| -> Option<u64> {
-        let l = text.lines().find(|l| l.starts_with(key))?;
-        l.split_whitespace().nth(1)?.parse().ok()
-    };
-    let total = std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|t| kib(&t, "MemTotal:"))
-        .map_or(u64::MAX, |k| k * 1024);
-    // "Max address space  <soft> <hard> bytes" (or "unlimited").
-    let rlimit = std::fs::read_to_string("/proc/self/limits")
-        .ok()
-        .and_then(|t| {
-            let l = t.lines().find(|l| l.starts_with("Max address space"))?;
-            l["Max address space".len()..]
-                .split_whitespace()
-                .next()?
-                .parse::<u64>()
-                .ok()
-        })
-        .unwrap_or(u64::MAX);
-    total.min(rlimit) / 5 * 4
+    ::render::memory::limit(max_mib)
 }
 
 /// Refuse work whose memory model needs more than the limit, naming the options.
 fn check_memory(what: &str, opts: &str, need: u64, max_mib: Option<u64>) -> Result<()> {
     let limit = memory_limit(max_mib);
     if need > limit {
-        let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+        let gib = ::render::memory::gib;
         bail!(
-            "{opts}: {what} needs about {:.1} GiB, more than the {:.1} GiB allowed (--max-memory, default 80 % of this machine's memory); lower {opts} or raise --max-memory",
+            "{opts}: {what} needs about {}, more than the {} allowed (--max-memory, default 80 % of this machine's memory); lower {opts} or raise --max-memory",
             gib(need),
             gib(limit)
         );

@@ -28,7 +28,7 @@ struct StatsFile<'a> {
 }
 
 pub fn cmd_render(a: &RenderArgs) -> Result<()> {
-    let opts = engine_options(&a.rsh, &a.grid, a.frames.is_some());
+    let mut opts = engine_options(&a.rsh, &a.grid, a.frames.is_some());
     opts.validate(a.engine)?;
     check_out_dir("--out", &a.out)?;
     check_extension("--out", &a.out, "png")?;
@@ -52,12 +52,11 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     let scene = super::load_scene(&a.scene, &a.load.options())?;
     let geo = Geometry::from_scene(&scene);
     let load_s = t0.elapsed().as_secs_f64();
-    check_memory(
-        "the render",
-        "--width/--height",
-        render::whitted::render_bytes(a.width, a.height, scene.lights.len()),
-        a.max_memory,
-    )?;
+    let render_bytes = render::whitted::render_bytes(a.width, a.height, scene.lights.len());
+    check_memory("the render", "--width/--height", render_bytes, a.max_memory)?;
+    // The engine's structure gets what the render leaves (the grid checks its model level
+    // by level against it).
+    opts.grid.max_bytes = super::memory_limit(a.max_memory).saturating_sub(render_bytes);
     let r = scene.report.clone();
     say!(
         "loaded {} in {:.2} s: {} triangles, {} meshes, {} materials, {} lights{}{}",
@@ -179,6 +178,11 @@ fn render_on_gpu(
     t1: Instant,
 ) -> Result<GpuRender> {
     let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    // Outputs are written atomically after the render, so ending here leaves none behind.
+    g.on_device_error(|e| {
+        eprintln!("error: --backend gpu: the device failed ({e}); lower --width/--height");
+        std::process::exit(1);
+    });
     say!("GPU: {}", g.describe());
     let timer = match g.timer {
         gpu::device::PhaseTimer::Timestamps => "timestamp queries",

@@ -150,7 +150,21 @@ impl Gpu {
         )
     }
 
-    /// Largest storage binding in bytes.
+    /// Route errors the device reports outside any call that could return them (an
+    /// allocation it cannot hold, say) to `f`, as one line, instead of wgpu's default panic.
+    /// The work is sized to the device's limits beforehand; this is for what limits do not
+    /// say (device memory).
+    pub fn on_device_error(&self, f: impl Fn(String) + Send + Sync + 'static) {
+        self.device
+            .on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+                f(e.to_string()
+                    .split_whitespace()
+                    .collect::<Vec<_>>()
+                    .join(" "))
+            }));
+    }
+
+    /// The largest storage binding the device allows, in bytes.
     pub fn max_binding(&self) -> u64 {
         self.limits.max_storage_buffer_binding_size
     }

@@ -139,8 +139,8 @@ fn ray_of(o: [f32; 4], d: [f32; 4]) -> geom::Ray {
     )
 }
 
-impl Stages for GpuStages<'_> {
-    fn shadow_rays(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
+impl GpuStages<'_> {
+    fn shadow_rays_part(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
         let (n, nl) = (s.len(), lights.len());
         if n * nl == 0 {
             return RayBatch::default();
@@ -184,7 +184,7 @@ impl Stages for GpuStages<'_> {
         })
     }
 
-    fn local_shading(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+    fn local_shading_part(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
         let (materials, lights) = (&scene.materials, &scene.lights);
         let n = s.len();
         if n == 0 {
@@ -211,7 +211,7 @@ impl Stages for GpuStages<'_> {
         })
     }
 
-    fn bounce_rays(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
+    fn bounce_rays_part(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
         let n = s.len();
         if n == 0 {
             return RayBatch::default();
@@ -257,5 +257,64 @@ impl Stages for GpuStages<'_> {
             }
             b
         })
+    }
+
+    /// Surfaces per part when each costs `bytes` in the largest binding of a pass: the
+    /// device's binding and buffer limits bound a part, never the work (a 3000² frame's
+    /// shadow rays exceed lavapipe's 128 MiB binding and are made in two parts).
+    fn part(&self, bytes: u64) -> usize {
+        let lim = &self.gpu.limits;
+        let cap = lim.max_storage_buffer_binding_size.min(lim.max_buffer_size);
+        ((cap / bytes.max(1)) as usize).max(1)
+    }
+
+    /// The surfaces in parts of at most `per`.
+    fn parts(n: usize, per: usize) -> impl Iterator<Item = std::ops::Range<usize>> {
+        (0..n).step_by(per).map(move |a| a..(a + per).min(n))
+    }
+}
+
+/// Each pass runs on parts of the surfaces that fit the device's bindings; surfaces are
+/// independent, so the parts' results, in order, are the whole's.
+impl Stages for GpuStages<'_> {
+    fn shadow_rays(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
+        // Per surface: one origin and one direction (vec4) per light.
+        let per = self.part(16 * lights.len().max(1) as u64);
+        if s.len() <= per {
+            return self.shadow_rays_part(s, lights);
+        }
+        let mut b = RayBatch::default();
+        for r in Self::parts(s.len(), per) {
+            b.append(self.shadow_rays_part(&s.slice(r), lights));
+        }
+        b
+    }
+
+    fn local_shading(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+        // Per surface: a vec4 per surface array and the colour, a u32 per light.
+        let nl = scene.lights.len();
+        let per = self.part(16u64.max(4 * nl as u64));
+        if s.len() <= per {
+            return self.local_shading_part(s, scene, occluded);
+        }
+        let mut c = Vec::with_capacity(s.len());
+        for r in Self::parts(s.len(), per) {
+            let occ = &occluded[r.start * nl..r.end * nl];
+            c.extend(self.local_shading_part(&s.slice(r), scene, occ));
+        }
+        c
+    }
+
+    fn bounce_rays(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
+        // Per surface: two ray slots of origin, direction and weight (vec4 each).
+        let per = self.part(32);
+        if s.len() <= per {
+            return self.bounce_rays_part(s, materials);
+        }
+        let mut b = RayBatch::default();
+        for r in Self::parts(s.len(), per) {
+            b.append(self.bounce_rays_part(&s.slice(r), materials));
+        }
+        b
     }
 }

@@ -99,6 +99,23 @@ impl RayBatch {
         self.org.len()
     }
 
+    /// Append the rays of `other` (made in parts, e.g. on a device that binds a limited
+    /// number of rays at once).
+    pub fn append(&mut self, mut other: RayBatch) {
+        self.org.append(&mut other.org);
+        self.dir.append(&mut other.dir);
+        self.t_min.append(&mut other.t_min);
+        self.t_max.append(&mut other.t_max);
+        self.kind.append(&mut other.kind);
+        self.pixel.append(&mut other.pixel);
+        self.light.append(&mut other.light);
+        self.throughput.append(&mut other.throughput);
+        self.depth.append(&mut other.depth);
+        if self.width == 0 {
+            self.width = other.width;
+        }
+    }
+
     /// Whether the batch has no rays.
     pub fn is_empty(&self) -> bool {
         self.org.is_empty()

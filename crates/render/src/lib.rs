@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 pub mod batch;
+pub mod memory;
 pub mod output;
 pub mod raster;
 pub mod rayfile;

@@ -53,6 +53,21 @@ impl Surfaces {
         self.pixel.is_empty()
     }
 
+    /// The surfaces `r` (a part a device can bind at once).
+    pub fn slice(&self, r: std::ops::Range<usize>) -> Surfaces {
+        Surfaces {
+            pixel: self.pixel[r.clone()].to_vec(),
+            pos: self.pos[r.clone()].to_vec(),
+            ng: self.ng[r.clone()].to_vec(),
+            ns: self.ns[r.clone()].to_vec(),
+            incident: self.incident[r.clone()].to_vec(),
+            material: self.material[r.clone()].to_vec(),
+            throughput: self.throughput[r.clone()].to_vec(),
+            depth: self.depth[r.clone()].to_vec(),
+            scale: self.scale[r].to_vec(),
+        }
+    }
+
     /// Covered G-buffer pixels, in pixel order.
     pub fn from_gbuffer(gb: &GBuffer, geo: &Geometry, eye: Vec3) -> Surfaces {
         let mut s = Surfaces::default();

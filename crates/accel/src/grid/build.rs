@@ -156,8 +156,9 @@ impl Frame<'_> {
 
 /// Emit (key, tri) pairs through count → exclusive scan → emit: `count(i)` says how many
 /// pairs item i makes, `emit(i, out)` pushes them in the same order.
-/// The total is checked against [`MAX_REFS`] before anything is allocated for it.
+/// The total is checked against the reference cap before anything is allocated for it.
 fn count_scan_emit(
+    lim: &Limits,
     n: usize,
     count: impl Fn(usize) -> u32 + Sync,
     emit: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
@@ -168,8 +169,8 @@ fn count_scan_emit(
         .map(&count)
         .collect();
     let total: u64 = counts.par_iter().map(|&c| c as u64).sum();
-    if total > MAX_REFS {
-        return Err(refs_error());
+    if total > lim.refs {
+        return Err(lim.refs_error(total));
     }
     let mut offs = vec![0u32; n];
     let total = exclusive_scan(&counts, &mut offs) as usize;
@@ -195,24 +196,65 @@ fn count_scan_emit(
     Ok((keys, vals))
 }
 
-/// Most references one build holds, per level and in all (2 GiB of (cell, triangle) pairs).
+/// Most references one build holds, per level and in all, whatever the memory: 2^28 keeps
+/// every reference offset and cell count within u32 with room to spare.
 const MAX_REFS: u64 = 1 << 28;
-
-fn refs_error() -> String {
-    format!(
-        "the grid would hold more than {MAX_REFS} triangle references ({} GiB); lower --grid-top-density, --grid-leaf-density or --grid-max-depth",
-        (MAX_REFS * 8) >> 30
-    )
-}
-/// Most voxel-map entries (octree nodes) one build makes.
+/// Most voxel-map entries (octree nodes) one build makes, whatever the memory.
 const MAX_NODES: u64 = 1 << 25;
+
+/// The grid's memory model: the peak bytes a reference costs while a level is built (node
+/// and triangle of the level's list, the count/scan/emit keys and values, the kept-cell
+/// and kept-triangle lists, the kept-at scan: 6 × u32) …
+pub const BYTES_PER_REF: u64 = 24;
+/// … and an octree node (coordinates, top cell, child base, leaf index, counts, the
+/// voxel-map entry and its share of the next level's coordinates: 12 × u32).
+pub const BYTES_PER_NODE: u64 = 48;
+
+/// The build's caps: the fixed index limits, lowered to what `max_bytes` holds.
+#[derive(Clone, Copy)]
+struct Limits {
+    refs: u64,
+    nodes: u64,
+    max_bytes: u64,
+}
+
+impl Limits {
+    fn of(cfg: &GridConfig) -> Limits {
+        Limits {
+            refs: MAX_REFS.min(cfg.max_bytes / BYTES_PER_REF),
+            nodes: MAX_NODES.min(cfg.max_bytes / BYTES_PER_NODE),
+            max_bytes: cfg.max_bytes,
+        }
+    }
+
+    /// The error for a level that would pass a cap: which, and the options that lower it.
+    fn error(&self, what: &str, need: u64, cap: u64, unit: u64) -> String {
+        let by_memory = cap * unit >= self.max_bytes.saturating_sub(unit);
+        if by_memory {
+            format!(
+                "the grid would hold {need} {what} or more (about {} at {unit} B each), more than the {} allowed (--max-memory); lower --grid-top-density, --grid-leaf-density or --grid-max-depth, or raise --max-memory",
+                render::memory::gib(need.saturating_mul(unit)),
+                render::memory::gib(self.max_bytes)
+            )
+        } else {
+            format!(
+                "the grid would hold {need} {what} or more, beyond its limit of {cap}; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
+            )
+        }
+    }
+
+    fn refs_error(&self, need: u64) -> String {
+        self.error("triangle references", need, self.refs, BYTES_PER_REF)
+    }
+}
+
 /// Most top-level cells.
 const MAX_TOP: u64 = 1 << 24;
 
 /// References to the top cells: (top cell, triangle), in triangle order, by exact tests.
 /// A triangle whose padded box lies in one top cell needs no test; the count pass keeps the
 /// overlap bits of ranges up to 64 cells so the emit pass does not test them again.
-fn top_refs(f: &Frame, top_dims: [u32; 3]) -> Result<(Vec<u32>, Vec<u32>), String> {
+fn top_refs(f: &Frame, top_dims: [u32; 3], lim: &Limits) -> Result<(Vec<u32>, Vec<u32>), String> {
     let range = |t: usize| {
         let b = &f.tri_box[t];
         let lo = ((b.min - Vec3::splat(f.pad) - f.bounds.min) / f.tsize).floor();
@@ -267,6 +309,7 @@ fn top_refs(f: &Frame, top_dims: [u32; 3]) -> Result<(Vec<u32>, Vec<u32>), Strin
         })
         .collect();
     count_scan_emit(
+        lim,
         f.tris.len(),
         |t| {
             if big(range(t)) {
@@ -349,8 +392,12 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
             top_dims[0], top_dims[1], top_dims[2]
         ));
     }
+    let lim = Limits::of(cfg);
+    if ntop >= lim.nodes {
+        return Err(lim.error("top cells", ntop, lim.nodes, BYTES_PER_NODE));
+    }
     let ntop = ntop as usize;
-    let (mut ref_node, mut ref_tri) = top_refs(&frame, top_dims)?;
+    let (mut ref_node, mut ref_tri) = top_refs(&frame, top_dims, &lim)?;
     let top_refs_seconds = t0.elapsed().as_secs_f64();
 
     // Octree levels. Per level: nodes (coordinates, top cell), references (node, triangle).
@@ -454,11 +501,13 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         let nleaf = exclusive_scan(&leaf, &mut leaf_index) as usize;
         let first_cell = cell_coord.len() as u32;
         let next_level_entry = (entries.len() + nodes) as u64;
-        if next_level_entry + 8 * nsplit as u64 >= MAX_NODES
-            || first_cell as u64 + nleaf as u64 >= MAX_NODES
-        {
-            return Err(format!(
-                "the grid's octrees would exceed {MAX_NODES} nodes at level {level}; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
+        let need = (next_level_entry + 8 * nsplit as u64).max(first_cell as u64 + nleaf as u64);
+        if need >= lim.nodes {
+            return Err(lim.error(
+                &format!("octree nodes at level {level}"),
+                need,
+                lim.nodes,
+                BYTES_PER_NODE,
             ));
         }
         entries.extend((0..nodes).map(|i| {
@@ -480,8 +529,8 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         let mut kept_at = vec![0u32; ref_node.len()];
         let nkept = exclusive_scan(&kept, &mut kept_at) as usize;
         let base = kept_cell.len();
-        if (base + nkept) as u64 > MAX_REFS {
-            return Err(refs_error());
+        if (base + nkept) as u64 > lim.refs {
+            return Err(lim.refs_error((base + nkept) as u64));
         }
         kept_cell.resize(base + nkept, 0);
         kept_tri.resize(base + nkept, 0);
@@ -508,6 +557,7 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         }
         // Split references: one per child each overlaps (count → scan → emit).
         let (new_node, new_tri) = count_scan_emit(
+            &lim,
             ref_node.len(),
             |r| {
                 if split[ref_node[r] as usize] != 0 {

@@ -81,6 +81,11 @@ pub struct GridConfig {
     /// Merge and expand empty cells only: Devillers's macro regions (1989), which the paper
     /// (§6, Table 5) describes as this restriction of its merge and expansion steps.
     pub empty_only: bool,
+    /// The most bytes the build may hold, by its memory model ([`build::BYTES_PER_REF`],
+    /// [`build::BYTES_PER_NODE`]), checked level by level before each allocation (default:
+    /// [`render::memory::default_limit`]; the CLI passes what `--max-memory` leaves after
+    /// the render). It decides only whether a build is refused, never what it builds.
+    pub max_bytes: u64,
 }
 
 impl Default for GridConfig {
@@ -94,6 +99,7 @@ impl Default for GridConfig {
             max_depth: 10,
             subdivision: Subdivision::Paper,
             empty_only: false,
+            max_bytes: render::memory::default_limit(),
         }
     }
 }

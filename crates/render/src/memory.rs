@@ -1,0 +1,67 @@
+//! How much memory a command may use, for the memory models checked before allocating
+//! (the render's: [`crate::whitted::render_bytes`]; the irregular grid's:
+//! `accel::grid::GridConfig::max_bytes`; CRSH's pair budget).
+//!
+//! The default is 80 % of the smaller of the machine's physical memory and the process's
+//! address-space limit (`ulimit -v`), so that a request the machine cannot hold is refused
+//! with an error naming the option instead of ending in an out-of-memory abort.
+
+/// 80 % of min(physical memory, address-space limit), in bytes (`u64::MAX` where neither
+/// is known).
+pub fn default_limit() -> u64 {
+    let kib = |text: &str, key: &str| -> Option<u64> {
+        let l = text.lines().find(|l| l.starts_with(key))?;
+        l.split_whitespace().nth(1)?.parse().ok()
+    };
+    let total = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|t| kib(&t, "MemTotal:"))
+        .map_or(u64::MAX, |k| k.saturating_mul(1024));
+    // "Max address space  <soft> <hard> bytes" (or "unlimited").
+    let rlimit = std::fs::read_to_string("/proc/self/limits")
+        .ok()
+        .and_then(|t| {
+            let l = t.lines().find(|l| l.starts_with("Max address space"))?;
+            l["Max address space".len()..]
+                .split_whitespace()
+                .next()?
+                .parse::<u64>()
+                .ok()
+        })
+        .unwrap_or(u64::MAX);
+    let m = total.min(rlimit);
+    if m == u64::MAX {
+        m
+    } else {
+        m / 5 * 4
+    }
+}
+
+/// `--max-memory` in MiB when given, else [`default_limit`].
+pub fn limit(max_mib: Option<u64>) -> u64 {
+    max_mib.map_or_else(default_limit, |m| m.saturating_mul(1 << 20))
+}
+
+/// Bytes as GiB with one decimal (MiB below 1 GiB), for messages.
+pub fn gib(bytes: u64) -> String {
+    if bytes < 1 << 30 {
+        format!("{} MiB", bytes.div_ceil(1 << 20))
+    } else {
+        format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn limits() {
+        assert_eq!(limit(Some(3)), 3 << 20);
+        assert_eq!(limit(Some(u64::MAX)), u64::MAX);
+        let d = default_limit();
+        assert!(d > 1 << 20, "{d}");
+        assert_eq!(gib(3 << 29), "1.5 GiB");
+        assert_eq!(gib(64 << 20), "64 MiB");
+    }
+}
