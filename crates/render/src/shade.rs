@@ -84,7 +84,10 @@ mod tests {
         // att = 1 / (1 + 1 + 1) at distance 2; diffuse and specular factors are 1.
         let c = local(&s, 0, &m, std::slice::from_ref(&l), &[true], Vec3::ZERO);
         assert!((c - Vec3::new(0.5 / 3.0, 0.25 / 3.0, 0.0)).length() < 1e-6);
-        assert_eq!(local(&s, 0, &m, &[l], &[false], Vec3::ZERO), Vec3::ZERO);
+        assert_eq!(
+            local(&s, 0, &m, std::slice::from_ref(&l), &[false], Vec3::ZERO),
+            Vec3::ZERO
+        );
         // The ambient term: k_a ⊙ L_a, lit or not; with no ambient light, eq. 3.19 exactly.
         let ma = Material {
             ambient: Vec3::new(0.5, 0.25, 1.0),
@@ -92,14 +95,14 @@ mod tests {
         };
         let la = Vec3::new(0.2, 0.4, 0.0);
         assert_eq!(
-            local(&s, 0, &ma, &[l], &[false], la),
+            local(&s, 0, &ma, std::slice::from_ref(&l), &[false], la),
             Vec3::new(0.1, 0.1, 0.0)
         );
-        let lit = local(&s, 0, &ma, &[l], &[true], la);
+        let lit = local(&s, 0, &ma, std::slice::from_ref(&l), &[true], la);
         assert!((lit - c - Vec3::new(0.1, 0.1, 0.0)).length() < 1e-6);
         for v in [true, false] {
-            let plain = local(&s, 0, &m, &[l], &[v], Vec3::ZERO);
-            let with_ka = local(&s, 0, &ma, &[l], &[v], Vec3::ZERO);
+            let plain = local(&s, 0, &m, std::slice::from_ref(&l), &[v], Vec3::ZERO);
+            let with_ka = local(&s, 0, &ma, std::slice::from_ref(&l), &[v], Vec3::ZERO);
             assert_eq!(
                 plain.to_array().map(f32::to_bits),
                 with_ka.to_array().map(f32::to_bits)

@@ -309,6 +309,51 @@ impl Track {
 }
 
 impl Animation {
+    /// Every key finite (times, values, tension/continuity/bias) and every rotation a
+    /// non-zero quaternion, so that no time of the animation yields a NaN vertex (a NaN
+    /// rotation key in a TOML file loaded and made every frame after it NaN, found by
+    /// fuzzing). Scale keys may be zero: a mesh scaled to nothing has no area and is hit
+    /// by no ray.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.start.is_finite() && self.end.is_finite()) {
+            return Err(format!(
+                "animation interval [{}, {}] must be finite",
+                self.start, self.end
+            ));
+        }
+        let fin = |x: &[f32]| x.iter().all(|v| v.is_finite());
+        for tr in &self.tracks {
+            let bad = |what: &str, k: usize| {
+                Err(format!(
+                    "animation track '{}': {what} key {} is not finite",
+                    tr.name,
+                    k + 1
+                ))
+            };
+            for (what, keys) in [("translation", &tr.translation), ("scale", &tr.scale)] {
+                if let Some(k) = keys
+                    .iter()
+                    .position(|k| !(fin(&[k.t]) && fin(&k.v.to_array()) && fin(&k.tcb)))
+                {
+                    return bad(what, k);
+                }
+            }
+            if let Some(k) = tr.rotation.iter().position(|k| {
+                !(fin(&[k.t]) && fin(&k.q.to_array()) && fin(&k.tcb) && k.q.length() > 1e-6)
+            }) {
+                return bad("rotation", k);
+            }
+        }
+        for (m, keys) in self.vertex_keys.iter().enumerate() {
+            if let Some(k) = keys {
+                if !fin(&k.times) || k.positions.iter().any(|p| p.iter().any(|v| !v.is_finite())) {
+                    return Err(format!("vertex animation of mesh {m}: a key is not finite"));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// The world transform of mesh `m` at time `t` (None: the mesh's own transform).
     pub fn mesh_transform(&self, m: usize, t: f32) -> Option<Mat4> {
         let chain = self.chains.get(m)?;

@@ -47,6 +47,43 @@ pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
     load_gltf_scene_in(path, &crate::io::Sandbox::for_scene(path, false))
 }
 
+/// What the `gltf` crate's validation assumes before it checks it: every primitive's
+/// POSITION accessor exists (its validation hook indexes the accessor list directly and
+/// panicked on a missing one, found by fuzzing). A file that is not JSON is left to the
+/// crate's own error.
+fn precheck(bytes: &[u8]) -> Result<(), String> {
+    let json: std::borrow::Cow<[u8]> = if bytes.starts_with(b"glTF") {
+        match gltf::Glb::from_slice(bytes) {
+            Ok(g) => g.json,
+            Err(_) => return Ok(()),
+        }
+    } else {
+        bytes.into()
+    };
+    // The crate's own parser without its validation, so that both see the same document.
+    let Ok(root) = gltf::json::deserialize::from_slice::<gltf::json::Root>(&json) else {
+        return Ok(());
+    };
+    let accessors = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for (name, a) in &prim.attributes {
+                if a.value() >= accessors {
+                    let name = match name {
+                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                        gltf::json::validation::Checked::Invalid => "an invalid".into(),
+                    };
+                    return Err(format!(
+                        "mesh {m} primitive {p}: {name} accessor {} does not exist ({accessors} accessors)",
+                        a.value()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Decode a relative URI's `%XX` escapes (RFC 3986); `None` when an escape is malformed or
 /// the result is not UTF-8 (where the `gltf` crate's own import would panic).
 fn percent_decode(uri: &str) -> Option<String> {
@@ -121,9 +158,14 @@ pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene,
             cause: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         });
     }
-    crate::io::check_regular(path)?;
+    // Read through the bounded reader and parse from memory: `Gltf::open` trusts a GLB
+    // header's length and allocates it (a 3 GB request from a 100-byte file, found by
+    // fuzzing); `from_slice` checks lengths against the bytes there are.
+    let bytes = crate::io::read_file(path)?;
+    precheck(&bytes).map_err(|e| bad(format!("glTF: {e}")))?;
     let gltf::Gltf { document, blob } =
-        gltf::Gltf::open(path).map_err(|e| bad(format!("glTF: {e}")))?;
+        gltf::Gltf::from_slice(&bytes).map_err(|e| bad(format!("glTF: {e}")))?;
+    drop(bytes);
     let buffers = import_buffers(&document, path, blob, sb)?;
     let mut report = LoadReport {
         source: Some(path.to_path_buf()),
@@ -183,6 +225,21 @@ pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene,
                 .collect();
             if let Some(p) = pos.iter().find(|p| !geom::finite3(**p)) {
                 return Err(bad(format!("{what}: non-finite vertex {p}")));
+            }
+            // Indices are unsigned integers (§3.7.2.1); the `gltf` crate's reader reaches
+            // `unreachable!` on any other type (found by fuzzing).
+            if let Some(acc) = prim.indices() {
+                use gltf::accessor::DataType;
+                if !matches!(
+                    acc.data_type(),
+                    DataType::U8 | DataType::U16 | DataType::U32
+                ) || acc.dimensions() != gltf::accessor::Dimensions::Scalar
+                {
+                    return Err(bad(format!(
+                        "{what}: index accessor {} is not unsigned scalars",
+                        acc.index()
+                    )));
+                }
             }
             // An index accessor that does not fit its buffer is an error, not a reason to
             // draw the vertices unindexed.

@@ -390,6 +390,9 @@ impl Scene {
             m.validate()
                 .map_err(|e| SceneError::invalid(&path, format!("material '{}': {e}", m.name)))?;
         }
+        if let Some(a) = &self.animation {
+            a.validate().map_err(|e| SceneError::invalid(&path, e))?;
+        }
         if !(self.ambient.is_finite() && self.ambient.min_element() >= 0.0) {
             return Err(SceneError::invalid(
                 &path,

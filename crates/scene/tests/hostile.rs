@@ -370,3 +370,74 @@ fn bart_tracks_whose_times_go_back_load_with_a_warning_and_evaluate_as_bart_does
     let s = load_quickly(&write(&d, "sorted.aff", &sorted)).unwrap();
     assert!(s.report.warnings.is_empty(), "{:?}", s.report.warnings);
 }
+
+/// Inputs the fuzzer (`fuzz/`) found, each once a panic or an abort in a third-party parser.
+#[test]
+fn fuzzer_findings_are_clear_errors() {
+    let d = dir("fuzzed");
+    // A GLB whose header claims 3 GB: `gltf::Gltf::open` allocated that much.
+    let mut glb = b"glTF".to_vec();
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&0xbf80_0000u32.to_le_bytes());
+    glb.extend_from_slice(&0xbf80_0000u32.to_le_bytes());
+    glb.extend_from_slice(b"JSON{}");
+    let p = d.join("huge.glb");
+    std::fs::write(&p, &glb).unwrap();
+    let e = err_of(p.to_str().unwrap());
+    assert!(e.contains("huge.glb") && e.contains("glTF"), "{e}");
+    // An MTL colour with two numbers: tobj unwrapped it.
+    write(&d, "short.mtl", "newmtl red\nKa 0.5 0\nKd 1 0 0\n");
+    let e = err_of(&write(&d, "short.obj", &format!("mtllib short.mtl\n{TRI}")));
+    assert!(
+        e.contains("short.mtl:2") && e.contains("Ka needs three numbers"),
+        "{e}"
+    );
+    // A POSITION accessor that does not exist: gltf-json's validation indexed past the list.
+    let g = r#"{"asset":{"version":"2.0"},"meshes":[{"primitives":[{"attributes":{"POSITION":7}}]}],
+        "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}"#;
+    let e = err_of(&write(&d, "pos.gltf", g));
+    assert!(e.contains("POSITION accessor 7 does not exist"), "{e}");
+    // Float indices: the gltf crate's index reader reached `unreachable!`.
+    let g = r#"{"asset":{"version":"2.0"},
+        "buffers":[{"byteLength":48,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAgD8AAABA"}],
+        "bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":12}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                     {"bufferView":1,"componentType":5126,"count":3,"type":"SCALAR"}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+        "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}"#;
+    let e = err_of(&write(&d, "fidx.gltf", g));
+    assert!(e.contains("not unsigned scalars"), "{e}");
+}
+
+#[test]
+fn a_material_library_named_thousands_of_times_is_read_once() {
+    // Found by fuzzing: 5,000 `mtllib` lines naming one 90 KB library took 7 s.
+    let d = dir("mtllib-repeat");
+    let mtl: String = (0..2000)
+        .map(|i| format!("newmtl m{i}\nKd 0.5 0.5 0.5\n"))
+        .collect();
+    write(&d, "big.mtl", &mtl);
+    let obj = format!("{}usemtl m7\n{TRI}", "mtllib big.mtl\n".repeat(5000));
+    let t0 = Instant::now();
+    let s = load_quickly(&write(&d, "many.obj", &obj)).unwrap();
+    assert!(t0.elapsed() < Duration::from_secs(3), "{:?}", t0.elapsed());
+    assert!(s.materials.iter().any(|m| m.name == "m7"));
+    assert!(s.materials.len() <= 2001, "{} materials", s.materials.len());
+}
+
+#[test]
+fn non_finite_animation_keys_are_errors() {
+    // Found by fuzzing: a NaN rotation key loaded and made every later frame NaN.
+    let d = dir("nan-keys");
+    let toml = "[[meshes]]\nshape = \"sphere\"\n[meshes.animation]\nkeys = [\n\
+                { t = 0, rotate = [0, 0, 0] },\n{ t = 2, rotate = [0, 180, -nan] },\n]\n";
+    let e = err_of(&write(&d, "nan.toml", toml));
+    assert!(
+        e.contains("nan.toml") && e.contains("rotation key 2 is not finite"),
+        "{e}"
+    );
+    let toml = "[[meshes]]\nshape = \"sphere\"\n[meshes.animation]\nkeys = [\n\
+                { t = 0, translate = [0, 0, 0] },\n{ t = inf, translate = [1, 0, 0] },\n]\n";
+    let e = err_of(&write(&d, "inf.toml", toml));
+    assert!(e.contains("is not finite"), "{e}");
+}
