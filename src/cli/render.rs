@@ -56,7 +56,26 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     check_memory("the render", "--width/--height", render_bytes, a.max_memory)?;
     // The engine's structure gets what the render leaves (the grid checks its model level
     // by level against it).
-    opts.grid.max_bytes = super::memory_limit(a.max_memory).saturating_sub(render_bytes);
+    let left = super::memory_limit(a.max_memory).saturating_sub(render_bytes);
+    opts.grid.max_bytes = left;
+    // CRSH/RAH batch their pairs by the budget: a budget whose model exceeds what is left
+    // is lowered to fit (more, smaller batches; no pair dropped), or refused below 1024.
+    if a.engine.rsh_method().is_some() && opts.rsh.pair_bytes() > left {
+        match opts.rsh.budget_within(left) {
+            Some(b) => {
+                say!(
+                    "pair budget lowered from {} to {b} pairs to fit --max-memory ({} left after the render)",
+                    opts.rsh.pair_budget,
+                    render::memory::gib(left)
+                );
+                opts.rsh.pair_budget = b;
+            }
+            None => bail!(
+                "--pair-budget: even 1024 pairs need more than the {} --max-memory leaves after the render; raise --max-memory or lower --width/--height",
+                render::memory::gib(left)
+            ),
+        }
+    }
     let r = scene.report.clone();
     say!(
         "loaded {} in {:.2} s: {} triangles, {} meshes, {} materials, {} lights{}{}",

@@ -49,6 +49,27 @@ pub struct RshConfig {
 /// Default pair budget: 2^24 pairs (128 MiB for the two u32 arrays of one buffer).
 pub const DEFAULT_PAIR_BUDGET: usize = 1 << 24;
 
+/// The traversal's memory model: bytes per pair of the budget (node and triangle ids, the
+/// test's flag and its scan offset: 4 × u32) …
+pub const BYTES_PER_PAIR: u64 = 16;
+
+impl RshConfig {
+    /// … and the most the traversal holds: one buffer per level of the depth-first descent
+    /// plus the top level's candidates and the final tests' (`levels + 2` buffers of
+    /// `pair_budget` pairs).
+    pub fn pair_bytes(&self) -> u64 {
+        self.pair_budget as u64 * BYTES_PER_PAIR * (self.levels as u64 + 2)
+    }
+
+    /// The largest pair budget whose [`RshConfig::pair_bytes`] fit `bytes` (batching more,
+    /// never dropping a pair), at most the configured one; `None` below the minimum 1024.
+    pub fn budget_within(&self, bytes: u64) -> Option<usize> {
+        let per = BYTES_PER_PAIR * (self.levels as u64 + 2);
+        let fit = (bytes / per).min(self.pair_budget as u64) as usize;
+        (fit >= 1024).then_some(fit)
+    }
+}
+
 impl RshConfig {
     /// CRSH's defaults: B = 8, D = 2, thesis hash, exact unions, RAH node test, mesh culling.
     pub fn crsh() -> Self {
