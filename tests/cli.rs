@@ -855,3 +855,43 @@ fn bart_ambient_light_lights_what_the_point_light_does_not() {
     )));
     assert_eq!(std::fs::read(&gpu).unwrap(), std::fs::read(&cpu).unwrap());
 }
+
+#[test]
+fn outside_paths_need_the_option_and_suspicious_tracks_warn() {
+    let d = tmp("outside");
+    let inner = d.join("scene");
+    std::fs::create_dir_all(&inner).unwrap();
+    write(&d, "beside.mtl", "newmtl m\nKd 1 0 0\n");
+    let obj = write(
+        &inner,
+        "s.obj",
+        "mtllib ../beside.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n",
+    );
+    let out = d.join("o.png");
+    let args = format!(
+        "render {obj} --width 16 --height 16 --out {}",
+        out.display()
+    );
+    fails(
+        &words(&args),
+        &["s.obj", "mtllib '../beside.mtl'", "--allow-outside-paths"],
+    );
+    assert!(!out.exists());
+    ok(&words(&format!("{args} --allow-outside-paths")));
+    // A BART track whose key times go back loads, with one warning line naming file:line.
+    let aff = write(
+        &d,
+        "back.aff",
+        "a 0 4 5\nv\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 1\nresolution 16 16\n\
+         l 0 5 5\nk m\n{\ntransl 5\n0 0 0 0 0 0 0\n2 1 0 0 0 0 0\n1 2 0 0 0 0 0\n3 0 0 0 0 0 0\n\
+         4 1 0 0 0 0 0\n}\nx m\n{\np 3\n0 0 0\n1 0 0\n0 1 0\n}\n",
+    );
+    let o = ok(&words(&format!(
+        "render {aff} --width 16 --height 16 --out {}",
+        d.join("b.png").display()
+    )));
+    let err = String::from_utf8_lossy(&o.stderr);
+    let warnings: Vec<&str> = err.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert_eq!(warnings.len(), 1, "{err}");
+    assert!(warnings[0].contains("back.aff:10:"), "{err}");
+}
