@@ -151,24 +151,6 @@ fn gltf_bin() -> Vec<u8> {
     b
 }
 
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in bytes.chunks(3) {
-        let n = (c[0] as u32) << 16
-            | (*c.get(1).unwrap_or(&0) as u32) << 8
-            | *c.get(2).unwrap_or(&0) as u32;
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 /// A GLB (binary glTF) of the same triangle.
 fn glb() -> Vec<u8> {
     let json = gltf("x").replace(r#","uri":"x""#, "");
@@ -304,7 +286,7 @@ pub fn all(scenes: Option<&Path>) -> Vec<Target> {
     obj_seeds.extend(real_mtls.iter().map(|m| vec![b(OBJ[1]), b(m)]));
     let data_uri = format!(
         "data:application/octet-stream;base64,{}",
-        base64(&gltf_bin())
+        base64::encode(gltf_bin())
     );
     let mut aff_seeds: Vec<Vec<Vec<u8>>> = AFF.iter().map(|a| vec![b(a), b(INC_AFF)]).collect();
     aff_seeds.extend(real_affs.iter().map(|a| vec![b(a), b(INC_AFF)]));

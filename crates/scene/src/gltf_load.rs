@@ -341,7 +341,7 @@ pub(crate) mod tests {
         for i in [0u16, 1, 2, 0, 2, 3] {
             bytes.extend_from_slice(&i.to_le_bytes());
         }
-        let b64 = base64_encode(&bytes);
+        let b64 = base64::encode(&bytes);
         format!(
             r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
             "nodes":[{{"mesh":0,"translation":[0,0,-5]}}],
@@ -353,24 +353,6 @@ pub(crate) mod tests {
             "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":12}}],
             "buffers":[{{"byteLength":60,"uri":"data:application/octet-stream;base64,{b64}"}}]}}"#
         )
-    }
-
-    fn base64_encode(data: &[u8]) -> String {
-        const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-        let mut s = String::new();
-        for c in data.chunks(3) {
-            let n = (c[0] as u32) << 16
-                | (*c.get(1).unwrap_or(&0) as u32) << 8
-                | *c.get(2).unwrap_or(&0) as u32;
-            for k in 0..4 {
-                if k <= c.len() {
-                    s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-                } else {
-                    s.push('=');
-                }
-            }
-        }
-        s
     }
 
     #[test]
