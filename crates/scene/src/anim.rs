@@ -315,9 +315,10 @@ impl Animation {
     /// fuzzing). Scale keys may be zero: a mesh scaled to nothing has no area and is hit
     /// by no ray.
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.start.is_finite() && self.end.is_finite()) {
+        if !(self.start.is_finite() && self.end.is_finite() && (self.end - self.start).is_finite())
+        {
             return Err(format!(
-                "animation interval [{}, {}] must be finite",
+                "animation interval [{}, {}] must be finite (and so must its length)",
                 self.start, self.end
             ));
         }
@@ -375,7 +376,9 @@ impl Animation {
                 if n <= 1 {
                     self.start
                 } else {
-                    self.start + (self.end - self.start) * i as f32 / (n - 1) as f32
+                    // The fraction first: (end − start) · i overflows f32 for a long
+                    // interval (an `end = 3e38` made frame 2 infinite, found by fuzzing).
+                    self.start + (self.end - self.start) * (i as f32 / (n - 1) as f32)
                 }
             })
             .collect()

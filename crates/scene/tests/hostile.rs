@@ -441,3 +441,26 @@ fn non_finite_animation_keys_are_errors() {
     let e = err_of(&write(&d, "inf.toml", toml));
     assert!(e.contains("is not finite"), "{e}");
 }
+
+#[test]
+fn animation_intervals_near_the_f32_limit_give_finite_frames() {
+    // Found by fuzzing: `end = 3e38` made the last frame's time infinite (and its geometry
+    // NaN); an interval whose length overflows is an error.
+    let d = dir("long-interval");
+    let toml = |start: &str, end: &str| {
+        format!(
+            "[[meshes]]\nshape = \"box\"\n[meshes.animation]\nloop = true\nkeys = [\n\
+             {{ t = 0, translate = [0, 0, 0] }},\n{{ t = 2, translate = [1, 0, 0] }},\n]\n\
+             [animation]\nstart = {start}\nend = {end}\n"
+        )
+    };
+    let s = load_quickly(&write(&d, "long.toml", &toml("0", "3e38"))).unwrap();
+    let a = s.animation.as_ref().unwrap();
+    for t in a.frame_times(3) {
+        assert!(t.is_finite(), "{t}");
+        let g = scene::Geometry::from_scene(&s.at_time(t));
+        assert!(g.tris.iter().flatten().all(|v| v.is_finite()), "t = {t}");
+    }
+    let e = err_of(&write(&d, "over.toml", &toml("-3e38", "3e38")));
+    assert!(e.contains("must be finite"), "{e}");
+}
