@@ -464,3 +464,16 @@ fn animation_intervals_near_the_f32_limit_give_finite_frames() {
     let e = err_of(&write(&d, "over.toml", &toml("-3e38", "3e38")));
     assert!(e.contains("must be finite"), "{e}");
 }
+
+#[test]
+fn declared_counts_do_not_reserve_what_the_file_cannot_hold() {
+    // Found by fuzzing: `m vertices 49551616` in a 440-byte file reserved 567 MiB before
+    // reading the first vertex. The count now fails where the file's tokens run out.
+    let d = dir("counts");
+    let e = err_of(&write(
+        &d,
+        "m.aff",
+        "m\n vertices 49551616\n 0 0 0\n 1 0 0\n 0 1 0\n triangles 1\n 0 1 2\n",
+    ));
+    assert!(e.contains("m.aff:") && e.contains("mesh vertex"), "{e}");
+}

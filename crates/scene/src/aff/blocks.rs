@@ -13,7 +13,7 @@ impl Parser {
     pub(super) fn mesh(&mut self, c: &mut Cursor, label: &str, mat: u32) -> Result<(), SceneError> {
         c.expect("vertices")?;
         let nv = c.count("vertex count", MAX_COUNT)?;
-        let mut pos = Vec::with_capacity(nv);
+        let mut pos = Vec::with_capacity(c.capacity(nv, 3));
         for _ in 0..nv {
             pos.push(c.vec3("mesh vertex")?);
         }
@@ -105,7 +105,7 @@ impl Parser {
                 "}" => break,
                 "transl" | "scale" => {
                     let n = c.count("key count", 1 << 20)?;
-                    let mut v = Vec::with_capacity(n);
+                    let mut v = Vec::with_capacity(c.capacity(n, 7));
                     for _ in 0..n {
                         let t = c.num("key time")?;
                         let x = c.vec3(&w)?;

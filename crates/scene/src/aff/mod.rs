@@ -373,8 +373,8 @@ impl Parser {
     /// `p N v...` or `pp N (v n)...`: a polygon, as a triangle fan.
     fn polygon(&mut self, c: &mut Cursor, normals: bool, mat: u32) -> Result<(), SceneError> {
         let n = c.count("vertex count", 1 << 20)?;
-        let mut ps = Vec::with_capacity(n);
-        let mut ns = Vec::with_capacity(n);
+        let mut ps = Vec::with_capacity(c.capacity(n, 3));
+        let mut ns = Vec::with_capacity(c.capacity(n, 3));
         for _ in 0..n {
             ps.push(c.vec3("polygon vertex")?);
             if normals {
@@ -416,8 +416,8 @@ impl Parser {
         mat: u32,
     ) -> Result<(), SceneError> {
         let nk = c.count("key count", 1 << 16)?;
-        let mut times = Vec::with_capacity(nk);
-        let mut pos = Vec::with_capacity(nk);
+        let mut times = Vec::with_capacity(c.capacity(nk, 1));
+        let mut pos = Vec::with_capacity(c.capacity(nk, 1));
         for _ in 0..nk {
             times.push(c.num("key time")?);
             let mut p = [Vec3::ZERO; 3];
