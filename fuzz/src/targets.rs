@@ -298,20 +298,11 @@ pub fn all(scenes: Option<&Path>) -> Vec<Target> {
         include_str!("../../bench/scenes/kitchen.toml"),
     ];
     let mut toml_seeds: Vec<Vec<Vec<u8>>> = TOML.iter().map(|t| vec![b(t), b(TRI)]).collect();
-    toml_seeds.extend(bench_tomls.iter().map(|t| {
-        let t: String = t
-            .lines()
-            .map(|l| {
-                if l.trim_start().starts_with("file") {
-                    "file = \"tri.obj\"".to_string()
-                } else {
-                    l.to_string()
-                }
-            })
-            .collect::<Vec<_>>()
-            .join("\n");
-        vec![b(&t), b(TRI)]
-    }));
+    toml_seeds.extend(
+        bench_tomls
+            .iter()
+            .map(|t| vec![b(&relink(t, "file", " = \"tri.obj\"")), b(TRI)]),
+    );
     vec![
         Target {
             name: "obj",
