@@ -93,6 +93,7 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
                 progress(&format!("{name}: {method:?} {b}/{d} on the CPU"));
                 let cpu = rsh::RshEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?;
                 let g = device()?;
+                let cfg_hash_bits = cfg.hash_bits.clone();
                 let gpu = gpu::GpuRsh::new(g, &geo, cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
                 // Warm-up on the first batch: drivers compile pipelines at first use (lavapipe
                 // JIT-compiles every kernel), which is not the pipeline's cost.
@@ -127,6 +128,15 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
                     sg.ray_tri_tests,
                     100.0 * sg.total_tests() as f64 / (nrays * geo.len() as u64).max(1) as f64
                 );
+                if !same_counts {
+                    md += &format!(
+                        "Counters that differ (CPU → GPU): {}.\n\n",
+                        counter_differences(&counters(&sc), &counters(&sg)).join("; ")
+                    );
+                    if method == rsh::Method::Crsh {
+                        md += &hash_agreement(&gpu, &batches, &geo, &cfg_hash_bits);
+                    }
+                }
                 md += "| phase | CPU ms | GPU ms | GPU / CPU |\n|---|---:|---:|---:|\n";
                 let mut shown = Vec::new();
                 for p in Phase::ALL.into_iter().chain(gt.iter().map(|x| x.0)) {
@@ -173,4 +183,104 @@ fn device() -> anyhow::Result<gpu::Gpu> {
         std::process::exit(1);
     });
     Ok(g)
+}
+
+/// Whether the GPU's hash pass gave every ray of `batches` the CPU's key (the first pass
+/// whose disagreement changes all counts after it), as a report line.
+fn hash_agreement(
+    gpu: &gpu::GpuRsh,
+    batches: &[(render::RayBatch, render::TraceMode, Vec<Hit>)],
+    geo: &scene::Geometry,
+    bits: &rsh::HashBits,
+) -> String {
+    let (mut n, mut differ, mut first) = (0, 0, None);
+    for (rays, _, _) in batches {
+        let (keys, _) = gpu.hash_keys(rays, false);
+        for (i, &k) in keys.iter().enumerate() {
+            let cpu = rsh::hash::thesis_key(rays, i, &geo.bounds, bits);
+            if k != cpu {
+                differ += 1;
+                first.get_or_insert(format!(
+                    "ray {i} of batch {n}: GPU {k:#010x}, CPU {cpu:#010x}, direction bits {:08x?}",
+                    rays.dir[i].to_array().map(f32::to_bits)
+                ));
+            }
+        }
+        n += 1;
+    }
+    match first {
+        None => "Hash keys: all equal the CPU's.\n\n".into(),
+        Some(f) => format!("Hash keys: {differ} differ from the CPU's; the first: {f}.\n\n"),
+    }
+}
+
+/// The counters of two traces that differ, as `path: cpu → gpu` (paths into the serialized
+/// [`TraceStats`], e.g. `levels.levels.level 2 SH.tests`), so that a
+/// disagreement names the pass it starts in.
+fn counter_differences(cpu: &TraceStats, gpu: &TraceStats) -> Vec<String> {
+    fn walk(path: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+        use serde_json::Value;
+        match (a, b) {
+            (Value::Object(x), Value::Object(y)) => {
+                let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
+                for k in keys {
+                    let (u, v) = (
+                        x.get(k).unwrap_or(&Value::Null),
+                        y.get(k).unwrap_or(&Value::Null),
+                    );
+                    walk(
+                        &format!("{path}{}{k}", if path.is_empty() { "" } else { "." }),
+                        u,
+                        v,
+                        out,
+                    );
+                }
+            }
+            (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
+                for (i, (u, v)) in x.iter().zip(y).enumerate() {
+                    // Level rows are named by their level and ray kind, not their index.
+                    let label = match (u.get("level"), u.get("kind")) {
+                        (Some(l), Some(Value::String(k))) => format!("level {l} {k}"),
+                        _ => i.to_string(),
+                    };
+                    walk(&format!("{path}.{label}"), u, v, out);
+                }
+            }
+            _ if a != b => out.push(format!("{path}: {a} → {b}")),
+            _ => {}
+        }
+    }
+    let value = |s: &TraceStats| serde_json::to_value(s).unwrap_or_default();
+    let mut out = Vec::new();
+    walk("", &value(cpu), &value(gpu), &mut out);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counter_differences_name_the_counts_that_differ() {
+        let mut a = TraceStats {
+            ray_tri_tests: 10,
+            ..Default::default()
+        };
+        a.levels.tests = vec![[1, 2, 3, 4], [5, 6, 7, 8]];
+        a.levels.hits = vec![[1, 1, 1, 1], [2, 2, 2, 2]];
+        a.counters.insert("chunks".into(), 3);
+        let mut b = a.clone();
+        assert!(counter_differences(&a, &b).is_empty());
+        b.ray_tri_tests = 11;
+        b.levels.tests[1][2] = 9;
+        b.counters.insert("chunks".into(), 4);
+        assert_eq!(
+            counter_differences(&a, &b),
+            [
+                "counters.chunks: 3 → 4",
+                "levels.levels.level 2 RE.tests: 7 → 9",
+                "ray_tri_tests: 10 → 11"
+            ]
+        );
+    }
 }

@@ -56,7 +56,7 @@ fn shadow_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     let dist = len3(d);
     o_org[k] = vec4<f32>(lp, 0.0);
     if dist > 0.0 && is_finite(dist) {
-        o_dir[k] = vec4<f32>(d / dist, dist);
+        o_dir[k] = vec4<f32>(div3(d, dist), dist);
     } else {
         o_dir[k] = vec4<f32>(0.0, 0.0, 1.0, 0.0);
     }
@@ -87,7 +87,7 @@ fn refract3(i: vec3<f32>, n: vec3<f32>, eta: f32) -> vec4<f32> {
     if k < 0.0 {
         return vec4<f32>(0.0);
     }
-    return vec4<f32>(normalize3(mul3(i, eta) + mul3(n, mul(eta, cosi) - sqrt(k))), 1.0);
+    return vec4<f32>(normalize3(mul3(i, eta) + mul3(n, mul(eta, cosi) - sqrt32(k))), 1.0);
 }
 
 fn mirror(i: u32, f: array<vec3<f32>, 2>) -> array<vec4<f32>, 2> {
@@ -127,7 +127,7 @@ fn bounce_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         let entering = dot3(s_ng[i].xyz, inc) < 0.0;
         var eta = ior;
         if entering {
-            eta = 1.0 / ior;
+            eta = div(1.0, ior);
         }
         let w = tw * transparency;
         let t = refract3(inc, f[1], eta);
@@ -177,9 +177,9 @@ fn shade_local(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         if dist <= 0.0 {
             continue;
         }
-        let ldir = to_light / dist;
+        let ldir = div3(to_light, dist);
         let att3 = lights[3u * l + 2u].xyz;
-        let att = 1.0 / (att3.x + mul(dist, att3.y) + mul(dist * dist, att3.z));
+        let att = div(1.0, att3.x + mul(dist, att3.y) + mul(dist * dist, att3.z));
         let half = normalize_or_zero3(ldir - view);
         let df = clamp(dot3(ldir, n), 0.0, 1.0);
         let base = max(dot3(half, n), 0.0);

@@ -54,11 +54,29 @@ fn gbuffer_matches_cpu_rasterizer() {
             if cpu.tri[p] == geom::NO_HIT {
                 continue;
             }
+            // Within a tenth of the pixel's footprint: hardware snaps vertices to a
+            // sub-pixel grid and interpolates in its own precision (on an H100 a point lay
+            // 5e-4 from the CPU's, 1/40 of its 160×120 pixel).
+            let depth = (cpu.position[p] - view.eye).dot(view.fwd);
+            let pixel = depth * 2.0 * view.tan_y / view.height as f32;
             let d = (cpu.position[p] - gpu.position[p]).length();
-            assert!(d <= 1e-4 * diag, "{name} pixel {p}: positions {d} apart");
             assert!(
-                (cpu.normal[p] - gpu.normal[p]).length() < 1e-3,
-                "{name} pixel {p}: normal"
+                d <= (0.1 * pixel).max(1e-4 * diag),
+                "{name} pixel {p}: positions {d} apart (pixel footprint {pixel})"
+            );
+            // The hardware snaps vertices to a sub-pixel grid and interpolates the
+            // barycentrics its own way (on an H100 they differ from the CPU's by ~1e-3 on
+            // a sphere's few-pixel triangles, normals by 2e-3), so the GPU's normal is
+            // checked against its own barycentrics; the position check above bounds how
+            // far those are from the CPU's.
+            let [u, v] = gpu.bary[p];
+            let own = geo.shading_normal(gpu.tri[p], u, v);
+            assert!(
+                (own - gpu.normal[p]).length() < 1e-4,
+                "{name} pixel {p} (triangle {}): normal {} at its barycentrics ({u}, {v}) is {own}; CPU {}",
+                cpu.tri[p],
+                gpu.normal[p],
+                cpu.normal[p]
             );
             assert_eq!(cpu.diffuse[p], gpu.diffuse[p]);
             assert_eq!(cpu.specular[p], gpu.specular[p]);

@@ -149,6 +149,17 @@ impl GpuRsh {
         std::mem::take(&mut *self.times.lock().unwrap())
     }
 
+    /// The hash pass alone: every ray's key and validity flag (`screen`: RAH's key), as
+    /// `rsh::hash::{thesis_key, screen_key}` compute them on the CPU. For tests that pin a
+    /// disagreement to this pass; [`Tracer::trace`] keeps the keys on the device.
+    pub fn hash_keys(&self, rays: &RayBatch, screen: bool) -> (Vec<u32>, Vec<u32>) {
+        let mut ex = Exec::new(&self.gpu, &self.kernels);
+        let dr = DeviceRays::upload(&self.gpu, rays);
+        let (keys, valid) = super::hash::hash_keys(self, &mut ex, &dr, screen);
+        let n = rays.len();
+        (ex.read(&keys, n), ex.read(&valid, n))
+    }
+
     fn trace_part(&self, rays: &RayBatch, hits: &mut [Hit], stats: &mut TraceStats) {
         let n = rays.len();
         let g = &self.gpu;

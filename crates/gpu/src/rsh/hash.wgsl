@@ -64,7 +64,7 @@ fn hash_keys(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     }
     // spherical01 (rsh::hash): θ = acos(z)/π, φ = (atan2(y, x) + π)/2π, clamped to [0, 1].
     let theta = clamp(p_acos(d.z) * C_FRAC_1_PI, 0.0, 1.0);
-    let phi = clamp((p_atan2(d.y, d.x) + C_PI) * C_HALF_FRAC_1_PI, 0.0, 1.0);
+    let phi = clamp(keep(p_atan2(d.y, d.x) + C_PI) * C_HALF_FRAC_1_PI, 0.0, 1.0);
     var payload = 0u;
     if kind == 1u {
         let sb = P.u1.x;
@@ -72,7 +72,7 @@ fn hash_keys(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         let dirk = (part1by1(quant(theta, sb)) << 1u) | part1by1(quant(phi, sb));
         payload = (l << (2u * sb)) | dirk;
     } else {
-        let u = clamp((o.xyz - P.f0.xyz) / P.f1.xyz, vec3<f32>(0.0), vec3<f32>(1.0));
+        let u = clamp(div3v(o.xyz - P.f0.xyz, P.f1.xyz), vec3<f32>(0.0), vec3<f32>(1.0));
         let ob = P.u1.y;
         let org = (part1by2(quant(u.x, ob)) << 2u) | (part1by2(quant(u.y, ob)) << 1u) | part1by2(quant(u.z, ob));
         let db = P.u1.z;

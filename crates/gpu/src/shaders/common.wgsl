@@ -39,6 +39,13 @@ fn mul(a: f32, b: f32) -> f32 {
     return bitcast<f32>(bitcast<u32>(a * b) | opaque_zero());
 }
 
+// A value the compiler must compute as written before using it. NVIDIA's compiler rewrites
+// (x + K1) · K2 with constants K1, K2 into fma(x, K2, K1·K2) (on an H100 that moved 25 of 2^20
+// ray-hash keys by one step); a sum that a constant multiplies goes through keep().
+fn keep(x: f32) -> f32 {
+    return bitcast<f32>(bitcast<u32>(x) | opaque_zero());
+}
+
 fn mul3(a: vec3<f32>, b: f32) -> vec3<f32> {
     return bitcast<vec3<f32>>(bitcast<vec3<u32>>(a * b) | vec3<u32>(opaque_zero()));
 }
@@ -49,6 +56,31 @@ fn mul64(a: f64, b: f64) -> f64 {
 
 fn mul3_64(a: vec3<f64>, b: f64) -> vec3<f64> {
     return select(a * b, vec3<f64>(0.0lf), opaque_zero() != 0u);
+}
+
+// --- correctly rounded division and square root ---
+// Vulkan lets a driver compute an f32 x / y within 2.5 ulp and sqrt within 3 ulp, and
+// NVIDIA's do (on an H100 the hits and shadow directions differed from the CPU's in their last
+// bits), while the CPU's are correctly rounded. Computed in f64 and rounded once to f32, they
+// are correctly rounded again: an f32 quotient a/b cannot lie within 2^-48 (relative) of an
+// f32 rounding boundary without being on it (a - m·b is a non-zero multiple of the product's
+// last place, because m's odd 25-bit significand times b's cannot equal a's 24-bit one), and
+// a square root not within 2^-50 likewise, while f64 arithmetic errs by 2^-52 at most. The
+// WGSL `/` and `sqrt` are never used on f32 values in the kernels that must match the CPU.
+fn div(a: f32, b: f32) -> f32 {
+    return f32(f64(a) / f64(b));
+}
+
+fn div3(a: vec3<f32>, b: f32) -> vec3<f32> {
+    return vec3<f32>(vec3<f64>(a) / f64(b));
+}
+
+fn div3v(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(vec3<f64>(a) / vec3<f64>(b));
+}
+
+fn sqrt32(x: f32) -> f32 {
+    return f32(sqrt(f64(x)));
 }
 
 // --- glam Vec3, scalar implementation order ---
@@ -67,11 +99,11 @@ fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 }
 
 fn len3(a: vec3<f32>) -> f32 {
-    return sqrt(dot3(a, a));
+    return sqrt32(dot3(a, a));
 }
 
 fn normalize3(a: vec3<f32>) -> vec3<f32> {
-    let rcp = 1.0 / len3(a);
+    let rcp = div(1.0, len3(a));
     return a * rcp;
 }
 
@@ -81,7 +113,7 @@ fn is_finite(x: f32) -> bool {
 }
 
 fn normalize_or_zero3(a: vec3<f32>) -> vec3<f32> {
-    let rcp = 1.0 / len3(a);
+    let rcp = div(1.0, len3(a));
     if is_finite(rcp) && rcp > 0.0 {
         return a * rcp;
     }
@@ -98,10 +130,10 @@ fn p_atan(x0: f32) -> f32 {
     var x = abs(x0);
     var y0 = 0.0;
     if x > C_T3P8 {
-        x = -(1.0 / x);
+        x = -div(1.0, x);
         y0 = C_FRAC_PI_2;
     } else if x > C_TP8 {
-        x = (x - 1.0) / (x + 1.0);
+        x = div(x - 1.0, x + 1.0);
         y0 = C_FRAC_PI_4;
     }
     let z = x * x;
@@ -109,7 +141,7 @@ fn p_atan(x0: f32) -> f32 {
     p = mul(p, z) + C_AT2;
     p = mul(p, z) - C_AT3;
     p = p * z;
-    let y = y0 + (mul(p, x) + x);
+    let y = keep(y0 + (mul(p, x) + x));
     if neg {
         return -y;
     }
@@ -131,18 +163,18 @@ fn p_atan2(y: f32, x: f32) -> f32 {
         }
         return C_PI;
     }
-    let a = p_atan(y / x);
+    let a = p_atan(div(y, x));
     if x > 0.0 {
         return a;
     } else if y > 0.0 {
-        return a + C_PI;
+        return keep(a + C_PI);
     }
-    return a - C_PI;
+    return keep(a - C_PI);
 }
 
 fn p_acos(x0: f32) -> f32 {
     let x = clamp(x0, -1.0, 1.0);
-    return p_atan2(sqrt((1.0 - x) * (1.0 + x)), x);
+    return p_atan2(sqrt32(keep(1.0 - x) * keep(1.0 + x)), x);
 }
 
 // (sin x, cos x)

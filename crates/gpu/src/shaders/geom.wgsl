@@ -111,7 +111,7 @@ fn sphere_union_exact(s: vec4<f32>, o: vec4<f32>) -> vec4<f32> {
     let r = mul(d + s.w + o.w, 0.5);
     var center = s.xyz;
     if d > 0.0 {
-        center = s.xyz + mul3(o.xyz - s.xyz, (r - s.w) / d);
+        center = s.xyz + mul3(o.xyz - s.xyz, div(r - s.w, d));
     }
     return vec4<f32>(center, padded(r, center));
 }
@@ -137,7 +137,7 @@ fn node_test(exact: bool, sph: vec4<f32>, cone: vec4<f32>, sc: vec4<f32>, p: vec
         }
         let cp = p - c;
         let len = len3(cp);
-        if len > (r + l + d) * C_ONE_P_1EM5 {
+        if len > keep(r + l + d) * C_ONE_P_1EM5 {
             return false;
         }
         let along = dot3(cp, axis);
@@ -147,7 +147,7 @@ fn node_test(exact: bool, sph: vec4<f32>, cone: vec4<f32>, sc: vec4<f32>, p: vec
     let v = p - c;
     let len = len3(v);
     let reach = d + r;
-    if len > (r + l + d) * C_ONE_P_1EM5 {
+    if len > keep(r + l + d) * C_ONE_P_1EM5 {
         return false;
     }
     if full || len <= reach {
@@ -184,7 +184,7 @@ fn ray_pre(d: vec3<f32>) -> vec4<f32> {
         kx = ky;
         ky = t;
     }
-    let sz = 1.0 / d[kz];
+    let sz = div(1.0, d[kz]);
     return vec4<f32>(d[kx] * sz, d[ky] * sz, sz, bitcast<f32>(kx | (ky << 2u) | (kz << 4u)));
 }
 
@@ -222,7 +222,7 @@ fn intersect(org: vec3<f32>, pre: vec4<f32>, t_min: f32, t_max: f32, a0: vec3<f3
     let bz = pre.z * b[kz];
     let cz = pre.z * c[kz];
     let t_scaled = mul(u, az) + mul(v, bz) + mul(w, cz);
-    let inv = 1.0 / det;
+    let inv = div(1.0, det);
     let t = t_scaled * inv;
     if !(t > t_min && t < t_max) {
         return vec4<f32>(0.0);
