@@ -179,7 +179,7 @@ fn shade_local(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         }
         let ldir = div3(to_light, dist);
         let att3 = lights[3u * l + 2u].xyz;
-        let att = div(1.0, att3.x + mul(dist, att3.y) + mul(dist * dist, att3.z));
+        let att = div(1.0, keep(att3.x + mul(dist, att3.y)) + mul(dist * dist, att3.z));
         let half = normalize_or_zero3(ldir - view);
         let df = clamp(dot3(ldir, n), 0.0, 1.0);
         let base = max(dot3(half, n), 0.0);

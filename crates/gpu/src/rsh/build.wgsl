@@ -46,14 +46,14 @@ fn ls64(v: vec3<f64>) -> f64 {
     let xx = mul64(v.x, v.x);
     let yy = mul64(v.y, v.y);
     let zz = mul64(v.z, v.z);
-    return (xx + yy) + zz;
+    return keep64(xx + yy) + zz;
 }
 
 fn dot64(a: vec3<f64>, b: vec3<f64>) -> f64 {
     let xx = mul64(a.x, b.x);
     let yy = mul64(a.y, b.y);
     let zz = mul64(a.z, b.z);
-    return (xx + yy) + zz;
+    return keep64(xx + yy) + zz;
 }
 
 fn cross64(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
@@ -101,7 +101,7 @@ fn ball4(a: vec3<f64>, b: vec3<f64>, c: vec3<f64>, d: vec3<f64>) -> Ball {
     let det = dot64(u, cross64(v, w));
     let scale = sqrt(ls64(u)) * sqrt(ls64(v)) * sqrt(ls64(w));
     if abs(det) > 1e-12lf * scale {
-        let off = (mul3_64(cross64(v, w), ls64(u)) + mul3_64(cross64(w, u), ls64(v)) + mul3_64(cross64(u, v), ls64(w))) / (2.0lf * det);
+        let off = (keep3_64(mul3_64(cross64(v, w), ls64(u)) + mul3_64(cross64(w, u), ls64(v))) + mul3_64(cross64(u, v), ls64(w))) / (2.0lf * det);
         return Ball(a + off, ls64(off));
     }
     var pts = array<vec3<f64>, 4>(a, b, c, d);

@@ -160,6 +160,29 @@ impl GpuRsh {
         (ex.read(&keys, n), ex.read(&valid, n))
     }
 
+    /// The ordering and build passes alone: the leaf order (ray ids) and every level's
+    /// node rows (sphere, cone, and sin α | cos α | longest ray | kind bits), bottom level
+    /// first, as `rsh::build::build` makes them. For tests that pin a disagreement to a node.
+    pub fn hierarchy(&self, rays: &RayBatch) -> (Vec<u32>, Vec<[Vec<[f32; 4]>; 3]>) {
+        let mut ex = Exec::new(&self.gpu, &self.kernels);
+        let dr = DeviceRays::upload(&self.gpu, rays);
+        let (leaves, m) = leaf_order(self, &mut ex, &dr, &mut TraceStats::default());
+        let levels = build(self, &mut ex, &dr, &leaves, m);
+        let order = ex.read(&leaves, m as usize);
+        let rows = levels
+            .iter()
+            .map(|l| {
+                let n = l.len() as usize;
+                [
+                    ex.read(&l.sphere, n),
+                    ex.read(&l.cone, n),
+                    ex.read(&l.sc, n),
+                ]
+            })
+            .collect();
+        (order, rows)
+    }
+
     fn trace_part(&self, rays: &RayBatch, hits: &mut [Hit], stats: &mut TraceStats) {
         let n = rays.len();
         let g = &self.gpu;

@@ -39,15 +39,25 @@ fn mul(a: f32, b: f32) -> f32 {
     return bitcast<f32>(bitcast<u32>(a * b) | opaque_zero());
 }
 
-// A value the compiler must compute as written before using it. NVIDIA's compiler rewrites
-// (x + K1) · K2 with constants K1, K2 into fma(x, K2, K1·K2) (on an H100 that moved 25 of 2^20
-// ray-hash keys by one step); a sum that a constant multiplies goes through keep().
+// A value the compiler must compute as written before using it. NVIDIA's compiler applies
+// algebra that changes the rounding: it rewrote (x + K1) · K2 with constants K1, K2 into
+// fma(x, K2, K1·K2) (on an H100 that moved 25 of 2^20 ray-hash keys by one step) and
+// ((x − a) − b) − c into x − (a + b + c) (a cone's cos α off by one ulp). So every sum of
+// three or more terms keeps its partial sums, and a sum that a constant multiplies is kept.
 fn keep(x: f32) -> f32 {
     return bitcast<f32>(bitcast<u32>(x) | opaque_zero());
 }
 
 fn mul3(a: vec3<f32>, b: f32) -> vec3<f32> {
     return bitcast<vec3<f32>>(bitcast<vec3<u32>>(a * b) | vec3<u32>(opaque_zero()));
+}
+
+fn keep64(x: f64) -> f64 {
+    return select(x, 0.0lf, opaque_zero() != 0u);
+}
+
+fn keep3_64(x: vec3<f64>) -> vec3<f64> {
+    return select(x, vec3<f64>(0.0lf), opaque_zero() != 0u);
 }
 
 fn mul64(a: f64, b: f64) -> f64 {
@@ -88,7 +98,7 @@ fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     let xx = mul(a.x, b.x);
     let yy = mul(a.y, b.y);
     let zz = mul(a.z, b.z);
-    return (xx + yy) + zz;
+    return keep(xx + yy) + zz;
 }
 
 fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
@@ -140,8 +150,8 @@ fn p_atan(x0: f32) -> f32 {
     var p = mul(C_AT0, z) - C_AT1;
     p = mul(p, z) + C_AT2;
     p = mul(p, z) - C_AT3;
-    p = p * z;
-    let y = keep(y0 + (mul(p, x) + x));
+    p = mul(p, z);
+    let y = keep(y0 + keep(mul(p, x) + x));
     if neg {
         return -y;
     }
@@ -180,14 +190,14 @@ fn p_acos(x0: f32) -> f32 {
 // (sin x, cos x)
 fn p_sin_cos(x: f32) -> vec2<f32> {
     let qf = floor(mul(x, C_TWO_OVER_PI) + 0.5);
-    let r = ((x - mul(qf, C_DP1)) - mul(qf, C_DP2)) - mul(qf, C_DP3);
+    let r = keep(keep(x - mul(qf, C_DP1)) - mul(qf, C_DP2)) - mul(qf, C_DP3);
     let z = r * r;
     var ts = mul(-C_S0, z) + C_S1;
     ts = mul(ts, z) - C_S2;
     let s = mul(mul(ts, z), r) + r;
     var tc = mul(C_C0, z) - C_C1;
     tc = mul(tc, z) + C_C2;
-    let c = (mul(mul(tc, z), z) - mul(0.5, z)) + 1.0;
+    let c = keep(mul(mul(tc, z), z) - mul(0.5, z)) + 1.0;
     let q = i32(qf) & 3;
     if q == 0 {
         return vec2<f32>(s, c);

@@ -80,7 +80,7 @@ fn cone_union_exact(k: Cone, o: Cone) -> Cone {
     if theta + k.angle <= o.angle {
         return o;
     }
-    let alpha = mul(theta + k.angle + o.angle, 0.5);
+    let alpha = mul(keep(theta + k.angle) + o.angle, 0.5);
     return rotate_towards(k.axis, k.angle, o.axis, o.angle, alpha - k.angle);
 }
 
@@ -108,7 +108,7 @@ fn sphere_union_exact(s: vec4<f32>, o: vec4<f32>) -> vec4<f32> {
     if d + s.w <= o.w {
         return o;
     }
-    let r = mul(d + s.w + o.w, 0.5);
+    let r = mul(keep(d + s.w) + o.w, 0.5);
     var center = s.xyz;
     if d > 0.0 {
         center = s.xyz + mul3(o.xyz - s.xyz, div(r - s.w, d));
@@ -137,17 +137,17 @@ fn node_test(exact: bool, sph: vec4<f32>, cone: vec4<f32>, sc: vec4<f32>, p: vec
         }
         let cp = p - c;
         let len = len3(cp);
-        if len > keep(r + l + d) * C_ONE_P_1EM5 {
+        if len > keep(keep(r + l) + d) * C_ONE_P_1EM5 {
             return false;
         }
         let along = dot3(cp, axis);
         let radial = len3(cp - mul3(axis, along));
-        return mul(abs(along), sc.x) + (d + r) + mul(1e-5, len) >= radial * sc.y;
+        return keep(mul(abs(along), sc.x) + keep(d + r)) + mul(1e-5, len) >= mul(radial, sc.y);
     }
     let v = p - c;
     let len = len3(v);
     let reach = d + r;
-    if len > keep(r + l + d) * C_ONE_P_1EM5 {
+    if len > keep(keep(r + l) + d) * C_ONE_P_1EM5 {
         return false;
     }
     if full || len <= reach {
@@ -158,7 +158,7 @@ fn node_test(exact: bool, sph: vec4<f32>, cone: vec4<f32>, sc: vec4<f32>, p: vec
         return true;
     }
     var dist = len;
-    if wide || a > -len * sc.x {
+    if wide || a > -mul(len, sc.x) {
         let b = len3(v - mul3(axis, a));
         dist = mul(b, sc.y) - mul(a, sc.x);
     }
@@ -214,14 +214,14 @@ fn intersect(org: vec3<f32>, pre: vec4<f32>, t_min: f32, t_max: f32, a0: vec3<f3
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return vec4<f32>(0.0);
     }
-    let det = u + v + w;
+    let det = keep(u + v) + w;
     if det == 0.0 {
         return vec4<f32>(0.0);
     }
     let az = pre.z * a[kz];
     let bz = pre.z * b[kz];
     let cz = pre.z * c[kz];
-    let t_scaled = mul(u, az) + mul(v, bz) + mul(w, cz);
+    let t_scaled = keep(mul(u, az) + mul(v, bz)) + mul(w, cz);
     let inv = div(1.0, det);
     let t = t_scaled * inv;
     if !(t > t_min && t < t_max) {
