@@ -243,6 +243,9 @@ fn hash_keys_match_the_cpu_on_random_rays() {
 /// batches, for CRSH and RAH, the GPU's leaf order and every level's spheres, cones and
 /// their sines and cosines carry the CPU's bits. A counter that differs (one node–triangle
 /// test more) is pinned here to the node, with its children's values to replay on the CPU.
+/// Known open (2026-11-28): on an NVIDIA H100 one leaf sphere of cornell's second CRSH 8/2
+/// batch (a minimal ball over 8 origins on two perpendicular walls) lands one f32 ulp away
+/// in centre x and radius, with no effect on any counter; lavapipe matches everywhere.
 #[test]
 fn hierarchies_match_the_cpu_node_for_node() {
     if gpu().is_none() {
