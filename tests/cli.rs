@@ -148,6 +148,14 @@ fn bad_files() {
     );
     // A directory where a file is expected.
     fails(&["render", d.to_str().unwrap(), "--out", o], &[]);
+    // A small file that expands past the memory limit stops while it loads (1 MiB:
+    // 10,922 triangles of scene model; 20 spheres are about 20,000).
+    let spheres: String = (0..20).map(|i| format!("s {i} 0 0 0.5\n")).collect();
+    let p = write(&d, "spheres.aff", &spheres);
+    fails(
+        &["render", &p, "--out", o, "--max-memory", "1"],
+        &["spheres.aff:", "10922 triangles", "--max-memory"],
+    );
 }
 
 #[test]

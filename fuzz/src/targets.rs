@@ -36,8 +36,14 @@ pub const NAMES: &[&str] = &["obj", "gltf", "glb", "toml", "aff", "rays", "hits"
 
 /// A scene loader's oracle: errors are fine; a loaded scene must give finite triangles at
 /// every sampled time of its animation (a NaN there would be a silently wrong answer).
+/// The loaders' memory budget under fuzzing (the CLI derives it from `--max-memory`): a
+/// quarter of [`crate::alloc::SOFT_CAP`], so that the largest scene a load may make stays
+/// well below what counts as a finding.
+pub const LOAD_BUDGET: u64 = (crate::alloc::SOFT_CAP / 4) as u64;
+
 fn load_scene(p: &Path) -> Outcome {
-    let Ok(s) = scene::load(&p.to_string_lossy(), &scene::LoadOptions::default()) else {
+    let opts = scene::LoadOptions::default().for_memory(LOAD_BUDGET);
+    let Ok(s) = scene::load(&p.to_string_lossy(), &opts) else {
         return Outcome::Rejected;
     };
     let times = s

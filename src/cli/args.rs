@@ -215,12 +215,16 @@ pub struct LoadArgs {
 }
 
 impl LoadArgs {
-    /// The loader's options.
-    pub fn options(&self) -> scene::LoadOptions {
+    /// The loader's options, with a triangle budget from the memory limit (`--max-memory`
+    /// in MiB where the command has it): a scene whose model alone would exceed it stops
+    /// while it loads.
+    pub fn options(&self, max_mib: Option<u64>) -> scene::LoadOptions {
         scene::LoadOptions {
             split: self.meshes,
             allow_outside_paths: self.allow_outside_paths,
+            ..Default::default()
         }
+        .for_memory(::render::memory::limit(max_mib))
     }
 }
 

@@ -170,7 +170,7 @@ pub fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
         .split(',')
         .map(|x| Engine::parse(x).context("--engines"))
         .collect::<Result<_>>()?;
-    let scene = super::load_scene(&a.scene, &a.load.options())?;
+    let scene = super::load_scene(&a.scene, &a.load.options(None))?;
     // The engines' defaults, with the grid's dynamic-scene expansion (one pass per frame).
     let opts = engine_options(&defaults::<RshArgs>(), &defaults::<GridArgs>(), true);
     let closures: Vec<(String, Box<bench::budget::BuildFn>)> = engines

@@ -49,7 +49,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         check_extension("--gif", g, "gif")?;
     }
     let t0 = Instant::now();
-    let scene = super::load_scene(&a.scene, &a.load.options())?;
+    let scene = super::load_scene(&a.scene, &a.load.options(a.max_memory))?;
     let geo = Geometry::from_scene(&scene);
     let load_s = t0.elapsed().as_secs_f64();
     let render_bytes = render::whitted::render_bytes(a.width, a.height, scene.lights.len());

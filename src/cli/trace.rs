@@ -32,7 +32,7 @@ fn parse_viewpoint(s: &str) -> Result<scene::Camera> {
 pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
     check_out_dir("--out", &a.out)?;
     check_not_input("--out", &a.out, &[std::path::Path::new(&a.scene)])?;
-    let mut scene = super::load_scene(&a.scene, &a.load.options())?;
+    let mut scene = super::load_scene(&a.scene, &a.load.options(a.max_memory))?;
     if let Some(v) = &a.viewpoint {
         scene.camera = parse_viewpoint(v)?;
         scene
@@ -93,7 +93,7 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
     }
     let rays = render::rayfile::read_rays(&a.rays, render::RayKind::Primary)
         .map_err(anyhow::Error::msg)?;
-    let scene = super::load_scene(&a.scene, &a.load.options())?;
+    let scene = super::load_scene(&a.scene, &a.load.options(None))?;
     let geo = Geometry::from_scene(&scene);
     let t0 = Instant::now();
     let built = engines::build(a.engine, &opts, &geo)?;

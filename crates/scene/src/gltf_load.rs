@@ -174,6 +174,8 @@ pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene,
     let mut materials = vec![Material::default()];
     let mut mat_ids: HashMap<Option<usize>, u32> = HashMap::new();
     let mut meshes = Vec::new();
+    // Triangles made so far: a mesh instanced by many nodes is made once per node.
+    let mut triangles = 0u64;
     let mut camera = None;
     let gscene = document
         .default_scene()
@@ -217,6 +219,15 @@ pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene,
                 ));
                 continue;
             }
+            // Counted from the accessors, before anything is read or allocated.
+            let count = match prim.indices() {
+                Some(a) => a.count(),
+                None => prim
+                    .get(&gltf::Semantic::Positions)
+                    .map_or(0, |a| a.count()),
+            };
+            triangles += count as u64 / 3;
+            sb.admit_triangles(path, None, triangles)?;
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
             let pos: Vec<Vec3> = reader
                 .read_positions()

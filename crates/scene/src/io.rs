@@ -76,10 +76,16 @@ pub fn read_text(path: &Path) -> Result<String, SceneError> {
 /// Where the files a scene references may live: under the top-level scene file's directory
 /// or the shared scenes directory ([`crate::scenes_dir`]), after `..` and symbolic links are
 /// resolved, unless the user allowed reading outside (`--allow-outside-paths`).
+///
+/// It also carries the load's triangle budget ([`Sandbox::with_max_triangles`]): loaders call
+/// [`Sandbox::admit_triangles`] as their triangles accumulate, so that a small file that
+/// expands into a huge scene (thousands of tessellated AFF spheres, a glTF mesh instanced by
+/// thousands of nodes) stops with one error before its memory is allocated.
 #[derive(Clone, Debug)]
 pub struct Sandbox {
     roots: Vec<PathBuf>,
     allow_outside: bool,
+    max_triangles: u64,
 }
 
 impl Sandbox {
@@ -98,7 +104,46 @@ impl Sandbox {
         Sandbox {
             roots,
             allow_outside,
+            max_triangles: u64::MAX,
         }
+    }
+
+    /// The same sandbox with a budget of `n` triangles for the whole load.
+    pub fn with_max_triangles(mut self, n: u64) -> Sandbox {
+        self.max_triangles = n;
+        self
+    }
+
+    /// The load's triangle budget.
+    pub fn max_triangles(&self) -> u64 {
+        self.max_triangles
+    }
+
+    /// Refuse a load that has reached `total` triangles, more than its budget, at `path`
+    /// (and `line`, where the loader knows it).
+    pub fn admit_triangles(
+        &self,
+        path: &Path,
+        line: Option<usize>,
+        total: u64,
+    ) -> Result<(), SceneError> {
+        if total <= self.max_triangles {
+            return Ok(());
+        }
+        let msg = format!(
+            "the scene grows past {} triangles, its load budget (about {} bytes each; \
+             rayspace derives the budget from --max-memory)",
+            self.max_triangles,
+            crate::BYTES_PER_TRIANGLE
+        );
+        Err(match line {
+            Some(line) => SceneError::Parse {
+                path: path.to_path_buf(),
+                line,
+                msg,
+            },
+            None => SceneError::invalid(path, msg),
+        })
     }
 
     /// The file `name`, as written in `referrer` (relative to its directory, or absolute),

@@ -54,13 +54,42 @@ impl std::str::FromStr for MeshSplit {
 }
 
 /// Options that apply to whatever loader handles a scene.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct LoadOptions {
     /// How OBJ files are cut into meshes.
     pub split: MeshSplit,
     /// Read files the scene references even where they resolve outside the scene's
     /// directory and the scenes directory (see [`io::Sandbox`]).
     pub allow_outside_paths: bool,
+    /// Most triangles the loaded scene may have (checked while it is built; see
+    /// [`io::Sandbox::admit_triangles`]). No limit by default; [`LoadOptions::for_memory`]
+    /// derives one from a memory budget.
+    pub max_triangles: u64,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions {
+            split: MeshSplit::default(),
+            allow_outside_paths: false,
+            max_triangles: u64::MAX,
+        }
+    }
+}
+
+/// Bytes the scene model takes per triangle at most, as the loaders' budget counts them:
+/// three unshared vertices with normals (72), the index triple (12), the material (4), and
+/// the mesh's share of its bookkeeping (8).
+pub const BYTES_PER_TRIANGLE: u64 = 96;
+
+impl LoadOptions {
+    /// The triangle budget that fits `bytes` of scene model.
+    pub fn for_memory(self, bytes: u64) -> LoadOptions {
+        LoadOptions {
+            max_triangles: bytes / BYTES_PER_TRIANGLE,
+            ..self
+        }
+    }
 }
 
 /// The directory holding the shared real scenes: `$RAYSPACE_SCENES`, else `../shared/scenes`
@@ -84,7 +113,8 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
-    let sb = io::Sandbox::for_scene(path, opts.allow_outside_paths);
+    let sb = io::Sandbox::for_scene(path, opts.allow_outside_paths)
+        .with_max_triangles(opts.max_triangles);
     let scene = match ext.as_deref() {
         Some("obj") => obj::load_obj_scene_in(path, opts.split, &sb)?,
         Some("gltf") | Some("glb") => gltf_load::load_gltf_scene_in(path, &sb)?,
@@ -107,5 +137,7 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
         },
     };
     scene.validate()?;
+    // Every loader checks as it goes; this covers the built-in scenes and the last mesh.
+    sb.admit_triangles(path, None, scene.triangle_count() as u64)?;
     Ok(scene)
 }

@@ -12,8 +12,12 @@ use geom::Vec3;
 use std::path::Path;
 
 /// Check every `v`, `vn` and `f` line of an OBJ text; `path` is only used in errors.
-pub fn validate_obj(text: &str, path: &Path) -> Result<(), SceneError> {
+///
+/// Faces count against `sb`'s triangle budget (as triangulated), checked at the face that
+/// passes it, before the parser allocates anything.
+pub fn validate_obj(text: &str, path: &Path, sb: &crate::io::Sandbox) -> Result<(), SceneError> {
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
+    let mut triangles = 0u64;
     let err = |line: usize, msg: String| SceneError::Parse {
         path: path.to_path_buf(),
         line,
@@ -55,6 +59,8 @@ pub fn validate_obj(text: &str, path: &Path) -> Result<(), SceneError> {
                         format!("a face needs at least 3 vertices, found {}", verts.len()),
                     ));
                 }
+                triangles += verts.len() as u64 - 2;
+                sb.admit_triangles(path, Some(line_no), triangles)?;
                 for v in verts {
                     for (slot, s) in v.split('/').enumerate() {
                         if s.is_empty() && slot > 0 {
@@ -189,7 +195,7 @@ pub fn load_obj_meshes(
     sb: &crate::io::Sandbox,
 ) -> Result<(Vec<Mesh>, Vec<Material>), SceneError> {
     let text = crate::io::read_text(path)?;
-    validate_obj(&text, path)?;
+    validate_obj(&text, path, sb)?;
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,

@@ -291,6 +291,8 @@ fn parse_scene_file(
         let first_mesh = scene.meshes.len();
         let count = meshes.len();
         scene.append_meshes(meshes, materials);
+        // Each entry's loader keeps to the budget; together they must too.
+        sb.admit_triangles(path, None, scene.triangle_count() as u64)?;
         let track = match &def.animation {
             None => None,
             Some(a) => {
@@ -469,6 +471,9 @@ fn sequence_meshes(
         } else {
             first = Some((m.clone(), mats));
         }
+        // Every key frame holds a copy of the mesh's vertices: count it as the mesh again.
+        ctx.sb
+            .admit_triangles(&p, None, (keys.len() as u64 + 1) * m.triangles.len() as u64)?;
         keys.push(m.positions);
     }
     let (m0, mats) = first.expect("n >= 1");

@@ -477,3 +477,83 @@ fn declared_counts_do_not_reserve_what_the_file_cannot_hold() {
     ));
     assert!(e.contains("m.aff:") && e.contains("mesh vertex"), "{e}");
 }
+
+/// Load `path` with a budget of `n` triangles.
+fn err_with_budget(path: &str, n: u64) -> String {
+    let opts = LoadOptions {
+        max_triangles: n,
+        ..Default::default()
+    };
+    match load(path, &opts) {
+        Ok(s) => panic!("{path} loaded ({} triangles)", s.triangle_count()),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn scenes_that_outgrow_the_triangle_budget_stop_while_loading() {
+    let d = dir("budget");
+    // AFF: 6,000 sphere lines (about a thousand triangles each) made 354–512 MiB allocations from a
+    // 100 KB file (found by fuzzing); the load stops at the sphere that passes the budget.
+    let mut aff = String::from("v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 1 resolution 8 8\n");
+    for i in 0..6000 {
+        aff += &format!("s {i} 0 0 0.5\n");
+    }
+    let p = write(&d, "spheres.aff", &aff);
+    let per_sphere = load(&p, &LoadOptions::default()).unwrap().triangle_count() / 6000;
+    let e = err_with_budget(&p, 100_000);
+    // Sphere k is on line k + 1; the first that passes the budget names its line.
+    let line = 100_000 / per_sphere + 2;
+    assert!(
+        e.contains(&format!(
+            "spheres.aff:{line}: the scene grows past 100000 triangles"
+        )) && e.contains("--max-memory"),
+        "{e}"
+    );
+    // OBJ: counted as the faces are validated, before the parser allocates anything; a
+    // quad is two triangles.
+    let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n");
+    for _ in 0..10 {
+        obj += "f 1 2 3 4\n";
+    }
+    let p = write(&d, "quads.obj", &obj);
+    assert!(err_with_budget(&p, 19).contains("quads.obj:14:"));
+    assert!(load(
+        &p,
+        &LoadOptions {
+            max_triangles: 20,
+            ..Default::default()
+        }
+    )
+    .is_ok());
+    // glTF: one triangle instanced by 1,000 nodes is 1,000 triangles.
+    let nodes = vec![r#"{"mesh":0}"#; 1000].join(",");
+    let ids = (0..1000)
+        .map(|i| i.to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    let g = format!(
+        r#"{{"asset":{{"version":"2.0"}},
+        "buffers":[{{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}}],
+        "bufferViews":[{{"buffer":0,"byteLength":36}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        "nodes":[{nodes}],"scenes":[{{"nodes":[{ids}]}}]}}"#
+    );
+    let p = write(&d, "instanced.gltf", &g);
+    assert!(err_with_budget(&p, 999).contains("instanced.gltf: the scene grows past 999"));
+    assert_eq!(
+        load(&p, &LoadOptions::default()).unwrap().triangle_count(),
+        1000
+    );
+    // TOML: entries within the budget each, over it together.
+    write(&d, "one.obj", &obj);
+    let t = "[[meshes]]\nfile = \"one.obj\"\n[[meshes]]\nfile = \"one.obj\"\n";
+    let p = write(&d, "two.toml", t);
+    assert!(err_with_budget(&p, 30).contains("two.toml: the scene grows past 30"));
+    // The memory form: 96 bytes a triangle.
+    assert_eq!(
+        LoadOptions::default().for_memory(96 * 1000).max_triangles,
+        1000
+    );
+}

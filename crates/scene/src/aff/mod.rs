@@ -71,6 +71,8 @@ struct Parser {
     /// Where included files may live.
     sb: crate::io::Sandbox,
     meshes: Vec<Mesh>,
+    /// Triangles in `meshes` (the budget counts them with the open group's).
+    mesh_triangles: u64,
     chains: Vec<Vec<Xform>>,
     vertex_keys: Vec<Option<VertexKeys>>,
     materials: Vec<Material>,
@@ -113,6 +115,7 @@ impl Parser {
         if b.triangles.is_empty() {
             return;
         }
+        self.mesh_triangles += b.triangles.len() as u64;
         let computed = smooth_normals(&b.positions, &b.triangles);
         let normals = b
             .normals
@@ -290,6 +293,15 @@ impl Parser {
                 "i" => self.include(c, line, label, path)?,
                 other => return Err(c.err_at(line, format!("unknown AFF entity '{other}'"))),
             }
+            // After every entity: a sphere adds about a thousand triangles, so a 100 KB file of them
+            // would make a 5-million-triangle scene.
+            let open = self.loose.triangles.len()
+                + self
+                    .tpa
+                    .as_ref()
+                    .map_or(0, |(_, k, _)| k.first().map_or(0, |k| k.len() / 3));
+            self.sb
+                .admit_triangles(path, Some(line), self.mesh_triangles + open as u64)?;
         }
         Ok(())
     }
@@ -535,6 +547,7 @@ pub fn load_aff_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, 
     let mut p = Parser {
         sb: sb.clone(),
         meshes: vec![],
+        mesh_triangles: 0,
         chains: vec![],
         vertex_keys: vec![],
         materials: vec![Material::default()],
