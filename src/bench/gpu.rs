@@ -93,7 +93,7 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
                 progress(&format!("{name}: {method:?} {b}/{d} on the CPU"));
                 let cpu = rsh::RshEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?;
                 let g = device()?;
-                let cfg_hash_bits = cfg.hash_bits.clone();
+                let hash_bits = cfg.hash_bits;
                 let gpu = gpu::GpuRsh::new(g, &geo, cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
                 // Warm-up on the first batch: drivers compile pipelines at first use (lavapipe
                 // JIT-compiles every kernel), which is not the pipeline's cost.
@@ -134,7 +134,7 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
                         counter_differences(&counters(&sc), &counters(&sg)).join("; ")
                     );
                     if method == rsh::Method::Crsh {
-                        md += &hash_agreement(&gpu, &batches, &geo, &cfg_hash_bits);
+                        md += &hash_agreement(&gpu, &batches, &geo, &hash_bits);
                     }
                 }
                 md += "| phase | CPU ms | GPU ms | GPU / CPU |\n|---|---:|---:|---:|\n";

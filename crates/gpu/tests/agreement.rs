@@ -189,7 +189,7 @@ fn hash_keys_match_the_cpu_on_random_rays() {
     let s = builtin::by_name("office").unwrap();
     let geo = Geometry::from_scene(&s);
     let cfg = RshConfig::crsh();
-    let bits = cfg.hash_bits.clone();
+    let bits = cfg.hash_bits;
     let gpu = GpuRsh::new(g, &geo, cfg).unwrap();
     let mut rng = geom::Pcg32::new(20261128, 7);
     let mut rays = RayBatch::with_capacity(1 << 20);

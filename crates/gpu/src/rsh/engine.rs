@@ -163,7 +163,7 @@ impl GpuRsh {
     /// The ordering and build passes alone: the leaf order (ray ids) and every level's
     /// node rows (sphere, cone, and sin α | cos α | longest ray | kind bits), bottom level
     /// first, as `rsh::build::build` makes them. For tests that pin a disagreement to a node.
-    pub fn hierarchy(&self, rays: &RayBatch) -> (Vec<u32>, Vec<[Vec<[f32; 4]>; 3]>) {
+    pub fn hierarchy(&self, rays: &RayBatch) -> (Vec<u32>, Vec<LevelRows>) {
         let mut ex = Exec::new(&self.gpu, &self.kernels);
         let dr = DeviceRays::upload(&self.gpu, rays);
         let (leaves, m) = leaf_order(self, &mut ex, &dr, &mut TraceStats::default());
@@ -261,6 +261,10 @@ impl GpuRsh {
         ::rsh::engine::report_counters(c, self.cfg.mesh_culling, top, stats);
     }
 }
+
+/// One level of nodes as read back by [`GpuRsh::hierarchy`]: per node its sphere
+/// (centre, radius), its cone (axis, half-angle) and sin α | cos α | longest ray | kind bits.
+pub type LevelRows = [Vec<[f32; 4]>; 3];
 
 /// A ray batch on the device: origin | t_min and direction | t_max as vec4, kind | light << 2,
 /// pixel, and the intersection kernel's per-ray constants (written by the hash kernel).
