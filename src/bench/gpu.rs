@@ -193,8 +193,8 @@ fn hash_agreement(
     geo: &scene::Geometry,
     bits: &rsh::HashBits,
 ) -> String {
-    let (mut n, mut differ, mut first) = (0, 0, None);
-    for (rays, _, _) in batches {
+    let (mut differ, mut first) = (0, None);
+    for (n, (rays, _, _)) in batches.iter().enumerate() {
         let (keys, _) = gpu.hash_keys(rays, false);
         for (i, &k) in keys.iter().enumerate() {
             let cpu = rsh::hash::thesis_key(rays, i, &geo.bounds, bits);
@@ -206,7 +206,6 @@ fn hash_agreement(
                 ));
             }
         }
-        n += 1;
     }
     match first {
         None => "Hash keys: all equal the CPU's.\n\n".into(),

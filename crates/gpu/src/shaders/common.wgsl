@@ -1,7 +1,9 @@
 // Shared prelude of every rayspace kernel: the launch-parameter block, linear thread ids,
 // and the vector and elementary functions in exactly the evaluation order of the CPU code
-// (glam's scalar Vec3 and geom::pmath), so that a device with IEEE, unfused f32 arithmetic
-// computes the same bits as the CPU engines. Constants that are not exact literals are
+// (glam's scalar Vec3 and geom::pmath), so that any device computes the same bits as the CPU
+// engines: products, partial sums, ÷ and sqrt are guarded below against the fusing,
+// algebra and approximations a driver's compiler may apply (checked on lavapipe and on an
+// NVIDIA H100). Constants that are not exact literals are
 // injected by the host as bit patterns (see `kernels.rs`), never written as decimal
 // literals, because WGSL folds literal expressions in f64 (abstract float) while Rust folds
 // them in f32.
@@ -25,27 +27,27 @@ fn wg_linear(wid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return wid.x + wid.y * nwg.x;
 }
 
-// --- unfused products ---
-// Compilers may fuse a product and a sum into one FMA (one rounding instead of two; Mesa's
-// lavapipe does when the product has a single use). The CPU code never fuses, so every
-// product that feeds a sum goes through mul(): OR-ing in a zero the compiler cannot see
-// (P.f1.w, set to 0 by the host for every launch) keeps the rounded product a value of its
-// own.
+// --- values kept as written ---
+// keep(x): x computed as written before it is used. OR-ing in a zero the compiler cannot see
+// (P.f1.w, set to 0 by the host for every launch) makes x a value of its own, so that:
+// - a product that feeds a sum is not fused with it into one FMA (one rounding instead of
+//   two; lavapipe fuses when the product has a single use): such products go through mul();
+// - a compiler's algebra does not change the rounding: NVIDIA's rewrote (x + K1) · K2 with
+//   constants K1, K2 into fma(x, K2, K1·K2) (on an H100 that moved 25 of 2^20 ray-hash keys
+//   by one step) and ((x − a) − b) − c into x − (a + b + c) (a cone's cos α off by one ulp).
+//   So every sum of three or more terms keeps its partial sums, and a sum that a constant
+//   multiplies is kept.
+// f64 has no 32-bit bitcast; there a select on the opaque zero does the same.
 fn opaque_zero() -> u32 {
     return bitcast<u32>(P.f1.w);
 }
 
-fn mul(a: f32, b: f32) -> f32 {
-    return bitcast<f32>(bitcast<u32>(a * b) | opaque_zero());
-}
-
-// A value the compiler must compute as written before using it. NVIDIA's compiler applies
-// algebra that changes the rounding: it rewrote (x + K1) · K2 with constants K1, K2 into
-// fma(x, K2, K1·K2) (on an H100 that moved 25 of 2^20 ray-hash keys by one step) and
-// ((x − a) − b) − c into x − (a + b + c) (a cone's cos α off by one ulp). So every sum of
-// three or more terms keeps its partial sums, and a sum that a constant multiplies is kept.
 fn keep(x: f32) -> f32 {
     return bitcast<f32>(bitcast<u32>(x) | opaque_zero());
+}
+
+fn mul(a: f32, b: f32) -> f32 {
+    return keep(a * b);
 }
 
 fn mul3(a: vec3<f32>, b: f32) -> vec3<f32> {
@@ -61,11 +63,11 @@ fn keep3_64(x: vec3<f64>) -> vec3<f64> {
 }
 
 fn mul64(a: f64, b: f64) -> f64 {
-    return select(a * b, 0.0lf, opaque_zero() != 0u);
+    return keep64(a * b);
 }
 
 fn mul3_64(a: vec3<f64>, b: f64) -> vec3<f64> {
-    return select(a * b, vec3<f64>(0.0lf), opaque_zero() != 0u);
+    return keep3_64(a * b);
 }
 
 // --- correctly rounded division and square root ---
