@@ -114,11 +114,6 @@ impl Sandbox {
         self
     }
 
-    /// The load's triangle budget.
-    pub fn max_triangles(&self) -> u64 {
-        self.max_triangles
-    }
-
     /// Refuse a load that has reached `total` triangles, more than its budget, at `path`
     /// (and `line`, where the loader knows it).
     pub fn admit_triangles(

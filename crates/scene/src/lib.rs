@@ -137,7 +137,7 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
         },
     };
     scene.validate()?;
-    // Every loader checks as it goes; this covers the built-in scenes and the last mesh.
+    // The file loaders check as they go; this covers the built-in scenes.
     sb.admit_triangles(path, None, scene.triangle_count() as u64)?;
     Ok(scene)
 }

@@ -293,8 +293,8 @@ impl Parser {
                 "i" => self.include(c, line, label, path)?,
                 other => return Err(c.err_at(line, format!("unknown AFF entity '{other}'"))),
             }
-            // After every entity: a sphere adds about a thousand triangles, so a 100 KB file of them
-            // would make a 5-million-triangle scene.
+            // After every entity: a sphere adds about a thousand triangles, so a 100 KB
+            // file of them would make a 5-million-triangle scene.
             let open = self.loose.triangles.len()
                 + self
                     .tpa
