@@ -9,7 +9,7 @@
 use accel::grid::GridConfig;
 use anyhow::Result;
 use render::Tracer;
-use rsh::{Method, RshConfig};
+use rsh::{Method, ObjectHierarchy, RshConfig};
 use scene::Geometry;
 
 /// An engine, as the command line names it (`--engine`).
@@ -59,6 +59,9 @@ impl Engine {
     }
 }
 
+/// The object side CRSH and RAH use on the CPU unless `--object-hierarchy` says otherwise.
+pub const DEFAULT_OBJECTS: ObjectHierarchy = ObjectHierarchy::Bvh;
+
 /// What engines are built with: the options of every family, each engine taking its own.
 #[derive(Clone, Debug)]
 pub struct EngineOptions {
@@ -67,6 +70,9 @@ pub struct EngineOptions {
     pub rsh: RshConfig,
     /// Mesh-sphere culling for CRSH and RAH alike (`None`: each method's default).
     pub mesh_culling: Option<bool>,
+    /// The object side of CRSH and RAH (`None`: [`DEFAULT_OBJECTS`] on the CPU,
+    /// mesh-spheres on the GPU, which has no other).
+    pub objects: Option<ObjectHierarchy>,
     /// Irregular-grid options (`grid2l` turns merging and expansion off).
     pub grid: GridConfig,
 }
@@ -76,6 +82,7 @@ impl Default for EngineOptions {
         EngineOptions {
             rsh: RshConfig::crsh(),
             mesh_culling: None,
+            objects: None,
             grid: GridConfig::default(),
         }
     }
@@ -91,7 +98,17 @@ impl EngineOptions {
         RshConfig {
             method,
             mesh_culling: self.mesh_culling.unwrap_or(base.mesh_culling),
+            objects: self.objects.unwrap_or(DEFAULT_OBJECTS),
             ..self.rsh.clone()
+        }
+    }
+
+    /// [`EngineOptions::rsh_config`] for the GPU backend: the object side defaults to the
+    /// only one it has.
+    pub fn gpu_rsh_config(&self, method: Method) -> RshConfig {
+        RshConfig {
+            objects: self.objects.unwrap_or(ObjectHierarchy::MeshSpheres),
+            ..self.rsh_config(method)
         }
     }
 

@@ -382,7 +382,13 @@ fn bench_rsh_writes_tables() {
         "{md}"
     );
     let csv = std::fs::read_to_string(&csv).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 4, "header + 2 configs × 2 engines");
+    assert_eq!(
+        csv.lines().count(),
+        1 + 8,
+        "header + 2 configs × 2 engines × (mesh spheres, bvh)"
+    );
+    assert!(csv.lines().any(|l| l.contains(",bvh,")), "{csv}");
+    assert!(md.contains("CRSH+BVH"), "{md}");
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     for row in v.as_array().unwrap() {
@@ -601,6 +607,41 @@ fn gpu_backend_rejects_what_it_does_not_run() {
         &words("render cornell --backend gpu --frames 2 --out x%d.png"),
         &["--backend gpu", "--frames"],
     );
+    fails(
+        &words("render cornell --backend gpu --object-hierarchy bvh"),
+        &["--object-hierarchy bvh", "GPU"],
+    );
+}
+
+/// `--object-hierarchy` on render and trace: the BVH's build is a pass of the engine build,
+/// its counters are in the stats, the image equals the thesis configuration's, and a bad
+/// value names the option.
+#[test]
+fn object_hierarchy_option() {
+    let d = tmp("objects");
+    let mut images = Vec::new();
+    for (k, objects) in ["mesh-spheres", "bvh"].into_iter().enumerate() {
+        let (png, json) = (d.join(format!("o{k}.png")), d.join(format!("o{k}.json")));
+        let out = ok(&words(&format!(
+            "render office --engine crsh --width 40 --height 30 --object-hierarchy {objects} --out {} --stats {}",
+            png.display(),
+            json.display()
+        )));
+        let table = String::from_utf8_lossy(&out.stdout);
+        let stats = std::fs::read_to_string(&json).unwrap();
+        assert_eq!(table.contains("build: object hierarchy"), k == 1, "{table}");
+        assert_eq!(stats.contains("ray-box tests"), k == 1, "{stats}");
+        images.push(std::fs::read(&png).unwrap());
+    }
+    assert_eq!(
+        images[0], images[1],
+        "the same image with either object side"
+    );
+    fails(
+        &words("render office --object-hierarchy octree"),
+        &["--object-hierarchy"],
+    );
+    fails(&words("render office --descent sideways"), &["--descent"]);
 }
 
 /// The grid's build passes are in the stats table (indented under "engine build", not added

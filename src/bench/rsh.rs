@@ -3,6 +3,11 @@
 //! Each scene is rendered once (CRSH, whose hits equal brute force's) while every traced
 //! batch is recorded; then every configuration of both engines traces exactly those batches.
 //! Brute force is counted as rays × triangles, not traced.
+//!
+//! Beside the thesis's configurations (every triangle behind per-mesh spheres), both engines
+//! also run with the object hierarchy (`--object-hierarchy bvh`: a per-frame LBVH descended
+//! with the ray hierarchy, the thesis's §5.1 future work), whose build is timed apart and
+//! included in its per-frame cost.
 
 use super::{record, Spec};
 use anyhow::Result;
@@ -15,6 +20,10 @@ pub struct Row {
     pub engine: String,
     pub branching: u32,
     pub levels: u32,
+    /// `mesh-spheres` (the thesis) or `bvh`.
+    pub objects: String,
+    /// Engine build (the object hierarchy, if any), once per frame.
+    pub build_seconds: f64,
     pub rays: u64,
     pub triangles: u64,
     pub total_tests: u64,
@@ -41,18 +50,31 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
             spec.bounces,
             nrays
         );
-        md += "| B/D | CRSH total | CRSH % of brute force | RAH total | RAH % of brute force | RAH / CRSH tests | CRSH trace ms | RAH trace ms |\n|---|---:|---:|---:|---:|---:|---:|---:|\n";
+        md += "| B/D | CRSH total | CRSH % of brute force | RAH total | RAH % of brute force | RAH / CRSH tests | CRSH trace ms | RAH trace ms | CRSH+BVH % of brute force | RAH+BVH % of brute force | RAH+BVH / CRSH+BVH tests | CRSH+BVH build + trace ms | RAH+BVH build + trace ms | CRSH ÷ CRSH+BVH time |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         let mut detail = String::new();
         for &(b, d) in &spec.configs {
             let mut pair = Vec::new();
-            for base_cfg in [rsh::RshConfig::crsh(), rsh::RshConfig::rah()] {
+            let mesh = rsh::ObjectHierarchy::MeshSpheres;
+            let bvh = rsh::ObjectHierarchy::Bvh;
+            let crsh = rsh::RshConfig::crsh;
+            let rah = rsh::RshConfig::rah;
+            for (base_cfg, objects) in [(crsh(), mesh), (rah(), mesh), (crsh(), bvh), (rah(), bvh)]
+            {
                 let cfg = rsh::RshConfig {
                     branching: b,
                     levels: d,
+                    objects,
                     ..base_cfg
                 };
-                progress(&format!("{}: {:?} {b}/{d}", s.name, cfg.method));
+                let oname = if objects == bvh {
+                    "bvh"
+                } else {
+                    "mesh-spheres"
+                };
+                progress(&format!("{}: {:?} {b}/{d} {oname}", s.name, cfg.method));
+                let t0 = std::time::Instant::now();
                 let e = rsh::RshEngine::new(&geo, cfg).map_err(anyhow::Error::msg)?;
+                let build_seconds = t0.elapsed().as_secs_f64();
                 let mut st = TraceStats::default();
                 let t0 = std::time::Instant::now();
                 for (rays, mode, _) in &batches {
@@ -67,6 +89,8 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
                     engine: e.name().to_string(),
                     branching: b,
                     levels: d,
+                    objects: oname.into(),
+                    build_seconds,
                     rays: nrays,
                     triangles: geo.len() as u64,
                     total_tests: total,
@@ -76,30 +100,43 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
                     stats: st,
                 });
             }
-            let (c, r) = (&pair[0], &pair[1]);
+            let (c, r, cb, rb) = (&pair[0], &pair[1], &pair[2], &pair[3]);
+            let frame = |x: &Row| x.build_seconds + x.trace_seconds;
             md += &format!(
-                "| {b}/{d} | {} | {:.3} % | {} | {:.3} % | {:.2} | {:.0} | {:.0} |\n",
+                "| {b}/{d} | {} | {:.3} % | {} | {:.3} % | {:.2} | {:.0} | {:.0} | {:.4} % | {:.4} % | {:.2} | {:.0} | {:.0} | {:.1} |\n",
                 c.total_tests,
                 c.percent_of_brute_force,
                 r.total_tests,
                 r.percent_of_brute_force,
                 r.total_tests as f64 / c.total_tests.max(1) as f64,
                 c.trace_seconds * 1e3,
-                r.trace_seconds * 1e3
+                r.trace_seconds * 1e3,
+                cb.percent_of_brute_force,
+                rb.percent_of_brute_force,
+                rb.total_tests as f64 / cb.total_tests.max(1) as f64,
+                frame(cb) * 1e3,
+                frame(rb) * 1e3,
+                frame(c) / frame(cb).max(1e-9),
             );
             for row in &pair {
                 detail += &format!(
-                    "\n### {} {} {b}/{d}: intersections per level (thesis Tables 4.x)\n{}",
+                    "\n### {} {} {b}/{d} {}: intersections per level (thesis Tables 4.x)\n{}",
                     s.name,
                     row.engine.to_uppercase(),
+                    row.objects,
                     row.stats.levels.markdown()
                 );
                 detail += &format!("| **total** | | {} | | |\n", row.total_tests);
             }
-            detail += &format!("\n### {} {b}/{d}: phase times (ms; thesis Tables 4.25–4.27)\n\n| phase | CRSH | RAH | RAH / CRSH |\n|---|---:|---:|---:|\n", s.name);
+            detail += &format!("\n### {} {b}/{d}: phase times (ms; thesis Tables 4.25–4.27)\n\n| phase | CRSH | RAH | RAH / CRSH | CRSH+BVH | RAH+BVH |\n|---|---:|---:|---:|---:|---:|\n", s.name);
+            detail += &format!(
+                "| object hierarchy build | — | — | — | {:.1} | {:.1} |\n",
+                cb.build_seconds * 1e3,
+                rb.build_seconds * 1e3
+            );
             let phases = Phase::ALL
                 .into_iter()
-                .filter(|p| c.stats.phases.contains_key(p) || r.stats.phases.contains_key(p));
+                .filter(|p| pair.iter().any(|x| x.stats.phases.contains_key(p)));
             for p in phases {
                 let (a, bb) = (c.stats.seconds(p), r.stats.seconds(p));
                 let ratio = if a > 0.0 && bb > 0.0 {
@@ -107,7 +144,13 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
                 } else {
                     "—".into()
                 };
-                detail += &format!("| {p} | {:.1} | {:.1} | {ratio} |\n", a * 1e3, bb * 1e3);
+                detail += &format!(
+                    "| {p} | {:.1} | {:.1} | {ratio} | {:.1} | {:.1} |\n",
+                    a * 1e3,
+                    bb * 1e3,
+                    cb.stats.seconds(p) * 1e3,
+                    rb.stats.seconds(p) * 1e3
+                );
             }
             rows.extend(pair);
         }
@@ -118,14 +161,16 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
 
 /// CSV of the summary rows.
 pub fn csv(rows: &[Row]) -> String {
-    let mut s = String::from("scene,engine,branching,levels,rays,triangles,total_tests,brute_force_tests,percent_of_brute_force,node_tri_tests,ray_tri_tests,trace_seconds\n");
+    let mut s = String::from("scene,engine,branching,levels,objects,build_seconds,rays,triangles,total_tests,brute_force_tests,percent_of_brute_force,node_tri_tests,ray_tri_tests,trace_seconds\n");
     for r in rows {
         s += &format!(
-            "{},{},{},{},{},{},{},{},{:.6},{},{},{:.6}\n",
+            "{},{},{},{},{},{:.6},{},{},{},{},{:.6},{},{},{:.6}\n",
             r.scene,
             r.engine,
             r.branching,
             r.levels,
+            r.objects,
+            r.build_seconds,
             r.rays,
             r.triangles,
             r.total_tests,
@@ -140,7 +185,8 @@ pub fn csv(rows: &[Row]) -> String {
 }
 
 /// One chart per scene: intersections per hierarchy level (bars, log scale) for every
-/// configuration and engine (groups), like the thesis's Figures 4.7–4.23.
+/// configuration and engine (groups), like the thesis's Figures 4.7–4.23; with the object
+/// hierarchy, its single rays' box tests as one more series.
 pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
     let mut files = Vec::new();
     let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
@@ -149,7 +195,15 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
         let rs: Vec<&Row> = rows.iter().filter(|r| r.scene == sc).collect();
         let groups: Vec<String> = rs
             .iter()
-            .map(|r| format!("{}/{} {}", r.branching, r.levels, r.engine.to_uppercase()))
+            .map(|r| {
+                let bvh = if r.objects == "bvh" { "+BVH" } else { "" };
+                format!(
+                    "{}/{} {}{bvh}",
+                    r.branching,
+                    r.levels,
+                    r.engine.to_uppercase()
+                )
+            })
             .collect();
         // Series: every level present, top first, then the final ray–triangle tests.
         let mut levels: Vec<u32> = rs
@@ -160,6 +214,10 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
         levels.dedup();
         let mut series: Vec<String> = levels.iter().map(|l| format!("level {l}")).collect();
         series.push("final".into());
+        let ray_box = render::stats::counter::RAY_BOX_TESTS;
+        if rs.iter().any(|r| r.stats.counters.contains_key(ray_box)) {
+            series.push(ray_box.into());
+        }
         let values: Vec<Vec<f64>> = series
             .iter()
             .map(|name| {
@@ -174,6 +232,9 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
                                 .filter(|row| row.level == l)
                                 .map(|row| row.tests)
                                 .sum::<u64>() as f64
+                        }
+                        None if name == ray_box => {
+                            r.stats.counters.get(ray_box).copied().unwrap_or(0) as f64
                         }
                         None => r.stats.ray_tri_tests as f64,
                     })

@@ -10,7 +10,7 @@ use rayspace::bench::Spec;
 use rayspace::engines::{Engine, EngineOptions};
 use render::raygen::Kind;
 use render::whitted::{MAX_BOUNCES, MAX_SIDE};
-use rsh::{HashBits, HashKind, NodeTest, RshConfig, Union};
+use rsh::{Descent, HashBits, HashKind, NodeTest, ObjectHierarchy, RshConfig, Union};
 use scene::MeshSplit;
 use std::path::PathBuf;
 
@@ -363,6 +363,14 @@ pub struct RshArgs {
     /// batches.
     #[arg(long = "pair-budget", default_value_t = RshConfig::crsh().pair_budget)]
     pub pair_budget: usize,
+    /// What the traversal pushes through the ray hierarchy: every triangle behind per-mesh
+    /// spheres (the thesis), or a per-frame BVH descended together with it (default: bvh on
+    /// the CPU; the GPU backend has mesh-spheres only).
+    #[arg(long = "object-hierarchy", value_enum)]
+    pub objects: Option<ObjectHierarchy>,
+    /// With `--object-hierarchy bvh`: which node of a surviving pair is expanded.
+    #[arg(long, value_enum, default_value_t = RshConfig::crsh().descent)]
+    pub descent: Descent,
 }
 
 impl RshArgs {
@@ -377,6 +385,7 @@ impl RshArgs {
             union: self.union,
             node_test: self.node_test,
             pair_budget: self.pair_budget,
+            descent: self.descent,
             ..RshConfig::crsh()
         }
     }
@@ -388,6 +397,7 @@ pub fn engine_options(r: &RshArgs, g: &GridArgs, dynamic: bool) -> EngineOptions
     EngineOptions {
         rsh: r.base(),
         mesh_culling: r.mesh_culling,
+        objects: r.objects,
         grid: g.config(dynamic),
     }
 }

@@ -106,6 +106,9 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
                 a.engine
             );
         }
+        if a.rsh.objects == Some(rsh::ObjectHierarchy::Bvh) {
+            bail!("--object-hierarchy bvh runs on the CPU backend only; the GPU backend has mesh-spheres");
+        }
     }
     if let Some(n) = a.frames {
         return super::frames::render_frames(a, &opts, &scene, n);
@@ -210,7 +213,7 @@ fn render_on_gpu(
         }
     };
     let method = a.engine.rsh_method().expect("checked: crsh or rah");
-    let engine = gpu::GpuRsh::new(g, geo, eopts.rsh_config(method))
+    let engine = gpu::GpuRsh::new(g, geo, eopts.gpu_rsh_config(method))
         .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
     let raster = gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
         .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;

@@ -34,6 +34,18 @@ impl Sphere {
         (p - self.center).length() <= self.radius
     }
 
+    /// The sphere around a box: its centre and half its diagonal, padded so that it contains
+    /// every point of the box despite the rounding of both (the object hierarchy's node
+    /// bounds, where the node tests want a sphere).
+    pub fn around_box(b: &crate::Aabb) -> Sphere {
+        let center = (b.min + b.max) * 0.5;
+        let r = (b.max - center).length().max((center - b.min).length());
+        Sphere {
+            center,
+            radius: padded(r, center),
+        }
+    }
+
     /// The minimal sphere of a triangle: the circumsphere when the triangle is acute, else the
     /// sphere on its longest edge; padded so that it contains every point of the triangle.
     ///
@@ -172,6 +184,23 @@ mod tests {
             let g = (a + b + c) / 3.0;
             let rg = (a - g).length().max((b - g).length()).max((c - g).length());
             prop_assert!(s.radius <= rg * (1.0 + 1e-4) + 1e-4);
+        }
+
+        /// The sphere around a box contains its corners and sampled points inside it.
+        #[test]
+        fn box_sphere_contains_box(a in v3(1000.0), b in v3(1000.0), seed in 0u64..1000) {
+            let bx = crate::Aabb::new(a.min(b), a.max(b));
+            let s = Sphere::around_box(&bx);
+            let mut rng = Pcg32::new(seed, 5);
+            for k in 0..8 {
+                let pick = |bit: usize, lo: f32, hi: f32| if k >> bit & 1 == 0 { lo } else { hi };
+                let c = Vec3::new(pick(0, bx.min.x, bx.max.x), pick(1, bx.min.y, bx.max.y), pick(2, bx.min.z, bx.max.z));
+                prop_assert!(s.contains(c), "{s:?} misses corner {c:?} of {bx:?}");
+            }
+            for _ in 0..32 {
+                let p = bx.min + (bx.max - bx.min) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                prop_assert!(s.contains(p.clamp(bx.min, bx.max)));
+            }
         }
 
         #[test]

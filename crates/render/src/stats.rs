@@ -111,6 +111,17 @@ pub mod counter {
     pub const BUDGET_SPLITS: &str = "budget splits";
     /// Ray hierarchies: nodes of the top level.
     pub const TOP_NODES: &str = "top nodes";
+    /// Ray hierarchies with an object hierarchy: tests of ray nodes against inner object
+    /// nodes (also counted in the level tests).
+    pub const OBJECT_NODE_TESTS: &str = "object-node tests";
+    /// Ray hierarchies with an object hierarchy: slab tests of single rays against object
+    /// nodes' boxes (in the total tests, not in the level tables).
+    pub const RAY_BOX_TESTS: &str = "ray-box tests";
+    /// Ray hierarchies with an object hierarchy: ray-box tests that passed.
+    pub const RAY_BOX_PASSES: &str = "ray-box passes";
+    /// Ray hierarchies with an object hierarchy: the most (ray node, object node) pairs
+    /// waiting at once.
+    pub const PEAK_PAIRS: &str = "peak pairs";
     /// GPU backend: compute dispatches.
     pub const GPU_KERNEL_LAUNCHES: &str = "gpu kernel launches";
 }

@@ -2,7 +2,9 @@
 //! they differ only where the papers differ (leaf order, mesh culling, defaults).
 
 use crate::build::{build, Union};
+use crate::dual::{Descent, RaySide};
 use crate::hash::{HashBits, HashKind};
+use crate::objects::{self, ObjectTree};
 use crate::order::{leaf_order, Grouping};
 use crate::traverse::{Counters, NodeTest, SceneData, Traversal};
 use geom::tri::RayPre;
@@ -21,6 +23,19 @@ pub enum Method {
     Crsh,
     /// Roger et al. 2007: rays in screen order; no culling at the top.
     Rah,
+}
+
+/// What the traversal pushes through the ray hierarchy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum ObjectHierarchy {
+    /// The thesis (§3.2.8): every triangle, culled at the top by the per-mesh spheres when
+    /// mesh culling is on.
+    MeshSpheres,
+    /// A linear BVH over the triangles, built per frame ([`crate::objects`]), descended
+    /// together with the ray hierarchy ([`crate::dual`]); the mesh spheres bound the meshes'
+    /// subtrees when mesh culling is on.
+    Bvh,
 }
 
 /// Configuration of CRSH or RAH (the thesis's parameters and ours).
@@ -44,6 +59,10 @@ pub struct RshConfig {
     pub mesh_culling: bool,
     /// Most (node, triangle) pairs held in one buffer.
     pub pair_budget: usize,
+    /// The object side of the traversal.
+    pub objects: ObjectHierarchy,
+    /// With [`ObjectHierarchy::Bvh`]: which node of a pair is expanded.
+    pub descent: Descent,
 }
 
 /// Default pair budget: 2^24 pairs (128 MiB for the two u32 arrays of one buffer).
@@ -83,6 +102,8 @@ impl RshConfig {
             node_test: NodeTest::Rah,
             mesh_culling: true,
             pair_budget: DEFAULT_PAIR_BUDGET,
+            objects: ObjectHierarchy::MeshSpheres,
+            descent: Descent::RayFirst,
         }
     }
 
@@ -132,6 +153,8 @@ pub struct RshEngine {
     mesh_first: Vec<u32>,
     mesh_sphere: Vec<Sphere>,
     bounds: Aabb,
+    /// The object hierarchy ([`ObjectHierarchy::Bvh`]) and its build time.
+    tree: Option<(ObjectTree, f64)>,
 }
 
 /// The traversal's counters into `stats` (also used by the GPU backend, whose counters are
@@ -163,6 +186,12 @@ impl RshEngine {
             .par_iter()
             .map(|t| Sphere::of_triangle(t[0], t[1], t[2]))
             .collect();
+        let tree = (cfg.objects == ObjectHierarchy::Bvh).then(|| {
+            let t0 = Instant::now();
+            let spheres = cfg.mesh_culling.then_some(&geo.mesh_sphere[..]);
+            let t = objects::build(&geo.tris, &geo.mesh_first, spheres);
+            (t, t0.elapsed().as_secs_f64())
+        });
         Ok(RshEngine {
             cfg,
             tris: geo.tris.clone(),
@@ -171,6 +200,7 @@ impl RshEngine {
             mesh_first: geo.mesh_first.clone(),
             mesh_sphere: geo.mesh_sphere.clone(),
             bounds: geo.bounds,
+            tree,
         })
     }
 
@@ -188,7 +218,7 @@ impl Tracer for RshEngine {
         }
     }
 
-    fn trace(&self, rays: &RayBatch, _mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
         assert_eq!(hits.len(), rays.len(), "one hit record per ray");
         let n = rays.len();
         stats.rays += n as u64;
@@ -231,8 +261,24 @@ impl Tracer for RshEngine {
         };
         let mut c = Counters::default();
         let t1 = Instant::now();
-        if !self.tris.is_empty() {
-            trav.run(&mut c);
+        match &self.tree {
+            _ if self.tris.is_empty() => {}
+            None => trav.run(&mut c),
+            Some((tree, _)) => {
+                let inv_dir: Vec<Vec3> = rays.dir.par_iter().map(|d| d.recip()).collect();
+                let side = RaySide {
+                    inv_dir: &inv_dir,
+                    kind: &rays.kind,
+                    any_hit: mode == TraceMode::Any,
+                };
+                trav.run_dual(
+                    tree,
+                    self.cfg.descent,
+                    self.bounds.diagonal(),
+                    &side,
+                    &mut c,
+                )
+            }
         }
         let total = t1.elapsed().as_secs_f64();
         stats.time(Phase::Traversal, total - c.final_seconds);
@@ -256,6 +302,21 @@ impl Tracer for RshEngine {
         });
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
         let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
-        report_counters(&c, self.cfg.mesh_culling, top, stats);
+        report_counters(&c, self.cfg.mesh_culling && self.tree.is_none(), top, stats);
+        if self.tree.is_some() {
+            stats.count(counter::OBJECT_NODE_TESTS, c.object_tests);
+            stats.count(counter::RAY_BOX_TESTS, c.ray_box_tests);
+            stats.count(counter::RAY_BOX_PASSES, c.ray_box_passes);
+            // Every test counts towards the total (the thesis's % of brute force).
+            stats.node_tri_tests += c.ray_box_tests;
+            stats.count(counter::PEAK_PAIRS, c.peak_pairs);
+        }
+    }
+
+    fn build_passes(&self) -> Vec<(String, f64)> {
+        match &self.tree {
+            Some((_, secs)) => vec![("object hierarchy".into(), *secs)],
+            None => Vec::new(),
+        }
     }
 }

@@ -10,12 +10,15 @@
 #![warn(missing_docs)]
 
 pub mod build;
+pub mod dual;
 pub mod engine;
 pub mod hash;
+pub mod objects;
 pub mod order;
 pub mod traverse;
 
 pub use build::Union;
-pub use engine::{Method, RshConfig, RshEngine};
+pub use dual::Descent;
+pub use engine::{Method, ObjectHierarchy, RshConfig, RshEngine};
 pub use hash::{HashBits, HashKind};
 pub use traverse::NodeTest;

@@ -64,6 +64,14 @@ pub struct Counters {
     pub splits: u64,
     /// Seconds in the final tests (the rest of the traversal is the traversal phase).
     pub final_seconds: f64,
+    /// Dual traversal: tests of ray nodes against inner object nodes (also in `tests`).
+    pub object_tests: u64,
+    /// Dual traversal: slab tests of single rays against object-node boxes.
+    pub ray_box_tests: u64,
+    /// Dual traversal: slab tests that passed.
+    pub ray_box_passes: u64,
+    /// Dual traversal: the most pairs waiting at once.
+    pub peak_pairs: u64,
 }
 
 /// One trace call's traversal: the hierarchy, the scene, the rays' constants and their best
@@ -140,7 +148,7 @@ pub fn pack(t: f32, tri: u32) -> u64 {
 }
 
 #[inline]
-fn node_test(test: NodeTest, level: &Level, node: usize, p: Vec3, d: f32) -> bool {
+pub(crate) fn node_test(test: NodeTest, level: &Level, node: usize, p: Vec3, d: f32) -> bool {
     let k = level.cone_sc(node);
     let (c, r, l) = (level.center[node], level.radius[node], level.max_t[node]);
     match test {
@@ -360,7 +368,7 @@ impl Traversal<'_> {
     }
 
     /// Level-1 survivors: every ray of the node against the triangle (§3.2.9).
-    fn final_tests(&self, sn: &[u32], st: &[u32], c: &mut Counters) {
+    pub(crate) fn final_tests(&self, sn: &[u32], st: &[u32], c: &mut Counters) {
         let l1 = &self.h.levels[0];
         let order = &self.h.order;
         let tests = sn

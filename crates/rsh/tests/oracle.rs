@@ -11,7 +11,7 @@ use accel::BruteForce;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
 use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
-use rsh::{HashKind, NodeTest, RshConfig, RshEngine, Union};
+use rsh::{Descent, HashKind, NodeTest, ObjectHierarchy, RshConfig, RshEngine, Union};
 use scene::{builtin, Geometry};
 use testkit::soup_case as random_case;
 
@@ -45,6 +45,67 @@ fn builtin_scenes_all_configs_match_brute_force() {
                     }
                 }
             }
+        }
+    }
+}
+
+/// The object hierarchy (LBVH and dual traversal) on every built-in scene: each descent
+/// rule, both methods, with and without mesh culling, several shapes of the ray hierarchy
+/// and a tiny pair budget.
+#[test]
+fn object_hierarchy_matches_brute_force() {
+    let descents = [Descent::RayFirst, Descent::Size, Descent::ObjectFirst];
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let batches = record_render(&s, &geo, 32, 24, 2);
+        for base in [RshConfig::crsh(), RshConfig::rah()] {
+            for (k, descent) in descents.into_iter().enumerate() {
+                for (b, d, budget) in [(8u32, 2u32, 1 << 20), (4, 3, 1024), (16, 0, 1 << 20)] {
+                    let cfg = RshConfig {
+                        objects: ObjectHierarchy::Bvh,
+                        descent,
+                        branching: b,
+                        levels: d,
+                        pair_budget: budget,
+                        mesh_culling: base.mesh_culling ^ (k == 1),
+                        ..base.clone()
+                    };
+                    let e = RshEngine::new(&geo, cfg.clone()).unwrap();
+                    for (j, (rays, mode, hits)) in batches.iter().enumerate() {
+                        let what = format!("{name} {:?} {descent:?} {b}/{d} batch {j}", cfg.method);
+                        assert_same_hits(&e, rays, *mode, hits, &what);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The dual traversal's counters are the same from run to run (rayon schedules differ).
+#[test]
+fn object_hierarchy_counts_are_deterministic() {
+    let s = builtin::office(7);
+    let geo = Geometry::from_scene(&s);
+    let batches = record_render(&s, &geo, 48, 40, 2);
+    for descent in [Descent::RayFirst, Descent::Size, Descent::ObjectFirst] {
+        let cfg = RshConfig {
+            objects: ObjectHierarchy::Bvh,
+            descent,
+            ..RshConfig::crsh()
+        };
+        let e = RshEngine::new(&geo, cfg).unwrap();
+        let run = || {
+            let mut st = TraceStats::default();
+            for (rays, mode, _) in &batches {
+                let mut got = vec![Hit::MISS; rays.len()];
+                e.trace(rays, *mode, &mut got, &mut st);
+            }
+            (st.counters.clone(), st.levels.clone(), st.total_tests())
+        };
+        let first = run();
+        for _ in 0..3 {
+            assert_eq!(run(), first, "{descent:?}");
         }
     }
 }
@@ -155,13 +216,16 @@ fn tiny_budget_forces_batches_and_keeps_every_pair() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(24))]
+    #![proptest_config(ProptestConfig::with_cases(48))]
 
     #[test]
-    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>()) {
+    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4) {
         let (geo, rays) = random_case(seed, ntri, nray);
         let base = if rah { RshConfig::rah() } else { RshConfig::crsh() };
-        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, ..base };
+        // 0: the thesis's mesh spheres; 1–3: the object hierarchy with each descent rule.
+        let descents = [Descent::RayFirst, Descent::RayFirst, Descent::Size, Descent::ObjectFirst];
+        let objects_kind = if objects == 0 { ObjectHierarchy::MeshSpheres } else { ObjectHierarchy::Bvh };
+        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, objects: objects_kind, descent: descents[objects], ..base };
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];
         BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());

@@ -14,7 +14,7 @@ use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
 use crate::kernels::{Exec, Kernel, Kernels, Params};
 use ::rsh::traverse::Counters;
-use ::rsh::{HashKind, Method, RshConfig};
+use ::rsh::{HashKind, Method, ObjectHierarchy, RshConfig};
 use geom::{Pcg32, Sphere};
 use render::stats::counter;
 use render::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
@@ -66,6 +66,11 @@ impl GpuRsh {
     /// pipeline does not implement (the 64-bit Morton hash).
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: RshConfig) -> Result<GpuRsh, GpuError> {
         cfg.validate().map_err(GpuError::Config)?;
+        if cfg.objects != ObjectHierarchy::MeshSpheres {
+            return Err(GpuError::Config(
+                "--object-hierarchy bvh: the GPU backend implements mesh-spheres only".into(),
+            ));
+        }
         if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
             return Err(GpuError::Config(
                 "the GPU backend implements the thesis's 32-bit hash only".into(),

@@ -1,0 +1,400 @@
+//! The object side of the dual traversal: a linear BVH over the scene's triangles, rebuilt
+//! per frame in data-parallel passes (the thesis's future work, §5.1: "combine our coherent
+//! ray hierarchy with a deeper object hierarchy").
+//!
+//! Build (Karras 2012, "Maximizing parallelism in the construction of BVHs, octrees and k-d
+//! trees", §3–4): each triangle gets a 64-bit key, its mesh index above the Morton code
+//! of its bounding-box centre in the scene box; the keys are radix-sorted (`par`); every
+//! internal node is emitted independently from the sorted keys (Karras's Figure 4, with the
+//! index breaking ties between equal keys); boxes are filled bottom-up, the second child to
+//! finish a node computing it (the GPU's atomic-counter pass).
+//!
+//! Because the mesh index is the key's top bits, every mesh's triangles form one subtree of
+//! the binary radix tree (keys with a common prefix are one subtree), so the thesis's
+//! per-mesh culling spheres (§3.2.2) stay the top of the object side: with mesh culling on,
+//! a mesh's root gets the smaller of its box sphere and the mesh's minimal sphere.
+//!
+//! Every node is bounded by a sphere (the node tests of eq. 3.16 and the exact cone test take
+//! spheres), padded so that it contains its triangles; the leaves are the triangles with
+//! their own bounding spheres.
+
+use geom::{Aabb, Sphere, Vec3};
+use par::{sort_pairs, SharedMut, SortScratch};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+/// A child reference with this bit set is a leaf: the low bits are a triangle id.
+pub const LEAF: u32 = 1 << 31;
+
+/// The tree: internal nodes `0 .. n − 1` (node 0 the root), leaves as `LEAF | triangle`.
+#[derive(Clone, Debug, Default)]
+pub struct ObjectTree {
+    /// The root: internal node 0, or a leaf when the scene has one triangle.
+    pub root: u32,
+    /// Left and right children of every internal node.
+    pub child: Vec<[u32; 2]>,
+    /// Bounding-sphere centres of the internal nodes.
+    pub center: Vec<Vec3>,
+    /// Bounding-sphere radii of the internal nodes.
+    pub radius: Vec<f32>,
+    /// Per internal node, its two children's boxes side by side (a single ray's descent
+    /// tests both at once: one cache line), grown by a few ulps of the scene's coordinates
+    /// so that the robust slab test never misses a triangle inside; a leaf child's box is
+    /// its triangle's.
+    pub child_box: Vec<[Aabb; 2]>,
+    /// Depth of the deepest leaf (root = 0).
+    pub depth: u32,
+}
+
+impl ObjectTree {
+    /// Internal nodes.
+    pub fn len(&self) -> usize {
+        self.child.len()
+    }
+
+    /// Whether the tree has no internal node (zero or one triangle).
+    pub fn is_empty(&self) -> bool {
+        self.child.is_empty()
+    }
+}
+
+/// The low `bits` bits of `v` spread to every third bit (the Morton interleave).
+#[inline]
+fn spread(v: u32, bits: u32) -> u64 {
+    let mut out = 0u64;
+    for k in 0..bits {
+        out |= ((v >> k) as u64 & 1) << (3 * k);
+    }
+    out
+}
+
+/// The Morton code of `p` in `b`, `bits` per axis (clamped to the box).
+#[inline]
+fn morton(p: Vec3, b: &Aabb, bits: u32) -> u64 {
+    let e = (b.max - b.min).max(Vec3::splat(f32::MIN_POSITIVE));
+    let cells = (1u32 << bits) as f32;
+    let q = ((p - b.min) / e * cells).clamp(Vec3::ZERO, Vec3::splat(cells - 1.0));
+    spread(q.x as u32, bits) | spread(q.y as u32, bits) << 1 | spread(q.z as u32, bits) << 2
+}
+
+/// Karras's δ(i, j): the common prefix length of sorted keys i and j, the index breaking ties
+/// between equal keys; −1 outside the array.
+#[inline]
+fn delta(keys: &[u64], i: usize, j: i64) -> i32 {
+    if j < 0 || j >= keys.len() as i64 {
+        return -1;
+    }
+    let (a, b) = (keys[i], keys[j as usize]);
+    if a == b {
+        64 + (i as u64 ^ j as u64).leading_zeros() as i32
+    } else {
+        (a ^ b).leading_zeros() as i32
+    }
+}
+
+/// Internal node i's key range `[lo, hi]` and split γ (Karras 2012, Figure 4).
+fn emit_node(keys: &[u64], i: usize) -> (usize, usize, usize) {
+    let ii = i as i64;
+    let d: i64 = if delta(keys, i, ii + 1) > delta(keys, i, ii - 1) {
+        1
+    } else {
+        -1
+    };
+    let dmin = delta(keys, i, ii - d);
+    let mut lmax: i64 = 2;
+    while delta(keys, i, ii + lmax * d) > dmin {
+        lmax *= 2;
+    }
+    let mut l: i64 = 0;
+    let mut t = lmax / 2;
+    while t >= 1 {
+        if delta(keys, i, ii + (l + t) * d) > dmin {
+            l += t;
+        }
+        t /= 2;
+    }
+    let j = ii + l * d;
+    let dnode = delta(keys, i, j);
+    let mut s: i64 = 0;
+    let mut t = l;
+    loop {
+        t = (t + 1) / 2;
+        if delta(keys, i, ii + (s + t) * d) > dnode {
+            s += t;
+        }
+        if t <= 1 {
+            break;
+        }
+    }
+    let gamma = ii + s * d + d.min(0);
+    (ii.min(j) as usize, ii.max(j) as usize, gamma as usize)
+}
+
+/// Build the tree over `tris` (meshes as `mesh_first` ranges). With `mesh_spheres`, the root
+/// of mesh m's subtree is bounded by the smaller of its box sphere and `mesh_spheres[m]`.
+pub fn build(
+    tris: &[[Vec3; 3]],
+    mesh_first: &[u32],
+    mesh_spheres: Option<&[Sphere]>,
+) -> ObjectTree {
+    let n = tris.len();
+    if n <= 1 {
+        return ObjectTree {
+            root: LEAF,
+            ..Default::default()
+        };
+    }
+    assert!(
+        n < LEAF as usize,
+        "the object tree holds fewer than 2^31 triangles"
+    );
+    let boxes: Vec<Aabb> = tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|t| Aabb::from_points(t.iter().copied()))
+        .collect();
+    let centroid_box = boxes
+        .par_iter()
+        .with_min_len(4096)
+        .map(|b| {
+            let c = b.center();
+            Aabb::new(c, c)
+        })
+        .reduce(Aabb::default, |a, b| a.union(&b));
+    // Keys: mesh index above the Morton code (triangles are stored mesh by mesh).
+    let nm = mesh_first.len().saturating_sub(1);
+    let mesh_bits = 64 - (nm.max(1) as u64 - 1).leading_zeros().min(63);
+    // As many Morton bits per axis as the mesh index leaves room for (up to 21).
+    let axis_bits = ((64 - mesh_bits) / 3).min(21);
+    let code_bits = 3 * axis_bits;
+    let keys_of = |t: usize, bx: &Aabb| {
+        let m = mesh_first.partition_point(|&f| f as usize <= t).saturating_sub(1);
+        (m as u64) << code_bits | morton(bx.center(), &centroid_box, axis_bits)
+    };
+    let mut keys: Vec<u64> = boxes
+        .par_iter()
+        .enumerate()
+        .with_min_len(4096)
+        .map(|(t, bx)| keys_of(t, bx))
+        .collect();
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    sort_pairs(
+        &mut keys,
+        &mut order,
+        code_bits + mesh_bits,
+        &mut SortScratch::new(),
+    );
+    // Emission: every internal node from the keys alone; parents recorded for the boxes.
+    let ni = n - 1;
+    let mut child = vec![[0u32; 2]; ni];
+    let mut range = vec![[0u32; 2]; ni];
+    let mut parent = vec![0u32; ni + n]; // internal nodes, then leaves by sorted position
+    {
+        let (cp, rp, pp) = (
+            SharedMut(child.as_mut_ptr()),
+            SharedMut(range.as_mut_ptr()),
+            SharedMut(parent.as_mut_ptr()),
+        );
+        (0..ni).into_par_iter().with_min_len(1024).for_each(|i| {
+            let (lo, hi, g) = emit_node(&keys, i);
+            let left = if lo == g {
+                (ni + g, LEAF | order[g])
+            } else {
+                (g, g as u32)
+            };
+            let right = if hi == g + 1 {
+                (ni + g + 1, LEAF | order[g + 1])
+            } else {
+                (g + 1, (g + 1) as u32)
+            };
+            // SAFETY: node i writes its own slots and its two children's parent slots; every
+            // node but the root is the child of exactly one node.
+            unsafe {
+                cp.write(i, [left.1, right.1]);
+                rp.write(i, [lo as u32, hi as u32]);
+                pp.write(left.0, i as u32);
+                pp.write(right.0, i as u32);
+            }
+        });
+    }
+    // Boxes bottom-up: from each leaf towards the root; the second visitor of a node computes
+    // it (its children are final by then), the first stops.
+    let mut nbox = vec![Aabb::default(); ni];
+    let mut depth_of = vec![0u32; ni];
+    {
+        let visits: Vec<AtomicU32> = (0..ni).map(|_| AtomicU32::new(0)).collect();
+        let bp = SharedMut(nbox.as_mut_ptr());
+        let child = &child;
+        let boxes = &boxes;
+        let depth_p = SharedMut(depth_of.as_mut_ptr());
+        (0..n).into_par_iter().with_min_len(1024).for_each(|leaf| {
+            let whole = (&bp, &depth_p);
+            let mut p = parent[ni + leaf] as usize;
+            loop {
+                // AcqRel: the second visitor sees the first one's box.
+                if visits[p].fetch_add(1, Ordering::AcqRel) == 0 {
+                    return;
+                }
+                let get = |c: u32| -> (Aabb, u32) {
+                    if c & LEAF != 0 {
+                        (boxes[(c & !LEAF) as usize], 0)
+                    } else {
+                        // SAFETY: child c is complete (its visit counter reached 2 before
+                        // this node's), and no one writes it any more.
+                        unsafe { (*whole.0 .0.add(c as usize), *whole.1 .0.add(c as usize)) }
+                    }
+                };
+                let (a, da) = get(child[p][0]);
+                let (b, db) = get(child[p][1]);
+                // SAFETY: only the second visitor of node p writes it.
+                unsafe {
+                    whole.0.write(p, a.union(&b));
+                    whole.1.write(p, 1 + da.max(db));
+                }
+                if p == 0 {
+                    return;
+                }
+                p = parent[p] as usize;
+            }
+        });
+    }
+    let mesh_of_pos = |pos: u32| (keys[pos as usize] >> code_bits) as usize;
+    let (center, radius): (Vec<Vec3>, Vec<f32>) = (0..ni)
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|i| {
+            let mut s = Sphere::around_box(&nbox[i]);
+            if let Some(ms) = mesh_spheres {
+                let [lo, hi] = range[i];
+                let m = mesh_of_pos(lo);
+                let whole_mesh =
+                    m == mesh_of_pos(hi) && lo == mesh_first[m] && hi + 1 == mesh_first[m + 1];
+                if whole_mesh && ms[m].radius < s.radius {
+                    s = ms[m];
+                }
+            }
+            (s.center, s.radius)
+        })
+        .unzip();
+    let m = nbox[0].min.abs().max(nbox[0].max.abs()).max_element();
+    let pad = Vec3::splat(m * 8.0 * f32::EPSILON);
+    let child_box = child
+        .par_iter()
+        .with_min_len(4096)
+        .map(|ch| {
+            ch.map(|c| {
+                let b = if c & LEAF != 0 {
+                    boxes[(c & !LEAF) as usize]
+                } else {
+                    nbox[c as usize]
+                };
+                Aabb::new(b.min - pad, b.max + pad)
+            })
+        })
+        .collect();
+    ObjectTree {
+        root: 0,
+        child,
+        center,
+        radius,
+        child_box,
+        depth: depth_of[0],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geom::Pcg32;
+
+    fn soup(n: usize, seed: u64) -> Vec<[Vec3; 3]> {
+        let mut rng = Pcg32::new(seed, 1);
+        (0..n)
+            .map(|_| {
+                let c = Vec3::new(
+                    rng.range(-50.0, 50.0),
+                    rng.range(-50.0, 50.0),
+                    rng.range(-50.0, 50.0),
+                );
+                let mut v = || c + rng.unit_vector() * rng.range(0.0, 3.0);
+                [v(), v(), v()]
+            })
+            .collect()
+    }
+
+    /// Every triangle is a leaf exactly once, and every ancestor's sphere and the box of
+    /// the child it lies under contain it.
+    fn check(tris: &[[Vec3; 3]], t: &ObjectTree) {
+        let mut seen = vec![0u32; tris.len()];
+        // (node, its ancestors with the child slot taken below each)
+        let mut stack = vec![(t.root, Vec::<(usize, usize)>::new())];
+        let mut max_depth = 0;
+        while let Some((node, path)) = stack.pop() {
+            if node & LEAF != 0 {
+                let tri = (node & !LEAF) as usize;
+                seen[tri] += 1;
+                max_depth = max_depth.max(path.len() as u32);
+                for &(a, k) in &path {
+                    let s = Sphere::new(t.center[a], t.radius[a]);
+                    for v in tris[tri] {
+                        assert!(s.contains(v), "node {a} misses a vertex of triangle {tri}");
+                        let b = &t.child_box[a][k];
+                        assert!(b.contains(v), "box {k} of {a} misses triangle {tri}");
+                    }
+                }
+            } else {
+                for (k, c) in t.child[node as usize].into_iter().enumerate() {
+                    let mut p = path.clone();
+                    p.push((node as usize, k));
+                    stack.push((c, p));
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1), "every triangle is one leaf");
+        if !t.is_empty() {
+            assert_eq!(t.depth, max_depth);
+        }
+    }
+
+    #[test]
+    fn trees_cover_every_triangle_once_and_bound_them() {
+        for (n, seed) in [(1, 1), (2, 2), (3, 3), (17, 4), (1000, 5), (4097, 6)] {
+            let tris = soup(n, seed);
+            let t = build(&tris, &[0, n as u32], None);
+            check(&tris, &t);
+        }
+    }
+
+    #[test]
+    fn duplicate_keys_and_meshes_still_make_a_tree() {
+        // All triangles at one point: every Morton key equal, ties broken by index.
+        let one = [Vec3::ONE, Vec3::ONE, Vec3::ONE];
+        let tris = vec![one; 100];
+        let t = build(&tris, &[0, 100], None);
+        check(&tris, &t);
+        // Several meshes, each a subtree: with mesh spheres the mesh roots take them.
+        let tris = soup(600, 9);
+        let first = [0u32, 10, 11, 300, 600];
+        let spheres: Vec<Sphere> = first
+            .windows(2)
+            .map(|w| {
+                let b =
+                    Aabb::from_points(tris[w[0] as usize..w[1] as usize].iter().flatten().copied());
+                Sphere::around_box(&b)
+            })
+            .collect();
+        let t = build(&tris, &first, Some(&spheres));
+        check(&tris, &t);
+    }
+
+    #[test]
+    fn morton_codes_interleave_the_axes() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::splat(1024.0));
+        assert_eq!(morton(Vec3::new(1.0, 0.0, 0.0), &b, 10), 1);
+        assert_eq!(morton(Vec3::new(0.0, 1.0, 0.0), &b, 10), 2);
+        assert_eq!(morton(Vec3::new(0.0, 0.0, 1.0), &b, 10), 4);
+        assert_eq!(morton(Vec3::new(3.0, 0.0, 0.0), &b, 10), 9);
+        assert_eq!(morton(Vec3::splat(2000.0), &b, 10), (1 << 30) - 1);
+        assert_eq!(morton(Vec3::splat(2000.0), &b, 21), (1 << 63) - 1);
+    }
+}
