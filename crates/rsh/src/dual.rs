@@ -9,15 +9,21 @@
 //!    2 children, the ray side the node's b children one level down;
 //! 3. (level-1 node, triangle) pairs go to the exact final tests (§3.2.9).
 //!
-//! Pairs wait in one stack per ray level. The loop always works on the lowest level that has
-//! pairs, taking at most `budget / max(b, 2)` of them from the top of its stack, so every
-//! step's output fits the pair budget and the stacks stay shallow (depth first); the top
-//! level's pairs are made one chunk of top nodes at a time. Nothing is ever dropped. The
-//! closest hit per ray is an atomic minimum over (t, triangle), as in [`crate::traverse`],
-//! so the order pairs are processed in changes neither the hits nor the counts.
+//! Besides the cone test, every pair's ray node is tested as a *beam* against the object
+//! node's box: interval arithmetic over its rays' origins and reciprocal directions bounds
+//! each ray's slab entry and exit, so a box that no ray of the node can reach is culled for
+//! all of them at once (this is what lets the ray hierarchy cut work on real scenes: the
+//! sphere–cone test alone passes most object nodes).
+//!
+//! Pairs wait in one stack per ray level (see [`Traversal::run_dual`]); nothing is ever
+//! dropped. The closest hit per ray is an atomic minimum over (t, triangle), as in
+//! [`crate::traverse`]. Single rays read the hits of earlier steps only (never of their own
+//! step's other rays), and the sequence of steps depends only on the pair counts, so hits
+//! and counts are the same from run to run.
 
 use crate::objects::{ObjectTree, LEAF};
-use crate::traverse::{node_test, pack, Counters, Traversal};
+use crate::traverse::{pack, Counters, NodeTest, Traversal};
+use geom::cone::{exact_test, rah_test, ConeSc};
 use geom::{intersect, Vec3};
 use par::{compress_runs, exclusive_scan, sort_pairs, SharedMut, SortScratch};
 use rayon::prelude::*;
@@ -28,13 +34,13 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Descent {
-    /// The larger one: the object node while its sphere's radius is at least the ray node's
-    /// reach (origin radius + sin α · its rays' length, capped at the scene's diagonal;
-    /// unbounded for wide cones), else the ray node.
+    /// The larger one (the default): the object node while its sphere's radius is at least
+    /// the ray node's reach (origin radius + sin α · its rays' length, capped at the
+    /// scene's diagonal; unbounded for wide cones), else the ray node.
     Size,
     /// The object node until it is a triangle, then the ray node.
     ObjectFirst,
-    /// The ray node until level 1, then the object node.
+    /// The ray node until single rays, then the object node (each ray walks its subtree).
     RayFirst,
 }
 
@@ -46,7 +52,8 @@ const OBJECT: u8 = 3;
 
 /// What the single-ray level reads of each ray (by ray index).
 pub struct RaySide<'a> {
-    /// Reciprocal directions (the slab tests).
+    /// Reciprocal directions (the slab tests), by the hierarchy's ray index (what its
+    /// `order` holds).
     pub inv_dir: &'a [Vec3],
     /// Ray kinds (the counters).
     pub kind: &'a [u8],
@@ -54,11 +61,103 @@ pub struct RaySide<'a> {
     pub any_hit: bool,
 }
 
+/// One ray node as the pair tests read it, in one record: its sphere and cone (the node
+/// tests of eq. 3.16), its reach (the [`Descent::Size`] rule), its kind, and the node as a
+/// *beam* for a conservative interval slab test against object boxes (the interval
+/// arithmetic of Boulos et al. 2007's packet tests, applied to the node's rays): the box of
+/// its rays' origins, per axis the interval of their reciprocal directions, the smallest
+/// t_min and the largest t_max.
+#[derive(Clone, Copy)]
+struct RayNode {
+    center: Vec3,
+    radius: f32,
+    cone: ConeSc,
+    max_t: f32,
+    reach: f32,
+    kind: u8,
+    omin: Vec3,
+    omax: Vec3,
+    ilo: Vec3,
+    ihi: Vec3,
+    tmin: f32,
+}
+
+/// The beam part of a [`RayNode`]: origins' box, reciprocal directions' box, smallest t_min.
+type Beam = (Vec3, Vec3, Vec3, Vec3, f32);
+
+/// The smallest beam holding every beam of `it`.
+fn beam_union(it: impl Iterator<Item = Beam>) -> Beam {
+    let (inf, ninf) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    it.fold((inf, ninf, inf, ninf, f32::INFINITY), |a, b| {
+        (
+            a.0.min(b.0),
+            a.1.max(b.1),
+            a.2.min(b.2),
+            a.3.max(b.3),
+            a.4.min(b.4),
+        )
+    })
+}
+
+impl RayNode {
+    /// The cone test (RAH's or the exact one) against sphere `(p, d)`.
+    #[inline]
+    fn cone_test(&self, test: NodeTest, p: Vec3, d: f32) -> bool {
+        match test {
+            NodeTest::Rah => rah_test(self.center, self.radius, &self.cone, p, d, self.max_t),
+            NodeTest::Exact => exact_test(self.center, self.radius, &self.cone, p, d, self.max_t),
+        }
+    }
+
+    /// Whether some ray of the node may meet box `b`. Per axis whose reciprocal directions
+    /// are finite and of one sign, the earliest entry and the latest exit over every origin
+    /// and direction of the node bound each ray's own (interval products, mirrored for
+    /// negative directions), widened by far more than their rounding; the other axes do
+    /// not restrict.
+    #[inline]
+    fn beam_test(&self, b: &geom::Aabb) -> bool {
+        let (mut tn, mut tf) = (self.tmin, self.max_t);
+        for k in 0..3 {
+            let (ilo, ihi) = (self.ilo[k], self.ihi[k]);
+            if !(ilo.is_finite() && ihi.is_finite()) {
+                continue;
+            }
+            let (near, far, olo, ohi, a, c) = if ilo > 0.0 {
+                (b.min[k], b.max[k], self.omin[k], self.omax[k], ilo, ihi)
+            } else if ihi < 0.0 {
+                (
+                    -b.max[k],
+                    -b.min[k],
+                    -self.omax[k],
+                    -self.omin[k],
+                    -ihi,
+                    -ilo,
+                )
+            } else {
+                continue;
+            };
+            let e = near - ohi;
+            let enter = if e >= 0.0 { e * a } else { e * c };
+            let x = far - olo;
+            let exit = if x >= 0.0 { x * c } else { x * a };
+            let slack = (near.abs().max(far.abs()) + olo.abs().max(ohi.abs())) * c * 1e-6;
+            tn = tn.max(enter - slack);
+            tf = tf.min(exit + slack);
+        }
+        tn <= tf
+    }
+}
+
 /// Pairs of one ray level: (ray node or leaf position, object node).
 type Pairs = (Vec<u32>, Vec<u32>);
 
 impl Traversal<'_> {
-    /// Run the dual traversal over `tree` and the final tests, adding to `c`; `descent` picks
+    /// Run the dual traversal over `tree` and the final tests, adding to `c`. Pairs wait in
+    /// one stack per ray level. Each step takes at most a chunk of `budget / max(b, 2)`
+    /// pairs from the top of one stack, so its output fits the pair budget: from the lowest
+    /// level holding a full chunk, else from the highest level holding any, so steps are
+    /// whole waves and no stack holds more than a chunk plus one step's output. The top
+    /// level's pairs are made one chunk of top nodes at a time. `descent` picks
     /// the side to expand, `diag` caps unbounded rays' lengths for [`Descent::Size`].
     pub fn run_dual(
         &self,
@@ -82,21 +181,25 @@ impl Traversal<'_> {
             .max()
             .unwrap_or(1);
         let chunk = (self.budget / widest.max(2) as usize).max(1);
+        let ray_nodes = self.ray_nodes(rays, diag);
         let nt = self.h.levels[nl - 1].len();
         let mut next_top = 0usize;
         // stacks[L]: pairs at ray level L (0: single rays by leaf position; L ≥ 1: nodes of
         // `levels[L − 1]`).
         let mut stacks: Vec<Pairs> = vec![(Vec::new(), Vec::new()); nl + 1];
         loop {
-            let Some(l) = stacks.iter().position(|s| !s.0.is_empty()) else {
-                if next_top == nt {
-                    break;
-                }
+            if stacks[nl].0.is_empty() && next_top < nt {
                 let end = (next_top + chunk).min(nt);
                 stacks[nl].0.extend(next_top as u32..end as u32);
                 stacks[nl].1.resize(end - next_top, tree.root);
                 next_top = end;
-                continue;
+            }
+            // The lowest level holding a full chunk, else the highest holding any pairs:
+            // steps stay large (few passes, each a whole wave), and no stack ever holds
+            // more than a chunk plus one step's output.
+            let full = stacks.iter().position(|s| s.0.len() >= chunk);
+            let Some(l) = full.or_else(|| stacks.iter().rposition(|s| !s.0.is_empty())) else {
+                break;
             };
             let held: usize = stacks.iter().map(|s| s.0.len()).sum();
             c.peak_pairs = c.peak_pairs.max(held as u64);
@@ -107,7 +210,8 @@ impl Traversal<'_> {
                 self.ray_step(tree, rays, &rn, &on, c);
                 continue;
             }
-            let (below, here) = self.node_step(tree, descent, diag, l - 1, &rn, &on, c);
+            let (below, here) =
+                self.node_step(tree, descent, &ray_nodes[l - 1], l - 1, &rn, &on, c);
             let s = &mut stacks[l];
             s.0.extend_from_slice(&here.0);
             s.1.extend_from_slice(&here.1);
@@ -119,6 +223,54 @@ impl Traversal<'_> {
         }
     }
 
+    /// Every level's node records: beams of level 1 from its rays, of each level above
+    /// from its children; `diag` caps unbounded rays' lengths in the reach.
+    fn ray_nodes(&self, rays: &RaySide, diag: f32) -> Vec<Vec<RayNode>> {
+        let order = &self.h.order;
+        let mut out: Vec<Vec<RayNode>> = Vec::with_capacity(self.h.levels.len());
+        for (li, level) in self.h.levels.iter().enumerate() {
+            let below = out.last();
+            let nodes: Vec<RayNode> = (0..level.len())
+                .into_par_iter()
+                .with_min_len(1024)
+                .map(|n| {
+                    let beam = match below {
+                        None => beam_union(order[level.children(n)].iter().map(|&r| {
+                            let (p, i) = (&self.pre[r as usize], rays.inv_dir[r as usize]);
+                            (p.org, p.org, i, i, p.t_min)
+                        })),
+                        Some(b) => beam_union(level.children(n).map(|c| {
+                            let x = &b[c];
+                            (x.omin, x.omax, x.ilo, x.ihi, x.tmin)
+                        })),
+                    };
+                    let cone = level.cone_sc(n);
+                    let reach = if cone.wide {
+                        f32::INFINITY
+                    } else {
+                        level.radius[n] + level.max_t[n].min(diag) * cone.sin
+                    };
+                    RayNode {
+                        center: level.center[n],
+                        radius: level.radius[n],
+                        cone,
+                        max_t: level.max_t[n],
+                        reach,
+                        kind: level.kind[n] & 3,
+                        omin: beam.0,
+                        omax: beam.1,
+                        ilo: beam.2,
+                        ihi: beam.3,
+                        tmin: beam.4,
+                    }
+                })
+                .collect();
+            debug_assert!(li == 0 || below.is_some());
+            out.push(nodes);
+        }
+        out
+    }
+
     /// Test (node of `levels[li]`, object node) pairs; run the final tests of the (level-1
     /// node, triangle) survivors and return the expanded pairs: (one ray level down, same
     /// level).
@@ -127,36 +279,30 @@ impl Traversal<'_> {
         &self,
         tree: &ObjectTree,
         descent: Descent,
-        diag: f32,
+        nodes: &[RayNode],
         li: usize,
         rn: &[u32],
         on: &[u32],
         c: &mut Counters,
     ) -> (Pairs, Pairs) {
         let level = &self.h.levels[li];
-        let s = &self.scene;
-        let reach = |n: usize| {
-            if level.angle[n] >= std::f32::consts::FRAC_PI_2 {
-                f32::INFINITY
-            } else {
-                level.radius[n] + level.max_t[n].min(diag) * level.sin[n]
-            }
-        };
         // Test, and decide what each survivor becomes.
         let action: Vec<u8> = rn
             .par_iter()
             .zip(on.par_iter())
-            .with_min_len(256)
+            .with_min_len(1024)
             .map(|(&r, &o)| {
-                let r = r as usize;
+                let node = &nodes[r as usize];
                 let leaf = o & LEAF != 0;
-                let (p, d) = if leaf {
-                    let t = (o & !LEAF) as usize;
-                    (s.tri_center[t], s.tri_radius[t])
+                let ob = if leaf {
+                    &tree.leaf[(o & !LEAF) as usize]
                 } else {
-                    (tree.center[o as usize], tree.radius[o as usize])
+                    &tree.node[o as usize]
                 };
-                if !node_test(self.test, level, r, p, d) {
+                let (p, d) = (ob.sphere.center, ob.sphere.radius);
+                // The node's cone against the object's sphere, then its rays as a beam
+                // against the object's box: both conservative, so both must pass.
+                if !node.cone_test(self.test, p, d) || !node.beam_test(&ob.bbox) {
                     return DROP;
                 }
                 if leaf {
@@ -165,7 +311,7 @@ impl Traversal<'_> {
                 let object = match descent {
                     Descent::ObjectFirst => true,
                     Descent::RayFirst => false,
-                    Descent::Size => d >= reach(r),
+                    Descent::Size => d >= node.reach,
                 };
                 if object {
                     OBJECT
@@ -183,7 +329,7 @@ impl Traversal<'_> {
             .fold(
                 || ([0u64; 4], [0u64; 4], 0u64),
                 |(mut t, mut h, mut i), ((&r, &o), &a)| {
-                    let k = level.kind[r as usize] as usize & 3;
+                    let k = nodes[r as usize].kind as usize;
                     t[k] += 1;
                     h[k] += (a != DROP) as u64;
                     i += (o & LEAF == 0) as u64;
@@ -271,7 +417,7 @@ impl Traversal<'_> {
         let order = &self.h.order;
         let (finals, boxes, passes) = (0..runs)
             .into_par_iter()
-            .with_min_len(64)
+            .with_min_len(256)
             .fold(
                 || ([0u64; 4], 0u64, 0u64, Vec::<u32>::new()),
                 |(mut f, mut b, mut p, mut stack), k| {
@@ -386,4 +532,91 @@ fn emit(
             });
         });
     (xs, ys)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geom::{Aabb, Pcg32};
+    use proptest::prelude::*;
+
+    /// Whether the ray meets the box, in f64 (the slab test without rounding to speak of).
+    fn meets(o: Vec3, d: Vec3, t0: f32, t1: f32, b: &Aabb) -> bool {
+        let (mut tn, mut tf) = (t0 as f64, t1 as f64);
+        for k in 0..3 {
+            let (o, d, lo, hi) = (o[k] as f64, d[k] as f64, b.min[k] as f64, b.max[k] as f64);
+            if d == 0.0 {
+                if o < lo || o > hi {
+                    return false;
+                }
+                continue;
+            }
+            let (a, c) = ((lo - o) / d, (hi - o) / d);
+            tn = tn.max(a.min(c));
+            tf = tf.min(a.max(c));
+        }
+        tn <= tf
+    }
+
+    /// A node of `rays` for the beam test alone (its cone fields are not read).
+    fn beam_node(rays: &[(Vec3, Vec3, f32, f32)]) -> RayNode {
+        let beam = beam_union(
+            rays.iter()
+                .map(|&(o, d, t0, _)| (o, o, d.recip(), d.recip(), t0)),
+        );
+        RayNode {
+            center: Vec3::ZERO,
+            radius: 0.0,
+            cone: ConeSc {
+                axis: Vec3::X,
+                sin: 1.0,
+                cos: 0.0,
+                wide: true,
+                full: true,
+            },
+            max_t: rays.iter().map(|r| r.3).fold(0.0, f32::max),
+            reach: f32::INFINITY,
+            kind: 0,
+            omin: beam.0,
+            omax: beam.1,
+            ilo: beam.2,
+            ihi: beam.3,
+            tmin: beam.4,
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2048))]
+
+        /// The beam test never culls a box that one of the node's rays meets: coherent
+        /// and incoherent bundles, axis-parallel directions, boxes thin and far.
+        #[test]
+        fn beam_test_is_conservative(seed in 0u64..1_000_000, n in 1usize..9, spread in 0.0f32..1.0, scale in 0.01f32..1000.0, flat in 0usize..4) {
+            let mut rng = Pcg32::new(seed, 7);
+            let c = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * scale;
+            let axis = rng.unit_vector();
+            let rays: Vec<_> = (0..n).map(|i| {
+                let o = c + Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * spread * scale * 0.1;
+                let mut d = (axis + rng.unit_vector() * spread).normalize_or(Vec3::X);
+                if i % 3 == 0 && flat < 3 {
+                    d[flat] = 0.0;
+                    d = d.normalize_or(Vec3::Y);
+                }
+                let t1 = if rng.next_f32() < 0.3 { f32::INFINITY } else { rng.range(0.1, 4.0) * scale };
+                (o, d, rng.range(0.0, 0.01) * scale, t1)
+            }).collect();
+            let node = beam_node(&rays);
+            for _ in 0..16 {
+                let lo = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0)) * scale;
+                let mut ext = Vec3::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0)) * scale;
+                if flat < 3 {
+                    ext[flat] = 0.0;
+                }
+                let b = Aabb::new(lo, lo + ext);
+                if rays.iter().any(|&(o, d, t0, t1)| meets(o, d, t0, t1, &b)) {
+                    prop_assert!(node.beam_test(&b), "{b:?} culled for {rays:?}");
+                }
+            }
+        }
+    }
 }

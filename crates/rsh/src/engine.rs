@@ -103,7 +103,7 @@ impl RshConfig {
             mesh_culling: true,
             pair_budget: DEFAULT_PAIR_BUDGET,
             objects: ObjectHierarchy::MeshSpheres,
-            descent: Descent::RayFirst,
+            descent: Descent::Size,
         }
     }
 
@@ -231,7 +231,7 @@ impl Tracer for RshEngine {
         };
         let order = leaf_order(rays, grouping, &self.bounds, &self.cfg.hash_bits, stats);
         let t0 = Instant::now();
-        let h = build(
+        let mut h = build(
             rays,
             order,
             self.cfg.branching as usize,
@@ -244,6 +244,20 @@ impl Tracer for RshEngine {
             .map(|i| RayPre::new(&rays.ray(i)))
             .collect();
         let best: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(u64::MAX)).collect();
+        // The dual traversal reads rays in leaf order: its rays' constants and best hits are
+        // laid out in that order (the hash order scatters ray ids, and every final test
+        // would miss the cache), with the hierarchy's leaves renumbered to match.
+        let dual = self.tree.as_ref().filter(|_| !self.tris.is_empty());
+        let leaves = dual.map(|_| {
+            let len = h.order.len() as u32;
+            std::mem::replace(&mut h.order, (0..len).collect())
+        });
+        let gather = |v: &[RayPre]| -> Vec<RayPre> {
+            let o = leaves.as_deref().unwrap_or(&[]);
+            o.par_iter().map(|&r| v[r as usize]).collect()
+        };
+        let pre_leaf = gather(&pre);
+        let best_leaf: Vec<AtomicU64> = pre_leaf.iter().map(|_| AtomicU64::new(u64::MAX)).collect();
         let trav = Traversal {
             h: &h,
             scene: SceneData {
@@ -253,32 +267,40 @@ impl Tracer for RshEngine {
                 mesh_first: &self.mesh_first,
                 mesh_sphere: &self.mesh_sphere,
             },
-            pre: &pre,
-            best: &best,
+            pre: if dual.is_some() { &pre_leaf } else { &pre },
+            best: if dual.is_some() { &best_leaf } else { &best },
             test: self.cfg.node_test,
             mesh_culling: self.cfg.mesh_culling,
             budget: self.cfg.pair_budget,
         };
         let mut c = Counters::default();
         let t1 = Instant::now();
-        match &self.tree {
-            _ if self.tris.is_empty() => {}
-            None => trav.run(&mut c),
-            Some((tree, _)) => {
-                let inv_dir: Vec<Vec3> = rays.dir.par_iter().map(|d| d.recip()).collect();
+        match (dual, &leaves) {
+            (Some(tree), Some(leaves)) => {
+                let inv_dir: Vec<Vec3> = leaves
+                    .par_iter()
+                    .map(|&r| rays.dir[r as usize].recip())
+                    .collect();
+                let kind: Vec<u8> = leaves.par_iter().map(|&r| rays.kind[r as usize]).collect();
                 let side = RaySide {
                     inv_dir: &inv_dir,
-                    kind: &rays.kind,
+                    kind: &kind,
                     any_hit: mode == TraceMode::Any,
                 };
+                let (tree, _) = tree;
                 trav.run_dual(
                     tree,
                     self.cfg.descent,
                     self.bounds.diagonal(),
                     &side,
                     &mut c,
-                )
+                );
+                leaves.par_iter().zip(&best_leaf).for_each(|(&r, b)| {
+                    best[r as usize].store(b.load(Ordering::Relaxed), Ordering::Relaxed)
+                });
             }
+            _ if self.tris.is_empty() => {}
+            _ => trav.run(&mut c),
         }
         let total = t1.elapsed().as_secs_f64();
         stats.time(Phase::Traversal, total - c.final_seconds);

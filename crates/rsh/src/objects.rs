@@ -33,17 +33,28 @@ pub struct ObjectTree {
     pub root: u32,
     /// Left and right children of every internal node.
     pub child: Vec<[u32; 2]>,
-    /// Bounding-sphere centres of the internal nodes.
-    pub center: Vec<Vec3>,
-    /// Bounding-sphere radii of the internal nodes.
-    pub radius: Vec<f32>,
+    /// Every internal node's sphere and box (one record: a pair test reads both).
+    pub node: Vec<Bounds>,
+    /// Every triangle's sphere ([`Sphere::of_triangle`]) and box.
+    pub leaf: Vec<Bounds>,
     /// Per internal node, its two children's boxes side by side (a single ray's descent
     /// tests both at once: one cache line), grown by a few ulps of the scene's coordinates
     /// so that the robust slab test never misses a triangle inside; a leaf child's box is
     /// its triangle's.
     pub child_box: Vec<[Aabb; 2]>,
+
     /// Depth of the deepest leaf (root = 0).
     pub depth: u32,
+}
+
+/// An object node's bounds, as the pair tests read them: the sphere (the cone test) and the
+/// box grown by a few ulps of the scene's coordinates (the beam and slab tests).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Bounds {
+    /// Bounding sphere.
+    pub sphere: Sphere,
+    /// Grown bounding box.
+    pub bbox: Aabb,
 }
 
 impl ObjectTree {
@@ -139,8 +150,22 @@ pub fn build(
 ) -> ObjectTree {
     let n = tris.len();
     if n <= 1 {
+        // A lone triangle is the root (and with none, nothing is ever traversed).
+        let leaf = tris
+            .iter()
+            .map(|t| {
+                let b = Aabb::from_points(t.iter().copied());
+                let pad =
+                    Vec3::splat(b.min.abs().max(b.max.abs()).max_element() * 8.0 * f32::EPSILON);
+                Bounds {
+                    sphere: Sphere::of_triangle(t[0], t[1], t[2]),
+                    bbox: Aabb::new(b.min - pad, b.max + pad),
+                }
+            })
+            .collect();
         return ObjectTree {
             root: LEAF,
+            leaf,
             ..Default::default()
         };
     }
@@ -168,7 +193,9 @@ pub fn build(
     let axis_bits = ((64 - mesh_bits) / 3).min(21);
     let code_bits = 3 * axis_bits;
     let keys_of = |t: usize, bx: &Aabb| {
-        let m = mesh_first.partition_point(|&f| f as usize <= t).saturating_sub(1);
+        let m = mesh_first
+            .partition_point(|&f| f as usize <= t)
+            .saturating_sub(1);
         (m as u64) << code_bits | morton(bx.center(), &centroid_box, axis_bits)
     };
     let mut keys: Vec<u64> = boxes
@@ -259,7 +286,7 @@ pub fn build(
         });
     }
     let mesh_of_pos = |pos: u32| (keys[pos as usize] >> code_bits) as usize;
-    let (center, radius): (Vec<Vec3>, Vec<f32>) = (0..ni)
+    let spheres: Vec<Sphere> = (0..ni)
         .into_par_iter()
         .with_min_len(1024)
         .map(|i| {
@@ -273,30 +300,46 @@ pub fn build(
                     s = ms[m];
                 }
             }
-            (s.center, s.radius)
+            s
         })
-        .unzip();
+        .collect();
     let m = nbox[0].min.abs().max(nbox[0].max.abs()).max_element();
     let pad = Vec3::splat(m * 8.0 * f32::EPSILON);
+    let grow = |b: &Aabb| Aabb::new(b.min - pad, b.max + pad);
+    let node: Vec<Bounds> = (0..ni)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|i| Bounds {
+            sphere: spheres[i],
+            bbox: grow(&nbox[i]),
+        })
+        .collect();
+    let leaf: Vec<Bounds> = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|t| Bounds {
+            sphere: Sphere::of_triangle(tris[t][0], tris[t][1], tris[t][2]),
+            bbox: grow(&boxes[t]),
+        })
+        .collect();
     let child_box = child
         .par_iter()
         .with_min_len(4096)
         .map(|ch| {
             ch.map(|c| {
-                let b = if c & LEAF != 0 {
-                    boxes[(c & !LEAF) as usize]
+                if c & LEAF != 0 {
+                    leaf[(c & !LEAF) as usize].bbox
                 } else {
-                    nbox[c as usize]
-                };
-                Aabb::new(b.min - pad, b.max + pad)
+                    node[c as usize].bbox
+                }
             })
         })
         .collect();
     ObjectTree {
         root: 0,
         child,
-        center,
-        radius,
+        node,
+        leaf,
         child_box,
         depth: depth_of[0],
     }
@@ -335,11 +378,12 @@ mod tests {
                 seen[tri] += 1;
                 max_depth = max_depth.max(path.len() as u32);
                 for &(a, k) in &path {
-                    let s = Sphere::new(t.center[a], t.radius[a]);
+                    let s = t.node[a].sphere;
                     for v in tris[tri] {
                         assert!(s.contains(v), "node {a} misses a vertex of triangle {tri}");
                         let b = &t.child_box[a][k];
                         assert!(b.contains(v), "box {k} of {a} misses triangle {tri}");
+                        assert!(t.node[a].bbox.contains(v) && t.leaf[tri].bbox.contains(v));
                     }
                 }
             } else {

@@ -148,7 +148,7 @@ pub fn pack(t: f32, tri: u32) -> u64 {
 }
 
 #[inline]
-pub(crate) fn node_test(test: NodeTest, level: &Level, node: usize, p: Vec3, d: f32) -> bool {
+fn node_test(test: NodeTest, level: &Level, node: usize, p: Vec3, d: f32) -> bool {
     let k = level.cone_sc(node);
     let (c, r, l) = (level.center[node], level.radius[node], level.max_t[node]);
     match test {
