@@ -186,6 +186,12 @@ impl RshEngine {
             .par_iter()
             .map(|t| Sphere::of_triangle(t[0], t[1], t[2]))
             .collect();
+        if cfg.objects == ObjectHierarchy::Bvh && geo.tris.len() >= objects::LEAF as usize {
+            return Err(format!(
+                "--object-hierarchy bvh: {} triangles exceed the object tree's 2^31",
+                geo.tris.len()
+            ));
+        }
         let tree = (cfg.objects == ObjectHierarchy::Bvh).then(|| {
             let t0 = Instant::now();
             let spheres = cfg.mesh_culling.then_some(&geo.mesh_sphere[..]);

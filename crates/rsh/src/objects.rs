@@ -141,6 +141,14 @@ fn emit_node(keys: &[u64], i: usize) -> (usize, usize, usize) {
     (ii.min(j) as usize, ii.max(j) as usize, gamma as usize)
 }
 
+/// `b` grown by 8 ulps of the largest coordinate of `scene`: more than the rounding of any
+/// slab or beam computation on it can take away.
+fn grown(b: &Aabb, scene: &Aabb) -> Aabb {
+    let m = scene.min.abs().max(scene.max.abs()).max_element();
+    let pad = Vec3::splat(m * 8.0 * f32::EPSILON);
+    Aabb::new(b.min - pad, b.max + pad)
+}
+
 /// Build the tree over `tris` (meshes as `mesh_first` ranges). With `mesh_spheres`, the root
 /// of mesh m's subtree is bounded by the smaller of its box sphere and `mesh_spheres[m]`.
 pub fn build(
@@ -155,11 +163,9 @@ pub fn build(
             .iter()
             .map(|t| {
                 let b = Aabb::from_points(t.iter().copied());
-                let pad =
-                    Vec3::splat(b.min.abs().max(b.max.abs()).max_element() * 8.0 * f32::EPSILON);
                 Bounds {
                     sphere: Sphere::of_triangle(t[0], t[1], t[2]),
-                    bbox: Aabb::new(b.min - pad, b.max + pad),
+                    bbox: grown(&b, &b),
                 }
             })
             .collect();
@@ -171,7 +177,7 @@ pub fn build(
     }
     assert!(
         n < LEAF as usize,
-        "the object tree holds fewer than 2^31 triangles"
+        "checked by RshEngine::new: fewer than 2^31 triangles"
     );
     let boxes: Vec<Aabb> = tris
         .par_iter()
@@ -303,9 +309,7 @@ pub fn build(
             s
         })
         .collect();
-    let m = nbox[0].min.abs().max(nbox[0].max.abs()).max_element();
-    let pad = Vec3::splat(m * 8.0 * f32::EPSILON);
-    let grow = |b: &Aabb| Aabb::new(b.min - pad, b.max + pad);
+    let grow = |b: &Aabb| grown(b, &nbox[0]);
     let node: Vec<Bounds> = (0..ni)
         .into_par_iter()
         .with_min_len(4096)
