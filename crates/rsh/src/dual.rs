@@ -25,7 +25,7 @@ use crate::objects::{ObjectTree, LEAF};
 use crate::traverse::{pack, Counters, NodeTest, Traversal};
 use geom::cone::{exact_test, rah_test, ConeSc};
 use geom::{intersect, Vec3};
-use par::{compress_runs, exclusive_scan, sort_pairs, SharedMut, SortScratch};
+use par::{compress_runs, emit_pairs, sort_pairs, SortScratch};
 use rayon::prelude::*;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
@@ -207,18 +207,14 @@ impl Traversal<'_> {
             let at = s.0.len().saturating_sub(chunk);
             let (rn, on) = (s.0.split_off(at), s.1.split_off(at));
             if l == 0 {
-                self.ray_step(tree, rays, &rn, &on, c);
+                self.ray_step(tree, rays, rn, on, c);
                 continue;
             }
             let (below, here) =
                 self.node_step(tree, descent, &ray_nodes[l - 1], l - 1, &rn, &on, c);
-            let s = &mut stacks[l];
-            s.0.extend_from_slice(&here.0);
-            s.1.extend_from_slice(&here.1);
-            if l > 0 {
-                let s = &mut stacks[l - 1];
-                s.0.extend_from_slice(&below.0);
-                s.1.extend_from_slice(&below.1);
+            for (s, p) in [(l, here), (l - 1, below)] {
+                stacks[s].0.extend_from_slice(&p.0);
+                stacks[s].1.extend_from_slice(&p.1);
             }
         }
     }
@@ -352,12 +348,12 @@ impl Traversal<'_> {
         }
         c.object_tests += inner;
         // Final tests of the level-1 survivors with triangles.
-        let (fn_, ft) = emit(
-            &action,
-            |_, a| (a == FINAL) as u32,
-            |i, _, out| out(rn[i], on[i] & !LEAF),
-        );
-        if !fn_.is_empty() {
+        if li == 0 {
+            let (fn_, ft) = emit(
+                &action,
+                |_, a| (a == FINAL) as u32,
+                |i, out| out(rn[i], on[i] & !LEAF),
+            );
             let t0 = Instant::now();
             self.final_tests(&fn_, &ft, c);
             c.final_seconds += t0.elapsed().as_secs_f64();
@@ -373,7 +369,7 @@ impl Traversal<'_> {
                     0
                 }
             },
-            |i, _, out| {
+            |i, out| {
                 for ch in level.children(rn[i] as usize) {
                     out(ch as u32, on[i]);
                 }
@@ -383,7 +379,7 @@ impl Traversal<'_> {
         let here = emit(
             &action,
             |_, a| 2 * (a == OBJECT) as u32,
-            |i, _, out| {
+            |i, out| {
                 for ch in tree.child[on[i] as usize] {
                     out(rn[i], ch);
                 }
@@ -402,12 +398,11 @@ impl Traversal<'_> {
         &self,
         tree: &ObjectTree,
         rays: &RaySide,
-        pos: &[u32],
-        on: &[u32],
+        mut pos: Vec<u32>,
+        mut on: Vec<u32>,
         c: &mut Counters,
     ) {
         let t0 = Instant::now();
-        let (mut pos, mut on) = (pos.to_vec(), on.to_vec());
         let bits = 32 - (self.h.order.len() as u32).leading_zeros();
         sort_pairs(&mut pos, &mut on, bits.max(1), &mut SortScratch::new());
         let mut head = vec![0u32; pos.len()];
@@ -496,42 +491,18 @@ impl Traversal<'_> {
     }
 }
 
-/// Pairs through count → exclusive scan → emit: `count(i, action)` says how many pairs item
-/// i makes, `make(i, action, out)` writes them in the same order.
+/// The pairs the tested pairs make (`par::emit_pairs`): `count(i, action)` says how many
+/// pair i makes, `make(i, out)` writes them in the same order.
 fn emit(
     action: &[u8],
     count: impl Fn(usize, u8) -> u32 + Sync,
-    make: impl Fn(usize, u8, &mut dyn FnMut(u32, u32)) + Sync,
-) -> (Vec<u32>, Vec<u32>) {
-    let counts: Vec<u32> = action
-        .par_iter()
-        .enumerate()
-        .with_min_len(4096)
-        .map(|(i, &a)| count(i, a))
-        .collect();
-    let mut offs = vec![0u32; counts.len()];
-    let total = exclusive_scan(&counts, &mut offs) as usize;
-    let (mut xs, mut ys) = (vec![0u32; total], vec![0u32; total]);
-    let (xp, yp) = (SharedMut(xs.as_mut_ptr()), SharedMut(ys.as_mut_ptr()));
-    action
-        .par_iter()
-        .enumerate()
-        .with_min_len(1024)
-        .filter(|(i, _)| counts[*i] != 0)
-        .for_each(|(i, &a)| {
-            let mut k = offs[i] as usize;
-            let end = k + counts[i] as usize;
-            make(i, a, &mut |x, y| {
-                assert!(k < end, "emit made more pairs than it counted");
-                // SAFETY: item i owns [offs[i], offs[i] + counts[i]) by the exclusive scan.
-                unsafe {
-                    xp.write(k, x);
-                    yp.write(k, y);
-                }
-                k += 1;
-            });
-        });
-    (xs, ys)
+    make: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
+) -> Pairs {
+    let never = |_| Ok::<(), std::convert::Infallible>(());
+    match emit_pairs(action.len(), |i| count(i, action[i]), never, make) {
+        Ok(p) => p,
+        Err(e) => match e {},
+    }
 }
 
 #[cfg(test)]

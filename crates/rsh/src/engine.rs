@@ -258,11 +258,8 @@ impl Tracer for RshEngine {
             let len = h.order.len() as u32;
             std::mem::replace(&mut h.order, (0..len).collect())
         });
-        let gather = |v: &[RayPre]| -> Vec<RayPre> {
-            let o = leaves.as_deref().unwrap_or(&[]);
-            o.par_iter().map(|&r| v[r as usize]).collect()
-        };
-        let pre_leaf = gather(&pre);
+        let leaf_rays = leaves.as_deref().unwrap_or_default();
+        let pre_leaf: Vec<RayPre> = leaf_rays.par_iter().map(|&r| pre[r as usize]).collect();
         let best_leaf: Vec<AtomicU64> = pre_leaf.iter().map(|_| AtomicU64::new(u64::MAX)).collect();
         let trav = Traversal {
             h: &h,
@@ -281,19 +278,21 @@ impl Tracer for RshEngine {
         };
         let mut c = Counters::default();
         let t1 = Instant::now();
-        match (dual, &leaves) {
-            (Some(tree), Some(leaves)) => {
-                let inv_dir: Vec<Vec3> = leaves
+        match dual {
+            Some((tree, _)) => {
+                let inv_dir: Vec<Vec3> = leaf_rays
                     .par_iter()
                     .map(|&r| rays.dir[r as usize].recip())
                     .collect();
-                let kind: Vec<u8> = leaves.par_iter().map(|&r| rays.kind[r as usize]).collect();
+                let kind: Vec<u8> = leaf_rays
+                    .par_iter()
+                    .map(|&r| rays.kind[r as usize])
+                    .collect();
                 let side = RaySide {
                     inv_dir: &inv_dir,
                     kind: &kind,
                     any_hit: mode == TraceMode::Any,
                 };
-                let (tree, _) = tree;
                 trav.run_dual(
                     tree,
                     self.cfg.descent,
@@ -301,12 +300,12 @@ impl Tracer for RshEngine {
                     &side,
                     &mut c,
                 );
-                leaves.par_iter().zip(&best_leaf).for_each(|(&r, b)| {
+                leaf_rays.par_iter().zip(&best_leaf).for_each(|(&r, b)| {
                     best[r as usize].store(b.load(Ordering::Relaxed), Ordering::Relaxed)
                 });
             }
-            _ if self.tris.is_empty() => {}
-            _ => trav.run(&mut c),
+            None if self.tris.is_empty() => {}
+            None => trav.run(&mut c),
         }
         let total = t1.elapsed().as_secs_f64();
         stats.time(Phase::Traversal, total - c.final_seconds);

@@ -29,7 +29,7 @@ use super::voxelmap::{self, INDEX};
 use super::{BuildStats, Grid, GridConfig, Subdivision};
 use geom::aabb::TriBoxSat;
 use geom::{Aabb, Vec3};
-use par::{exclusive_scan, SharedMut};
+use par::{emit_pairs, exclusive_scan, SharedMut};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::Instant;
@@ -154,46 +154,22 @@ impl Frame<'_> {
     }
 }
 
-/// Emit (key, tri) pairs through count → exclusive scan → emit: `count(i)` says how many
-/// pairs item i makes, `emit(i, out)` pushes them in the same order.
-/// The total is checked against the reference cap before anything is allocated for it.
+/// Emit (key, tri) pairs through count → exclusive scan → emit (`par::emit_pairs`), the
+/// total checked against the reference cap before anything is allocated for it.
 fn count_scan_emit(
     lim: &Limits,
     n: usize,
     count: impl Fn(usize) -> u32 + Sync,
     emit: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
 ) -> Result<(Vec<u32>, Vec<u32>), String> {
-    let counts: Vec<u32> = (0..n)
-        .into_par_iter()
-        .with_min_len(1024)
-        .map(&count)
-        .collect();
-    let total: u64 = counts.par_iter().map(|&c| c as u64).sum();
-    if total > lim.refs {
-        return Err(lim.refs_error(total));
-    }
-    let mut offs = vec![0u32; n];
-    let total = exclusive_scan(&counts, &mut offs) as usize;
-    let mut keys = vec![0u32; total];
-    let mut vals = vec![0u32; total];
-    {
-        let kp = SharedMut(keys.as_mut_ptr());
-        let vp = SharedMut(vals.as_mut_ptr());
-        (0..n).into_par_iter().with_min_len(1024).for_each(|i| {
-            let mut k = offs[i] as usize;
-            let end = k + counts[i] as usize;
-            emit(i, &mut |key, val| {
-                assert!(k < end, "emit made more pairs than count");
-                // SAFETY: item i owns [offs[i], offs[i] + counts[i]) by the exclusive scan.
-                unsafe {
-                    kp.write(k, key);
-                    vp.write(k, val);
-                }
-                k += 1;
-            });
-        });
-    }
-    Ok((keys, vals))
+    let check = |total: u64| {
+        if total > lim.refs {
+            Err(lim.refs_error(total))
+        } else {
+            Ok(())
+        }
+    };
+    emit_pairs(n, count, check, emit)
 }
 
 /// Most references one build holds, per level and in all, whatever the memory: 2^28 keeps
