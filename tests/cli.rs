@@ -589,19 +589,51 @@ fn gpu_backend_renders_or_says_why() {
         .as_array()
         .is_some_and(|a| !a.is_empty()));
     assert!(stats["total_tests"].as_u64().unwrap() > 0);
+    // The grid: traversal on the GPU, its CPU build passes in the stats; the counts equal
+    // the CPU grid's render where the two G-buffers agree, so only their presence is checked.
+    let gjson = d.join("grid.json");
+    let o = ok(&[
+        "render",
+        "cornell",
+        "--engine",
+        "grid",
+        "--backend",
+        "gpu",
+        "--width",
+        "48",
+        "--height",
+        "40",
+        "--bounces",
+        "1",
+        "--out",
+        d.join("grid.png").to_str().unwrap(),
+        "--stats",
+        gjson.to_str().unwrap(),
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("build: merge (CPU)"), "{out}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&gjson).unwrap()).unwrap();
+    assert!(stats["total_tests"].as_u64().unwrap() > 0);
+    assert!(stats["counters"]["traversal steps"].as_u64().unwrap() > 0);
     // bench gpu checks the agreement in its own run.
     let b = ok(&[
         "bench", "gpu", "--scenes", "cornell", "--width", "40", "--height", "32",
     ]);
     let md = String::from_utf8_lossy(&b.stdout);
     assert!(md.contains("hits equal the CPU's, counters equal"), "{md}");
+    assert_eq!(
+        md.matches("hits, N_T, N_I equal the CPU's").count(),
+        3,
+        "the grid's three ray kinds agree: {md}"
+    );
 }
 
 #[test]
 fn gpu_backend_rejects_what_it_does_not_run() {
     fails(
-        &["render", "cornell", "--backend", "gpu", "--engine", "grid"],
-        &["--backend gpu", "crsh"],
+        &["render", "cornell", "--backend", "gpu", "--engine", "brute"],
+        &["--backend gpu", "grid2l", "brute"],
     );
     fails(
         &words("render cornell --backend gpu --frames 2 --out x%d.png"),

@@ -4,7 +4,9 @@
 //!
 //! Each scene is rendered once on the CPU while every traced batch is recorded; then CPU
 //! CRSH and GPU CRSH (and RAH) trace exactly those batches. The hits and the counters of the
-//! two are compared in the same run and the report says whether they agree. GPU phase times
+//! two are compared in the same run and the report says whether they agree. The irregular
+//! grid's GPU traversal runs beside the CPU grid on primary, AO and random rays (paper §5,
+//! Table 3's kinds) over the same CPU-built grid, with the same agreement check. GPU phase times
 //! come from timestamp queries where they time kernels, otherwise from the wall clock with a
 //! wait at every phase boundary (the report names which).
 
@@ -20,8 +22,9 @@ use super::Spec;
 
 use gpu::rsh::engine::comparable_counters as counters;
 
-/// Run the comparison (with RAH beside CRSH when `rah`); returns the markdown report.
-pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
+/// Run the comparison (with RAH beside CRSH when `rah`; the grid alone when `grid_only`);
+/// returns the markdown report.
+pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> Result<String> {
     let probe = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
     let timer = match probe.timer {
         gpu::device::PhaseTimer::Timestamps => "GPU timestamp queries",
@@ -32,6 +35,21 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
     let mut md = format!("GPU: {}  \nGPU phase timer: {timer}\n", probe.describe());
     drop(probe);
     for name in &spec.scenes {
+        if grid_only {
+            progress(&format!("{name}: loading"));
+            let s = scene::load(name, &scene::LoadOptions::default())?;
+            let geo = scene::Geometry::from_scene(&s);
+            md += &format!(
+                "\n## {} — {} triangles, {}×{}\n",
+                s.name,
+                geo.len(),
+                spec.width,
+                spec.height
+            );
+            progress(&format!("{name}: irregular grid"));
+            md += &grid_section(&s, &geo, spec)?;
+            continue;
+        }
         progress(&format!("{name}: rendering to record the rays"));
         let (s, geo, batches) = super::record(name, spec.width, spec.height, spec.bounces)?;
         let nrays: u64 = batches.iter().map(|b| b.0.len() as u64).sum();
@@ -171,6 +189,122 @@ pub fn run(spec: &Spec, rah: bool, progress: &dyn Fn(&str)) -> Result<String> {
                 );
             }
         }
+        progress(&format!("{name}: irregular grid"));
+        md += &grid_section(&s, &geo, spec)?;
+    }
+    Ok(md)
+}
+
+/// Milliseconds of the build pass `name` of `e`.
+fn pass_ms(e: &dyn Tracer, name: &str) -> f64 {
+    e.build_passes()
+        .iter()
+        .find(|p| p.0 == name)
+        .map(|p| p.1 * 1e3)
+        .unwrap_or(0.0)
+}
+
+/// Timed runs per engine and ray kind in the grid section (the best one is reported).
+const GRID_REPEATS: usize = 3;
+
+/// The irregular grid (paper §5, Table 3's ray kinds): the CPU engine and the GPU traversal
+/// of the very same grid (built once on the CPU) on the same primary, ambient-occlusion
+/// (any hit) and random rays; MRays/s from the best of [`GRID_REPEATS`] runs after a
+/// warm-up, the GPU's both from its traversal kernel alone and from the whole trace call
+/// (upload, launch, read-back), and whether hits, N_T and N_I agree.
+fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<String> {
+    use accel::grid::{GridConfig, GridEngine};
+    use render::raygen::{generate, Kind, Options};
+    use render::TraceMode;
+    let cfg = GridConfig::default();
+    let t0 = Instant::now();
+    let cpu = GridEngine::new(geo, &cfg).map_err(anyhow::Error::msg)?;
+    let build = t0.elapsed().as_secs_f64();
+    let gpu = gpu::GpuGrid::upload(device()?, &cpu.grid, &geo.tris, "grid-gpu")
+        .map_err(|e| anyhow::anyhow!("bench gpu: grid: {e}"))?;
+    let opts = Options {
+        width: spec.width,
+        height: spec.height,
+        spp: 1,
+        seed: 1,
+        ao_distance: None,
+    };
+    let kinds = [
+        ("primary", Kind::Primary, TraceMode::Closest),
+        ("ao (any hit)", Kind::Ao, TraceMode::Any),
+        ("random", Kind::Random, TraceMode::Closest),
+    ];
+    let passes: Vec<String> = cpu
+        .grid
+        .build
+        .passes()
+        .iter()
+        .map(|(n, t)| format!("{n} {:.1}", t * 1e3))
+        .collect();
+    let mut md = format!(
+        "\n### Irregular grid (λ₁ = {}, λ₂ = {}): {} cells, {} references; CPU build {:.1} ms ({}), upload {:.1} ms (kernel compilation {:.0} ms); CPU traversal on {} threads\n\n",
+        cfg.top_density,
+        cfg.leaf_density,
+        cpu.grid.cells(),
+        cpu.grid.refs.len(),
+        build * 1e3,
+        passes.join(", "),
+        pass_ms(&gpu, "upload"),
+        pass_ms(&gpu, "kernel compilation"),
+        rayon::current_num_threads()
+    );
+    md += "| rays | count | CPU MRays/s | GPU kernel MRays/s | GPU call MRays/s | kernel speed-up over CPU | N_T | N_I | agreement |\n|---|---:|---:|---:|---:|---:|---:|---:|---|\n";
+    for (label, kind, mode) in kinds {
+        let rays = generate(s, geo, kind, &opts);
+        let n = rays.len();
+        let run = |e: &dyn Tracer| {
+            let mut best = (f64::INFINITY, TraceStats::default(), Vec::new());
+            for _ in 0..=GRID_REPEATS {
+                let mut h = vec![Hit::MISS; n];
+                let mut st = TraceStats::default();
+                let t0 = Instant::now();
+                e.trace(&rays, mode, &mut h, &mut st);
+                let dt = t0.elapsed().as_secs_f64();
+                if dt < best.0 {
+                    best = (dt, st, h);
+                }
+            }
+            best
+        };
+        let (wc, sc, hc) = run(&cpu);
+        gpu.take_times();
+        let (wg, sg, hg) = run(&gpu);
+        // The kernel's time of the best call: the traversal phase, averaged over the calls
+        // (every call launches the same kernel on the same rays).
+        let kernel = gpu
+            .take_times()
+            .into_iter()
+            .find(|(p, _)| *p == Phase::Traversal)
+            .map(|(_, t)| t / (GRID_REPEATS + 1) as f64);
+        let steps = |st: &TraceStats| st.counters.get(counter::TRAVERSAL_STEPS).copied();
+        let same = hc == hg
+            && sc.ray_tri_tests == sg.ray_tri_tests
+            && steps(&sc) == steps(&sg)
+            && sc.hits == sg.hits;
+        let mrays = |t: f64| n as f64 / t / 1e6;
+        md += &format!(
+            "| {label} | {n} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} | {} |\n",
+            mrays(wc),
+            kernel
+                .map(|k| format!("{:.1}", mrays(k)))
+                .unwrap_or("—".into()),
+            mrays(wg),
+            kernel
+                .map(|k| format!("{:.1}", wc / k))
+                .unwrap_or("—".into()),
+            steps(&sg).unwrap_or(0) as f64 / n.max(1) as f64,
+            sg.ray_tri_tests as f64 / n.max(1) as f64,
+            if same {
+                "hits, N_T, N_I equal the CPU's"
+            } else {
+                "DIFFER from the CPU's"
+            }
+        );
     }
     Ok(md)
 }

@@ -44,8 +44,9 @@ pub enum Command {
 pub enum BenchCommand {
     /// The thesis's chapter-4 tables: CRSH and RAH per configuration on the same rays.
     Rsh(BenchRshArgs),
-    /// The GPU backend against the CPU engines on the same rays, phase by phase, with the
-    /// agreement of hits and counters checked in the same run.
+    /// The GPU backend against the CPU engines on the same rays, phase by phase (CRSH, RAH;
+    /// the irregular grid's traversal on primary, AO and random rays), with the agreement
+    /// of hits and counters checked in the same run.
     Gpu(BenchGpuArgs),
     /// The irregular-grid paper's Tables 1, 2, 3 and 5: our grids against the peers
     /// (obvhs; Embree with `--features embree`) on the same rays.
@@ -196,6 +197,9 @@ pub struct BenchGpuArgs {
     /// Also run RAH.
     #[arg(long)]
     pub rah: bool,
+    /// Only the irregular grid (no recording render, G-buffer or CRSH/RAH).
+    #[arg(long, conflicts_with = "rah")]
+    pub grid_only: bool,
     /// Also write the markdown report to this file.
     #[arg(long)]
     pub md: Option<PathBuf>,
@@ -427,7 +431,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = Engine::Crsh)]
     pub engine: Engine,
     /// Where the render runs: `gpu` rasterizes the G-buffer with a render pipeline and runs
-    /// CRSH/RAH, secondary-ray generation and shading as compute kernels (wgpu).
+    /// CRSH/RAH (or the grid's traversal, on a grid the CPU builds), secondary-ray
+    /// generation and shading as compute kernels (wgpu).
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     pub backend: Backend,
     #[command(flatten)]

@@ -21,10 +21,15 @@ pub fn cmd_bench_gpu(a: &BenchGpuArgs) -> Result<()> {
     let configs =
         bench::parse_configs(&a.configs).map_err(|e| anyhow::anyhow!("--configs: {e}"))?;
     let scenes = bench::scenes(a.spec.scenes.as_deref(), &["cornell"], &["sponza"])?;
-    let per = 1 + configs.len() as u64 * if a.rah { 2 } else { 1 };
+    // Per scene: the recording render (or the load), each configuration, the grid.
+    let per = if a.grid_only {
+        2
+    } else {
+        2 + configs.len() as u64 * if a.rah { 2 } else { 1 }
+    };
     let bar = step_bar(scenes.len() as u64 * per);
     let spec = a.spec.spec(scenes, configs, a.bounces);
-    let md = bench::gpu::run(&spec, a.rah, &|m| bar.step(m))?;
+    let md = bench::gpu::run(&spec, a.rah, a.grid_only, &|m| bar.step(m))?;
     bar.0.finish_and_clear();
     let report = format!("# rayspace bench gpu\n\n{}\n{md}", provenance());
     say!("{report}");

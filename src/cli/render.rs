@@ -100,10 +100,13 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         if a.frames.is_some() {
             bail!("--backend gpu renders one frame; --frames runs on the CPU backend only");
         }
-        if !matches!(a.engine, Engine::Crsh | Engine::Rah) {
+        if !matches!(
+            a.engine,
+            Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l
+        ) {
             bail!(
-                "--backend gpu: only --engine crsh and --engine rah run on the GPU (not {:?})",
-                a.engine
+                "--backend gpu: only --engine crsh, rah, grid and grid2l run on the GPU (not {})",
+                a.engine.name()
             );
         }
         if a.rsh.objects == Some(rsh::ObjectHierarchy::Bvh) {
@@ -187,8 +190,9 @@ type GpuRender = (
     &'static str,
 );
 
-/// `render --backend gpu`: the G-buffer from the GPU's render pipeline, CRSH/RAH, secondary
-/// ray generation and shading as compute kernels; the Whitted loop's sequencing, the surface
+/// `render --backend gpu`: the G-buffer from the GPU's render pipeline, CRSH/RAH or the grid's
+/// traversal (on a grid built by the CPU), secondary ray generation and shading as compute
+/// kernels; the Whitted loop's sequencing, the surface
 /// records between generations and the pixel accumulation on the CPU.
 #[cfg(feature = "gpu")]
 fn render_on_gpu(
@@ -212,9 +216,21 @@ fn render_on_gpu(
             "wall clock, waiting at every phase boundary: this adapter has no timestamp queries that time kernels"
         }
     };
-    let method = a.engine.rsh_method().expect("checked: crsh or rah");
-    let engine = gpu::GpuRsh::new(g, geo, eopts.gpu_rsh_config(method))
-        .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
+    let engine: Box<dyn gpu::GpuEngine> =
+        match a.engine.rsh_method() {
+            Some(method) => Box::new(
+                gpu::GpuRsh::new(g, geo, eopts.gpu_rsh_config(method))
+                    .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?,
+            ),
+            None => {
+                // The grid's build runs on the CPU; its traversal is the GPU kernel.
+                let cfg = eopts.grid_config(a.engine == Engine::Grid2l);
+                eopts.validate(a.engine)?;
+                Box::new(gpu::GpuGrid::new(g, geo, &cfg).map_err(|e| {
+                    anyhow::anyhow!("--backend gpu --engine {}: {e}", a.engine.name())
+                })?)
+            }
+        };
     let raster = gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
         .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
     raster
@@ -223,16 +239,19 @@ fn render_on_gpu(
     let build_s = t1.elapsed().as_secs_f64();
     let bar = progress_bar();
     let stages = gpu::GpuStages::new(engine.gpu(), engine.kernels());
-    let out = render::whitted::render_with(
+    let mut out = render::whitted::render_with(
         scene,
         geo,
-        &engine,
+        engine.as_ref(),
         opts,
         &bar,
         &|v, n| raster.rasterize(v, n),
         &stages,
     );
     bar.0.finish_and_clear();
+    for (k, (p, t)) in engine.build_passes().into_iter().enumerate() {
+        out.stats.phases.insert(k, (format!("  build: {p}"), t));
+    }
     let mut phases: Vec<(String, f64)> = Vec::new();
     if let Some(t) = raster.last_gpu_seconds.get() {
         phases.push(("rasterize".into(), t));

@@ -18,6 +18,11 @@ impl Default for Aabb {
     }
 }
 
+/// The slab test's far-distance factor, 1 + 2γ₃ (Ize, "Robust BVH Ray Traversal", 2013):
+/// see [`Aabb::intersect`]. Public so that the GPU's twin of the test uses the same bits.
+pub const SLAB_ROBUST: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
 impl Aabb {
     /// The empty box (min = +∞, max = −∞): the identity of [`Aabb::union`] and [`Aabb::grow`].
     pub const EMPTY: Aabb = Aabb {
@@ -111,8 +116,6 @@ impl Aabb {
         t_min: f32,
         t_max: f32,
     ) -> Option<(f32, f32)> {
-        const ROBUST: f32 =
-            1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let (mut tn, mut tf) = (t_min, t_max);
         for k in 0..3 {
             let a = (self.min[k] - org[k]) * inv_dir[k];
@@ -125,7 +128,7 @@ impl Aabb {
             }
             let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
             tn = tn.max(lo);
-            tf = tf.min(hi * ROBUST);
+            tf = tf.min(hi * SLAB_ROBUST);
         }
         if tn <= tf {
             Some((tn, tf))

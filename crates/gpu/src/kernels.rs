@@ -47,10 +47,11 @@ enum Module {
     Traverse,
     Final,
     Stages,
+    Grid,
 }
 
 impl Module {
-    const ALL: [Module; 11] = [
+    const ALL: [Module; 12] = [
         Module::Scan,
         Module::Sort,
         Module::Compact,
@@ -62,6 +63,7 @@ impl Module {
         Module::Traverse,
         Module::Final,
         Module::Stages,
+        Module::Grid,
     ];
 
     /// The module's source after the prelude.
@@ -78,6 +80,7 @@ impl Module {
             Module::Traverse => format!("{GEOM}{}", include_str!("rsh/traverse.wgsl")),
             Module::Final => format!("{GEOM}{}", include_str!("rsh/final.wgsl")),
             Module::Stages => include_str!("stages.wgsl").into(),
+            Module::Grid => format!("{GEOM}{}", include_str!("grid/traverse.wgsl")),
         }
     }
 }
@@ -141,11 +144,13 @@ pub enum Kernel {
     BounceRays,
     /// Blinn-Phong shading of the surfaces.
     ShadeLocal,
+    /// Irregular-grid traversal, one thread per ray.
+    GridTrace,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 27] = [
+    pub const ALL: [Kernel; 28] = [
         Kernel::ScanReduce,
         Kernel::ScanDown,
         Kernel::KeyBits,
@@ -173,6 +178,7 @@ impl Kernel {
         Kernel::ShadowRays,
         Kernel::BounceRays,
         Kernel::ShadeLocal,
+        Kernel::GridTrace,
     ];
 
     /// The WGSL entry point and the module that holds it.
@@ -206,6 +212,7 @@ impl Kernel {
             ShadowRays => ("shadow_rays", Module::Stages),
             BounceRays => ("bounce_rays", Module::Stages),
             ShadeLocal => ("shade_local", Module::Stages),
+            GridTrace => ("grid_trace", Module::Grid),
         }
     }
 
@@ -234,6 +241,7 @@ fn constants() -> String {
         ("C_PAD", 8.0 * eps),
         ("C_ONE_P_PAD", 1.0 + 8.0 * eps),
         ("C_ONE_P_1EM5", 1.0 + 1e-5),
+        ("C_SLAB_ROBUST", geom::aabb::SLAB_ROBUST),
         ("C_OFFSET_REL", geom::ray::OFFSET_REL),
         ("C_T3P8", pmath::T3P8),
         ("C_TP8", pmath::TP8),

@@ -9,6 +9,8 @@
 //! - [`rsh`]: CRSH and RAH as a [`render::Tracer`], file for file the `rsh` crate's pipeline
 //!   (`hash → order → build → traverse`, `src/rsh/*.rs` beside `src/rsh/*.wgsl`), with the
 //!   same counters.
+//! - [`grid`]: the irregular grid's traversal as a [`render::Tracer`] (`src/grid/*`
+//!   beside `accel/src/grid/*`), on a grid built by the CPU.
 //! - [`raster`]: primary visibility by real rasterization (render pipeline, depth test) into
 //!   the G-buffer's render targets.
 //! - [`stages`]: the Whitted loop's shadow-ray generation, reflection/refraction-ray
@@ -20,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod device;
+pub mod grid;
 pub mod kernels;
 pub mod prims;
 pub mod raster;
@@ -28,5 +31,41 @@ pub mod stages;
 
 pub use crate::rsh::GpuRsh;
 pub use device::{Gpu, GpuError};
+pub use grid::GpuGrid;
 pub use raster::GpuRaster;
+
+/// A tracing engine on the GPU: a [`render::Tracer`] whose device and compiled kernels the
+/// Whitted stages share ([`GpuStages`]), and whose GPU time per phase can be drained.
+pub trait GpuEngine: render::Tracer {
+    /// The device.
+    fn gpu(&self) -> &Gpu;
+    /// The compiled kernels.
+    fn kernels(&self) -> &kernels::Kernels;
+    /// GPU seconds per phase since the last call (empty without timestamp queries).
+    fn take_times(&self) -> Vec<(render::Phase, f64)>;
+}
+
+impl GpuEngine for GpuRsh {
+    fn gpu(&self) -> &Gpu {
+        GpuRsh::gpu(self)
+    }
+    fn kernels(&self) -> &kernels::Kernels {
+        GpuRsh::kernels(self)
+    }
+    fn take_times(&self) -> Vec<(render::Phase, f64)> {
+        GpuRsh::take_times(self)
+    }
+}
+
+impl GpuEngine for GpuGrid {
+    fn gpu(&self) -> &Gpu {
+        GpuGrid::gpu(self)
+    }
+    fn kernels(&self) -> &kernels::Kernels {
+        GpuGrid::kernels(self)
+    }
+    fn take_times(&self) -> Vec<(render::Phase, f64)> {
+        GpuGrid::take_times(self)
+    }
+}
 pub use stages::GpuStages;

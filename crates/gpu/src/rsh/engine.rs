@@ -291,7 +291,8 @@ pub struct DeviceRays {
 }
 
 impl DeviceRays {
-    fn upload(g: &Gpu, rays: &RayBatch) -> DeviceRays {
+    /// Upload `rays` (the ray constants are left for the hash kernel to write).
+    pub(crate) fn upload(g: &Gpu, rays: &RayBatch) -> DeviceRays {
         let n = rays.len();
         let org: Vec<[f32; 4]> = (0..n)
             .map(|i| {
@@ -330,7 +331,7 @@ pub fn comparable_counters(s: &TraceStats) -> TraceStats {
 }
 
 /// Rays `r` of `rays` as a batch of their own.
-fn sub_batch(rays: &RayBatch, r: std::ops::Range<usize>) -> RayBatch {
+pub(crate) fn sub_batch(rays: &RayBatch, r: std::ops::Range<usize>) -> RayBatch {
     RayBatch {
         org: rays.org[r.clone()].to_vec(),
         dir: rays.dir[r.clone()].to_vec(),
