@@ -123,35 +123,8 @@ pub fn provenance() -> String {
                 .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
         })
         .unwrap_or_else(|| "unknown CPU".into());
-    let commit = std::process::Command::new("git")
-        .args(["rev-parse", "--short", "HEAD"])
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        .unwrap_or_else(|| "unknown".into());
-    // A build from modified sources is not that commit: say so (results and docs written
-    // while a benchmark runs do not count).
-    let dirty = std::process::Command::new("git")
-        .args([
-            "status",
-            "--porcelain",
-            "--untracked-files=no",
-            "--",
-            "src",
-            "crates",
-            "Cargo.toml",
-            "Cargo.lock",
-        ])
-        .output()
-        .ok()
-        .filter(|o| o.status.success() && !o.stdout.is_empty())
-        .is_some();
-    let commit = if dirty {
-        format!("{commit}+modified")
-    } else {
-        commit
-    };
+    // The commit the binary was built from (see build.rs), not the checkout it runs in.
+    let commit = env!("RAYSPACE_BUILD_COMMIT");
     format!(
         "rayspace {} (commit {commit}, {} build{}), {cpu}, {} threads",
         env!("CARGO_PKG_VERSION"),

@@ -109,7 +109,7 @@ impl GpuGrid {
             shift: grid.shift,
             dims: grid.dims,
             top_dims: grid.top_dims,
-            max_rays: (limit / 16).min(1 << 26).max(1) as usize,
+            max_rays: (limit / 16).clamp(1, 1 << 26) as usize,
             name,
             build: grid.build.clone(),
             compile_seconds,
