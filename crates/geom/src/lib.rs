@@ -3,7 +3,8 @@
 //! Everything here is a plain `Copy` value or a function over slices, so that a GPU backend can
 //! mirror it 1:1: rays, the one ray–triangle kernel all engines use ([`tri::intersect`]), the
 //! ray–box slab test, spheres and cones (the two halves of a ray-space hierarchy node), the
-//! conservative node tests, and the minimal enclosing ball used to cull meshes.
+//! conservative node tests, and the minimal enclosing ball used to cull meshes; [`tri8`] runs the
+//! triangle kernel on 8 rays at once, with the same bits.
 
 #![warn(missing_docs)]
 
@@ -16,6 +17,7 @@ pub mod ray;
 pub mod rng;
 pub mod sphere;
 pub mod tri;
+pub mod tri8;
 
 pub use aabb::Aabb;
 pub use cone::Cone;

@@ -8,6 +8,7 @@ use crate::objects::{self, ObjectTree};
 use crate::order::{leaf_order, Grouping};
 use crate::traverse::{Counters, NodeTest, SceneData, Traversal};
 use geom::tri::RayPre;
+use geom::tri8::RayLanes;
 use geom::{intersect, Aabb, Sphere, Vec3};
 use rayon::prelude::*;
 use render::stats::{counter, LevelCounts};
@@ -245,22 +246,31 @@ impl Tracer for RshEngine {
             self.cfg.union,
         );
         stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
-        let pre: Vec<RayPre> = (0..n)
-            .into_par_iter()
-            .map(|i| RayPre::new(&rays.ray(i)))
-            .collect();
         let best: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(u64::MAX)).collect();
         // The dual traversal reads rays in leaf order: its rays' constants and best hits are
         // laid out in that order (the hash order scatters ray ids, and every final test
-        // would miss the cache), with the hierarchy's leaves renumbered to match.
+        // would miss the cache), with the hierarchy's leaves renumbered to match. Only the
+        // layout in use is made (fresh memory costs page faults on every trace).
         let dual = self.tree.as_ref().filter(|_| !self.tris.is_empty());
         let leaves = dual.map(|_| {
             let len = h.order.len() as u32;
             std::mem::replace(&mut h.order, (0..len).collect())
         });
         let leaf_rays = leaves.as_deref().unwrap_or_default();
-        let pre_leaf: Vec<RayPre> = leaf_rays.par_iter().map(|&r| pre[r as usize]).collect();
-        let best_leaf: Vec<AtomicU64> = pre_leaf.iter().map(|_| AtomicU64::new(u64::MAX)).collect();
+        let pre: Vec<RayPre> = match dual {
+            Some(_) => leaf_rays
+                .par_iter()
+                .map(|&r| RayPre::new(&rays.ray(r as usize)))
+                .collect(),
+            None => (0..n)
+                .into_par_iter()
+                .map(|i| RayPre::new(&rays.ray(i)))
+                .collect(),
+        };
+        let best_leaf: Vec<AtomicU64> =
+            leaf_rays.iter().map(|_| AtomicU64::new(u64::MAX)).collect();
+        // The final tests' rays in leaf order, 8 lanes at a time (geom::tri8).
+        let lanes = RayLanes::gather(&pre, &h.order);
         let trav = Traversal {
             h: &h,
             scene: SceneData {
@@ -270,7 +280,8 @@ impl Tracer for RshEngine {
                 mesh_first: &self.mesh_first,
                 mesh_sphere: &self.mesh_sphere,
             },
-            pre: if dual.is_some() { &pre_leaf } else { &pre },
+            pre: &pre,
+            lanes: &lanes,
             best: if dual.is_some() { &best_leaf } else { &best },
             test: self.cfg.node_test,
             mesh_culling: self.cfg.mesh_culling,
@@ -318,7 +329,8 @@ impl Tracer for RshEngine {
             } else {
                 let tri = b as u32;
                 let [a, bb, cc] = self.tris[tri as usize];
-                let h = intersect(&pre[i], a, bb, cc).expect("the recorded hit repeats");
+                let h = intersect(&RayPre::new(&rays.ray(i)), a, bb, cc)
+                    .expect("the recorded hit repeats");
                 Hit {
                     tri,
                     t: h.t,

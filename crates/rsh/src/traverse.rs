@@ -15,6 +15,7 @@
 use crate::build::{Hierarchy, Level};
 use geom::cone::{exact_test, rah_test};
 use geom::tri::RayPre;
+use geom::tri8::{intersect8, RayLanes};
 use geom::{intersect, Sphere, Vec3};
 use par::{compact_pairs, exclusive_scan, SharedMut};
 use rayon::prelude::*;
@@ -83,6 +84,9 @@ pub struct Traversal<'a> {
     pub scene: SceneData<'a>,
     /// Per-ray constants of the intersection kernel.
     pub pre: &'a [RayPre],
+    /// The same constants in leaf order as lanes of the 8-wide kernel (lane p: ray
+    /// `h.order[p]`).
+    pub lanes: &'a RayLanes,
     /// Per ray, the closest hit so far as (t bits << 32 | triangle), by atomic minimum.
     pub best: &'a [AtomicU64],
     /// The node test.
@@ -381,15 +385,37 @@ impl Traversal<'_> {
                     let [a, b, cc] = self.scene.tris[t as usize];
                     let leaves = l1.children(n as usize);
                     acc[l1.kind[n as usize] as usize & 3] += leaves.len() as u64;
-                    for &r in &order[leaves] {
-                        if let Some(hit) = intersect(&self.pre[r as usize], a, b, cc) {
-                            self.best[r as usize].fetch_min(pack(hit.t, t), Ordering::Relaxed);
-                        }
+                    // The node's rays 8 lanes at a time, with the scalar kernel's bits; lanes
+                    // on an exact edge (and every lane without AVX) take the scalar kernel.
+                    let mut p = leaves.start;
+                    while p < leaves.end {
+                        let k = (leaves.end - p).min(8);
+                        let r8 = intersect8(self.lanes, p, k, a, b, cc);
+                        for_lanes(r8.hit, |l| {
+                            let r = order[p + l] as usize;
+                            self.best[r].fetch_min(pack(r8.t[l], t), Ordering::Relaxed);
+                        });
+                        for_lanes(r8.redo, |l| {
+                            let r = order[p + l] as usize;
+                            if let Some(hit) = intersect(&self.pre[r], a, b, cc) {
+                                self.best[r].fetch_min(pack(hit.t, t), Ordering::Relaxed);
+                            }
+                        });
+                        p += k;
                     }
                     acc
                 },
             )
             .reduce(|| [0; 4], add4);
         c.final_tests = add4(c.final_tests, tests);
+    }
+}
+
+/// Call `f` with the index of every set bit of `m`, lowest first.
+#[inline]
+fn for_lanes(mut m: u8, mut f: impl FnMut(usize)) {
+    while m != 0 {
+        f(m.trailing_zeros() as usize);
+        m &= m - 1;
     }
 }

@@ -1,0 +1,342 @@
+//! Eight rays against one triangle at once: the watertight test of [`crate::tri`] (Woop,
+//! Benthin & Wald 2013) over 8 lanes of AVX, bit-identical to [`crate::tri::intersect`].
+//!
+//! The ray-space hierarchies' final tests (thesis §3.2.9) test every ray of a level-1 node
+//! (b = 8 in the thesis's configurations) against one triangle, so the natural vector is
+//! the node's rays, not a list of triangles. Each lane runs the scalar kernel's operations
+//! in the same order: the vertex minus the origin, the shear (a product, then a difference:
+//! never fused), the three edge functions, the sign test, det = (u + v) + w, the scaled
+//! distance ((u·az + v·bz) + w·cz), 1 / det and the product. Every step is one IEEE-754
+//! operation, correctly rounded in either form, so each lane's t has the scalar kernel's
+//! bits. A lane whose edge function is exactly zero takes the scalar kernel's f64 path,
+//! which this kernel does not repeat: such lanes come back as "redo", and the caller runs
+//! [`crate::tri::intersect`] for them. Without AVX (checked at run time, once) every lane
+//! is a redo, which is the scalar fallback.
+//!
+//! Rays are kept as [`RayLanes`], structure of arrays in the order the caller tests them
+//! (for the hierarchies, leaf order), with the per-ray axis permutation of the shear stored
+//! as floats so that a lane's `a[kx]` is two blends of the triangle's broadcast vertex.
+
+use crate::tri::RayPre;
+use glam::Vec3;
+
+/// Rays as structure of arrays for [`intersect8`], padded by 8 lanes so that any window of
+/// 8 starting at a ray is in bounds.
+#[derive(Clone, Debug, Default)]
+pub struct RayLanes {
+    /// Origin components permuted by the shear: org[kx], org[ky], org[kz].
+    ok: [Vec<f32>; 3],
+    /// The shear's axes kx, ky, kz as 0.0, 1.0 or 2.0.
+    k: [Vec<f32>; 3],
+    /// sx, sy, sz.
+    s: [Vec<f32>; 3],
+    t_min: Vec<f32>,
+    t_max: Vec<f32>,
+    len: usize,
+}
+
+impl RayLanes {
+    /// Lane p holds ray `order[p]` of `pre` (filled in parallel: one pass over the rays,
+    /// each task writing its own range of lanes in all eleven arrays).
+    pub fn gather(pre: &[RayPre], order: &[u32]) -> RayLanes {
+        use rayon::prelude::*;
+        let n = order.len();
+        let zeros = || vec![0.0f32; n + 8];
+        let mut l = RayLanes {
+            ok: std::array::from_fn(|_| zeros()),
+            k: std::array::from_fn(|_| zeros()),
+            s: std::array::from_fn(|_| zeros()),
+            t_min: zeros(),
+            t_max: zeros(),
+            len: n,
+        };
+        let [o0, o1, o2] = &mut l.ok;
+        let [k0, k1, k2] = &mut l.k;
+        let [s0, s1, s2] = &mut l.s;
+        let out = Lanes11(
+            [
+                o0,
+                o1,
+                o2,
+                k0,
+                k1,
+                k2,
+                s0,
+                s1,
+                s2,
+                &mut l.t_min,
+                &mut l.t_max,
+            ]
+            .map(|v| v.as_mut_ptr()),
+        );
+        const CHUNK: usize = 4096;
+        order.par_chunks(CHUNK).enumerate().for_each(|(c, rays)| {
+            let out = &out;
+            for (i, &r) in rays.iter().enumerate() {
+                let q = &pre[r as usize];
+                let org = q.org.to_array();
+                let v = [
+                    org[q.kx],
+                    org[q.ky],
+                    org[q.kz],
+                    q.kx as f32,
+                    q.ky as f32,
+                    q.kz as f32,
+                    q.sx,
+                    q.sy,
+                    q.sz,
+                    q.t_min,
+                    q.t_max,
+                ];
+                for (f, x) in v.into_iter().enumerate() {
+                    // SAFETY: lane c·CHUNK + i < n is written by this task only, in arrays of
+                    // n + 8 floats that outlive the loop.
+                    unsafe { *out.0[f].add(c * CHUNK + i) = x };
+                }
+            }
+        });
+        l
+    }
+
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when there are no rays.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+/// The eleven lane arrays' pointers, shared by the tasks of [`RayLanes::gather`] (each writes
+/// a disjoint range of lanes).
+struct Lanes11([*mut f32; 11]);
+// SAFETY: the tasks write disjoint lanes; the arrays outlive them.
+unsafe impl Sync for Lanes11 {}
+
+/// What [`intersect8`] found for lanes `0..n`: bit l of `hit` set when lane l hits (its
+/// distance in `t[l]`), bit l of `redo` when lane l must be tested by the scalar kernel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lanes8 {
+    /// Lanes that hit (never a redo lane).
+    pub hit: u8,
+    /// Lanes left to the scalar kernel.
+    pub redo: u8,
+    /// Hit distances (meaningful where `hit` is set).
+    pub t: [f32; 8],
+}
+
+/// Rays `first..first + n` of `lanes` (n ≤ 8) against triangle (a, b, c).
+#[inline]
+pub fn intersect8(lanes: &RayLanes, first: usize, n: usize, a: Vec3, b: Vec3, c: Vec3) -> Lanes8 {
+    assert!(n <= 8 && first + n <= lanes.len, "a window of lanes");
+    let all = ((1u32 << n) - 1) as u8;
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: AVX is present; the window first..first + 8 is in bounds (padding).
+            return unsafe { avx::intersect8(lanes, first, all, [a, b, c]) };
+        }
+    }
+    let _ = (a, b, c, first);
+    Lanes8 {
+        hit: 0,
+        redo: all,
+        t: [0.0; 8],
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::{Lanes8, RayLanes};
+    use glam::Vec3;
+    use std::arch::x86_64::*;
+
+    /// Lane-wise select of the triangle vertex's component along each lane's axis k.
+    #[inline]
+    #[target_feature(enable = "avx")]
+    fn pick(v: [__m256; 3], k: __m256) -> __m256 {
+        let is0 = _mm256_cmp_ps::<_CMP_EQ_OQ>(k, _mm256_setzero_ps());
+        let is1 = _mm256_cmp_ps::<_CMP_EQ_OQ>(k, _mm256_set1_ps(1.0));
+        _mm256_blendv_ps(_mm256_blendv_ps(v[2], v[1], is1), v[0], is0)
+    }
+
+    #[target_feature(enable = "avx")]
+    pub(super) unsafe fn intersect8(l: &RayLanes, first: usize, all: u8, tri: [Vec3; 3]) -> Lanes8 {
+        // SAFETY (every load): the arrays hold len + 8 floats and first < len.
+        let ld = |v: &Vec<f32>| unsafe { _mm256_loadu_ps(v.as_ptr().add(first)) };
+        let k = [ld(&l.k[0]), ld(&l.k[1]), ld(&l.k[2])];
+        let ok = [ld(&l.ok[0]), ld(&l.ok[1]), ld(&l.ok[2])];
+        // Each vertex minus the origin, in the shear's axes: v[k] − org[k] (tri.rs: `a - r.org`).
+        let rel = |p: Vec3| {
+            let v = [
+                _mm256_set1_ps(p.x),
+                _mm256_set1_ps(p.y),
+                _mm256_set1_ps(p.z),
+            ];
+            [
+                _mm256_sub_ps(pick(v, k[0]), ok[0]),
+                _mm256_sub_ps(pick(v, k[1]), ok[1]),
+                _mm256_sub_ps(pick(v, k[2]), ok[2]),
+            ]
+        };
+        let (sx, sy, sz) = (ld(&l.s[0]), ld(&l.s[1]), ld(&l.s[2]));
+        let [a, b, c] = tri.map(rel);
+        // Shear: x − s·z, a product then a difference.
+        let sh = |p: [__m256; 3], s: __m256, j: usize| _mm256_sub_ps(p[j], _mm256_mul_ps(s, p[2]));
+        let (ax, ay) = (sh(a, sx, 0), sh(a, sy, 1));
+        let (bx, by) = (sh(b, sx, 0), sh(b, sy, 1));
+        let (cx, cy) = (sh(c, sx, 0), sh(c, sy, 1));
+        let cross = |p: __m256, q: __m256, r: __m256, s: __m256| {
+            _mm256_sub_ps(_mm256_mul_ps(p, q), _mm256_mul_ps(r, s))
+        };
+        let u = cross(cx, by, cy, bx);
+        let v = cross(ax, cy, ay, cx);
+        let w = cross(bx, ay, by, ax);
+        let zero = _mm256_setzero_ps();
+        let eq0 = |x| _mm256_cmp_ps::<_CMP_EQ_OQ>(x, zero);
+        let lt0 = |x| _mm256_cmp_ps::<_CMP_LT_OQ>(x, zero);
+        let gt0 = |x| _mm256_cmp_ps::<_CMP_GT_OQ>(x, zero);
+        let edge = _mm256_or_ps(_mm256_or_ps(eq0(u), eq0(v)), eq0(w));
+        let neg = _mm256_or_ps(_mm256_or_ps(lt0(u), lt0(v)), lt0(w));
+        let pos = _mm256_or_ps(_mm256_or_ps(gt0(u), gt0(v)), gt0(w));
+        let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+        let az = _mm256_mul_ps(sz, a[2]);
+        let bz = _mm256_mul_ps(sz, b[2]);
+        let cz = _mm256_mul_ps(sz, c[2]);
+        let t_scaled = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+            _mm256_mul_ps(w, cz),
+        );
+        let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+        let t = _mm256_mul_ps(t_scaled, inv);
+        let inside = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(t, ld(&l.t_min)),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(t, ld(&l.t_max)),
+        );
+        let miss = _mm256_or_ps(_mm256_and_ps(neg, pos), eq0(det));
+        let hit = _mm256_andnot_ps(miss, inside);
+        let redo = _mm256_movemask_ps(edge) as u8 & all;
+        let hit = _mm256_movemask_ps(hit) as u8 & all & !redo;
+        let mut out = [0.0f32; 8];
+        // SAFETY: `out` holds 8 floats.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), t) };
+        Lanes8 { hit, redo, t: out }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tri::intersect;
+    use crate::{Pcg32, Ray};
+    use proptest::prelude::*;
+
+    /// Every lane against the scalar kernel: a hit lane has the scalar hit's t bits, a lane
+    /// neither hit nor redo is a scalar miss.
+    fn check(pre: &[RayPre], order: &[u32], tri: [Vec3; 3]) -> Result<(u32, u32), TestCaseError> {
+        let lanes = RayLanes::gather(pre, order);
+        let (mut hits, mut redos) = (0, 0);
+        for first in (0..order.len()).step_by(8) {
+            let n = (order.len() - first).min(8);
+            let r = intersect8(&lanes, first, n, tri[0], tri[1], tri[2]);
+            prop_assert_eq!(r.hit & r.redo, 0);
+            prop_assert_eq!((r.hit | r.redo) as u32 >> n, 0);
+            for l in 0..n {
+                let s = intersect(&pre[order[first + l] as usize], tri[0], tri[1], tri[2]);
+                if r.redo >> l & 1 != 0 {
+                    redos += 1;
+                    continue;
+                }
+                match s {
+                    Some(h) => {
+                        prop_assert!(r.hit >> l & 1 != 0, "lane {} missed a scalar hit", l);
+                        prop_assert_eq!(r.t[l].to_bits(), h.t.to_bits());
+                        hits += 1;
+                    }
+                    None => prop_assert!(r.hit >> l & 1 == 0, "lane {} hit a scalar miss", l),
+                }
+            }
+        }
+        Ok((hits, redos))
+    }
+
+    /// Rays from a small region towards a triangle, with every kind of awkward component:
+    /// axis-parallel, ±0, on the triangle's vertices and edges, bounded and unbounded.
+    fn case(seed: u64, n: usize, degenerate: u32) -> (Vec<RayPre>, Vec<u32>, [Vec3; 3]) {
+        let mut rng = Pcg32::new(seed, 77);
+        let v = |rng: &mut Pcg32| {
+            Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            )
+        };
+        let mut tri = [v(&mut rng), v(&mut rng), v(&mut rng)];
+        match degenerate {
+            1 => tri[2] = tri[1],                   // a segment
+            2 => tri[2] = tri[0] * 2.0 - tri[1],    // collinear
+            3 => tri = [Vec3::X, Vec3::Y, Vec3::Z], // on the unit planes
+            _ => {}
+        }
+        let pre: Vec<RayPre> = (0..n)
+            .map(|i| {
+                let org = v(&mut rng) * 3.0;
+                let target = match i % 6 {
+                    0 => tri[i % 3],                                       // a vertex
+                    1 => (tri[0] + tri[1]) * 0.5,                          // an edge
+                    2 => tri[0] + (tri[1] - tri[0]) * rng.range(0.0, 1.0), // on an edge
+                    _ => {
+                        let (x, y) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+                        tri[0] + (tri[1] - tri[0]) * x + (tri[2] - tri[0]) * y
+                    }
+                };
+                let mut dir = target - org;
+                if i % 7 == 0 {
+                    dir = [Vec3::X, -Vec3::Y, Vec3::Z][i % 3];
+                }
+                if i % 11 == 0 {
+                    dir.x = -0.0;
+                }
+                let t_max = if i % 5 == 0 {
+                    rng.range(0.0, 2.0)
+                } else {
+                    f32::INFINITY
+                };
+                RayPre::new(&Ray::new(org, dir, 0.0, t_max))
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        for i in (1..n).rev() {
+            order.swap(i, rng.below(i as u32 + 1) as usize);
+        }
+        (pre, order, tri)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        #[test]
+        fn lanes_equal_the_scalar_kernel(seed in 0u64..1_000_000, n in 1usize..40, degenerate in 0u32..4) {
+            let (pre, order, tri) = case(seed, n, degenerate);
+            check(&pre, &order, tri)?;
+        }
+    }
+
+    #[test]
+    fn most_lanes_are_decided_by_the_vector_kernel() {
+        // Without AVX the kernel hands every lane back; with it, only lanes with an edge
+        // function exactly zero, which only the rays aimed at a vertex or an edge's midpoint
+        // (a third of this case's) can have.
+        let (pre, order, tri) = case(5, 4000, 0);
+        let (hits, redos) = check(&pre, &order, tri).unwrap();
+        assert!(hits > 1000, "{hits} hits");
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            assert!(redos < 4000 / 3, "{redos} lanes left to the scalar kernel");
+            return;
+        }
+        assert_eq!(redos, 4000);
+    }
+}
