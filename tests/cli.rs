@@ -615,7 +615,12 @@ fn gpu_backend_renders_or_says_why() {
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&gjson).unwrap()).unwrap();
     assert!(stats["total_tests"].as_u64().unwrap() > 0);
-    assert!(stats["counters"]["traversal steps"].as_u64().unwrap() > 0);
+    assert!(
+        stats["trace"]["counters"]["traversal steps"]
+            .as_u64()
+            .unwrap()
+            > 0
+    );
     // bench gpu checks the agreement in its own run.
     let b = ok(&[
         "bench", "gpu", "--scenes", "cornell", "--width", "40", "--height", "32",

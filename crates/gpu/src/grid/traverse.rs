@@ -11,8 +11,8 @@ use crate::rsh::engine::{sub_batch, DeviceRays};
 use render::stats::counter;
 use render::{Hit, Phase, RayBatch, TraceMode, TraceStats};
 
-/// Trace `rays` (in parts of at most [`GpuGrid::max_rays`]) into `hits`, counting into `stats`
-/// as `accel::GridEngine` does.
+/// Trace `rays` (in parts of at most as many rays as one binding holds) into `hits`,
+/// counting into `stats` as `accel::GridEngine` does.
 pub fn trace(
     grid: &GpuGrid,
     rays: &RayBatch,
