@@ -90,7 +90,7 @@ fn ball3(a: vec3<f64>, b: vec3<f64>, c: vec3<f64>) -> Ball {
         }
         return best;
     }
-    let off = (mul3_64(cross64(n, ab), ls64(ac)) + mul3_64(cross64(ac, n), ls64(ab))) / (2.0lf * n2);
+    let off = div3_64(mul3_64(cross64(n, ab), ls64(ac)) + mul3_64(cross64(ac, n), ls64(ab)), 2.0lf * n2);
     return Ball(a + off, ls64(off));
 }
 
@@ -99,9 +99,9 @@ fn ball4(a: vec3<f64>, b: vec3<f64>, c: vec3<f64>, d: vec3<f64>) -> Ball {
     let v = c - a;
     let w = d - a;
     let det = dot64(u, cross64(v, w));
-    let scale = sqrt(ls64(u)) * sqrt(ls64(v)) * sqrt(ls64(w));
+    let scale = sqrt64(ls64(u)) * sqrt64(ls64(v)) * sqrt64(ls64(w));
     if abs(det) > 1e-12lf * scale {
-        let off = (keep3_64(mul3_64(cross64(v, w), ls64(u)) + mul3_64(cross64(w, u), ls64(v))) + mul3_64(cross64(u, v), ls64(w))) / (2.0lf * det);
+        let off = div3_64(keep3_64(mul3_64(cross64(v, w), ls64(u)) + mul3_64(cross64(w, u), ls64(v))) + mul3_64(cross64(u, v), ls64(w)), 2.0lf * det);
         return Ball(a + off, ls64(off));
     }
     var pts = array<vec3<f64>, 4>(a, b, c, d);
@@ -167,7 +167,7 @@ fn minimal_ball(start: u32, count: u32) -> vec4<f32> {
     }
     var r = 0.0lf;
     for (var i = 0u; i < count; i++) {
-        r = max(r, sqrt(ls64(p[i] - bl.c)));
+        r = max(r, sqrt64(ls64(p[i] - bl.c)));
     }
     let center = vec3<f32>(bl.c);
     var r32 = f32(r);

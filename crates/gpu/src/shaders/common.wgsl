@@ -95,6 +95,34 @@ fn sqrt32(x: f32) -> f32 {
     return f32(sqrt(f64(x)));
 }
 
+// f64 ÷ and sqrt themselves, correctly rounded as the CPU's are, for f64 results that are
+// rounded to f32 afterwards (the minimal ball's centre): a value within an ulp of an f32
+// rounding boundary would otherwise round the other way (a regular grid of ray origins
+// makes such values). One Newton step on the exact residual (fma) corrects a quotient or
+// root that is off by an ulp; a correctly rounded one stays as it is, since its correction
+// is below half an ulp and a quotient or root of floats is never exactly halfway. This is
+// the suspected cause of the one minimal-ball node that was an f32 ulp off on an H100 and
+// an H200 (bench/results/2026-11-28-h200); no real GPU has run the fix yet (lavapipe's
+// f64 ÷ and sqrt are already correctly rounded, so it cannot show the difference).
+fn div64(a: f64, b: f64) -> f64 {
+    let q = a / b;
+    let r = fma(-q, b, a);
+    return keep64(q + r / b);
+}
+
+fn div3_64(a: vec3<f64>, b: f64) -> vec3<f64> {
+    return vec3<f64>(div64(a.x, b), div64(a.y, b), div64(a.z, b));
+}
+
+fn sqrt64(x: f64) -> f64 {
+    let s = sqrt(x);
+    if s == 0.0lf {
+        return s;
+    }
+    let r = fma(-s, s, x);
+    return keep64(s + r / (2.0lf * s));
+}
+
 // --- glam Vec3, scalar implementation order ---
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     let xx = mul(a.x, b.x);
