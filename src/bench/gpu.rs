@@ -204,14 +204,15 @@ fn pass_ms(e: &dyn Tracer, name: &str) -> f64 {
         .unwrap_or(0.0)
 }
 
-/// Timed runs per engine and ray kind in the grid section (the best one is reported).
-const GRID_REPEATS: usize = 3;
+/// Timed runs per engine and ray kind in the grid section, interleaved (the best one is
+/// reported; the first also warms the drivers up).
+const GRID_REPEATS: usize = 4;
 
 /// The irregular grid (paper §5, Table 3's ray kinds): the CPU engine and the GPU traversal
 /// of the very same grid (built once on the CPU) on the same primary, ambient-occlusion
-/// (any hit) and random rays; MRays/s from the best of [`GRID_REPEATS`] runs after a
-/// warm-up, the GPU's both from its traversal kernel alone and from the whole trace call
-/// (upload, launch, read-back), and whether hits, N_T and N_I agree.
+/// (any hit) and random rays; MRays/s from the best of [`GRID_REPEATS`] runs, the GPU's
+/// both from its traversal kernel alone and from the whole trace call (upload, launch,
+/// read-back), and whether hits, N_T and N_I agree.
 fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<String> {
     use accel::grid::{GridConfig, GridEngine};
     use render::raygen::{generate, Kind, Options};
@@ -257,30 +258,17 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
     for (label, kind, mode) in kinds {
         let rays = generate(s, geo, kind, &opts);
         let n = rays.len();
-        let run = |e: &dyn Tracer| {
-            let mut best = (f64::INFINITY, TraceStats::default(), Vec::new());
-            for _ in 0..=GRID_REPEATS {
-                let mut h = vec![Hit::MISS; n];
-                let mut st = TraceStats::default();
-                let t0 = Instant::now();
-                e.trace(&rays, mode, &mut h, &mut st);
-                let dt = t0.elapsed().as_secs_f64();
-                if dt < best.0 {
-                    best = (dt, st, h);
-                }
-            }
-            best
-        };
-        let (wc, sc, hc) = run(&cpu);
         gpu.take_times();
-        let (wg, sg, hg) = run(&gpu);
-        // The kernel's time of the best call: the traversal phase, averaged over the calls
-        // (every call launches the same kernel on the same rays).
+        let mut res =
+            super::grid::time_all(&[&cpu, &gpu], &rays, mode, GRID_REPEATS as u32).into_iter();
+        let ((wc, sc, hc), (wg, sg, hg)) = (res.next().unwrap(), res.next().unwrap());
+        // The kernel's time per call: the traversal phase, averaged over the calls (every
+        // call launches the same kernel on the same rays).
         let kernel = gpu
             .take_times()
             .into_iter()
             .find(|(p, _)| *p == Phase::Traversal)
-            .map(|(_, t)| t / (GRID_REPEATS + 1) as f64);
+            .map(|(_, t)| t / GRID_REPEATS as f64);
         let steps = |st: &TraceStats| st.counters.get(counter::TRAVERSAL_STEPS).copied();
         let same = hc == hg
             && sc.ray_tri_tests == sg.ray_tri_tests

@@ -118,7 +118,7 @@ fn engines(geo: &Geometry) -> Result<Vec<Built>> {
 }
 
 /// Trace `rays` with every engine `repeats` times, interleaved; the best time of each.
-fn time_all(
+pub(crate) fn time_all(
     engines: &[&dyn Tracer],
     rays: &RayBatch,
     mode: TraceMode,

@@ -5,6 +5,7 @@
 
 use crate::device::{Gpu, PhaseTimer};
 use render::Phase;
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Launch parameters, the `Params` block of `common.wgsl`. `f[1][3]` is reserved: [`Exec::run`]
@@ -515,6 +516,21 @@ impl<'a> Exec<'a> {
     pub fn read<T: bytemuck::Pod>(&mut self, buf: &wgpu::Buffer, count: usize) -> Vec<T> {
         self.flush();
         self.g.read(buf, count)
+    }
+
+    /// Finish the trace call's work and report it: every phase's time into `stats` and into
+    /// `sink` (an engine's running totals, drained by its `take_times`), and the launches.
+    pub fn report(mut self, stats: &mut render::TraceStats, sink: &Mutex<Vec<(Phase, f64)>>) {
+        self.finish();
+        let mut totals = sink.lock().unwrap();
+        for (p, t) in self.times.drain(..) {
+            stats.time(p, t);
+            match totals.iter_mut().find(|(q, _)| *q == p) {
+                Some(e) => e.1 += t,
+                None => totals.push((p, t)),
+            }
+        }
+        stats.count(render::stats::counter::GPU_KERNEL_LAUNCHES, self.launches);
     }
 
     /// One u32 at index `i` of `buf`.

@@ -7,7 +7,7 @@
 
 use super::GpuGrid;
 use crate::kernels::{Exec, Kernel, Params};
-use crate::rsh::engine::{sub_batch, DeviceRays};
+use crate::rsh::engine::{records_to_hits, sub_batch, DeviceRays};
 use render::stats::counter;
 use render::{Hit, Phase, RayBatch, TraceMode, TraceStats};
 
@@ -71,34 +71,13 @@ fn trace_part(
         256,
     );
     ex.phase(Phase::ReadBack);
-    let recs: Vec<[u32; 4]> = ex.read(&rec, n);
+    records_to_hits(&ex.read(&rec, n), hits);
     let counts: Vec<[u32; 2]> = ex.read(&cnt, n);
-    ex.finish();
-    for (h, r) in hits.iter_mut().zip(&recs) {
-        *h = if r[0] == geom::NO_HIT {
-            Hit::MISS
-        } else {
-            Hit {
-                tri: r[0],
-                t: f32::from_bits(r[1]),
-                u: f32::from_bits(r[2]),
-                v: f32::from_bits(r[3]),
-            }
-        };
-    }
+    ex.report(stats, &grid.times);
     let (steps, tests) = counts
         .iter()
         .fold((0u64, 0u64), |(s, t), c| (s + c[0] as u64, t + c[1] as u64));
     stats.ray_tri_tests += tests;
     stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
     stats.count(counter::TRAVERSAL_STEPS, steps);
-    stats.count(counter::GPU_KERNEL_LAUNCHES, ex.launches);
-    let mut times = grid.times.lock().unwrap();
-    for (p, t) in ex.times.drain(..) {
-        stats.time(p, t);
-        match times.iter_mut().find(|(q, _)| *q == p) {
-            Some(e) => e.1 += t,
-            None => times.push((p, t)),
-        }
-    }
 }

@@ -233,29 +233,8 @@ impl GpuRsh {
             256,
         );
         ex.phase(Phase::ReadBack);
-        let recs: Vec<[u32; 4]> = ex.read(&rec, n);
-        for (h, r) in hits.iter_mut().zip(&recs) {
-            *h = if r[0] == geom::NO_HIT {
-                Hit::MISS
-            } else {
-                Hit {
-                    tri: r[0],
-                    t: f32::from_bits(r[1]),
-                    u: f32::from_bits(r[2]),
-                    v: f32::from_bits(r[3]),
-                }
-            };
-        }
-        ex.finish();
-        let mut times = self.times.lock().unwrap();
-        for (p, t) in ex.times.drain(..) {
-            stats.time(p, t);
-            match times.iter_mut().find(|(q, _)| *q == p) {
-                Some(e) => e.1 += t,
-                None => times.push((p, t)),
-            }
-        }
-        stats.count(counter::GPU_KERNEL_LAUNCHES, ex.launches);
+        records_to_hits(&ex.read(&rec, n), hits);
+        ex.report(stats, &self.times);
         self.report(&c, &levels, hits, stats);
     }
 
@@ -318,6 +297,23 @@ impl DeviceRays {
             len: n as u64,
             width: rays.width,
         }
+    }
+}
+
+/// Hit records read back from a kernel (triangle, t, u, v bits; triangle `NO_HIT`: a miss)
+/// into `hits`.
+pub(crate) fn records_to_hits(recs: &[[u32; 4]], hits: &mut [Hit]) {
+    for (h, r) in hits.iter_mut().zip(recs) {
+        *h = if r[0] == geom::NO_HIT {
+            Hit::MISS
+        } else {
+            Hit {
+                tri: r[0],
+                t: f32::from_bits(r[1]),
+                u: f32::from_bits(r[2]),
+                v: f32::from_bits(r[3]),
+            }
+        };
     }
 }
 
