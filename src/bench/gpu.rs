@@ -215,6 +215,7 @@ const GRID_REPEATS: usize = 4;
 /// read-back), and whether hits, N_T and N_I agree.
 fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<String> {
     use accel::grid::{GridConfig, GridEngine};
+    use gpu::GpuEngine;
     use render::raygen::{generate, Kind, Options};
     use render::TraceMode;
     let cfg = GridConfig::default();

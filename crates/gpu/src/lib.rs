@@ -59,13 +59,13 @@ impl GpuEngine for GpuRsh {
 
 impl GpuEngine for GpuGrid {
     fn gpu(&self) -> &Gpu {
-        GpuGrid::gpu(self)
+        &self.gpu
     }
     fn kernels(&self) -> &kernels::Kernels {
-        GpuGrid::kernels(self)
+        &self.kernels
     }
     fn take_times(&self) -> Vec<(render::Phase, f64)> {
-        GpuGrid::take_times(self)
+        std::mem::take(&mut *self.times.lock().unwrap())
     }
 }
 pub use stages::GpuStages;

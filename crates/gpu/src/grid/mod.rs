@@ -37,7 +37,7 @@ pub struct GpuGrid {
     build: BuildStats,
     compile_seconds: f64,
     upload_seconds: f64,
-    /// GPU seconds per phase of the last trace calls (drained by [`GpuGrid::take_times`]).
+    /// GPU seconds per phase of the last trace calls (drained by [`crate::GpuEngine::take_times`]).
     pub(crate) times: Mutex<Vec<(Phase, f64)>>,
 }
 
@@ -126,21 +126,6 @@ impl GpuGrid {
             upload_seconds: t0.elapsed().as_secs_f64(),
             ..g
         })
-    }
-
-    /// The device.
-    pub fn gpu(&self) -> &Gpu {
-        &self.gpu
-    }
-
-    /// The compiled kernels (shared with [`crate::GpuStages`], so nothing compiles twice).
-    pub fn kernels(&self) -> &Kernels {
-        &self.kernels
-    }
-
-    /// GPU time per phase accumulated since the last call (empty without timestamp queries).
-    pub fn take_times(&self) -> Vec<(Phase, f64)> {
-        std::mem::take(&mut *self.times.lock().unwrap())
     }
 }
 

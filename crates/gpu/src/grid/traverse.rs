@@ -7,7 +7,7 @@
 
 use super::GpuGrid;
 use crate::kernels::{Exec, Kernel, Params};
-use crate::rsh::engine::{records_to_hits, sub_batch, DeviceRays};
+use crate::rsh::engine::{records_to_hits, sub_batch, upload_segments};
 use render::stats::counter;
 use render::{Hit, Phase, RayBatch, TraceMode, TraceStats};
 
@@ -46,7 +46,7 @@ fn trace_part(
     let g = &grid.gpu;
     let n = rays.len();
     let mut ex = Exec::new(g, &grid.kernels);
-    let dr = DeviceRays::upload(g, rays);
+    let (org, dir) = upload_segments(g, rays);
     let rec = g.storage("grid records", n as u64 * 16);
     let cnt = g.storage("grid counts", n as u64 * 8);
     ex.phase(Phase::Traversal);
@@ -62,8 +62,8 @@ fn trace_part(
             (3, &grid.cells),
             (4, &grid.refs),
             (5, &grid.tris),
-            (6, &dr.org),
-            (7, &dr.dir),
+            (6, &org),
+            (7, &dir),
             (8, &rec),
             (9, &cnt),
         ],

@@ -273,24 +273,13 @@ impl DeviceRays {
     /// Upload `rays` (the ray constants are left for the hash kernel to write).
     pub(crate) fn upload(g: &Gpu, rays: &RayBatch) -> DeviceRays {
         let n = rays.len();
-        let org: Vec<[f32; 4]> = (0..n)
-            .map(|i| {
-                let o = rays.org[i];
-                [o.x, o.y, o.z, rays.t_min[i]]
-            })
-            .collect();
-        let dir: Vec<[f32; 4]> = (0..n)
-            .map(|i| {
-                let d = rays.dir[i];
-                [d.x, d.y, d.z, rays.t_max[i]]
-            })
-            .collect();
+        let (org, dir) = upload_segments(g, rays);
         let kl: Vec<u32> = (0..n)
             .map(|i| (rays.kind[i] as u32 & 3) | (rays.light[i] & 0x3fff_ffff) << 2)
             .collect();
         DeviceRays {
-            org: g.upload("ray org", &org),
-            dir: g.upload("ray dir", &dir),
+            org,
+            dir,
             kl: g.upload("ray kind", &kl),
             pix: g.upload("ray pixel", &rays.pixel),
             pre: g.storage("ray constants", n as u64 * 16),
@@ -298,6 +287,25 @@ impl DeviceRays {
             width: rays.width,
         }
     }
+}
+
+/// Only the rays' segments on the device: origin | t_min and direction | t_max (what a
+/// traversal that needs no ray kinds, pixels or hash reads, such as the grid's).
+pub(crate) fn upload_segments(g: &Gpu, rays: &RayBatch) -> (wgpu::Buffer, wgpu::Buffer) {
+    let n = rays.len();
+    let org: Vec<[f32; 4]> = (0..n)
+        .map(|i| {
+            let o = rays.org[i];
+            [o.x, o.y, o.z, rays.t_min[i]]
+        })
+        .collect();
+    let dir: Vec<[f32; 4]> = (0..n)
+        .map(|i| {
+            let d = rays.dir[i];
+            [d.x, d.y, d.z, rays.t_max[i]]
+        })
+        .collect();
+    (g.upload("ray org", &org), g.upload("ray dir", &dir))
 }
 
 /// Hit records read back from a kernel (triangle, t, u, v bits; triangle `NO_HIT`: a miss)
