@@ -29,35 +29,43 @@ pub fn expand(g: &mut Grid, passes: u32, empty_only: bool) {
         for axis in 0..3 {
             for positive in [false, true] {
                 let bit = 1u8 << (2 * axis + positive as usize);
-                let grown: Vec<Option<([u32; 3], [u32; 3])>> = (0..g.cells())
-                    .into_par_iter()
+                // A side's walk reads only its own cell's expanded box (and the neighbours'
+                // initial boxes and lists), so every cell updates in place, in parallel.
+                let mut exp_min = std::mem::take(&mut g.exp_min);
+                let mut exp_max = std::mem::take(&mut g.exp_max);
+                let gr = &*g;
+                exp_min
+                    .par_iter_mut()
+                    .zip(exp_max.par_iter_mut())
+                    .zip(blocked.par_iter_mut())
+                    .enumerate()
                     .with_min_len(1024)
-                    .map(|c| {
-                        if blocked[c] & bit != 0 {
-                            return None;
+                    .for_each(|(c, ((lo, hi), b))| {
+                        if *b & bit == 0 {
+                            let (l, h) = expand_side(gr, c, (*lo, *hi), axis, positive);
+                            if (l, h) == (*lo, *hi) {
+                                *b |= bit;
+                            } else {
+                                (*lo, *hi) = (l, h);
+                            }
                         }
-                        Some(expand_side(g, c, axis, positive))
-                    })
-                    .collect();
-                for (c, r) in grown.into_iter().enumerate() {
-                    match r {
-                        Some((lo, hi)) if (lo, hi) != (g.exp_min[c], g.exp_max[c]) => {
-                            g.exp_min[c] = lo;
-                            g.exp_max[c] = hi;
-                        }
-                        Some(_) => blocked[c] |= bit,
-                        None => {}
-                    }
-                }
+                    });
+                g.exp_min = exp_min;
+                g.exp_max = exp_max;
             }
         }
     }
 }
 
-/// The cells on one side of cell c's expanded box (the voxel layer just outside the face):
-/// if all hold subsets of c's references, the box grows by the smallest overhang.
-fn expand_side(g: &Grid, c: usize, axis: usize, positive: bool) -> ([u32; 3], [u32; 3]) {
-    let (mut lo, mut hi) = (g.exp_min[c], g.exp_max[c]);
+/// The cells on one side of cell c's expanded box `(lo, hi)` (the voxel layer just outside
+/// the face): if all hold subsets of c's references, the box grows by the smallest overhang.
+fn expand_side(
+    g: &Grid,
+    c: usize,
+    (mut lo, mut hi): ([u32; 3], [u32; 3]),
+    axis: usize,
+    positive: bool,
+) -> ([u32; 3], [u32; 3]) {
     let layer = if positive {
         if hi[axis] >= g.dims[axis] {
             return (lo, hi);
