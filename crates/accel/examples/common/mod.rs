@@ -6,6 +6,8 @@ use accel::grid::Subdivision;
 /// The scene `spec` and its flattened geometry; exits with a one-line error when it cannot
 /// be loaded.
 pub fn load(spec: &str) -> (scene::Scene, scene::Geometry) {
+    // As the `rayspace` binary: freed scratch is reused, not faulted in again per build.
+    render::memory::keep_freed_memory();
     match scene::load(spec, &Default::default()) {
         Ok(s) => {
             let geo = scene::Geometry::from_scene(&s);
