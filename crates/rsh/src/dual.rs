@@ -282,56 +282,53 @@ impl Traversal<'_> {
         c: &mut Counters,
     ) -> (Pairs, Pairs) {
         let level = &self.h.levels[li];
-        // Test, and decide what each survivor becomes.
-        let action: Vec<u8> = rn
-            .par_iter()
-            .zip(on.par_iter())
-            .with_min_len(1024)
-            .map(|(&r, &o)| {
-                let node = &nodes[r as usize];
-                let leaf = o & LEAF != 0;
-                let ob = if leaf {
-                    &tree.leaf[(o & !LEAF) as usize]
-                } else {
-                    &tree.node[o as usize]
-                };
-                let (p, d) = (ob.sphere.center, ob.sphere.radius);
-                // The node's cone against the object's sphere, then its rays as a beam
-                // against the object's box: both conservative, so both must pass.
-                if !node.cone_test(self.test, p, d) || !node.beam_test(&ob.bbox) {
-                    return DROP;
-                }
-                if leaf {
-                    return if li == 0 { FINAL } else { RAY };
-                }
-                let object = match descent {
-                    Descent::ObjectFirst => true,
-                    Descent::RayFirst => false,
-                    Descent::Size => d >= node.reach,
-                };
-                if object {
-                    OBJECT
-                } else {
-                    RAY
-                }
-            })
-            .collect();
-        // Counters: tests and passes per ray kind; object-node tests apart as well.
-        let (tests, hits, inner) = rn
-            .par_iter()
-            .zip(on.par_iter())
-            .zip(action.par_iter())
-            .with_min_len(4096)
-            .fold(
-                || ([0u64; 4], [0u64; 4], 0u64),
-                |(mut t, mut h, mut i), ((&r, &o), &a)| {
-                    let k = nodes[r as usize].kind as usize;
+        // Test, decide what each survivor becomes, and count (in the same pass): tests and
+        // passes per ray kind, object-node tests apart as well.
+        let classify = |node: &RayNode, o: u32| {
+            let leaf = o & LEAF != 0;
+            let ob = if leaf {
+                &tree.leaf[(o & !LEAF) as usize]
+            } else {
+                &tree.node[o as usize]
+            };
+            let (p, d) = (ob.sphere.center, ob.sphere.radius);
+            // The node's cone against the object's sphere, then its rays as a beam
+            // against the object's box: both conservative, so both must pass.
+            if !node.cone_test(self.test, p, d) || !node.beam_test(&ob.bbox) {
+                return DROP;
+            }
+            if leaf {
+                return if li == 0 { FINAL } else { RAY };
+            }
+            let object = match descent {
+                Descent::ObjectFirst => true,
+                Descent::RayFirst => false,
+                Descent::Size => d >= node.reach,
+            };
+            if object {
+                OBJECT
+            } else {
+                RAY
+            }
+        };
+        const BLOCK: usize = 2048;
+        let mut action = vec![DROP; rn.len()];
+        let (tests, hits, inner) = action
+            .par_chunks_mut(BLOCK)
+            .enumerate()
+            .map(|(b, out)| {
+                let (mut t, mut h, mut i) = ([0u64; 4], [0u64; 4], 0u64);
+                for (j, a) in out.iter_mut().enumerate() {
+                    let (r, o) = (rn[b * BLOCK + j], on[b * BLOCK + j]);
+                    let node = &nodes[r as usize];
+                    *a = classify(node, o);
+                    let k = node.kind as usize;
                     t[k] += 1;
-                    h[k] += (a != DROP) as u64;
+                    h[k] += (*a != DROP) as u64;
                     i += (o & LEAF == 0) as u64;
-                    (t, h, i)
-                },
-            )
+                }
+                (t, h, i)
+            })
             .reduce(
                 || ([0; 4], [0; 4], 0),
                 |a, b| {

@@ -268,13 +268,13 @@ fn top_refs(f: &Frame, top_dims: [u32; 3], lim: &Limits) -> Result<(Vec<u32>, Ve
             .map(|(k, (i, _))| (k, i))
     };
     // Ranges of up to 64 cells keep their overlaps as bits, so the emit pass does not test
-    // them again; larger ranges are tested in both passes.
+    // them again; larger ranges keep their count and are tested again when emitted.
     let bits: Vec<u64> = (0..f.tris.len())
         .into_par_iter()
         .with_min_len(1024)
         .map(|t| {
             if big(range(t)) {
-                return 0;
+                return overlapping(t).count() as u64;
             }
             overlapping(t).fold(0, |m, (k, _)| m | 1 << k)
         })
@@ -284,7 +284,7 @@ fn top_refs(f: &Frame, top_dims: [u32; 3], lim: &Limits) -> Result<(Vec<u32>, Ve
         f.tris.len(),
         |t| {
             if big(range(t)) {
-                overlapping(t).count() as u32
+                bits[t] as u32
             } else {
                 bits[t].count_ones()
             }
