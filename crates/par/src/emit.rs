@@ -27,50 +27,83 @@ pub fn emit_pairs<E>(
     check: impl FnOnce(u64) -> Result<(), E>,
     emit: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
 ) -> Result<(Vec<u32>, Vec<u32>), E> {
+    let [out] = emit_streams(
+        n,
+        |i| [count(i)],
+        |[total]| check(total),
+        |i, out| emit(i, &mut |k, v| out(0, k, v)),
+    )?;
+    Ok(out)
+}
+
+/// [`emit_pairs`] into `K` output streams at once: `count(i)` says how many pairs item i
+/// makes in each, `emit(i, out)` pushes them as `out(stream, key, value)`, each stream's in
+/// item order. One count pass and one emit pass serve all the streams (a traversal step's
+/// final, ray-side and object-side pairs, say), instead of two passes per stream.
+pub fn emit_streams<E, const K: usize>(
+    n: usize,
+    count: impl Fn(usize) -> [u32; K] + Sync,
+    check: impl FnOnce([u64; K]) -> Result<(), E>,
+    emit: impl Fn(usize, &mut dyn FnMut(usize, u32, u32)) + Sync,
+) -> Result<[(Vec<u32>, Vec<u32>); K], E> {
     let blocks = n.div_ceil(BLOCK);
     let items = |b: usize| b * BLOCK..((b + 1) * BLOCK).min(n);
-    let per_block: Vec<u64> = (0..blocks)
+    let per_block: Vec<[u64; K]> = (0..blocks)
         .into_par_iter()
-        .map(|b| items(b).map(|i| count(i) as u64).sum())
-        .collect();
-    let total: u64 = per_block.iter().sum();
-    check(total)?;
-    // The blocks' offsets: an exclusive scan over a few thousand entries at most.
-    let first: Vec<usize> = per_block
-        .iter()
-        .scan(0usize, |acc, &c| {
-            let at = *acc;
-            *acc += c as usize;
-            Some(at)
+        .map(|b| {
+            items(b).fold([0u64; K], |mut acc, i| {
+                let c = count(i);
+                for s in 0..K {
+                    acc[s] += c[s] as u64;
+                }
+                acc
+            })
         })
         .collect();
-    let total = total as usize;
-    let mut keys = vec![0u32; total];
-    let mut vals = vec![0u32; total];
-    let kp = SharedMut(keys.as_mut_ptr());
-    let vp = SharedMut(vals.as_mut_ptr());
+    let mut total = [0u64; K];
+    // The blocks' offsets per stream: an exclusive scan over a few thousand entries at most.
+    let first: Vec<[usize; K]> = per_block
+        .iter()
+        .map(|c| {
+            let at = total.map(|t| t as usize);
+            for s in 0..K {
+                total[s] += c[s];
+            }
+            at
+        })
+        .collect();
+    check(total)?;
+    let mut out: [(Vec<u32>, Vec<u32>); K] =
+        std::array::from_fn(|s| (vec![0u32; total[s] as usize], vec![0u32; total[s] as usize]));
+    let ptr: [(SharedMut<u32>, SharedMut<u32>); K] = std::array::from_fn(|s| {
+        (
+            SharedMut(out[s].0.as_mut_ptr()),
+            SharedMut(out[s].1.as_mut_ptr()),
+        )
+    });
     (0..blocks).into_par_iter().for_each(|b| {
-        let mut k = first[b];
+        let mut at = first[b];
         for i in items(b) {
-            let c = count(i) as usize;
-            if c == 0 {
+            let c = count(i);
+            if c.iter().all(|&c| c == 0) {
                 continue;
             }
-            let end = k + c;
-            emit(i, &mut |key, val| {
-                assert!(k < end, "emit made more pairs than count");
-                // SAFETY: item i owns [k, end): its block's scanned offset plus the counts
-                // of the block's earlier items, which equal what they wrote (checked).
+            let end: [usize; K] = std::array::from_fn(|s| at[s] + c[s] as usize);
+            emit(i, &mut |s, key, val| {
+                assert!(at[s] < end[s], "emit made more pairs than count");
+                // SAFETY: item i owns [at[s], end[s]) of stream s: its block's scanned
+                // offset plus the counts of the block's earlier items, which equal what
+                // they wrote (checked).
                 unsafe {
-                    kp.write(k, key);
-                    vp.write(k, val);
+                    ptr[s].0.write(at[s], key);
+                    ptr[s].1.write(at[s], val);
                 }
-                k += 1;
+                at[s] += 1;
             });
-            assert_eq!(k, end, "emit made fewer pairs than count");
+            assert_eq!(at, end, "emit made fewer pairs than count");
         }
     });
-    Ok((keys, vals))
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -129,6 +162,40 @@ mod tests {
             .flat_map(|i| (0..count(i)).map(move |j| (i as u32, j)))
             .collect();
         assert_eq!(k.into_iter().zip(v).collect::<Vec<_>>(), want);
+    }
+
+    #[test]
+    fn streams_each_in_item_order() {
+        let n = 3 * BLOCK + 11;
+        let count = |i: usize| [(i % 3) as u32, (i % 7 == 0) as u32, 0];
+        let [a, b, c] = emit_streams(
+            n,
+            count,
+            |t| if t[2] == 0 { Ok(()) } else { Err(t) },
+            |i, out| {
+                // Interleaved writes to both streams.
+                for j in 0..(i % 3) as u32 {
+                    out(0, i as u32, j);
+                    if j == 0 && i % 7 == 0 {
+                        out(1, i as u32, 99);
+                    }
+                }
+                if i % 3 == 0 && i % 7 == 0 {
+                    out(1, i as u32, 99);
+                }
+            },
+        )
+        .unwrap();
+        let want_a: Vec<(u32, u32)> = (0..n as u32)
+            .flat_map(|i| (0..i % 3).map(move |j| (i, j)))
+            .collect();
+        let want_b: Vec<(u32, u32)> = (0..n as u32)
+            .filter(|i| i % 7 == 0)
+            .map(|i| (i, 99))
+            .collect();
+        assert_eq!(a.0.into_iter().zip(a.1).collect::<Vec<_>>(), want_a);
+        assert_eq!(b.0.into_iter().zip(b.1).collect::<Vec<_>>(), want_b);
+        assert!(c.0.is_empty() && c.1.is_empty());
     }
 
     #[test]

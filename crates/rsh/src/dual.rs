@@ -25,7 +25,7 @@ use crate::objects::{ObjectTree, LEAF};
 use crate::traverse::{pack, Counters, NodeTest, Traversal};
 use geom::cone::{exact_test, rah_test, ConeSc};
 use geom::{intersect, Vec3};
-use par::{compress_runs, emit_pairs, sort_pairs, SortScratch};
+use par::{compress_runs, emit_streams, sort_pairs, SortScratch};
 use rayon::prelude::*;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
@@ -344,44 +344,43 @@ impl Traversal<'_> {
             c.hits[li][k] += hits[k];
         }
         c.object_tests += inner;
-        // Final tests of the level-1 survivors with triangles.
+        // What the survivors make, in one count pass and one emit pass: (level-1 node,
+        // triangle) pairs for the final tests; on the ray side (child, object) for the
+        // node's children one level down (leaf positions below level 1); on the object side
+        // (node, child) for both children.
+        let never = |_| Ok::<(), std::convert::Infallible>(());
+        let made = emit_streams(
+            action.len(),
+            |i| match action[i] {
+                FINAL => [1, 0, 0],
+                RAY => [0, level.children(rn[i] as usize).len() as u32, 0],
+                OBJECT => [0, 0, 2],
+                _ => [0; 3],
+            },
+            never,
+            |i, out| match action[i] {
+                FINAL => out(0, rn[i], on[i] & !LEAF),
+                RAY => {
+                    for ch in level.children(rn[i] as usize) {
+                        out(1, ch as u32, on[i]);
+                    }
+                }
+                _ => {
+                    for ch in tree.child[on[i] as usize] {
+                        out(2, rn[i], ch);
+                    }
+                }
+            },
+        );
+        let [(fn_, ft), below, here] = match made {
+            Ok(m) => m,
+            Err(e) => match e {},
+        };
         if li == 0 {
-            let (fn_, ft) = emit(
-                &action,
-                |_, a| (a == FINAL) as u32,
-                |i, out| out(rn[i], on[i] & !LEAF),
-            );
             let t0 = Instant::now();
             self.final_tests(&fn_, &ft, c);
             c.final_seconds += t0.elapsed().as_secs_f64();
         }
-        // Ray side: (child, object) for the node's children one level down (leaf positions
-        // below level 1).
-        let below = emit(
-            &action,
-            |i, a| {
-                if a == RAY {
-                    level.children(rn[i] as usize).len() as u32
-                } else {
-                    0
-                }
-            },
-            |i, out| {
-                for ch in level.children(rn[i] as usize) {
-                    out(ch as u32, on[i]);
-                }
-            },
-        );
-        // Object side: (node, child) for both children.
-        let here = emit(
-            &action,
-            |_, a| 2 * (a == OBJECT) as u32,
-            |i, out| {
-                for ch in tree.child[on[i] as usize] {
-                    out(rn[i], ch);
-                }
-            },
-        );
         (below, here)
     }
 
@@ -485,20 +484,6 @@ impl Traversal<'_> {
         c.final_tests = std::array::from_fn(|k| c.final_tests[k] + finals[k]);
         c.ray_box_tests += boxes;
         c.ray_box_passes += passes;
-    }
-}
-
-/// The pairs the tested pairs make (`par::emit_pairs`): `count(i, action)` says how many
-/// pair i makes, `make(i, out)` writes them in the same order.
-fn emit(
-    action: &[u8],
-    count: impl Fn(usize, u8) -> u32 + Sync,
-    make: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
-) -> Pairs {
-    let never = |_| Ok::<(), std::convert::Infallible>(());
-    match emit_pairs(action.len(), |i| count(i, action[i]), never, make) {
-        Ok(p) => p,
-        Err(e) => match e {},
     }
 }
 
