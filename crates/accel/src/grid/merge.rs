@@ -38,30 +38,13 @@ struct Merger {
     pool: Vec<u32>,
     /// Pass at which cell i last changed (0: initial).
     changed: Vec<u32>,
-    /// Per axis, cell i's last evaluation (one record, so the staleness test of a pass reads
-    /// one cache line per cell instead of three).
-    eval: [Vec<Eval>; 3],
+    /// Per axis: the pass that last evaluated cell i (0: never), the cell found at its +axis
+    /// probe voxel then, and its candidate (NONE: none).
+    stamp: [Vec<u32>; 3],
+    probe: [Vec<u32>; 3],
+    cand: [Vec<u32>; 3],
     pass: u32,
     empty_only: bool,
-}
-
-/// A cell's candidate along one axis as last evaluated.
-#[derive(Clone, Copy)]
-struct Eval {
-    /// The pass that evaluated it (0: never).
-    stamp: u32,
-    /// The cell found at the +axis probe voxel then.
-    probe: u32,
-    /// The neighbour it merges with (NONE: none).
-    cand: u32,
-}
-
-impl Eval {
-    const NEVER: Eval = Eval {
-        stamp: 0,
-        probe: NONE,
-        cand: NONE,
-    };
 }
 
 impl Merger {
@@ -83,7 +66,9 @@ pub fn merge(g: &mut Grid, alpha: f32, empty_only: bool) -> usize {
         end: g.ref_first[1..].to_vec(),
         pool: std::mem::take(&mut g.refs),
         changed: vec![0; n],
-        eval: std::array::from_fn(|_| vec![Eval::NEVER; n]),
+        stamp: std::array::from_fn(|_| vec![0; n]),
+        probe: std::array::from_fn(|_| vec![NONE; n]),
+        cand: std::array::from_fn(|_| vec![NONE; n]),
         pass: 0,
         empty_only,
     };
@@ -155,13 +140,16 @@ fn merge_pass(
     let pass = m.pass;
     // 1. Candidates, re-evaluated where the cell or its probe neighbour changed.
     {
-        let ev = SharedMut(m.eval[axis].as_mut_ptr());
+        let (sp, pp, cp) = (
+            SharedMut(m.stamp[axis].as_mut_ptr()),
+            SharedMut(m.probe[axis].as_mut_ptr()),
+            SharedMut(m.cand[axis].as_mut_ptr()),
+        );
         let (gr, mr) = (&*g, &*m);
         live.par_iter().with_min_len(2048).for_each(|&i| {
             let i = i as usize;
-            let Eval {
-                stamp: s, probe: p, ..
-            } = mr.eval[axis][i];
+            let s = mr.stamp[axis][i];
+            let p = mr.probe[axis][i];
             let stale = s == 0
                 || mr.changed[i] >= s
                 || (p != NONE && (mr.owner[p as usize] != p || mr.changed[p as usize] >= s));
@@ -176,23 +164,17 @@ fn merge_pass(
             };
             // SAFETY: live cells are distinct, so each index is written by one task.
             unsafe {
-                ev.write(
-                    i,
-                    Eval {
-                        stamp: pass,
-                        probe: j,
-                        cand: c,
-                    },
-                )
-            };
+                sp.write(i, pass);
+                pp.write(i, j);
+                cp.write(i, c);
+            }
         });
     }
     // 2. Chains: heads are candidates nobody points at; walk each, pairing even positions
     // with their successor (which becomes residue).
-    let ev = &m.eval[axis];
-    let next = |i: u32| ev[i as usize].cand;
+    let next = &m.cand[axis];
     live.par_iter().with_min_len(4096).for_each(|&i| {
-        let j = next(i);
+        let j = next[i as usize];
         if j != NONE {
             flags[j as usize].store(1, Relaxed); // j has a predecessor
         }
@@ -201,7 +183,7 @@ fn merge_pass(
         .par_iter()
         .with_min_len(4096)
         .copied()
-        .filter(|&i| next(i) != NONE && flags[i as usize].load(Relaxed) == 0)
+        .filter(|&i| next[i as usize] != NONE && flags[i as usize].load(Relaxed) == 0)
         .collect();
     live.par_iter()
         .with_min_len(4096)
@@ -212,12 +194,12 @@ fn merge_pass(
         .fold(Vec::new, |mut out, &head| {
             let mut i = head;
             loop {
-                let j = next(i);
+                let j = next[i as usize];
                 if j == NONE {
                     break;
                 }
                 out.push((i, j));
-                let k = next(j);
+                let k = next[j as usize];
                 if k == NONE {
                     break;
                 }
