@@ -8,6 +8,9 @@
 use crate::SharedMut;
 use rayon::prelude::*;
 
+/// Emitted pairs: (keys, values).
+pub type Pairs = (Vec<u32>, Vec<u32>);
+
 /// Items per block: the unit of the count and emit passes (a GPU workgroup's share). An
 /// item's offset is its block's (scanned over blocks) plus what the block's earlier items
 /// wrote, so no per-item count or offset array is stored.
@@ -18,7 +21,7 @@ const BLOCK: usize = 2048;
 /// that make none). `check(total)` sees the total before anything is allocated for it, and
 /// its error is returned as is (a caller's memory cap).
 ///
-/// Two passes over blocks of [`BLOCK`] items (count; emit at the block's scanned offset),
+/// Two passes over blocks of `BLOCK` (2048) items (count; emit at the block's scanned offset),
 /// `count` is called twice per item and nothing per item is stored: on the 2-core VM a
 /// per-item count and offset array cost more in fresh memory than the counting itself.
 pub fn emit_pairs<E>(
@@ -26,7 +29,7 @@ pub fn emit_pairs<E>(
     count: impl Fn(usize) -> u32 + Sync,
     check: impl FnOnce(u64) -> Result<(), E>,
     emit: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
-) -> Result<(Vec<u32>, Vec<u32>), E> {
+) -> Result<Pairs, E> {
     let [out] = emit_streams(
         n,
         |i| [count(i)],
@@ -45,7 +48,7 @@ pub fn emit_streams<E, const K: usize>(
     count: impl Fn(usize) -> [u32; K] + Sync,
     check: impl FnOnce([u64; K]) -> Result<(), E>,
     emit: impl Fn(usize, &mut dyn FnMut(usize, u32, u32)) + Sync,
-) -> Result<[(Vec<u32>, Vec<u32>); K], E> {
+) -> Result<[Pairs; K], E> {
     let blocks = n.div_ceil(BLOCK);
     let items = |b: usize| b * BLOCK..((b + 1) * BLOCK).min(n);
     let per_block: Vec<[u64; K]> = (0..blocks)
@@ -73,7 +76,7 @@ pub fn emit_streams<E, const K: usize>(
         })
         .collect();
     check(total)?;
-    let mut out: [(Vec<u32>, Vec<u32>); K] =
+    let mut out: [Pairs; K] =
         std::array::from_fn(|s| (vec![0u32; total[s] as usize], vec![0u32; total[s] as usize]));
     let ptr: [(SharedMut<u32>, SharedMut<u32>); K] = std::array::from_fn(|s| {
         (
@@ -143,7 +146,7 @@ mod tests {
         let n = 5 * BLOCK + 7;
         let count = |i: usize| match i {
             _ if i == 3 * BLOCK - 1 => 3 * BLOCK as u32,
-            _ if (BLOCK..2 * BLOCK + 5).contains(&i) || i % 3 == 0 => 0,
+            _ if (BLOCK..2 * BLOCK + 5).contains(&i) || i.is_multiple_of(3) => 0,
             _ => (i % 5) as u32,
         };
         let (k, v) = emit_pairs(
@@ -167,7 +170,7 @@ mod tests {
     #[test]
     fn streams_each_in_item_order() {
         let n = 3 * BLOCK + 11;
-        let count = |i: usize| [(i % 3) as u32, (i % 7 == 0) as u32, 0];
+        let count = |i: usize| [(i % 3) as u32, i.is_multiple_of(7) as u32, 0];
         let [a, b, c] = emit_streams(
             n,
             count,
