@@ -25,7 +25,7 @@ use crate::objects::{ObjectTree, LEAF};
 use crate::traverse::{pack, Counters, NodeTest, Traversal};
 use geom::cone::{exact_test, rah_test, ConeSc};
 use geom::{intersect, Vec3};
-use par::{compress_runs, emit_streams, sort_pairs, SortScratch};
+use par::{compress_runs, emit_streams, sort_pairs, Pairs, SortScratch};
 use rayon::prelude::*;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
@@ -147,9 +147,6 @@ impl RayNode {
         tn <= tf
     }
 }
-
-/// Pairs of one ray level: (ray node or leaf position, object node).
-type Pairs = (Vec<u32>, Vec<u32>);
 
 impl Traversal<'_> {
     /// Run the dual traversal over `tree` and the final tests, adding to `c`. Pairs wait in
