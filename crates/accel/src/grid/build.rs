@@ -139,9 +139,9 @@ impl Frame<'_> {
         let radii = sat.radii(self.node_half(level + 1));
         // The children's centres as `node_centre` computes them, one lane each.
         let mut centres = [[0f32; 8]; 3];
-        for (k, axis) in [(0usize, 0u32), (1, 1), (2, 2)] {
-            for (lane, v) in centres[k].iter_mut().enumerate() {
-                let cc = 2 * c[k] + ((lane as u32 >> axis) & 1);
+        for (k, axis) in centres.iter_mut().enumerate() {
+            for (lane, v) in axis.iter_mut().enumerate() {
+                let cc = 2 * c[k] + ((lane >> k) & 1) as u32;
                 *v = self.bounds.min[k] + (cc as f32 + 0.5) * size[k];
             }
         }
