@@ -3,10 +3,11 @@
 //!
 //! One step is a chain of dependent loads (voxel map → cell record → references → triangles)
 //! followed by the exit computation that picks the next voxel, so a single ray spends most of
-//! its time waiting on memory. [`trace_stream`] therefore advances several rays in turn
-//! (ray-stream interleaving, in the spirit of Barringer & Akenine-Möller's stream traversal,
-//! without reordering anything): each ray's steps are exactly those of [`trace_ray`], so hits
-//! and counters are identical, while the processor overlaps the loads of independent rays.
+//! its time waiting on memory. [`trace_stream`] therefore keeps several rays in flight (in
+//! the spirit of Barringer & Akenine-Möller's stream traversal, without reordering
+//! anything): each ray's steps are exactly those of [`trace_ray`], so hits and counters are
+//! identical, but a ray prefetches the cell record it needs next, and the cell's triangles
+//! once it has read the record, and yields to the other rays until they have arrived.
 
 use super::{CellRec, Grid};
 use geom::tri::RayPre;
@@ -32,9 +33,9 @@ impl std::ops::Add for RayCounts {
     }
 }
 
-/// Rays advanced in turn by [`trace_stream`] (chosen by measurement on Sponza: 4 overlaps
-/// enough loads; more only adds state).
-pub const STREAM_WIDTH: usize = 4;
+/// Rays in flight in [`trace_stream`] (chosen by measurement on Sponza's random rays: 8
+/// rays cover the prefetches' latency; 4 left it partly exposed).
+pub const STREAM_WIDTH: usize = 8;
 
 /// `floor(x)` as an integer without a libm call (x86-64 without SSE4.1 has no rounding
 /// instruction); exact for |x| < 2^63, NaN → 0 like `floor(x) as i64`.
@@ -98,8 +99,14 @@ impl Lane {
     fn step(&mut self, g: &Grid, tris: &[[Vec3; 3]], mode: TraceMode) -> bool {
         let c = g.lookup(self.v) as usize;
         self.counts.steps += 1;
-        let CellRec { lo, hi, begin, end } = g.trav[c];
-        for &t in &g.refs[begin as usize..end as usize] {
+        let rec = g.trav[c];
+        self.test(g, tris, &rec, mode) || self.leave(g, &rec)
+    }
+
+    /// Test the references of the cell of `rec`; true when an any-hit query is answered.
+    #[inline]
+    fn test(&mut self, g: &Grid, tris: &[[Vec3; 3]], rec: &CellRec, mode: TraceMode) -> bool {
+        for &t in &g.refs[rec.begin as usize..rec.end as usize] {
             self.counts.tests += 1;
             let [a, b, cc] = tris[t as usize];
             if let Some(h) = intersect(&self.pre, a, b, cc) {
@@ -116,6 +123,14 @@ impl Lane {
                 }
             }
         }
+        false
+    }
+
+    /// Leave the cell of `rec` through its expanded box; true when the ray is done, else
+    /// `v` is the next voxel.
+    #[inline]
+    fn leave(&mut self, g: &Grid, rec: &CellRec) -> bool {
+        let CellRec { lo, hi, .. } = *rec;
         // Exit through the three far planes of the cell's expanded box.
         let (o, d, neg) = (self.o, self.d, self.neg);
         let mut t_exit = f32::INFINITY;
@@ -175,9 +190,96 @@ pub fn trace_ray(g: &Grid, tris: &[[Vec3; 3]], ray: &Ray, mode: TraceMode) -> (H
     (lane.best, lane.counts)
 }
 
-/// Trace rays `first..first + hits.len()` of `rays`, [`STREAM_WIDTH`] at a time in turn,
+/// Prefetch the cache line holding `p` (a hint: no load, no fault, no effect on results).
+#[inline(always)]
+fn prefetch<T>(p: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that never faults, whatever the address.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch(p as *const i8, _MM_HINT_T0)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
+/// The load a ray in [`trace_stream`] waits on: prefetched in its previous turn, read in
+/// its next one.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Wait {
+    /// Cell record `at`.
+    Cell,
+    /// The referenced triangles of the cell record `rec`.
+    Tris,
+}
+
+/// One ray in [`trace_stream`]: its traversal state and the load it waits on.
+#[derive(Clone, Copy)]
+struct Flight {
+    ray: usize,
+    lane: Lane,
+    wait: Wait,
+    /// The cell `wait` names.
+    at: u32,
+    rec: CellRec,
+}
+
+impl Flight {
+    /// Find the cell of the lane's voxel and prefetch its record.
+    #[inline]
+    fn enter(&mut self, g: &Grid) {
+        self.at = g.lookup(self.lane.v);
+        self.wait = Wait::Cell;
+        prefetch(g.trav.as_ptr().wrapping_add(self.at as usize));
+    }
+
+    /// Leave the current cell: true when the ray is done, else its next cell is entered.
+    #[inline]
+    fn next(&mut self, g: &Grid) -> bool {
+        if self.lane.leave(g, &self.rec) {
+            return true;
+        }
+        self.enter(g);
+        false
+    }
+
+    /// Do the work the awaited load allows and prefetch the next one; true when the ray is
+    /// done. The operations are [`Lane::step`]'s, cut at its dependent loads.
+    #[inline]
+    fn advance(&mut self, g: &Grid, tris: &[[Vec3; 3]], mode: TraceMode) -> bool {
+        match self.wait {
+            Wait::Cell => {
+                self.rec = g.trav[self.at as usize];
+                self.lane.counts.steps += 1;
+                let (b, e) = (self.rec.begin as usize, self.rec.end as usize);
+                if b == e {
+                    return self.next(g);
+                }
+                for &t in &g.refs[b..e] {
+                    let p = tris.as_ptr().wrapping_add(t as usize);
+                    prefetch(p);
+                    prefetch((p as *const u8).wrapping_add(std::mem::size_of::<[Vec3; 3]>() - 1));
+                }
+                self.wait = Wait::Tris;
+                false
+            }
+            Wait::Tris => {
+                let rec = self.rec;
+                self.lane.test(g, tris, &rec, mode) || self.next(g)
+            }
+        }
+    }
+}
+
+/// Trace rays `first..first + hits.len()` of `rays`, [`STREAM_WIDTH`] in flight at a time,
 /// writing each ray's hit; returns the summed counters. Same results as [`trace_ray`] per
-/// ray.
+/// ray: each ray takes [`Lane::step`]'s steps, cut in two at its cache misses (the cell
+/// record, then the cell's triangles); a ray prefetches what its next turn reads and yields
+/// to the others, so the loads of [`STREAM_WIDTH`] rays are in flight at once (asynchronous
+/// memory access chaining, Kocberber et al. 2015) where one ray alone would wait on each in
+/// turn. Measured on random rays: ~1.4× on Sponza and Conference; coherent rays, whose data
+/// is cached, run as before. (Splitting also at the voxel-map entries and the reference
+/// list cost coherent rays ~15 % for a little more on random ones.)
 pub fn trace_stream(
     g: &Grid,
     tris: &[[Vec3; 3]],
@@ -187,31 +289,41 @@ pub fn trace_stream(
     mode: TraceMode,
 ) -> RayCounts {
     let mut total = RayCounts::default();
-    let mut lanes: [Option<(usize, Lane)>; STREAM_WIDTH] = [None; STREAM_WIDTH];
+    let mut flights: [Option<Flight>; STREAM_WIDTH] = [None; STREAM_WIDTH];
     let mut next = 0;
     // The next ray that enters the grid (rays that miss it are answered at once).
-    let pull = |next: &mut usize, hits: &mut [Hit]| -> Option<(usize, Lane)> {
+    let pull = |next: &mut usize, hits: &mut [Hit]| -> Option<Flight> {
         while *next < hits.len() {
             let i = *next;
             *next += 1;
             match Lane::new(g, &rays.ray(first + i)) {
-                Some(l) => return Some((i, l)),
+                Some(lane) => {
+                    let mut f = Flight {
+                        ray: i,
+                        lane,
+                        wait: Wait::Cell,
+                        at: 0,
+                        rec: CellRec::default(),
+                    };
+                    f.enter(g);
+                    return Some(f);
+                }
                 None => hits[i] = Hit::MISS,
             }
         }
         None
     };
-    for slot in lanes.iter_mut() {
+    for slot in flights.iter_mut() {
         *slot = pull(&mut next, hits);
     }
     loop {
         let mut active = false;
-        for slot in lanes.iter_mut() {
-            let Some((i, lane)) = slot else { continue };
+        for slot in flights.iter_mut() {
+            let Some(f) = slot else { continue };
             active = true;
-            if lane.step(g, tris, mode) {
-                hits[*i] = lane.best;
-                total = total + lane.counts;
+            if f.advance(g, tris, mode) {
+                hits[f.ray] = f.lane.best;
+                total = total + f.lane.counts;
                 *slot = pull(&mut next, hits);
             }
         }

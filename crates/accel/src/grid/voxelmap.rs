@@ -29,15 +29,22 @@ pub fn node(first: u32, log_dim: u32) -> u32 {
     NODE | log_dim << LOG_DIM_SHIFT | first
 }
 
+/// One level down from block entry `e` (with `NODE` set) covering a node whose voxels are
+/// `v >> *s`: the index of the child entry holding voxel `v`; `*s` becomes the child's shift.
+#[inline]
+pub fn child(e: u32, s: &mut u32, v: [u32; 3]) -> usize {
+    let k = (e >> LOG_DIM_SHIFT) & 0xf;
+    *s -= k;
+    let m = (1u32 << k) - 1;
+    let i = ((v[0] >> *s) & m) | ((v[1] >> *s) & m) << k | ((v[2] >> *s) & m) << (2 * k);
+    ((e & INDEX) + i) as usize
+}
+
 /// Descend from entry `e` (covering a node whose voxels are v >> s) to the cell of voxel `v`.
 #[inline]
 pub fn descend(entries: &[u32], mut e: u32, mut s: u32, v: [u32; 3]) -> u32 {
     while e & NODE != 0 {
-        let k = (e >> LOG_DIM_SHIFT) & 0xf;
-        s -= k;
-        let m = (1u32 << k) - 1;
-        let i = ((v[0] >> s) & m) | ((v[1] >> s) & m) << k | ((v[2] >> s) & m) << (2 * k);
-        e = entries[((e & INDEX) + i) as usize];
+        e = entries[child(e, &mut s, v)];
     }
     e
 }
