@@ -144,7 +144,8 @@ impl EngineOptions {
 /// A built engine, with a one-line description of what was built where the engine has one
 /// (the grids: cells, references, memory, build passes).
 pub struct Built {
-    pub tracer: Box<dyn Tracer>,
+    /// The engine (`Send`, so that a binding may own it on any thread).
+    pub tracer: Box<dyn Tracer + Send>,
     pub report: Option<String>,
 }
 
@@ -152,7 +153,7 @@ pub struct Built {
 pub fn build(engine: Engine, opts: &EngineOptions, geo: &Geometry) -> Result<Built> {
     opts.validate(engine)?;
     let mut report = None;
-    let tracer: Box<dyn Tracer> = match engine {
+    let tracer: Box<dyn Tracer + Send> = match engine {
         Engine::Grid | Engine::Grid2l => {
             let two_level = engine == Engine::Grid2l;
             let g = accel::GridEngine::new(geo, &opts.grid_config(two_level))
@@ -186,7 +187,7 @@ pub fn build(engine: Engine, opts: &EngineOptions, geo: &Geometry) -> Result<Bui
 }
 
 #[cfg(feature = "embree")]
-fn embree(engine: Engine, geo: &Geometry) -> Result<Box<dyn Tracer>> {
+fn embree(engine: Engine, geo: &Geometry) -> Result<Box<dyn Tracer + Send>> {
     let mode = if engine == Engine::Embree {
         accel::peers::EmbreeMode::Single
     } else {
@@ -198,7 +199,7 @@ fn embree(engine: Engine, geo: &Geometry) -> Result<Box<dyn Tracer>> {
 }
 
 #[cfg(not(feature = "embree"))]
-fn embree(engine: Engine, _geo: &Geometry) -> Result<Box<dyn Tracer>> {
+fn embree(engine: Engine, _geo: &Geometry) -> Result<Box<dyn Tracer + Send>> {
     anyhow::bail!(
         "--engine {}: this build has no Embree peer; install Embree 3 (Debian: libembree-dev) and build with `cargo build --release --features embree`",
         engine.name()

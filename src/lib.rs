@@ -1,5 +1,9 @@
-//! rayspace as a library: the engine registry ([`engines`]) and the papers' evaluations
-//! ([`bench`](mod@bench)), shared by the `rayspace` command line and the bindings.
+//! rayspace as a library: the engine registry ([`engines`]), the engine and load options as
+//! the command line spells them ([`options`]), one frame of a dynamic scene ([`frames`]) and
+//! the papers' evaluations ([`bench`](mod@bench)), shared by the `rayspace` command line and
+//! the Python bindings (`python/`).
 
 pub mod bench;
 pub mod engines;
+pub mod frames;
+pub mod options;

@@ -3,15 +3,12 @@
 //! feature), and defaults come from the library's own (`RshConfig::crsh()`,
 //! `GridConfig::default()`), so nothing here restates the engines' choices.
 
-use accel::grid::{GridConfig, Subdivision};
-use clap::builder::TypedValueParser as _;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use rayspace::bench::Spec;
-use rayspace::engines::{Engine, EngineOptions};
+use rayspace::engines::Engine;
+pub use rayspace::options::{defaults, engine_options, GridArgs, LoadArgs, RshArgs};
 use render::raygen::Kind;
 use render::whitted::{MAX_BOUNCES, MAX_SIDE};
-use rsh::{Descent, HashBits, HashKind, NodeTest, ObjectHierarchy, RshConfig, Union};
-use scene::MeshSplit;
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -54,19 +51,6 @@ pub enum BenchCommand {
     /// The irregular-grid paper's Table 4: AO samples per pixel that fit in a frame budget
     /// on an animated scene, per-frame rebuild included.
     Budget(BenchBudgetArgs),
-}
-
-/// A command's options with every default, as if given no arguments.
-pub fn defaults<T: Args + clap::FromArgMatches>() -> T {
-    let m = T::augment_args(clap::Command::new("defaults"))
-        .try_get_matches_from(["defaults"])
-        .expect("every option has a default");
-    T::from_arg_matches(&m).expect("defaults parse")
-}
-
-/// `on`/`off` as a boolean.
-fn on_off() -> impl clap::builder::TypedValueParser<Value = bool> {
-    clap::builder::PossibleValuesParser::new(["on", "off"]).map(|s| s == "on")
 }
 
 /// Image side in pixels: 1..=`MAX_SIDE`.
@@ -205,33 +189,6 @@ pub struct BenchGpuArgs {
     pub md: Option<PathBuf>,
 }
 
-/// How a scene file is loaded.
-#[derive(Args, Clone, Debug)]
-pub struct LoadArgs {
-    /// How OBJ files are cut into meshes (the unit of bounding-sphere culling).
-    #[arg(long, value_enum, default_value_t = MeshSplit::Groups)]
-    pub meshes: MeshSplit,
-    /// Read files the scene references (OBJ mtllib, glTF buffers, TOML meshes, AFF
-    /// includes) even where they resolve outside the scene's directory and the scenes
-    /// directory.
-    #[arg(long = "allow-outside-paths")]
-    pub allow_outside_paths: bool,
-}
-
-impl LoadArgs {
-    /// The loader's options, with a triangle budget from the memory limit (`--max-memory`
-    /// in MiB where the command has it): a scene whose model alone would exceed it stops
-    /// while it loads.
-    pub fn options(&self, max_mib: Option<u64>) -> scene::LoadOptions {
-        scene::LoadOptions {
-            split: self.meshes,
-            allow_outside_paths: self.allow_outside_paths,
-            ..Default::default()
-        }
-        .for_memory(::render::memory::limit(max_mib))
-    }
-}
-
 #[derive(Args, Clone)]
 pub struct RaysArgs {
     /// A built-in scene, an .obj, .gltf/.glb or .toml file.
@@ -284,126 +241,6 @@ pub struct TraceArgs {
     /// Output hit file.
     #[arg(long)]
     pub out: Option<PathBuf>,
-}
-
-/// Options of the irregular grid (defaults: the paper's, `GridConfig::default()`).
-#[derive(Args, Clone, Debug)]
-pub struct GridArgs {
-    /// Top-level density λ₁.
-    #[arg(long = "grid-top-density", default_value_t = GridConfig::default().top_density)]
-    pub top_density: f32,
-    /// Second-level (octree) density λ₂.
-    #[arg(long = "grid-leaf-density", default_value_t = GridConfig::default().leaf_density)]
-    pub leaf_density: f32,
-    /// Merging stops when a round keeps at least this fraction of the cells.
-    #[arg(long = "grid-alpha", default_value_t = GridConfig::default().alpha)]
-    pub alpha: f32,
-    /// Cell merging, `on` or `off` (grid only; default on).
-    #[arg(long = "grid-merge", value_parser = on_off())]
-    pub merge: Option<bool>,
-    /// Cell expansion passes (grid only; default 3 for a still, 1 per frame of an animation
-    /// as in the paper's dynamic scenes).
-    #[arg(long = "grid-expansion")]
-    pub expansion: Option<u32>,
-    /// Largest octree depth per top-level cell.
-    #[arg(long = "grid-max-depth", default_value_t = GridConfig::default().max_depth)]
-    pub max_depth: u32,
-    /// Which octree nodes split: `paper` (one depth per top cell from its count, §4.1) or
-    /// `adaptive` (also every deeper node whose own count calls for it, up to the max depth).
-    #[arg(long = "grid-subdivision", value_enum, default_value_t = GridConfig::default().subdivision)]
-    pub subdivision: Subdivision,
-}
-
-impl GridArgs {
-    /// The grid's configuration; `dynamic` (a frame of an animation) defaults to one
-    /// expansion pass, as the paper's dynamic scenes use.
-    pub fn config(&self, dynamic: bool) -> GridConfig {
-        let d = GridConfig::default();
-        GridConfig {
-            top_density: self.top_density,
-            leaf_density: self.leaf_density,
-            alpha: self.alpha,
-            merge: self.merge.unwrap_or(d.merge),
-            expansion_passes: self.expansion.unwrap_or(if dynamic {
-                1
-            } else {
-                d.expansion_passes
-            }),
-            max_depth: self.max_depth,
-            subdivision: self.subdivision,
-            empty_only: d.empty_only,
-            max_bytes: d.max_bytes,
-        }
-    }
-}
-
-/// Options of the ray-space hierarchies, CRSH and RAH (defaults: `RshConfig::crsh()`).
-#[derive(Args, Clone, Debug)]
-pub struct RshArgs {
-    /// Children per hierarchy node (2..=64).
-    #[arg(long, default_value_t = RshConfig::crsh().branching)]
-    pub branching: u32,
-    /// Hierarchy levels above the leaves (0..=16; 0: up to one root per ray kind).
-    #[arg(long, default_value_t = RshConfig::crsh().levels)]
-    pub levels: u32,
-    /// CRSH ray hash.
-    #[arg(long, value_enum, default_value_t = RshConfig::crsh().hash)]
-    pub hash: HashKind,
-    /// Bit budgets of the 32-bit thesis hash: LIGHT,SHADOW_DIR,ORIGIN,DIR (bits for the light
-    /// index, per angle of shadow directions, per axis of origins, per angle of other rays).
-    #[arg(long = "hash-bits", default_value_t = RshConfig::crsh().hash_bits)]
-    pub hash_bits: HashBits,
-    /// Sphere and cone union formulas.
-    #[arg(long, value_enum, default_value_t = RshConfig::crsh().union)]
-    pub union: Union,
-    /// Node-triangle test.
-    #[arg(long = "node-test", value_enum, default_value_t = RshConfig::crsh().node_test)]
-    pub node_test: NodeTest,
-    /// Cull by per-mesh bounding spheres at the top level, `on` or `off` (default: on for
-    /// crsh, off for rah).
-    #[arg(long = "mesh-culling", value_parser = on_off())]
-    pub mesh_culling: Option<bool>,
-    /// Most (node, triangle) pairs per buffer (1024..=2^31); larger levels are processed in
-    /// batches.
-    #[arg(long = "pair-budget", default_value_t = RshConfig::crsh().pair_budget)]
-    pub pair_budget: usize,
-    /// What the traversal pushes through the ray hierarchy: every triangle behind per-mesh
-    /// spheres (the thesis), or a per-frame BVH descended together with it (default: bvh on
-    /// the CPU; the GPU backend has mesh-spheres only).
-    #[arg(long = "object-hierarchy", value_enum)]
-    pub objects: Option<ObjectHierarchy>,
-    /// With `--object-hierarchy bvh`: which node of a surviving pair is expanded.
-    #[arg(long, value_enum, default_value_t = RshConfig::crsh().descent)]
-    pub descent: Descent,
-}
-
-impl RshArgs {
-    /// The options as a configuration (CRSH's method; `EngineOptions::rsh_config` sets the
-    /// method and its mesh-culling default).
-    fn base(&self) -> RshConfig {
-        RshConfig {
-            branching: self.branching,
-            levels: self.levels,
-            hash: self.hash,
-            hash_bits: self.hash_bits,
-            union: self.union,
-            node_test: self.node_test,
-            pair_budget: self.pair_budget,
-            descent: self.descent,
-            ..RshConfig::crsh()
-        }
-    }
-}
-
-/// The engine options the ray-hierarchy and grid arguments describe (`dynamic`: a frame of
-/// an animation, see [`GridArgs::config`]).
-pub fn engine_options(r: &RshArgs, g: &GridArgs, dynamic: bool) -> EngineOptions {
-    EngineOptions {
-        rsh: r.base(),
-        mesh_culling: r.mesh_culling,
-        objects: r.objects,
-        grid: g.config(dynamic),
-    }
 }
 
 /// Where a render runs.

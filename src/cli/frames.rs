@@ -7,13 +7,10 @@ use super::args::RenderArgs;
 use super::progress::step_bar;
 use super::{check_dir, check_out_dir};
 use anyhow::{bail, Context, Result};
-use rayspace::engines::{self, EngineOptions};
-use render::whitted::{render, RenderOptions};
-use render::Phase;
-use scene::Geometry;
-use serde::Serialize;
+use rayspace::engines::EngineOptions;
+use rayspace::frames::{frame, FrameRow};
+use render::whitted::RenderOptions;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// `path` with its `%0Nd` (or `%d`) replaced by `frame`.
 fn frame_path(pattern: &std::path::Path, frame: u32) -> Result<PathBuf> {
@@ -40,27 +37,6 @@ fn frame_path(pattern: &std::path::Path, frame: u32) -> Result<PathBuf> {
         frame,
         &rest[d + 1..]
     )))
-}
-
-/// One frame's record for `--frame-csv`.
-#[derive(Serialize)]
-struct FrameRow {
-    frame: u32,
-    time: f32,
-    triangles: usize,
-    update_ms: f64,
-    build_ms: f64,
-    trace_ms: f64,
-    rays: u64,
-    total_tests: u64,
-    /// Engine phases inside the render (ms): for CRSH/RAH the per-frame ray-hierarchy build
-    /// (hash … hierarchy creation) and its traversal, in [`engine_phases`] order.
-    phases_ms: Vec<(Phase, f64)>,
-}
-
-/// The engine phases `--frame-csv` reports (the CPU's: no transfers; absent phases are 0).
-fn engine_phases() -> impl Iterator<Item = Phase> {
-    Phase::ALL.into_iter().filter(|p| !p.is_transfer())
 }
 
 /// The per-frame pipeline: update transforms (and the meshes' culling spheres, by transform),
@@ -102,16 +78,7 @@ pub fn render_frames(
     let mut gif_frames = Vec::new();
     for (i, &t) in times.iter().enumerate() {
         bar.step(&format!("frame {i} (t = {t:.3})"));
-        let t0 = Instant::now();
-        let s = scene.at_time(t);
-        let geo = Geometry::from_scene(&s);
-        let update_s = t0.elapsed().as_secs_f64();
-        let t1 = Instant::now();
-        let engine = engines::build(a.engine, eopts, &geo)?.tracer;
-        let build_s = t1.elapsed().as_secs_f64();
-        let t2 = Instant::now();
-        let out = render(&s, &geo, engine.as_ref(), &opts, &());
-        let trace_s = t2.elapsed().as_secs_f64();
+        let (out, row) = frame(scene, t, i as u32, a.engine, eopts, &opts)?;
         let path = frame_path(&a.out, i as u32)?;
         render::output::write_png(&out.pixels, a.width, a.height, &path)
             .map_err(anyhow::Error::msg)
@@ -119,19 +86,7 @@ pub fn render_frames(
         if a.gif.is_some() {
             gif_frames.push(out.pixels.clone());
         }
-        rows.push(FrameRow {
-            frame: i as u32,
-            time: t,
-            triangles: geo.len(),
-            update_ms: update_s * 1e3,
-            build_ms: build_s * 1e3,
-            trace_ms: trace_s * 1e3,
-            rays: out.stats.rays_traced(),
-            total_tests: out.stats.trace.total_tests(),
-            phases_ms: engine_phases()
-                .map(|p| (p, out.stats.trace.seconds(p) * 1e3))
-                .collect(),
-        });
+        rows.push(row);
     }
     bar.0.finish_and_clear();
     let mean = |f: &dyn Fn(&FrameRow) -> f64| rows.iter().map(f).sum::<f64>() / rows.len() as f64;
@@ -164,28 +119,9 @@ pub fn render_frames(
         frame_path(&a.out, n - 1)?.display()
     );
     if let Some(p) = &a.frame_csv {
-        let mut csv =
-            String::from("frame,time,triangles,update_ms,build_ms,render_ms,rays,total_tests");
-        for p in engine_phases() {
-            csv += &format!(",{}_ms", p.as_str().replace(' ', "_"));
-        }
-        csv += "\n";
+        let mut csv = FrameRow::csv_header() + "\n";
         for r in &rows {
-            csv += &format!(
-                "{},{},{},{:.3},{:.3},{:.3},{},{}",
-                r.frame,
-                r.time,
-                r.triangles,
-                r.update_ms,
-                r.build_ms,
-                r.trace_ms,
-                r.rays,
-                r.total_tests
-            );
-            for (_, p) in &r.phases_ms {
-                csv += &format!(",{p:.3}");
-            }
-            csv += "\n";
+            csv += &(r.csv_line() + "\n");
         }
         super::write_out("--frame-csv", p, csv)?;
         say!("wrote {}", p.display());

@@ -87,11 +87,28 @@ pub fn to_rgb8(pixels: &[Vec3], width: u32, height: u32) -> image::RgbImage {
 
 /// The pixels as the bytes of an sRGB PNG.
 pub fn png_bytes(pixels: &[Vec3], width: u32, height: u32) -> Result<Vec<u8>, String> {
+    encode_png(&to_rgb8(pixels, width, height))
+}
+
+/// An 8-bit RGB image as PNG bytes: the one encoder (and its settings) behind every PNG
+/// rayspace writes, so an image written by the bindings has the command line's bytes.
+pub fn encode_png(img: &image::RgbImage) -> Result<Vec<u8>, String> {
     let mut buf = Vec::new();
-    to_rgb8(pixels, width, height)
-        .write_to(&mut std::io::Cursor::new(&mut buf), image::ImageFormat::Png)
+    img.write_to(&mut std::io::Cursor::new(&mut buf), image::ImageFormat::Png)
         .map_err(|e| format!("PNG encoding: {e}"))?;
     Ok(buf)
+}
+
+/// Row-major 8-bit RGB bytes (`width × height × 3`) as PNG bytes ([`encode_png`]).
+pub fn rgb8_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
+    let img = image::RgbImage::from_raw(width, height, rgb.to_vec()).ok_or_else(|| {
+        format!(
+            "an image of {width} × {height} pixels needs {} bytes, not {}",
+            width as u64 * height as u64 * 3,
+            rgb.len()
+        )
+    })?;
+    encode_png(&img)
 }
 
 /// Write the pixels as an sRGB PNG, atomically ([`write_atomic`]); the error names the file.

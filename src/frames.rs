@@ -1,0 +1,100 @@
+//! One frame of a dynamic scene (the papers' use case: CRSH §3.2.2 updates the mesh spheres
+//! by transform, the irregular grid is rebuilt every frame, §5.3): update, rebuild, render,
+//! with build and trace times apart, and the frame's `--frame-csv` record. The command
+//! line's `render --frames` and the bindings' distributed frames both render through
+//! [`frame`], so their images and records agree by construction.
+
+use crate::engines::{self, Engine, EngineOptions};
+use anyhow::Result;
+use render::whitted::{render, RenderOptions, Rendered};
+use render::Phase;
+use scene::Geometry;
+use serde::Serialize;
+use std::time::Instant;
+
+/// One frame's record for `--frame-csv`.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRow {
+    pub frame: u32,
+    pub time: f32,
+    pub triangles: usize,
+    pub update_ms: f64,
+    pub build_ms: f64,
+    pub trace_ms: f64,
+    pub rays: u64,
+    pub total_tests: u64,
+    /// Engine phases inside the render (ms): for CRSH/RAH the per-frame ray-hierarchy build
+    /// (hash … hierarchy creation) and its traversal, in [`engine_phases`] order.
+    pub phases_ms: Vec<(Phase, f64)>,
+}
+
+/// The engine phases `--frame-csv` reports (the CPU's: no transfers; absent phases are 0).
+pub fn engine_phases() -> impl Iterator<Item = Phase> {
+    Phase::ALL.into_iter().filter(|p| !p.is_transfer())
+}
+
+impl FrameRow {
+    /// The CSV header line (without the line end).
+    pub fn csv_header() -> String {
+        let mut h =
+            String::from("frame,time,triangles,update_ms,build_ms,render_ms,rays,total_tests");
+        for p in engine_phases() {
+            h += &format!(",{}_ms", p.as_str().replace(' ', "_"));
+        }
+        h
+    }
+
+    /// The record as a CSV line (without the line end).
+    pub fn csv_line(&self) -> String {
+        let mut l = format!(
+            "{},{},{},{:.3},{:.3},{:.3},{},{}",
+            self.frame,
+            self.time,
+            self.triangles,
+            self.update_ms,
+            self.build_ms,
+            self.trace_ms,
+            self.rays,
+            self.total_tests
+        );
+        for (_, p) in &self.phases_ms {
+            l += &format!(",{p:.3}");
+        }
+        l
+    }
+}
+
+/// Frame `index` of `scene` at time `t`: update the transforms, rebuild `engine`, render.
+pub fn frame(
+    scene: &scene::Scene,
+    t: f32,
+    index: u32,
+    engine: Engine,
+    eopts: &EngineOptions,
+    opts: &RenderOptions,
+) -> Result<(Rendered, FrameRow)> {
+    let t0 = Instant::now();
+    let s = scene.at_time(t);
+    let geo = Geometry::from_scene(&s);
+    let update_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let tracer = engines::build(engine, eopts, &geo)?.tracer;
+    let build_s = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    let out = render(&s, &geo, tracer.as_ref(), opts, &());
+    let trace_s = t2.elapsed().as_secs_f64();
+    let row = FrameRow {
+        frame: index,
+        time: t,
+        triangles: geo.len(),
+        update_ms: update_s * 1e3,
+        build_ms: build_s * 1e3,
+        trace_ms: trace_s * 1e3,
+        rays: out.stats.rays_traced(),
+        total_tests: out.stats.trace.total_tests(),
+        phases_ms: engine_phases()
+            .map(|p| (p, out.stats.trace.seconds(p) * 1e3))
+            .collect(),
+    };
+    Ok((out, row))
+}
