@@ -1,0 +1,228 @@
+"""rayspace from Python: load scenes, make rays, trace them with any engine, render frames.
+
+The engines are rayspace's own (Rust, through PyO3): CRSH and RAH (ray-space hierarchies),
+the irregular grid and its two-level baseline, brute force (the oracle) and the obvhs
+peers. Engine options are the command line's, spelled with ``_`` for ``-``
+(``Engine(scene, "crsh", object_hierarchy="bvh", pair_budget=1 << 20)``), and every result
+is the command line's: the same hits bit for bit, the same image bytes, the same counters.
+
+Arrays in and out are NumPy: rays as ``(N, 3) float32`` origins and directions with
+``(N,)`` ``tmin``/``tmax``; hits as ``{"t", "triangle", "u", "v"}`` (a miss has triangle
+``MISS`` and t = inf). Bad input raises :class:`Error` (a ``ValueError``) with the command
+line's one-line message. The GIL is released while scenes load, engines build and rays
+are traced.
+
+Distributed frames and sweeps on Ray: :mod:`rayspace.distributed`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, List, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _rayspace
+from ._rayspace import MISS, Error, Scene
+
+__all__ = [
+    "MISS",
+    "Error",
+    "Scene",
+    "Engine",
+    "engines",
+    "rays",
+    "render",
+    "png_bytes",
+    "write_png",
+    "read_rays",
+    "write_rays",
+    "read_hits",
+    "write_hits",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def engines() -> List[str]:
+    """The engine names this build has (``--engine``'s values)."""
+    return list(_rayspace.engine_names())
+
+
+def _array(name: str, a: Any, dtype: Any, shape: Tuple[Optional[int], ...]) -> np.ndarray:
+    """``a`` checked as a C-contiguous array of ``dtype`` and ``shape`` (None: any)."""
+    if not isinstance(a, np.ndarray):
+        raise Error(f"{name}: expected a NumPy array, got {type(a).__name__}")
+    if a.dtype != dtype:
+        raise Error(
+            f"{name}: expected dtype {np.dtype(dtype).name}, got {a.dtype.name} "
+            f"(convert with {name}.astype(numpy.{np.dtype(dtype).name}))"
+        )
+    if a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape)):
+        want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise Error(f"{name}: expected shape {want}, got {a.shape}")
+    if not a.flags["C_CONTIGUOUS"]:
+        raise Error(f"{name}: expected a C-contiguous array (use numpy.ascontiguousarray({name}))")
+    return a
+
+
+def _finite(name: str, a: np.ndarray) -> None:
+    bad = ~np.isfinite(a)
+    if bad.any():
+        row = int(np.argwhere(bad)[0][0])
+        raise Error(f"{name}: row {row} is not finite ({a[row]})")
+
+
+def _rays(origins: Any, directions: Any, tmin: Any, tmax: Any):
+    o = _array("origins", origins, np.float32, (None, 3))
+    d = _array("directions", directions, np.float32, (None, 3))
+    if len(o) != len(d):
+        raise Error(f"directions: {len(d)} rays, but origins has {len(o)}")
+    _finite("origins", o)
+    _finite("directions", d)
+    lo = None if tmin is None else _array("tmin", tmin, np.float32, (len(o),))
+    hi = None if tmax is None else _array("tmax", tmax, np.float32, (len(o),))
+    return o, d, lo, hi
+
+
+class Engine:
+    """An engine built over a scene: ``Engine(scene, "grid", grid_top_density=0.1)``.
+
+    ``name`` is any of :func:`engines`; ``options`` are the command line's engine options
+    with ``_`` for ``-`` (``branching``, ``levels``, ``hash``, ``hash_bits``, ``union``,
+    ``node_test``, ``mesh_culling``, ``pair_budget``, ``object_hierarchy``, ``descent``,
+    ``grid_top_density``, ``grid_leaf_density``, ``grid_alpha``, ``grid_merge``,
+    ``grid_expansion``, ``grid_max_depth``, ``grid_subdivision``); booleans mean on/off.
+    """
+
+    def __init__(self, scene: Scene, name: str, **options: Any) -> None:
+        self._engine = _rayspace.Engine(scene, name, **options)
+
+    @property
+    def name(self) -> str:
+        """The engine's name."""
+        return self._engine.name
+
+    @property
+    def build_seconds(self) -> float:
+        """Wall time of the build."""
+        return self._engine.build_seconds
+
+    @property
+    def build_passes(self) -> List[Tuple[str, float]]:
+        """Seconds per build pass (the grids': references, octrees, merge, ...)."""
+        return list(self._engine.build_passes)
+
+    @property
+    def build_report(self) -> Optional[str]:
+        """The command line's one-line description of what was built (grids), or None."""
+        return self._engine.build_report
+
+    def trace(
+        self,
+        origins: np.ndarray,
+        directions: np.ndarray,
+        tmin: Optional[np.ndarray] = None,
+        tmax: Optional[np.ndarray] = None,
+        any_hit: bool = False,
+    ) -> Dict[str, np.ndarray]:
+        """Trace rays: ``(N, 3) float32`` origins and directions, optional ``(N,) float32``
+        bounds (default 0 and inf). Returns ``{"t", "triangle", "u", "v"}`` arrays; a
+        closest-hit record is brute force's bit for bit (smallest t, ties to the smallest
+        triangle), an any-hit record is some hit in range. ``engine.trace(**rays(scene))``
+        works as is."""
+        o, d, lo, hi = _rays(origins, directions, tmin, tmax)
+        return self._engine.trace(o, d, lo, hi, bool(any_hit))
+
+    def counters(self) -> Dict[str, Any]:
+        """The last trace's counters: rays, hits, ray_tri_tests, node_tri_tests,
+        total_tests, the engine's own counters (traversal steps, ...) and phase seconds."""
+        return self._engine.counters()
+
+    def __repr__(self) -> str:
+        return f"Engine({self.name!r})"
+
+
+def rays(
+    scene: Scene,
+    kind: str = "primary",
+    width: int = 512,
+    height: int = 512,
+    spp: int = 1,
+    seed: int = 1,
+    ao_distance: Optional[float] = None,
+) -> Dict[str, np.ndarray]:
+    """The rays ``rayspace rays`` makes: ``kind`` primary, shadow, ao or random, per pixel
+    of a ``width`` × ``height`` view of the scene's camera (``spp`` per pixel for ao and
+    random). Returns ``{"origins", "directions", "tmin", "tmax"}``."""
+    return _rayspace.rays(scene, kind, width, height, spp, seed, ao_distance)
+
+
+def render(
+    scene: Scene,
+    engine: str = "crsh",
+    width: int = 512,
+    height: int = 512,
+    bounces: int = 3,
+    time: Optional[float] = None,
+    dynamic: bool = False,
+    **options: Any,
+) -> Tuple[np.ndarray, Dict[str, Any]]:
+    """``rayspace render``: an ``(height, width, 3) uint8`` sRGB image and the ``--stats``
+    dictionary. ``time`` renders the animation at that time; ``dynamic=True`` takes the
+    engine options a frame of ``--frames`` takes (the grid's single expansion pass)."""
+    img, stats = _rayspace.render(scene, engine, width, height, bounces, time, dynamic, **options)
+    return img, json.loads(stats)
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """An ``(H, W, 3) uint8`` image as PNG bytes, encoded as the command line encodes."""
+    return _rayspace.png_bytes(_array("image", image, np.uint8, (None, None, 3)))
+
+
+def write_png(path: PathLike, image: np.ndarray) -> None:
+    """Write an ``(H, W, 3) uint8`` image as the command line's PNG bytes, atomically."""
+    _rayspace.write_atomic(os.fspath(path), png_bytes(image))
+
+
+def read_rays(path: PathLike) -> Dict[str, np.ndarray]:
+    """A ray file (rayspace's, or hagrid's headerless 6 × f32 per ray) as
+    ``{"origins", "directions", "tmin", "tmax"}``."""
+    return _rayspace.read_rays(os.fspath(path))
+
+
+def write_rays(
+    path: PathLike,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    tmin: Optional[np.ndarray] = None,
+    tmax: Optional[np.ndarray] = None,
+) -> None:
+    """Write rays as a rayspace ray file (``write_rays(path, **rays(scene))``)."""
+    o, d, lo, hi = _rays(origins, directions, tmin, tmax)
+    _rayspace.write_rays(os.fspath(path), o, d, lo, hi)
+
+
+def read_hits(path: PathLike) -> Dict[str, Any]:
+    """A hit file as ``{"t", "triangle", "u", "v", "any_hit"}``."""
+    hits, any_hit = _rayspace.read_hits(os.fspath(path))
+    hits["any_hit"] = any_hit
+    return hits
+
+
+def write_hits(
+    path: PathLike,
+    t: np.ndarray,
+    triangle: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    any_hit: bool = False,
+) -> None:
+    """Write hit records as a rayspace hit file (``write_hits(path, **engine.trace(...))``)."""
+    n = len(t) if isinstance(t, np.ndarray) else None
+    t = _array("t", t, np.float32, (n,))
+    triangle = _array("triangle", triangle, np.uint32, (n,))
+    u = _array("u", u, np.float32, (n,))
+    v = _array("v", v, np.float32, (n,))
+    _rayspace.write_hits(os.fspath(path), t, triangle, u, v, bool(any_hit))

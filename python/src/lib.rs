@@ -1,0 +1,770 @@
+//! `rayspace._rayspace`: the Python bindings (PyO3). Scenes load, engines build, rays are
+//! made and traced, and frames render through the same library calls as the command line
+//! (`rayspace::engines`, `rayspace::options`, `render::whitted`), so a result from Python is
+//! the command line's, byte for byte. The GIL is released while anything long runs.
+//!
+//! The friendly argument checks (dtype, shape, contiguity, finiteness) and the docstrings of
+//! the public API live in the Python package (`rayspace/__init__.py`); this module checks
+//! again what it relies on, with the command line's one-line messages.
+
+use numpy::{
+    IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyUntypedArrayMethods,
+};
+use pyo3::create_exception;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use rayspace::engines;
+use rayspace::options::{engine_options, EngineArgs};
+use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+create_exception!(
+    _rayspace,
+    Error,
+    pyo3::exceptions::PyValueError,
+    "A rayspace error: bad input, a bad option or a failed load or build; the message is the command line's."
+);
+
+fn err(e: impl std::fmt::Display) -> PyErr {
+    Error::new_err(e.to_string())
+}
+
+/// A loaded scene and its triangles (the model and the flattened geometry engines build on).
+#[pyclass(module = "rayspace._rayspace", frozen)]
+struct Scene {
+    scene: Arc<scene::Scene>,
+    geo: Arc<scene::Geometry>,
+    load_seconds: f64,
+}
+
+impl Scene {
+    fn from_scene(s: scene::Scene, load_seconds: f64) -> Scene {
+        let geo = scene::Geometry::from_scene(&s);
+        Scene {
+            scene: Arc::new(s),
+            geo: Arc::new(geo),
+            load_seconds,
+        }
+    }
+}
+
+#[pymethods]
+impl Scene {
+    /// Load a built-in scene (cornell, spheres, soup, stadium, office) or a file (.obj,
+    /// .gltf/.glb, .toml, BART .aff), as the command line does (`meshes`: `--meshes`,
+    /// `allow_outside_paths`: `--allow-outside-paths`).
+    #[staticmethod]
+    #[pyo3(signature = (spec, meshes = "groups", allow_outside_paths = false))]
+    fn load(
+        py: Python<'_>,
+        spec: &str,
+        meshes: &str,
+        allow_outside_paths: bool,
+    ) -> PyResult<Scene> {
+        let split =
+            <scene::MeshSplit as clap::ValueEnum>::from_str(meshes, true).map_err(|_| {
+                let names: Vec<String> = <scene::MeshSplit as clap::ValueEnum>::value_variants()
+                    .iter()
+                    .filter_map(clap::ValueEnum::to_possible_value)
+                    .map(|v| v.get_name().to_string())
+                    .collect();
+                err(format!(
+                    "meshes='{meshes}': expected one of {} (as --meshes)",
+                    names.join(", ")
+                ))
+            })?;
+        let opts = scene::LoadOptions {
+            split,
+            allow_outside_paths,
+            ..Default::default()
+        }
+        .for_memory(render::memory::limit(None));
+        let spec = spec.to_string();
+        py.detach(move || {
+            let t0 = Instant::now();
+            let s = scene::load(&spec, &opts).map_err(err)?;
+            Ok(Scene::from_scene(s, t0.elapsed().as_secs_f64()))
+        })
+    }
+
+    /// The scene's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.scene.name.clone()
+    }
+
+    /// Triangles (after degenerate ones are skipped).
+    #[getter]
+    fn triangle_count(&self) -> usize {
+        self.geo.len()
+    }
+
+    /// Meshes (the unit of bounding-sphere culling).
+    #[getter]
+    fn mesh_count(&self) -> usize {
+        self.geo.mesh_count()
+    }
+
+    /// Point lights.
+    #[getter]
+    fn light_count(&self) -> usize {
+        self.scene.lights.len()
+    }
+
+    /// The scene's box as ((min x, y, z), (max x, y, z)).
+    #[getter]
+    fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let b = self.scene.bounds();
+        (b.min.to_array(), b.max.to_array())
+    }
+
+    /// Whether the scene has an animation (BART .aff, TOML keyframes).
+    #[getter]
+    fn animated(&self) -> bool {
+        self.scene.animation.is_some()
+    }
+
+    /// The animation's (start, end) time, or None.
+    #[getter]
+    fn time_range(&self) -> Option<(f32, f32)> {
+        self.scene.animation.as_ref().map(|a| (a.start, a.end))
+    }
+
+    /// Wall time of the load.
+    #[getter]
+    fn load_seconds(&self) -> f64 {
+        self.load_seconds
+    }
+
+    /// The loader's warnings.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.scene.report.warnings.clone()
+    }
+
+    /// The scene at animation time `t` (as `--time`).
+    fn at_time(&self, py: Python<'_>, t: f32) -> PyResult<Scene> {
+        if !t.is_finite() {
+            return Err(err(format!("--time {t}: not a finite time")));
+        }
+        if self.scene.animation.is_none() {
+            return Err(err(format!("--time: {} is not animated", self.scene.name)));
+        }
+        let s = self.scene.clone();
+        Ok(py.detach(move || Scene::from_scene(s.at_time(t), 0.0)))
+    }
+
+    /// The times of `n` frames spread over the animation (as `--frames n`).
+    fn frame_times(&self, n: u32) -> PyResult<Vec<f32>> {
+        match &self.scene.animation {
+            Some(a) if n > 0 => Ok(a.frame_times(n)),
+            Some(_) => Err(err("--frames 0: expected at least one frame")),
+            None => Err(err(format!(
+                "--frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
+                self.scene.name
+            ))),
+        }
+    }
+
+    /// The triangles as an (N, 3, 3) float32 array (triangle, vertex, axis), in the
+    /// order hit records index.
+    fn triangles<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f32>> {
+        let flat: Vec<f32> = self
+            .geo
+            .tris
+            .iter()
+            .flat_map(|t| t.iter().flat_map(|v| v.to_array()))
+            .collect();
+        let n = self.geo.len();
+        flat.into_pyarray(py)
+            .reshape([n, 3, 3])
+            .expect("9 floats per triangle")
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scene('{}', {} triangles, {} meshes, {} lights{})",
+            self.scene.name,
+            self.geo.len(),
+            self.geo.mesh_count(),
+            self.scene.lights.len(),
+            if self.scene.animation.is_some() {
+                ", animated"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
+/// `--name value` words from Python keyword arguments (`object_hierarchy="bvh"` →
+/// `--object-hierarchy bvh`; booleans as the command line's `on`/`off`).
+fn option_words(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
+    let mut words = Vec::new();
+    if let Some(d) = options {
+        for (k, v) in d.iter() {
+            let k: String = k.extract()?;
+            words.push(format!("--{}", k.replace('_', "-")));
+            words.push(if let Ok(b) = v.extract::<bool>() {
+                if b { "on" } else { "off" }.to_string()
+            } else {
+                v.str()?.to_string()
+            });
+        }
+    }
+    Ok(words)
+}
+
+/// The engine options of `engine` with `options`, as the command line parses them.
+fn parse_engine(
+    engine: &str,
+    options: Option<&Bound<'_, PyDict>>,
+    dynamic: bool,
+) -> PyResult<(engines::Engine, engines::EngineOptions)> {
+    let mut words = vec!["--engine".to_string(), engine.to_string()];
+    words.extend(option_words(options)?);
+    let a = EngineArgs::parse_words(words).map_err(err)?;
+    let opts = engine_options(&a.rsh, &a.grid, dynamic);
+    opts.validate(a.engine).map_err(err)?;
+    Ok((a.engine, opts))
+}
+
+/// An engine built over a scene.
+#[pyclass(module = "rayspace._rayspace", frozen)]
+struct Engine {
+    tracer: Box<dyn Tracer + Send>,
+    report: Option<String>,
+    build_seconds: f64,
+    last: Mutex<TraceStats>,
+}
+
+#[pymethods]
+impl Engine {
+    #[new]
+    #[pyo3(signature = (scene, name, **options))]
+    fn new(
+        py: Python<'_>,
+        scene: &Scene,
+        name: &str,
+        options: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Engine> {
+        let (engine, opts) = parse_engine(name, options, false)?;
+        let geo = scene.geo.clone();
+        py.detach(move || {
+            let t0 = Instant::now();
+            let b = engines::build(engine, &opts, &geo).map_err(err)?;
+            Ok(Engine {
+                tracer: b.tracer,
+                report: b.report,
+                build_seconds: t0.elapsed().as_secs_f64(),
+                last: Mutex::new(TraceStats::default()),
+            })
+        })
+    }
+
+    #[getter]
+    fn name(&self) -> String {
+        self.tracer.name().to_string()
+    }
+
+    #[getter]
+    fn build_seconds(&self) -> f64 {
+        self.build_seconds
+    }
+
+    #[getter]
+    fn build_report(&self) -> Option<String> {
+        self.report.clone()
+    }
+
+    #[getter]
+    fn build_passes(&self) -> Vec<(String, f64)> {
+        self.tracer.build_passes()
+    }
+
+    #[pyo3(signature = (origins, directions, tmin = None, tmax = None, any_hit = false))]
+    fn trace<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f32>,
+        directions: PyReadonlyArray2<'py, f32>,
+        tmin: Option<PyReadonlyArray1<'py, f32>>,
+        tmax: Option<PyReadonlyArray1<'py, f32>>,
+        any_hit: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let rays = batch(&origins, &directions, tmin.as_ref(), tmax.as_ref())?;
+        let mode = if any_hit {
+            TraceMode::Any
+        } else {
+            TraceMode::Closest
+        };
+        let tracer = &self.tracer;
+        let (hits, st) = py.detach(|| {
+            let mut hits = vec![Hit::MISS; rays.len()];
+            let mut st = TraceStats::default();
+            tracer.trace(&rays, mode, &mut hits, &mut st);
+            (hits, st)
+        });
+        *self.last.lock().unwrap_or_else(|p| p.into_inner()) = st;
+        hits_dict(py, &hits)
+    }
+
+    /// The counters of the last `trace` (the command line's `--stats` "trace" object).
+    fn counters<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let st = self.last.lock().unwrap_or_else(|p| p.into_inner()).clone();
+        let mut v = serde_json::to_value(&st).map_err(err)?;
+        v["total_tests"] = st.total_tests().into();
+        json_to_py(py, &v)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Engine('{}')", self.tracer.name())
+    }
+}
+
+/// A JSON value as the Python object `json.loads` makes of it.
+fn json_to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.call_method1("loads", (v.to_string(),))
+}
+
+/// Rays from (N, 3) origin and direction arrays and optional (N,) bounds (default 0 and ∞),
+/// checked as every engine requires ([`RayBatch::validate`]: the message names the ray).
+fn batch(
+    origins: &PyReadonlyArray2<'_, f32>,
+    directions: &PyReadonlyArray2<'_, f32>,
+    tmin: Option<&PyReadonlyArray1<'_, f32>>,
+    tmax: Option<&PyReadonlyArray1<'_, f32>>,
+) -> PyResult<RayBatch> {
+    let vec3s = |name: &str, a: &PyReadonlyArray2<'_, f32>| -> PyResult<Vec<geom::Vec3>> {
+        if a.shape()[1] != 3 {
+            return Err(err(format!(
+                "{name}: expected shape (N, 3), got {:?}",
+                a.shape()
+            )));
+        }
+        let s = a
+            .as_slice()
+            .map_err(|_| err(format!("{name}: expected a C-contiguous array")))?;
+        Ok(s.chunks_exact(3).map(geom::Vec3::from_slice).collect())
+    };
+    let org = vec3s("origins", origins)?;
+    let dir = vec3s("directions", directions)?;
+    let n = org.len();
+    if dir.len() != n {
+        return Err(err(format!(
+            "directions: {} rays, but origins has {n}",
+            dir.len()
+        )));
+    }
+    let bound = |name: &str, a: Option<&PyReadonlyArray1<'_, f32>>, d: f32| -> PyResult<Vec<f32>> {
+        match a {
+            None => Ok(vec![d; n]),
+            Some(a) => {
+                let s = a
+                    .as_slice()
+                    .map_err(|_| err(format!("{name}: expected a C-contiguous array")))?;
+                if s.len() != n {
+                    return Err(err(format!("{name}: {} values for {n} rays", s.len())));
+                }
+                Ok(s.to_vec())
+            }
+        }
+    };
+    // The batch, its hit records and the hit arrays handed back, checked before they are
+    // allocated.
+    let need = n as u64 * (render::whitted::BYTES_PER_RAY + 2 * std::mem::size_of::<Hit>() as u64);
+    let limit = render::memory::limit(None);
+    if n > u32::MAX as usize || need > limit {
+        return Err(err(format!(
+            "{n} rays need {}, more than the {} limit: trace them in parts",
+            render::memory::gib(need),
+            render::memory::gib(limit)
+        )));
+    }
+    let t_min = bound("tmin", tmin, 0.0)?;
+    let t_max = bound("tmax", tmax, f32::INFINITY)?;
+    // The batch `RayBatch::from_rays(.., Primary)` makes (pixel = ray index, neutral
+    // weights), filled column by column: no per-ray pushes and no intermediate copy, as
+    // the columns' allocation is most of what a call adds to the trace.
+    let b = RayBatch {
+        org,
+        dir,
+        t_min,
+        t_max,
+        kind: vec![RayKind::Primary as u8; n],
+        pixel: (0..n as u32).collect(),
+        light: vec![0; n],
+        throughput: vec![geom::Vec3::ONE; n],
+        depth: vec![0; n],
+        width: 0,
+    };
+    b.validate().map_err(err)?;
+    Ok(b)
+}
+
+/// Hit records as `{"t", "triangle", "u", "v"}` arrays (a miss: triangle 0xFFFFFFFF, t ∞).
+fn hits_dict<'py>(py: Python<'py>, hits: &[Hit]) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item(
+        "t",
+        hits.iter()
+            .map(|h| h.t)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "triangle",
+        hits.iter()
+            .map(|h| h.tri)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "u",
+        hits.iter()
+            .map(|h| h.u)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "v",
+        hits.iter()
+            .map(|h| h.v)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    Ok(d)
+}
+
+/// Rays as `{"origins", "directions", "tmin", "tmax"}` arrays.
+fn rays_dict<'py>(py: Python<'py>, r: &RayBatch) -> PyResult<Bound<'py, PyDict>> {
+    let n = r.len();
+    let flat = |v: &[geom::Vec3]| -> Vec<f32> { v.iter().flat_map(|p| p.to_array()).collect() };
+    let d = PyDict::new(py);
+    d.set_item("origins", flat(&r.org).into_pyarray(py).reshape([n, 3])?)?;
+    d.set_item("directions", flat(&r.dir).into_pyarray(py).reshape([n, 3])?)?;
+    d.set_item("tmin", r.t_min.clone().into_pyarray(py))?;
+    d.set_item("tmax", r.t_max.clone().into_pyarray(py))?;
+    Ok(d)
+}
+
+/// The rays `rayspace rays` makes (`--kind`, `--width`, `--height`, `--spp`, `--seed`,
+/// `--ao-distance`).
+#[pyfunction]
+#[pyo3(signature = (scene, kind = "primary", width = 512, height = 512, spp = 1, seed = 1, ao_distance = None))]
+#[allow(clippy::too_many_arguments)]
+fn rays<'py>(
+    py: Python<'py>,
+    scene: &Scene,
+    kind: &str,
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u64,
+    ao_distance: Option<f32>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let k = <render::raygen::Kind as clap::ValueEnum>::from_str(kind, true).map_err(|_| {
+        err(format!(
+            "--kind {kind}: expected primary, shadow, ao or random"
+        ))
+    })?;
+    check_image(width, height, 0)?;
+    if !(1..=1024).contains(&spp) {
+        return Err(err(format!("--spp {spp}: expected 1..=1024")));
+    }
+    let n = width as u64 * height as u64 * spp as u64;
+    if n > 1 << 28 {
+        return Err(err(format!(
+            "--width × --height × --spp = {n} rays is more than 2^28"
+        )));
+    }
+    if let Some(d) = ao_distance {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(err(format!(
+                "--ao-distance {d}: must be positive and finite"
+            )));
+        }
+    }
+    let (s, geo) = (scene.scene.clone(), scene.geo.clone());
+    let opts = render::raygen::Options {
+        width,
+        height,
+        spp,
+        seed,
+        ao_distance,
+    };
+    let r = py.detach(move || render::raygen::generate(&s, &geo, k, &opts));
+    rays_dict(py, &r)
+}
+
+#[pyfunction]
+fn read_rays<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let r = py
+        .detach(|| render::rayfile::read_rays(&path, RayKind::Primary))
+        .map_err(err)?;
+    rays_dict(py, &r)
+}
+
+#[pyfunction]
+#[pyo3(signature = (path, origins, directions, tmin = None, tmax = None))]
+fn write_rays(
+    py: Python<'_>,
+    path: PathBuf,
+    origins: PyReadonlyArray2<'_, f32>,
+    directions: PyReadonlyArray2<'_, f32>,
+    tmin: Option<PyReadonlyArray1<'_, f32>>,
+    tmax: Option<PyReadonlyArray1<'_, f32>>,
+) -> PyResult<()> {
+    render::output::check_output(&path).map_err(|e| err(format!("--out {e}")))?;
+    let r = batch(&origins, &directions, tmin.as_ref(), tmax.as_ref())?;
+    py.detach(|| render::rayfile::write_rays(&path, &r))
+        .map_err(err)
+}
+
+/// A hit file's records and whether they answer any-hit queries.
+#[pyfunction]
+fn read_hits<'py>(py: Python<'py>, path: PathBuf) -> PyResult<(Bound<'py, PyDict>, bool)> {
+    let (hits, mode) = py
+        .detach(|| render::rayfile::read_hits(&path))
+        .map_err(err)?;
+    Ok((hits_dict(py, &hits)?, mode == TraceMode::Any))
+}
+
+#[pyfunction]
+#[pyo3(signature = (path, t, triangle, u, v, any_hit = false))]
+fn write_hits(
+    py: Python<'_>,
+    path: PathBuf,
+    t: PyReadonlyArray1<'_, f32>,
+    triangle: PyReadonlyArray1<'_, u32>,
+    u: PyReadonlyArray1<'_, f32>,
+    v: PyReadonlyArray1<'_, f32>,
+    any_hit: bool,
+) -> PyResult<()> {
+    render::output::check_output(&path).map_err(|e| err(format!("--out {e}")))?;
+    let contiguous = |name: &str, s: Result<&[f32], _>| -> PyResult<Vec<f32>> {
+        s.map(|s: &[f32]| s.to_vec())
+            .map_err(|_: numpy::AsSliceError| err(format!("{name}: expected a C-contiguous array")))
+    };
+    let (t, u, v) = (
+        contiguous("t", t.as_slice())?,
+        contiguous("u", u.as_slice())?,
+        contiguous("v", v.as_slice())?,
+    );
+    let tri = triangle
+        .as_slice()
+        .map_err(|_| err("triangle: expected a C-contiguous array"))?;
+    let n = t.len();
+    if [tri.len(), u.len(), v.len()].iter().any(|&l| l != n) {
+        return Err(err("t, triangle, u and v must have one value per ray each"));
+    }
+    let hits: Vec<Hit> = (0..n)
+        .map(|i| Hit {
+            tri: tri[i],
+            t: t[i],
+            u: u[i],
+            v: v[i],
+        })
+        .collect();
+    let mode = if any_hit {
+        TraceMode::Any
+    } else {
+        TraceMode::Closest
+    };
+    py.detach(|| render::rayfile::write_hits(&path, &hits, mode))
+        .map_err(err)
+}
+
+/// `rayspace render`'s image and `--stats` JSON (as a string) for one frame.
+#[pyfunction(name = "render")]
+#[pyo3(signature = (scene, engine = "crsh", width = 512, height = 512, bounces = 3, time = None, dynamic = false, **options))]
+#[allow(clippy::too_many_arguments)]
+fn render_frame<'py>(
+    py: Python<'py>,
+    scene: &Scene,
+    engine: &str,
+    width: u32,
+    height: u32,
+    bounces: u32,
+    time: Option<f32>,
+    dynamic: bool,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(Bound<'py, PyArray3<u8>>, String)> {
+    let (engine, mut opts) = parse_engine(engine, options, dynamic)?;
+    check_image(width, height, bounces)?;
+    let frame = match time {
+        Some(t) => Some(scene.at_time(py, t)?),
+        None => None,
+    };
+    let s = frame.as_ref().unwrap_or(scene);
+    opts.grid.max_bytes = render_memory(width, height, s.scene.lights.len())?;
+    let (sc, geo, load_seconds) = (s.scene.clone(), s.geo.clone(), s.load_seconds);
+    let ropts = render::whitted::RenderOptions {
+        width,
+        height,
+        bounces,
+    };
+    let (rgb, stats) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
+        let t1 = Instant::now();
+        let engine = engines::build(engine, &opts, &geo).map_err(err)?.tracer;
+        let build_s = t1.elapsed().as_secs_f64();
+        let mut out = render::whitted::render(&sc, &geo, engine.as_ref(), &ropts, &());
+        for (k, (p, t)) in engine.build_passes().into_iter().enumerate() {
+            out.stats.phases.insert(k, (format!("  build: {p}"), t));
+        }
+        out.stats.phases.insert(0, ("engine build".into(), build_s));
+        let rgb = render::output::to_rgb8(&out.pixels, width, height).into_raw();
+        let mut v = serde_json::to_value(&out.stats).map_err(err)?;
+        v["load_seconds"] = load_seconds.into();
+        v["degenerate_skipped"] = sc.report.degenerate_skipped.into();
+        v["raster_setup_triangles"] = out.raster.setup.into();
+        v["raster_fragments"] = out.raster.fragments.into();
+        Ok((rgb, v.to_string()))
+    })?;
+    let img = rgb
+        .into_pyarray(py)
+        .reshape([height as usize, width as usize, 3])?;
+    Ok((img, stats))
+}
+
+/// Frame `index` of an animated scene at time `t`, as `render --frames` makes it (the
+/// engine options of a frame: the grid's single expansion pass): the PNG bytes and the
+/// `--frame-csv` line.
+#[pyfunction]
+#[pyo3(signature = (scene, t, index, engine = "crsh", width = 512, height = 512, bounces = 3, **options))]
+#[allow(clippy::too_many_arguments)]
+fn frame<'py>(
+    py: Python<'py>,
+    scene: &Scene,
+    t: f32,
+    index: u32,
+    engine: &str,
+    width: u32,
+    height: u32,
+    bounces: u32,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(Bound<'py, PyBytes>, String)> {
+    let (engine, mut opts) = parse_engine(engine, options, true)?;
+    check_image(width, height, bounces)?;
+    if !t.is_finite() {
+        return Err(err(format!("--time {t}: not a finite time")));
+    }
+    if scene.scene.animation.is_none() {
+        return Err(err(format!(
+            "--frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
+            scene.scene.name
+        )));
+    }
+    opts.grid.max_bytes = render_memory(width, height, scene.scene.lights.len())?;
+    let sc = scene.scene.clone();
+    let ropts = render::whitted::RenderOptions {
+        width,
+        height,
+        bounces,
+    };
+    let (png, line) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
+        let (out, row) =
+            rayspace::frames::frame(&sc, t, index, engine, &opts, &ropts).map_err(err)?;
+        let png = render::output::png_bytes(&out.pixels, width, height).map_err(err)?;
+        Ok((png, row.csv_line()))
+    })?;
+    Ok((PyBytes::new(py, &png), line))
+}
+
+/// The `--frame-csv` header line.
+#[pyfunction]
+fn frame_csv_header() -> String {
+    rayspace::frames::FrameRow::csv_header()
+}
+
+/// `--width`, `--height` and `--bounces` checked as the command line checks them.
+fn check_image(width: u32, height: u32, bounces: u32) -> PyResult<()> {
+    let max = render::whitted::MAX_SIDE;
+    for (opt, v) in [("--width", width), ("--height", height)] {
+        if !(1..=max).contains(&v) {
+            return Err(err(format!("{opt} {v}: expected 1..={max}")));
+        }
+    }
+    if bounces > render::whitted::MAX_BOUNCES {
+        return Err(err(format!(
+            "--bounces {bounces}: expected 0..={}",
+            render::whitted::MAX_BOUNCES
+        )));
+    }
+    Ok(())
+}
+
+/// The memory a render needs, checked against the limit; returns what it leaves for the
+/// engine's structure (the grid checks its model against it).
+fn render_memory(width: u32, height: u32, lights: usize) -> PyResult<u64> {
+    let need = render::whitted::render_bytes(width, height, lights);
+    let limit = render::memory::limit(None);
+    if need > limit {
+        return Err(err(format!(
+            "--width/--height: the render needs {}, more than the {} limit",
+            render::memory::gib(need),
+            render::memory::gib(limit)
+        )));
+    }
+    Ok(limit - need)
+}
+
+/// PNG bytes of an H×W×3 uint8 image, encoded as the command line encodes its images.
+#[pyfunction]
+fn png_bytes<'py>(
+    py: Python<'py>,
+    image: numpy::PyReadonlyArray3<'py, u8>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let sh = image.shape();
+    if sh[2] != 3 {
+        return Err(err(format!("image: expected shape (H, W, 3), got {sh:?}")));
+    }
+    let rgb = image
+        .as_slice()
+        .map_err(|_| err("image: expected a C-contiguous array"))?;
+    let (h, w) = (
+        u32::try_from(sh[0]).map_err(err)?,
+        u32::try_from(sh[1]).map_err(err)?,
+    );
+    let bytes = render::output::rgb8_png(rgb, w, h).map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// Write bytes to `path` atomically (temp file + rename), as every rayspace output.
+#[pyfunction]
+fn write_atomic(path: PathBuf, data: &[u8]) -> PyResult<()> {
+    render::output::check_output(&path).map_err(|e| err(format!("--out {e}")))?;
+    render::output::write_atomic(&path, data).map_err(err)
+}
+
+/// The engines this build can name (`--engine`'s values).
+#[pyfunction]
+fn engine_names() -> Vec<String> {
+    <engines::Engine as clap::ValueEnum>::value_variants()
+        .iter()
+        .map(|e| e.name())
+        .collect()
+}
+
+#[pymodule]
+fn _rayspace(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("Error", m.py().get_type::<Error>())?;
+    m.add("MISS", geom::NO_HIT)?;
+    m.add_class::<Scene>()?;
+    m.add_class::<Engine>()?;
+    m.add_function(wrap_pyfunction!(rays, m)?)?;
+    m.add_function(wrap_pyfunction!(read_rays, m)?)?;
+    m.add_function(wrap_pyfunction!(write_rays, m)?)?;
+    m.add_function(wrap_pyfunction!(read_hits, m)?)?;
+    m.add_function(wrap_pyfunction!(write_hits, m)?)?;
+    m.add_function(wrap_pyfunction!(render_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(png_bytes, m)?)?;
+    m.add_function(wrap_pyfunction!(frame, m)?)?;
+    m.add_function(wrap_pyfunction!(frame_csv_header, m)?)?;
+    m.add_function(wrap_pyfunction!(write_atomic, m)?)?;
+    m.add_function(wrap_pyfunction!(engine_names, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,99 @@
+"""Distributed frames and sweeps on a real local Ray cluster (a head and a worker process on
+127.0.0.1): the frames equal the command line's byte for byte, the counts one process's."""
+
+import csv
+import os
+import socket
+import subprocess
+import sys
+
+import pytest
+
+import rayspace as rs
+from conftest import need, run_cli, scene_file
+
+from rayspace import distributed
+
+RAY = os.path.join(os.path.dirname(sys.executable), "ray")
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    """`ray start --head` and one `ray start --address` worker, one CPU each."""
+    need(os.access(RAY, os.X_OK), f"no ray command beside {sys.executable} (pip install 'rayspace[ray]')")
+    port = free_port()
+    small = ["--num-cpus=1", "--object-store-memory=100000000", "--disable-usage-stats"]
+    env = dict(os.environ, RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER="1")
+    subprocess.run([RAY, "stop", "--force"], capture_output=True, env=env)
+    head = subprocess.run(
+        [RAY, "start", "--head", "--node-ip-address=127.0.0.1", f"--port={port}", "--include-dashboard=false", *small],
+        capture_output=True, text=True, env=env,
+    )
+    assert head.returncode == 0, head.stderr + head.stdout
+    address = f"127.0.0.1:{port}"
+    try:
+        worker = subprocess.run(
+            [RAY, "start", f"--address={address}", "--node-ip-address=127.0.0.1", *small],
+            capture_output=True, text=True, env=env,
+        )
+        assert worker.returncode == 0, worker.stderr + worker.stdout
+        yield address
+    finally:
+        subprocess.run([RAY, "stop", "--force"], capture_output=True, env=env)
+
+
+def test_render_frames_equal_the_command_lines(cluster, tmp_path):
+    museum = scene_file("bart-museum/aff/museum5.aff")
+    cli_dir, ray_dir = tmp_path / "cli", tmp_path / "ray"
+    cli_dir.mkdir()
+    ray_dir.mkdir()
+    run_cli(
+        "render", museum, "--frames", "3", "--width", "64", "--height", "64", "--engine", "grid",
+        "--out", str(cli_dir / "frame_%04d.png"), "--frame-csv", str(cli_dir / "frames.csv"),
+    )
+    rows = distributed.render_frames(
+        museum, 3, engine="grid", width=64, height=64, out_dir=ray_dir, address=cluster
+    )
+    assert [r["frame"] for r in rows] == [0, 1, 2]
+    for i in range(3):
+        name = f"frame_{i:04d}.png"
+        assert (ray_dir / name).read_bytes() == (cli_dir / name).read_bytes(), name
+    with open(cli_dir / "frames.csv") as f:
+        want = list(csv.DictReader(f))
+    with open(ray_dir / "frames.csv") as f:
+        got = list(csv.DictReader(f))
+    assert list(got[0]) == list(want[0])
+    for g, w in zip(got, want):
+        for k in ("frame", "time", "triangles", "rays", "total_tests"):
+            assert g[k] == w[k], k
+
+
+def test_sweep_counts_equal_one_process(cluster):
+    table = distributed.sweep(
+        ["cornell", "office"], ["grid", "crsh"], configs=[{}, {"levels": 2}],
+        rays=[{"kind": "shadow", "width": 32, "height": 32}], address=cluster,
+    )
+    rows = table.to_dict("records") if hasattr(table, "to_dict") else table
+    assert len(rows) == 8
+    for row in rows:
+        scene = rs.Scene.load(row["scene"])
+        e = rs.Engine(scene, row["engine"], **row["config"])
+        hits = e.trace(**rs.rays(scene, "shadow", width=32, height=32), any_hit=True)
+        c = e.counters()
+        assert row["hits"] == int((hits["triangle"] != rs.MISS).sum())
+        assert (row["ray_tri_tests"], row["total_tests"]) == (c["ray_tri_tests"], c["total_tests"])
+
+
+def test_bad_arguments_raise_before_any_work(tmp_path):
+    with pytest.raises(rs.Error, match="not a directory"):
+        distributed.render_frames("cornell", 2, out_dir=tmp_path / "missing")
+    with pytest.raises(rs.Error, match="not animated"):
+        distributed.render_frames("cornell", 2, out_dir=tmp_path)
+    with pytest.raises(rs.Error, match="frame number pattern"):
+        distributed.render_frames("cornell", [0.0], out_dir=tmp_path, pattern="frame.png")
