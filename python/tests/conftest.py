@@ -13,13 +13,15 @@ import pytest
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
-def need(ok: bool, why: str) -> None:
+def need(ok: bool, why: str, module: bool = False) -> None:
+    """Go on if ``ok``; else fail in CI, or print ``SKIPPED: why`` and skip the test (the
+    whole module with ``module=True``)."""
     if ok:
         return
     if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
-        pytest.fail(f"cannot run in CI: {why}")
+        pytest.fail(f"cannot run in CI: {why}", pytrace=False)
     print(f"SKIPPED: {why}")
-    pytest.skip(why)
+    pytest.skip(why, allow_module_level=module)
 
 
 def scenes_dir() -> pathlib.Path:

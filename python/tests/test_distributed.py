@@ -11,8 +11,13 @@ import pytest
 
 import rayspace as rs
 from conftest import need, run_cli, scene_file
-
 from rayspace import distributed
+
+try:
+    import ray
+except ImportError:  # pragma: no cover - the install step provides it
+    ray = None
+need(ray is not None, "no Ray (pip install 'rayspace[ray]')", module=True)
 
 RAY = os.path.join(os.path.dirname(sys.executable), "ray")
 
@@ -21,6 +26,15 @@ def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def test_sweep_on_a_local_ray_the_call_starts():
+    """address=None: the call starts a local Ray for itself and stops it afterwards."""
+    need(not ray.is_initialized(), "Ray is already initialised in this process")
+    rows = distributed.sweep(["cornell"], ["grid"], rays=[{"kind": "random", "width": 16, "height": 16}], workers=2)
+    rows = rows.to_dict("records") if hasattr(rows, "to_dict") else rows
+    assert len(rows) == 1 and rows[0]["rays"] == 256 and rows[0]["total_tests"] > 0
+    assert not ray.is_initialized()
 
 
 @pytest.fixture(scope="module")

@@ -273,7 +273,7 @@ impl Flight {
 
 /// Trace rays `first..first + hits.len()` of `rays`, [`STREAM_WIDTH`] in flight at a time,
 /// writing each ray's hit; returns the summed counters. Same results as [`trace_ray`] per
-/// ray: each ray takes [`Lane::step`]'s steps, cut in two at its cache misses (the cell
+/// ray: each ray takes `Lane::step`'s steps, cut in two at its cache misses (the cell
 /// record, then the cell's triangles); a ray prefetches what its next turn reads and yields
 /// to the others, so the loads of [`STREAM_WIDTH`] rays are in flight at once (asynchronous
 /// memory access chaining, Kocberber et al. 2015) where one ray alone would wait on each in
