@@ -407,35 +407,18 @@ fn batch(
 
 /// Hit records as `{"t", "triangle", "u", "v"}` arrays (a miss: triangle 0xFFFFFFFF, t ∞).
 fn hits_dict<'py>(py: Python<'py>, hits: &[Hit]) -> PyResult<Bound<'py, PyDict>> {
+    fn column<'py, T: numpy::Element>(
+        py: Python<'py>,
+        hits: &[Hit],
+        f: impl Fn(&Hit) -> T,
+    ) -> Bound<'py, numpy::PyArray1<T>> {
+        hits.iter().map(f).collect::<Vec<_>>().into_pyarray(py)
+    }
     let d = PyDict::new(py);
-    d.set_item(
-        "t",
-        hits.iter()
-            .map(|h| h.t)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item(
-        "triangle",
-        hits.iter()
-            .map(|h| h.tri)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item(
-        "u",
-        hits.iter()
-            .map(|h| h.u)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item(
-        "v",
-        hits.iter()
-            .map(|h| h.v)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
+    d.set_item("t", column(py, hits, |h| h.t))?;
+    d.set_item("triangle", column(py, hits, |h| h.tri))?;
+    d.set_item("u", column(py, hits, |h| h.u))?;
+    d.set_item("v", column(py, hits, |h| h.v))?;
     Ok(d)
 }
 
@@ -612,10 +595,7 @@ fn render_frame<'py>(
         let engine = engines::build(engine, &opts, &geo).map_err(err)?.tracer;
         let build_s = t1.elapsed().as_secs_f64();
         let mut out = render::whitted::render(&sc, &geo, engine.as_ref(), &ropts, &());
-        for (k, (p, t)) in engine.build_passes().into_iter().enumerate() {
-            out.stats.phases.insert(k, (format!("  build: {p}"), t));
-        }
-        out.stats.phases.insert(0, ("engine build".into(), build_s));
+        out.stats.put_build(build_s, engine.build_passes());
         let rgb = render::output::to_rgb8(&out.pixels, width, height).into_raw();
         let mut v = serde_json::to_value(&out.stats).map_err(err)?;
         v["load_seconds"] = load_seconds.into();

@@ -136,7 +136,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         bounces: a.bounces,
     };
     let t1 = Instant::now();
-    let (mut out, build_s, gpu_phases, gpu_timer) = if a.backend == Backend::Gpu {
+    let (out, gpu_phases, gpu_timer) = if a.backend == Backend::Gpu {
         render_on_gpu(a, &opts, &scene, &geo, &ropts, t1)?
     } else {
         let built = engines::build(a.engine, &opts, &geo)?;
@@ -148,13 +148,9 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         let bar = progress_bar();
         let mut out = render(&scene, &geo, engine.as_ref(), &ropts, &bar);
         bar.0.finish_and_clear();
-        // The build's passes, indented under "engine build" in the table and in the JSON.
-        for (k, (p, t)) in engine.build_passes().into_iter().enumerate() {
-            out.stats.phases.insert(k, (format!("  build: {p}"), t));
-        }
-        (out, build_s, Vec::new(), "")
+        out.stats.put_build(build_s, engine.build_passes());
+        (out, Vec::new(), "")
     };
-    out.stats.phases.insert(0, ("engine build".into(), build_s));
     render::output::write_png(&out.pixels, a.width, a.height, &a.out)
         .map_err(anyhow::Error::msg)
         .context("--out")?;
@@ -182,13 +178,8 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// Rendered image, engine set-up seconds and GPU seconds per phase.
-type GpuRender = (
-    render::whitted::Rendered,
-    f64,
-    Vec<(String, f64)>,
-    &'static str,
-);
+/// The rendered image (engine build phases first), GPU seconds per phase and how they were timed.
+type GpuRender = (render::whitted::Rendered, Vec<(String, f64)>, &'static str);
 
 /// `render --backend gpu`: the G-buffer from the GPU's render pipeline, CRSH/RAH or the grid's
 /// traversal (on a grid built by the CPU), secondary ray generation and shading as compute
@@ -249,9 +240,7 @@ fn render_on_gpu(
         &stages,
     );
     bar.0.finish_and_clear();
-    for (k, (p, t)) in engine.build_passes().into_iter().enumerate() {
-        out.stats.phases.insert(k, (format!("  build: {p}"), t));
-    }
+    out.stats.put_build(build_s, engine.build_passes());
     let mut phases: Vec<(String, f64)> = Vec::new();
     if let Some(t) = raster.last_gpu_seconds.get() {
         phases.push(("rasterize".into(), t));
@@ -269,7 +258,7 @@ fn render_on_gpu(
             .iter()
             .map(|(p, t)| (p.to_string(), *t)),
     );
-    Ok((out, build_s, phases, timer))
+    Ok((out, phases, timer))
 }
 
 #[cfg(not(feature = "gpu"))]

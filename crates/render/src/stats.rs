@@ -344,6 +344,17 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
+    /// Put the engine's build first among the phases: "engine build" (`seconds`), then its
+    /// passes indented under it ("  build: octrees", ...), as the table and the JSON show them.
+    pub fn put_build(&mut self, seconds: f64, passes: Vec<(String, f64)>) {
+        let rows = std::iter::once(("engine build".to_string(), seconds)).chain(
+            passes
+                .into_iter()
+                .map(|(p, t)| (format!("  build: {p}"), t)),
+        );
+        self.phases.splice(0..0, rows);
+    }
+
     /// All traced rays.
     pub fn rays_traced(&self) -> u64 {
         self.rays_shadow + self.rays_reflection + self.rays_refraction + self.rays_primary_traced
