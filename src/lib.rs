@@ -7,3 +7,4 @@ pub mod bench;
 pub mod engines;
 pub mod frames;
 pub mod options;
+pub mod report;

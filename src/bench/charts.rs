@@ -187,6 +187,128 @@ pub fn grouped_bars(stem: &Path, b: &Bars) -> Result<Vec<PathBuf>> {
     Ok(vec![png, svg])
 }
 
+/// One log-log chart's data: `series[s]` is a name and its (x, y) points.
+pub struct Lines<'a> {
+    pub title: &'a str,
+    pub x_label: &'a str,
+    pub y_label: &'a str,
+    pub series: &'a [(String, Vec<(f64, f64)>)],
+}
+
+/// The least-squares slope of log y against log x over the positive finite points (the
+/// exponent k of y ∝ x^k); `None` with fewer than two distinct x.
+pub fn loglog_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let p: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
+    let n = p.len() as f64;
+    let mx = p.iter().map(|q| q.0).sum::<f64>() / n;
+    let my = p.iter().map(|q| q.1).sum::<f64>() / n;
+    let sxx: f64 = p.iter().map(|q| (q.0 - mx) * (q.0 - mx)).sum();
+    let sxy: f64 = p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum();
+    (p.len() >= 2 && sxx > 1e-12).then(|| sxy / sxx)
+}
+
+fn draw_lines<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    l: &Lines,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("chart '{}': {e:?}", l.title);
+    root.fill(&WHITE).map_err(err)?;
+    let pts = || {
+        l.series
+            .iter()
+            .flat_map(|s| s.1.iter().copied())
+            .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+    };
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    for (x, y) in pts() {
+        (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+    }
+    if !(x0.is_finite() && y0.is_finite()) {
+        (x0, x1, y0, y1) = (1.0, 10.0, 1.0, 10.0);
+    }
+    // A margin of a fifth of a decade each side, so end points are not on the frame.
+    let (x0, x1, y0, y1) = (x0 / 1.6, x1 * 1.6, y0 / 1.6, y1 * 1.6);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(l.title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc(l.x_label)
+        .y_desc(l.y_label)
+        .x_labels(8)
+        .y_labels(8)
+        .x_label_formatter(&|v: &f64| human(*v))
+        .y_label_formatter(&|v: &f64| human(*v))
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(err)?;
+    for (i, (name, points)) in l.series.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        let p: Vec<(f64, f64)> = points
+            .iter()
+            .copied()
+            .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+            .collect();
+        let label = match loglog_slope(&p) {
+            Some(k) => format!("{name} (slope {k:.2})"),
+            None => name.clone(),
+        };
+        chart
+            .draw_series(LineSeries::new(p.clone(), color.stroke_width(2)))
+            .map_err(err)?
+            .label(label)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+            });
+        chart
+            .draw_series(p.iter().map(|&q| Circle::new(q, 3, color.filled())))
+            .map_err(err)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Write the log-log chart as `stem.svg` (and `stem.png`); returns their paths.
+pub fn loglog_lines(stem: &Path, l: &Lines) -> Result<Vec<PathBuf>> {
+    font()?;
+    let (w, h) = (760u32, 480u32);
+    let png = stem.with_extension("png");
+    let svg = stem.with_extension("svg");
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    draw_lines(
+        BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(),
+        l,
+    )?;
+    let png_bytes = render::output::rgb8_png(&rgb, w, h).map_err(|e| anyhow!(e))?;
+    render::output::write_atomic(&png, &png_bytes).map_err(|e| anyhow!(e))?;
+    let mut svg_text = String::new();
+    draw_lines(
+        SVGBackend::with_string(&mut svg_text, (w, h)).into_drawing_area(),
+        l,
+    )?;
+    render::output::write_atomic(&svg, svg_text.as_bytes()).map_err(|e| anyhow!(e))?;
+    Ok(vec![png, svg])
+}
+
 /// A file-name-safe form of `s`.
 pub fn slug(s: &str) -> String {
     s.chars()

@@ -35,6 +35,28 @@ pub enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
+    /// Render every scene with every engine and run the benchmarks; write one static HTML
+    /// page (renders, difference images, the papers' tables beside ours, charts, scaling).
+    Report(ReportCmdArgs),
+}
+
+#[derive(Args, Clone)]
+pub struct ReportCmdArgs {
+    /// Output directory (made if missing): index.html, report.json, img/, charts/.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The small version (under a minute on 2 cores): built-in scenes at 128², one timing
+    /// run, short scaling series.
+    #[arg(long)]
+    pub quick: bool,
+    /// Scenes, comma-separated, for the renders and both benchmarks (default: built-ins,
+    /// plus Sponza, Conference and Kitchen when the shared scenes are present and not
+    /// --quick).
+    #[arg(long)]
+    pub scenes: Option<String>,
+    /// Image side in pixels of the renders and benchmarks (default 512; --quick 128).
+    #[arg(long, value_parser = side())]
+    pub size: Option<u32>,
 }
 
 #[derive(Subcommand)]

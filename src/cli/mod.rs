@@ -1,6 +1,6 @@
-//! The command line: `render`, `rays`, `trace` and `bench`. Each room holds one part:
+//! The command line: `render`, `rays`, `trace`, `bench` and `report`. Each room holds one part:
 //! [`args`] the grammar, [`render`] and [`frames`] the renderer's commands, [`trace`] the ray
-//! files, [`bench`] the papers' evaluations, [`progress`] the progress display. Engines are
+//! files, [`bench`] the papers' evaluations, [`report`] the HTML report of them all, [`progress`] the progress display. Engines are
 //! named and built by the library's registry (`rayspace::engines`).
 
 /// `println!` that ignores a closed stdout (`rayspace … | head` must not panic).
@@ -16,6 +16,7 @@ mod bench;
 mod frames;
 mod progress;
 mod render;
+mod report;
 mod trace;
 
 use anyhow::{bail, Result};
@@ -74,6 +75,7 @@ pub fn run() -> Result<()> {
             BenchCommand::Gpu(a) => bench::cmd_bench_gpu(&a),
             BenchCommand::Budget(a) => bench::cmd_bench_budget(&a),
         },
+        Some(Command::Report(a)) => report::cmd_report(&a),
         None => render::cmd_render(&args::defaults()),
     }
 }

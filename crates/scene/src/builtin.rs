@@ -138,6 +138,29 @@ pub fn cornell() -> Scene {
 
 /// Reflective and refractive spheres on a checkered plane (open scene with a sky).
 pub fn spheres() -> Scene {
+    spheres_with("spheres", 12, [3, 3, 2, 2, 2])
+}
+
+/// The highest [`spheres_family`] level (≈ 1.9 M triangles).
+pub const FAMILY_MAX_LEVEL: u32 = 7;
+
+/// The `spheres` scene tessellated at `level` (1..=[`FAMILY_MAX_LEVEL`]): every sphere an
+/// icosphere of `level` subdivisions and the plane 12·2^(level−2) quads a side (at least
+/// 12, so the 12 × 12 checkerboard stays), so the triangle count is 118·4^level from level 2
+/// (688 at level 1, 1,888 at 2, 483,328 at 6) while the picture stays the same. It is the scene family of the report's cost-growth curves (`rayspace
+/// report`): the same view, lights and materials at every size.
+pub fn spheres_family(level: u32) -> Scene {
+    let level = level.clamp(1, FAMILY_MAX_LEVEL);
+    spheres_with(
+        &format!("spheres-l{level}"),
+        12 << level.saturating_sub(2),
+        [level; 5],
+    )
+}
+
+/// `spheres` with a `plane_n`² checkerboard and the five spheres at the given icosphere
+/// levels.
+fn spheres_with(name: &str, plane_n: u32, levels: [u32; 5]) -> Scene {
     let materials = vec![
         Material {
             name: "tile-light".into(),
@@ -188,22 +211,23 @@ pub fn spheres() -> Scene {
         Vec3::new(-6.0, 0.0, -6.0),
         Vec3::Z * 12.0,
         Vec3::X * 12.0,
-        12,
+        plane_n,
         0,
     );
-    // Checkerboard: both triangles of quad (i, j) share the colour of (i + j) mod 2.
+    // Checkerboard of 12 × 12 tiles whatever the tessellation: both triangles of quad
+    // (i, j) take the colour of its tile.
     for (k, m) in plane.materials.iter_mut().enumerate() {
         let q = k as u32 / 2;
-        let (i, j) = (q % 12, q / 12);
-        *m = (i + j) % 2;
+        let (i, j) = (q % plane_n, q / plane_n);
+        *m = (i * 12 / plane_n + j * 12 / plane_n) % 2;
     }
     let meshes = vec![
         plane,
-        icosphere("chrome", Vec3::new(-1.6, 1.0, -0.5), 1.0, 3, 2),
-        icosphere("glass", Vec3::new(0.6, 0.8, 1.0), 0.8, 3, 3),
-        icosphere("red", Vec3::new(1.9, 0.6, -1.2), 0.6, 2, 4),
-        icosphere("gold", Vec3::new(-0.3, 0.45, 2.2), 0.45, 2, 5),
-        icosphere("water", Vec3::new(2.4, 0.5, 1.5), 0.5, 2, 6),
+        icosphere("chrome", Vec3::new(-1.6, 1.0, -0.5), 1.0, levels[0], 2),
+        icosphere("glass", Vec3::new(0.6, 0.8, 1.0), 0.8, levels[1], 3),
+        icosphere("red", Vec3::new(1.9, 0.6, -1.2), 0.6, levels[2], 4),
+        icosphere("gold", Vec3::new(-0.3, 0.45, 2.2), 0.45, levels[3], 5),
+        icosphere("water", Vec3::new(2.4, 0.5, 1.5), 0.5, levels[4], 6),
     ];
     let lights = vec![
         Light {
@@ -226,7 +250,7 @@ pub fn spheres() -> Scene {
         vfov: 45.0,
     };
     scene(
-        "spheres",
+        name,
         meshes,
         materials,
         lights,
@@ -495,6 +519,30 @@ pub fn office(seed: u64) -> Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spheres_family_grows_by_four_with_the_same_picture() {
+        let tris = |s: &Scene| s.meshes.iter().map(|m| m.triangles.len()).sum::<usize>();
+        assert_eq!(tris(&spheres_family(1)), 688);
+        for l in 2..=5 {
+            let s = spheres_family(l);
+            assert_eq!(tris(&s), 118 << (2 * l), "level {l}");
+            // The same 12 × 12 checkerboard at every tessellation: the plane's triangles
+            // split evenly, and its first tile is light, the next one dark.
+            let plane = &s.meshes[0];
+            let dark = plane.materials.iter().filter(|&&m| m == 1).count();
+            assert_eq!(dark * 2, plane.triangles.len());
+            let n = 12 << (l - 2);
+            let per_tile = n / 12;
+            assert_eq!(plane.materials[0], 0);
+            assert_eq!(plane.materials[2 * per_tile as usize], 1);
+            // Same lights, camera and materials as `spheres`.
+            let base = spheres();
+            assert_eq!(s.lights.len(), base.lights.len());
+            assert_eq!(s.camera.eye, base.camera.eye);
+            assert_eq!(s.materials.len(), base.materials.len());
+        }
+    }
 
     #[test]
     fn builtins_are_valid_and_deterministic() {
