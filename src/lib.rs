@@ -6,5 +6,9 @@
 pub mod bench;
 pub mod engines;
 pub mod frames;
+#[cfg(feature = "gpu")]
+pub mod gpu_frame;
 pub mod options;
 pub mod report;
+#[cfg(feature = "view")]
+pub mod view;

@@ -37,6 +37,30 @@ fn fails(args: &[&str], needles: &[&str]) {
     assert_eq!(lines.len(), 1, "{args:?}: one line expected: {err}");
 }
 
+/// The README's first command: `rayspace` with no arguments renders the default scene to
+/// `rayspace.png` (512×512) in the working directory and prints the stats table.
+#[test]
+fn no_arguments_render_the_default_scene() {
+    let dir = tmp("default");
+    let o = bin().current_dir(&dir).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("| spheres") || stdout.contains("spheres"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("wrote"), "{stdout}");
+    let img = image::open(dir.join("rayspace.png")).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (512, 512));
+    // Not a blank frame: the sky, the checkerboard's two tiles and the lit spheres give
+    // many distinct colours.
+    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(colours.len() > 1000, "{} colours", colours.len());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn usage_errors_are_one_line_with_status_2() {
     for args in [

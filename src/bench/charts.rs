@@ -21,7 +21,7 @@ const FONT_PATHS: &[&str] = &[
 ];
 
 /// Register a font for plotters once; the error says where fonts were looked for.
-fn font() -> Result<()> {
+pub fn font() -> Result<()> {
     static FONT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT.get_or_init(|| {
         let env = std::env::var("RAYSPACE_FONT").ok();

@@ -38,6 +38,51 @@ pub enum Command {
     /// Render every scene with every engine and run the benchmarks; write one static HTML
     /// page (renders, difference images, the papers' tables beside ours, charts, scaling).
     Report(ReportCmdArgs),
+    /// An interactive window: switch engine (e), backend (g), bounces (b/B), buffer (v);
+    /// play (space) and scrub ([ ]) animations; drag to orbit, wheel to zoom, wasdqz to fly.
+    View(ViewArgs),
+}
+
+#[derive(Args, Clone)]
+pub struct ViewArgs {
+    /// A built-in scene, or an .obj, .gltf/.glb, .toml or BART .aff file.
+    #[arg(default_value = "spheres")]
+    pub scene: String,
+    #[arg(long, value_enum, default_value_t = Engine::Grid)]
+    pub engine: Engine,
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    pub backend: Backend,
+    #[arg(long, default_value_t = 512, value_parser = side())]
+    pub width: u32,
+    #[arg(long, default_value_t = 512, value_parser = side())]
+    pub height: u32,
+    #[arg(long, default_value_t = 3, value_parser = bounces())]
+    pub bounces: u32,
+    /// Start at this time of an animated scene.
+    #[arg(long)]
+    pub time: Option<f32>,
+    /// The buffer shown first (v cycles them).
+    #[arg(long, default_value = "shaded", value_parser = ["shaded", "normals", "kinds", "tests"])]
+    pub buffer: String,
+    /// Render this many full frames, write the last one (as shown, read back from the GPU)
+    /// to F.png and exit: the viewer without a person (tests, CI under Xvfb).
+    #[arg(long, value_name = "F.png")]
+    pub screenshot: Option<PathBuf>,
+    /// Frames before the screenshot.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub frames: u32,
+    /// Render the screenshot's frames at 1/N resolution, upscaled, as the moving view's
+    /// previews are (measures their frame rate).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub scale: u32,
+    /// Text overlay (default: on in the window, off in screenshots).
+    #[arg(long, value_parser = rayspace::options::on_off())]
+    pub overlay: Option<bool>,
+    /// The display interval previews aim at while the view moves (ms).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=10000))]
+    pub interval_ms: u64,
+    #[command(flatten)]
+    pub load: LoadArgs,
 }
 
 #[derive(Args, Clone)]
@@ -275,7 +320,10 @@ pub enum Backend {
 #[derive(Args, Clone)]
 pub struct RenderArgs {
     /// A built-in scene (cornell, spheres, soup, stadium, office), or an .obj, .gltf/.glb or .toml file.
-    #[arg(default_value = "cornell")]
+    /// The default, `spheres`, is the first picture a newcomer sees: mirror, glass and
+    /// diffuse spheres on a reflective checkerboard under two lights, so reflection,
+    /// refraction and shadows are all plain to see (it renders in well under a second).
+    #[arg(default_value = "spheres")]
     pub scene: String,
     /// Image width in pixels.
     #[arg(long, default_value_t = 512, value_parser = side())]

@@ -1,6 +1,6 @@
-//! The command line: `render`, `rays`, `trace`, `bench` and `report`. Each room holds one part:
+//! The command line: `render`, `rays`, `trace`, `bench`, `report` and `view`. Each room holds one part:
 //! [`args`] the grammar, [`render`] and [`frames`] the renderer's commands, [`trace`] the ray
-//! files, [`bench`] the papers' evaluations, [`report`] the HTML report of them all, [`progress`] the progress display. Engines are
+//! files, [`bench`] the papers' evaluations, [`report`] the HTML report of them all, [`view`] the interactive window, [`progress`] the progress display. Engines are
 //! named and built by the library's registry (`rayspace::engines`).
 
 /// `println!` that ignores a closed stdout (`rayspace … | head` must not panic).
@@ -18,6 +18,7 @@ mod progress;
 mod render;
 mod report;
 mod trace;
+mod view;
 
 use anyhow::{bail, Result};
 use args::{BenchCommand, Cli, Command};
@@ -76,6 +77,7 @@ pub fn run() -> Result<()> {
             BenchCommand::Budget(a) => bench::cmd_bench_budget(&a),
         },
         Some(Command::Report(a)) => report::cmd_report(&a),
+        Some(Command::View(a)) => view::cmd_view(&a),
         None => render::cmd_render(&args::defaults()),
     }
 }

@@ -194,71 +194,17 @@ fn render_on_gpu(
     opts: &RenderOptions,
     t1: Instant,
 ) -> Result<GpuRender> {
-    let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
     // Outputs are written atomically after the render, so ending here leaves none behind.
-    g.on_device_error(|e| {
+    let f = rayspace::gpu_frame::GpuFrame::new(a.engine, eopts, scene, geo, |e| {
         eprintln!("error: --backend gpu: the device failed ({e}); lower --width/--height");
         std::process::exit(1);
-    });
-    say!("GPU: {}", g.describe());
-    let timer = match g.timer {
-        gpu::device::PhaseTimer::Timestamps => "timestamp queries",
-        gpu::device::PhaseTimer::WallClock => {
-            "wall clock, waiting at every phase boundary: this adapter has no timestamp queries that time kernels"
-        }
-    };
-    let engine: Box<dyn gpu::GpuEngine> =
-        match a.engine.rsh_method() {
-            Some(method) => Box::new(
-                gpu::GpuRsh::new(g, geo, eopts.gpu_rsh_config(method))
-                    .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?,
-            ),
-            None => {
-                // The grid's build runs on the CPU; its traversal is the GPU kernel.
-                let cfg = eopts.grid_config(a.engine == Engine::Grid2l);
-                eopts.validate(a.engine)?;
-                Box::new(gpu::GpuGrid::new(g, geo, &cfg).map_err(|e| {
-                    anyhow::anyhow!("--backend gpu --engine {}: {e}", a.engine.name())
-                })?)
-            }
-        };
-    let raster = gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
-        .map_err(|e| anyhow::anyhow!("--backend gpu: {e}"))?;
-    raster
-        .check_size(opts.width, opts.height)
-        .map_err(|e| anyhow::anyhow!("--width/--height with --backend gpu: {e}"))?;
+    })?;
+    say!("GPU: {}", f.describe);
     let build_s = t1.elapsed().as_secs_f64();
     let bar = progress_bar();
-    let stages = gpu::GpuStages::new(engine.gpu(), engine.kernels());
-    let mut out = render::whitted::render_with(
-        scene,
-        geo,
-        engine.as_ref(),
-        opts,
-        &bar,
-        &|v, n| raster.rasterize(v, n),
-        &stages,
-    );
+    let (out, phases) = f.render(scene, geo, opts, &bar, build_s)?;
     bar.0.finish_and_clear();
-    out.stats.put_build(build_s, engine.build_passes());
-    let mut phases: Vec<(String, f64)> = Vec::new();
-    if let Some(t) = raster.last_gpu_seconds.get() {
-        phases.push(("rasterize".into(), t));
-    }
-    phases.extend(
-        engine
-            .take_times()
-            .into_iter()
-            .map(|(p, t)| (p.to_string(), t)),
-    );
-    phases.extend(
-        stages
-            .times
-            .borrow()
-            .iter()
-            .map(|(p, t)| (p.to_string(), *t)),
-    );
-    Ok((out, phases, timer))
+    Ok((out, phases, f.timer))
 }
 
 #[cfg(not(feature = "gpu"))]

@@ -33,6 +33,8 @@ pub use crate::rsh::GpuRsh;
 pub use device::{Gpu, GpuError};
 pub use grid::GpuGrid;
 pub use raster::GpuRaster;
+/// The wgpu this backend is built with (the viewer's window shares it).
+pub use wgpu;
 
 /// A tracing engine on the GPU: a [`render::Tracer`] whose device and compiled kernels the
 /// Whitted stages share ([`GpuStages`]), and whose GPU time per phase can be drained.
