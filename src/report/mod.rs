@@ -236,6 +236,18 @@ fn heat(counts: &[u32]) -> Vec<u8> {
         .collect()
 }
 
+/// The engines a scene is rendered with, the reference first: brute force where it is
+/// affordable, else the grid (bit-identical to brute force by the test suite).
+fn render_list(brute_affordable: bool) -> Vec<Engine> {
+    let mut list = engine_list();
+    list.retain(|&e| e != Engine::Grid);
+    list.insert(0, Engine::Grid);
+    if brute_affordable {
+        list.insert(0, Engine::Brute);
+    }
+    list
+}
+
 /// Brute force is rendered where rays × triangles stays small (a few seconds on 2 cores).
 fn brute_affordable(geo: &Geometry, s: &Scene, side: u32, bounces: u32) -> bool {
     let rays = side as u64 * side as u64 * (s.lights.len() as u64 + bounces as u64);
@@ -253,11 +265,10 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
         height: spec.side,
         bounces: spec.bounces,
     };
-    let mut list = engine_list();
+    let affordable = brute_affordable(&geo, &s, spec.side, spec.bounces);
+    let list = render_list(affordable);
     let mut skipped = Vec::new();
-    if brute_affordable(&geo, &s, spec.side, spec.bounces) {
-        list.insert(0, Engine::Brute);
-    } else {
+    if !affordable {
         skipped.push((
             "brute".to_string(),
             format!(
@@ -650,4 +661,30 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
     write(&spec.out, "report.json", json.as_bytes())?;
     write(&spec.out, "index.html", html::page(&r).as_bytes())?;
     Ok(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reference_is_brute_force_or_the_grid() {
+        let with = render_list(true);
+        assert_eq!(&with[..2], &[Engine::Brute, Engine::Grid]);
+        let without = render_list(false);
+        assert_eq!(without[0], Engine::Grid);
+        assert!(!without.contains(&Engine::Brute));
+        assert_eq!(without.len() + 1, with.len());
+        assert!(without.contains(&Engine::Crsh) && without.contains(&Engine::Rah));
+    }
+
+    #[test]
+    fn slopes_fit_power_laws() {
+        let p: Vec<(f64, f64)> = [1.0, 10.0, 100.0]
+            .iter()
+            .map(|&x: &f64| (x, 3.0 * x.powf(1.5)))
+            .collect();
+        assert!((charts::loglog_slope(&p).unwrap() - 1.5).abs() < 1e-9);
+        assert!(charts::loglog_slope(&p[..1]).is_none());
+    }
 }

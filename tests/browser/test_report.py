@@ -70,6 +70,7 @@ def browser():
         "--disable-background-networking",
         "--disable-component-update",
         "--disable-sync",
+        "--disable-dev-shm-usage",
         "--window-size=1300,1000",
     ):
         opts.add_argument(a)
