@@ -109,6 +109,10 @@ fn view_refuses_bad_options_in_one_line() {
         (&["view", "no-such-scene.obj"], "no-such-scene.obj"),
         (&["view", "cornell", "--width", "0"], "--width"),
         (&["view", "cornell", "--buffer", "depth"], "--buffer"),
+        (
+            &["view", "cornell", "--width", "16384", "--height", "16384"],
+            "--width/--height",
+        ),
     ] {
         let o = Command::new(bin()).args(args).output().unwrap();
         let err = String::from_utf8_lossy(&o.stderr);

@@ -78,6 +78,10 @@ pub struct ViewArgs {
     /// Text overlay (default: on in the window, off in screenshots).
     #[arg(long, value_parser = rayspace::options::on_off())]
     pub overlay: Option<bool>,
+    /// Most memory a frame may use, in MiB (default: 80 % of this machine's memory); a size
+    /// whose memory model needs more is refused before the window opens.
+    #[arg(long = "max-memory", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_memory: Option<u64>,
     /// The display interval previews aim at while the view moves (ms).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=10000))]
     pub interval_ms: u64,

@@ -11,7 +11,9 @@ pub fn cmd_view(a: &ViewArgs) -> Result<()> {
     if let Some(p) = &a.screenshot {
         super::check_out_dir("--screenshot", p)?;
     }
-    let scene = super::load_scene(&a.scene, &a.load.options(None))?;
+    let scene = super::load_scene(&a.scene, &a.load.options(a.max_memory))?;
+    let need = render::whitted::render_bytes(a.width, a.height, scene.lights.len());
+    super::check_memory("a frame", "--width/--height", need, a.max_memory)?;
     let backend = match a.backend {
         Backend::Cpu => session::Backend::Cpu,
         Backend::Gpu => session::Backend::Gpu,

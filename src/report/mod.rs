@@ -259,6 +259,18 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
     progress(&format!("{name}: loading"));
     let s = scene::load(name, &LoadOptions::default())?;
     let geo = Geometry::from_scene(&s);
+    // Memory is checked before the renders allocate it, as `render` does.
+    let need = render::whitted::render_bytes(spec.side, spec.side, s.lights.len());
+    let limit = render::memory::limit(None);
+    if need > limit {
+        anyhow::bail!(
+            "--size {}: a render of {} needs {}, more than the {} this machine allows",
+            spec.side,
+            s.name,
+            render::memory::gib(need),
+            render::memory::gib(limit)
+        );
+    }
     let slug = charts::slug(&s.name);
     let opts = RenderOptions {
         width: spec.side,
