@@ -645,7 +645,12 @@ mod tests {
     use super::*;
 
     fn load_str(text: &str, name: &str) -> Result<Scene, SceneError> {
-        let d = std::env::temp_dir().join(format!("rayspace-toml-{}", std::process::id()));
+        // One directory per call: the tests run in parallel, and a shared `tri.obj` being
+        // rewritten (truncated) while another test reads it made that test see no
+        // triangle (a flaky 892 ≠ 893, found in this session's full run).
+        static CALL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = CALL.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let d = std::env::temp_dir().join(format!("rayspace-toml-{}-{n}", std::process::id()));
         std::fs::create_dir_all(&d).unwrap();
         std::fs::write(d.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
         let p = d.join(name);
