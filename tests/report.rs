@@ -2,6 +2,7 @@
 //! equals the reference's byte for byte, and bad `--out` paths get one-line errors. (The
 //! page in a real browser is checked by `tests/browser/test_report.py` in CI.)
 
+use rayspace::bench::charts::slug;
 use std::process::Command;
 
 fn bin() -> Command {
@@ -20,22 +21,6 @@ fn links(html: &str) -> Vec<String> {
         }
     }
     v
-}
-
-fn slug(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() {
-                c.to_ascii_lowercase()
-            } else {
-                '-'
-            }
-        })
-        .collect::<String>()
-        .split('-')
-        .filter(|p| !p.is_empty())
-        .collect::<Vec<_>>()
-        .join("-")
 }
 
 /// The text of the element with `id` (a table cell: no nested markup).

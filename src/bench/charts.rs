@@ -159,32 +159,31 @@ where
 /// Write `stem.png` and `stem.svg`; returns their paths.
 pub fn grouped_bars(stem: &Path, b: &Bars) -> Result<Vec<PathBuf>> {
     font()?;
-    let png = stem.with_extension("png");
-    let svg = stem.with_extension("svg");
     let w =
         (160 + 90 * b.groups.len() as u32 * (b.series.len() as u32).max(1) / 2).clamp(640, 1600);
-    // Drawn in memory and written atomically, as every output (render::output::write_atomic).
-    let h = 480;
+    write_png_svg(stem, (w, 480), |a| draw(a, b), |a| draw(a, b))
+}
+
+/// Draw a chart twice, into an RGB bitmap and an SVG string, and write `stem.png` and
+/// `stem.svg` atomically (as every output: `render::output::write_atomic`); returns
+/// their paths.
+fn write_png_svg(
+    stem: &Path,
+    (w, h): (u32, u32),
+    bitmap: impl FnOnce(DrawingArea<BitMapBackend, plotters::coord::Shift>) -> Result<()>,
+    svg: impl FnOnce(DrawingArea<SVGBackend, plotters::coord::Shift>) -> Result<()>,
+) -> Result<Vec<PathBuf>> {
+    let png = stem.with_extension("png");
+    let svg_path = stem.with_extension("svg");
     let mut rgb = vec![0u8; w as usize * h as usize * 3];
-    draw(
-        BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(),
-        b,
-    )?;
-    let img = image::RgbImage::from_raw(w, h, rgb).ok_or_else(|| anyhow!("chart buffer size"))?;
-    let mut png_bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut png_bytes),
-        image::ImageFormat::Png,
-    )
-    .map_err(|e| anyhow!("{}: {e}", png.display()))?;
+    bitmap(BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area())?;
+    let png_bytes =
+        render::output::rgb8_png(&rgb, w, h).map_err(|e| anyhow!("{}: {e}", png.display()))?;
     render::output::write_atomic(&png, &png_bytes).map_err(|e| anyhow!(e))?;
     let mut svg_text = String::new();
-    draw(
-        SVGBackend::with_string(&mut svg_text, (w, h)).into_drawing_area(),
-        b,
-    )?;
-    render::output::write_atomic(&svg, svg_text.as_bytes()).map_err(|e| anyhow!(e))?;
-    Ok(vec![png, svg])
+    svg(SVGBackend::with_string(&mut svg_text, (w, h)).into_drawing_area())?;
+    render::output::write_atomic(&svg_path, svg_text.as_bytes()).map_err(|e| anyhow!(e))?;
+    Ok(vec![png, svg_path])
 }
 
 /// One log-log chart's data: `series[s]` is a name and its (x, y) points.
@@ -290,23 +289,7 @@ where
 /// Write the log-log chart as `stem.svg` (and `stem.png`); returns their paths.
 pub fn loglog_lines(stem: &Path, l: &Lines) -> Result<Vec<PathBuf>> {
     font()?;
-    let (w, h) = (760u32, 480u32);
-    let png = stem.with_extension("png");
-    let svg = stem.with_extension("svg");
-    let mut rgb = vec![0u8; w as usize * h as usize * 3];
-    draw_lines(
-        BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(),
-        l,
-    )?;
-    let png_bytes = render::output::rgb8_png(&rgb, w, h).map_err(|e| anyhow!(e))?;
-    render::output::write_atomic(&png, &png_bytes).map_err(|e| anyhow!(e))?;
-    let mut svg_text = String::new();
-    draw_lines(
-        SVGBackend::with_string(&mut svg_text, (w, h)).into_drawing_area(),
-        l,
-    )?;
-    render::output::write_atomic(&svg, svg_text.as_bytes()).map_err(|e| anyhow!(e))?;
-    Ok(vec![png, svg])
+    write_png_svg(stem, (760, 480), |a| draw_lines(a, l), |a| draw_lines(a, l))
 }
 
 /// A file-name-safe form of `s`.

@@ -221,21 +221,6 @@ fn png(dir: &Path, rel: &str, rgb: &[u8], w: u32, h: u32) -> Result<String> {
     write(dir, rel, &bytes)
 }
 
-/// A heat map of per-pixel counts (black → red → yellow → white, linear in count / max).
-fn heat(counts: &[u32]) -> Vec<u8> {
-    let max = counts.iter().copied().max().unwrap_or(0).max(1) as f32;
-    counts
-        .iter()
-        .flat_map(|&c| {
-            let x = c as f32 / max;
-            let r = (x * 3.0).min(1.0);
-            let g = (x * 3.0 - 1.0).clamp(0.0, 1.0);
-            let b = (x * 3.0 - 2.0).clamp(0.0, 1.0);
-            [r, g, b].map(|v| (v * 255.0).round() as u8)
-        })
-        .collect()
-}
-
 /// The engines a scene is rendered with, the reference first: brute force where it is
 /// affordable, else the grid (bit-identical to brute force by the test suite).
 fn render_list(brute_affordable: bool) -> Vec<Engine> {
@@ -334,7 +319,13 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
                 let rel = format!("img/{slug}-rays-{}.png", charts::slug(kind.name()));
                 ray_kinds.push(KindThumb {
                     kind: kind.name().to_string(),
-                    image: png(dir, &rel, &heat(&counts), spec.side, spec.side)?,
+                    image: png(
+                        dir,
+                        &rel,
+                        &render::output::heat_rgb8(&counts),
+                        spec.side,
+                        spec.side,
+                    )?,
                     rays: n,
                 });
             }

@@ -123,7 +123,10 @@ enum Built {
 /// The viewer's state.
 pub struct Session {
     base: Scene,
+    /// The scene at `time`; its camera is set to [`Session::camera`] before each frame.
     scene: Scene,
+    /// The scene's own camera at `time` (the view until the user moves it).
+    scene_camera: Camera,
     geo: Geometry,
     pub engine: Engine,
     pub backend: Backend,
@@ -194,6 +197,7 @@ impl Session {
         let orbit = Orbit::from_camera(&scene.camera);
         Ok(Session {
             base,
+            scene_camera: scene.camera.clone(),
             scene,
             geo,
             engine,
@@ -290,10 +294,10 @@ impl Session {
             Camera {
                 eye: self.orbit.eye(),
                 target: self.orbit.target,
-                ..self.scene.camera.clone()
+                ..self.scene_camera.clone()
             }
         } else {
-            self.scene.camera.clone()
+            self.scene_camera.clone()
         }
     }
 
@@ -311,11 +315,12 @@ impl Session {
         if t != self.time {
             self.time = t;
             self.scene = self.base.at_time(t);
+            self.scene_camera = self.scene.camera.clone();
             self.geo = Geometry::from_scene(&self.scene);
             self.built = None; // rebuilt every frame of a dynamic scene, as the papers do
             self.aux_grid = None;
             if !self.orbit.moved {
-                self.orbit = Orbit::from_camera(&self.scene.camera);
+                self.orbit = Orbit::from_camera(&self.scene_camera);
             }
         }
     }
@@ -354,8 +359,9 @@ impl Session {
         let scale = scale.clamp(1, 16);
         let build_seconds = self.build()?;
         let (w, h) = ((self.width / scale).max(1), (self.height / scale).max(1));
-        let mut scene = self.scene.clone();
-        scene.camera = self.camera();
+        // The view's camera goes into the scene itself: cloning the scene (its meshes)
+        // every frame would copy the whole model.
+        self.scene.camera = self.camera();
         let opts = RenderOptions {
             width: w,
             height: h,
@@ -368,12 +374,12 @@ impl Session {
                 Built::Cpu(t) => {
                     if record {
                         let rec = Recorder::new(t.as_ref());
-                        let out = render(&scene, &self.geo, &rec, &opts, &());
+                        let out = render(&self.scene, &self.geo, &rec, &opts, &());
                         let b = rec.into_batches().into_iter().map(|x| (x.0, x.1)).collect();
                         (out, b, Vec::new())
                     } else {
                         (
-                            render(&scene, &self.geo, t.as_ref(), &opts, &()),
+                            render(&self.scene, &self.geo, t.as_ref(), &opts, &()),
                             Vec::new(),
                             Vec::new(),
                         )
@@ -381,7 +387,8 @@ impl Session {
                 }
                 #[cfg(feature = "gpu")]
                 Built::Gpu(g) => {
-                    let (out, phases) = g.render(&scene, &self.geo, &opts, &(), build_seconds)?;
+                    let (out, phases) =
+                        g.render(&self.scene, &self.geo, &opts, &(), build_seconds)?;
                     if record {
                         note = Some(
                             "ray kinds and tests per pixel are drawn from the CPU backend's rays"
@@ -397,7 +404,7 @@ impl Session {
             self.aux_grid()?;
             let grid = self.aux_grid.as_deref().expect("built above") as &dyn Tracer;
             let rec = Recorder::new(grid);
-            render(&scene, &self.geo, &rec, &opts, &());
+            render(&self.scene, &self.geo, &rec, &opts, &());
             rec.into_batches().into_iter().map(|x| (x.0, x.1)).collect()
         } else {
             batches
@@ -464,7 +471,7 @@ impl Session {
                     }
                 };
                 let counts = tests_per_pixel(tracer, &batches, npix);
-                heat(&counts)
+                render::output::heat_rgb8(&counts)
             }
         };
         let rgb = upscale(&rgb, w, h, self.width, self.height);
@@ -603,23 +610,6 @@ fn tests_per_pixel(
         }
     }
     counts
-}
-
-/// Black → red → yellow → white, linear in count ÷ max.
-fn heat(counts: &[u32]) -> Vec<u8> {
-    let max = counts.iter().copied().max().unwrap_or(0).max(1) as f32;
-    counts
-        .iter()
-        .flat_map(|&c| {
-            let x = c as f32 / max * 3.0;
-            [
-                x.min(1.0),
-                (x - 1.0).clamp(0.0, 1.0),
-                (x - 2.0).clamp(0.0, 1.0),
-            ]
-            .map(|v| (v * 255.0).round() as u8)
-        })
-        .collect()
 }
 
 /// Nearest-neighbour upscale of an RGB8 image.

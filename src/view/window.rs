@@ -141,7 +141,12 @@ impl Gfx {
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
         });
         let surface_pipe = pipeline(&device, &module, config.format);
-        let texture = Self::frame_texture(&device, w, h);
+        let texture = Self::texture(
+            &device,
+            w,
+            h,
+            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        );
         let size_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("viewer target size"),
             size: 16,
@@ -162,7 +167,8 @@ impl Gfx {
         })
     }
 
-    fn frame_texture(device: &wgpu::Device, w: u32, h: u32) -> wgpu::Texture {
+    /// An RGBA8 texture of `w × h` (the frame; the screenshot's target).
+    fn texture(device: &wgpu::Device, w: u32, h: u32, usage: wgpu::TextureUsages) -> wgpu::Texture {
         device.create_texture(&wgpu::TextureDescriptor {
             label: Some("viewer frame"),
             size: wgpu::Extent3d {
@@ -174,7 +180,7 @@ impl Gfx {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            usage,
             view_formats: &[],
         })
     }
@@ -289,20 +295,12 @@ impl Gfx {
     /// back: what the window shows, at the frame's own resolution, as RGB8.
     fn read_back(&self, w: u32, h: u32) -> Result<Vec<u8>> {
         let format = wgpu::TextureFormat::Rgba8Unorm;
-        let target = self.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("viewer screenshot"),
-            size: wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let target = Self::texture(
+            &self.device,
+            w,
+            h,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
         let pipe = pipeline(&self.device, &self.module, format);
         let row = (w as u64 * 4).next_multiple_of(256);
         let buf = self.device.create_buffer(&wgpu::BufferDescriptor {

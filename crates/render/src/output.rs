@@ -111,6 +111,24 @@ pub fn rgb8_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> 
     encode_png(&img)
 }
 
+/// Per-pixel counts as an RGB8 heat map: black → red → yellow → white, linear in
+/// count ÷ the largest count (the report's ray-kind maps, the viewer's tests per pixel).
+pub fn heat_rgb8(counts: &[u32]) -> Vec<u8> {
+    let max = counts.iter().copied().max().unwrap_or(0).max(1) as f32;
+    counts
+        .iter()
+        .flat_map(|&c| {
+            let x = c as f32 / max * 3.0;
+            [
+                x.min(1.0),
+                (x - 1.0).clamp(0.0, 1.0),
+                (x - 2.0).clamp(0.0, 1.0),
+            ]
+            .map(|v| (v * 255.0).round() as u8)
+        })
+        .collect()
+}
+
 /// Write the pixels as an sRGB PNG, atomically ([`write_atomic`]); the error names the file.
 pub fn write_png(pixels: &[Vec3], width: u32, height: u32, path: &Path) -> Result<(), String> {
     let bytes = png_bytes(pixels, width, height).map_err(|e| format!("{}: {e}", path.display()))?;
