@@ -218,8 +218,91 @@ fn builtin_scenes_match_brute_force() {
     }
 }
 
+/// The 8-lane traversal against the scalar stream on the same grid and rays: the same hit
+/// records bit for bit and the same N_T and N_I, ray by ray.
+fn lanes_equal_scalar(
+    g: &Grid,
+    tris: &[[Vec3; 3]],
+    rays: &render::RayBatch,
+    mode: TraceMode,
+    what: &str,
+) {
+    use accel::grid::{lanes, traverse};
+    let mut a = vec![Hit::MISS; rays.len()];
+    let mut b = vec![Hit::MISS; rays.len()];
+    for i in 0..rays.len() {
+        let ca = lanes::trace(g, tris, rays, i, &mut a[i..i + 1], mode);
+        let cb = traverse::trace_stream(g, tris, rays, i, &mut b[i..i + 1], mode);
+        assert_eq!(
+            (ca.steps, ca.tests),
+            (cb.steps, cb.tests),
+            "{what}: counts of ray {i}"
+        );
+    }
+    let ca = lanes::trace(g, tris, rays, 0, &mut a, mode);
+    let cb = traverse::trace_stream(g, tris, rays, 0, &mut b, mode);
+    assert_eq!(
+        (ca.steps, ca.tests),
+        (cb.steps, cb.tests),
+        "{what}: summed counts"
+    );
+    for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+        assert!(
+            x.tri == y.tri
+                && x.t.to_bits() == y.t.to_bits()
+                && x.u.to_bits() == y.u.to_bits()
+                && x.v.to_bits() == y.v.to_bits(),
+            "{what}: ray {i}: lanes {x:?}, scalar {y:?}"
+        );
+    }
+}
+
+#[test]
+fn lanes_equal_the_scalar_traversal_on_builtin_scenes() {
+    if !accel::grid::lanes::available() {
+        testkit::skip(
+            "avx2",
+            "this CPU has no AVX2: the grid traces with the scalar stream only",
+        );
+        return;
+    }
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let mut batches: Vec<(render::RayBatch, TraceMode)> = record_render(&s, &geo, 40, 30, 2)
+            .into_iter()
+            .map(|(r, m, _)| (r, m))
+            .collect();
+        batches.push((
+            View::new(&s.camera, 40, 30).primary_rays(),
+            TraceMode::Closest,
+        ));
+        for (what, cfg) in configs() {
+            let g = build_grid(&geo.tris, &cfg).unwrap();
+            for (k, (rays, mode)) in batches.iter().enumerate() {
+                lanes_equal_scalar(
+                    &g,
+                    &geo.tris,
+                    rays,
+                    *mode,
+                    &format!("{name} {what} batch {k}"),
+                );
+            }
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(40))]
+
+    #[test]
+    fn lanes_equal_the_scalar_traversal_on_random_scenes(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..600, which in 0usize..7, any_hit in any::<bool>()) {
+        let (geo, rays) = random_case(seed, ntri, nray);
+        let cfg = configs()[which % configs().len()].1.clone();
+        let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
+        let g = build_grid(&geo.tris, &cfg).unwrap();
+        lanes_equal_scalar(&g, &geo.tris, &rays, mode, "random");
+    }
 
     #[test]
     fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..500, nray in 1usize..800, which in 0usize..7, any_hit in any::<bool>()) {

@@ -21,6 +21,7 @@
 
 pub mod build;
 pub mod expand;
+pub mod lanes;
 pub mod merge;
 pub mod traverse;
 pub mod voxelmap;
@@ -432,14 +433,12 @@ impl render::Tracer for GridEngine {
         use rayon::prelude::*;
         assert_eq!(hits.len(), rays.len(), "one hit record per ray");
         // Chunks of consecutive rays (coherent batches stay coherent within a chunk), each
-        // traced as one interleaved stream.
+        // traced eight rays at a time (or, without AVX2, as one interleaved stream).
         const CHUNK: usize = 256;
         let c = hits
             .par_chunks_mut(CHUNK)
             .enumerate()
-            .map(|(k, out)| {
-                traverse::trace_stream(&self.grid, &self.tris, rays, k * CHUNK, out, mode)
-            })
+            .map(|(k, out)| lanes::trace(&self.grid, &self.tris, rays, k * CHUNK, out, mode))
             .reduce(traverse::RayCounts::default, |a, b| a + b);
         let (steps, tests) = (c.steps, c.tests);
         stats.rays += rays.len() as u64;
