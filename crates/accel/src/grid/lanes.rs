@@ -78,7 +78,7 @@ pub fn trace(
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::super::traverse::{Lane, RayCounts};
+    use super::super::traverse::RayCounts;
     use super::super::voxelmap::{INDEX, LOG_DIM_SHIFT};
     use super::super::{CellRec, Grid};
     use super::LANES;
@@ -175,6 +175,175 @@ mod avx2 {
         _mm256_andnot_si256(nan, i)
     }
 
+    /// The grid's constants as the kernel reads them.
+    struct Consts {
+        bmin: [__m256; 3],
+        bmax: [__m256; 3],
+        inv_voxel: [__m256; 3],
+        dims_m1: [__m256i; 3],
+    }
+
+    impl Consts {
+        #[target_feature(enable = "avx2")]
+        fn new(g: &Grid) -> Consts {
+            Consts {
+                bmin: [0, 1, 2].map(|k| _mm256_set1_ps(g.bounds.min[k])),
+                bmax: [0, 1, 2].map(|k| _mm256_set1_ps(g.bounds.max[k])),
+                inv_voxel: [0, 1, 2].map(|k| _mm256_set1_ps(g.inv_voxel[k])),
+                dims_m1: [0, 1, 2].map(|k| _mm256_set1_epi32(g.dims[k] as i32 - 1)),
+            }
+        }
+    }
+
+    /// A ray's state at its entry into the grid (`traverse::Lane::new`'s), eight rays at a time.
+    #[derive(Default)]
+    struct Entry {
+        o: [F8; 3],
+        d: [F8; 3],
+        inv: [F8; 3],
+        neg: [I8; 3],
+        k: [I8; 3],
+        ok: [F8; 3],
+        sx: F8,
+        sy: F8,
+        sz: F8,
+        t_min: F8,
+        t_max: F8,
+        v: [I8; 3],
+        t_leave: F8,
+    }
+
+    /// Rays that entered the grid, waiting for a lane: `lane[at..n]` index `e`'s columns,
+    /// `ray` the rays (relative to the block's first, then to the chunk's).
+    #[derive(Default)]
+    struct Queue {
+        e: Entry,
+        lane: [u8; LANES],
+        ray: [usize; LANES],
+        n: usize,
+        at: usize,
+        /// Rays of the block that miss the grid (bit x: ray x).
+        missed: u32,
+    }
+
+    /// Per lane, `x` if `k` is 0, `y` if 1, `z` if 2.
+    #[inline(always)]
+    unsafe fn pick(k: __m256i, x: __m256, y: __m256, z: __m256) -> __m256 {
+        let is1 = fm(_mm256_cmpeq_epi32(k, _mm256_set1_epi32(1)));
+        let is2 = fm(_mm256_cmpeq_epi32(k, _mm256_set1_epi32(2)));
+        _mm256_blendv_ps(_mm256_blendv_ps(x, y, is1), z, is2)
+    }
+
+    /// The entry states of rays `first..first + n` (n ≤ 8) into `q`: `traverse::Lane::new` per lane
+    /// (`Aabb::intersect`, the entry voxel, `RayPre::new`), the same operations in the same
+    /// order. Of the two zeros `f32::max`/`min` may return for ±0 operands, the interval
+    /// keeps either: its ends are only compared, or scale a direction added to the origin,
+    /// which gives the same voxel for +0 and −0.
+    #[target_feature(enable = "avx2")]
+    fn enter8(rays: &RayBatch, first: usize, n: usize, q: &mut Queue, c: &Consts) {
+        let mut raw = [F8::default(); 8];
+        for x in 0..n {
+            let (o, d) = (rays.org[first + x], rays.dir[first + x]);
+            for k in 0..3 {
+                raw[k].0[x] = o[k];
+                raw[3 + k].0[x] = d[k];
+            }
+            raw[6].0[x] = rays.t_min[first + x];
+            raw[7].0[x] = rays.t_max[first + x];
+        }
+        // SAFETY (every block below): AVX2 is enabled for this function; loads and stores
+        // are of aligned local arrays.
+        unsafe {
+            let zero = _mm256_setzero_ps();
+            let one = _mm256_set1_ps(1.0);
+            let o = [ld(&raw[0]), ld(&raw[1]), ld(&raw[2])];
+            let d = [ld(&raw[3]), ld(&raw[4]), ld(&raw[5])];
+            let inv = d.map(|x| _mm256_div_ps(one, x));
+            let (mut tn, mut tf) = (ld(&raw[6]), ld(&raw[7]));
+            let robust = _mm256_set1_ps(geom::aabb::SLAB_ROBUST);
+            for k in 0..3 {
+                let a = _mm256_mul_ps(_mm256_sub_ps(c.bmin[k], o[k]), inv[k]);
+                let b = _mm256_mul_ps(_mm256_sub_ps(c.bmax[k], o[k]), inv[k]);
+                let nan = _mm256_or_ps(
+                    _mm256_cmp_ps::<_CMP_UNORD_Q>(a, a),
+                    _mm256_cmp_ps::<_CMP_UNORD_Q>(b, b),
+                );
+                let le = _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
+                let lo = _mm256_blendv_ps(b, a, le);
+                let hi = _mm256_mul_ps(_mm256_blendv_ps(a, b, le), robust);
+                // f32::max / f32::min: the other operand where one is NaN (lo and hi are not).
+                let take_lo = _mm256_or_ps(
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(lo, tn),
+                    _mm256_cmp_ps::<_CMP_UNORD_Q>(tn, tn),
+                );
+                let take_hi = _mm256_or_ps(
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(hi, tf),
+                    _mm256_cmp_ps::<_CMP_UNORD_Q>(tf, tf),
+                );
+                tn = _mm256_blendv_ps(tn, lo, _mm256_andnot_ps(nan, take_lo));
+                tf = _mm256_blendv_ps(tf, hi, _mm256_andnot_ps(nan, take_hi));
+            }
+            let inside = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf)) as u32;
+            let e = &mut q.e;
+            for k in 0..3 {
+                let p = _mm256_add_ps(o[k], _mm256_mul_ps(d[k], tn));
+                let f = floor_i32(_mm256_mul_ps(_mm256_sub_ps(p, c.bmin[k]), c.inv_voxel[k]));
+                let v = _mm256_min_epi32(_mm256_max_epi32(f, _mm256_setzero_si256()), c.dims_m1[k]);
+                sti(&mut e.v[k], v);
+                st(&mut e.o[k], o[k]);
+                st(&mut e.d[k], d[k]);
+                st(&mut e.inv[k], inv[k]);
+                sti(&mut e.neg[k], _mm256_srai_epi32::<31>(im(d[k])));
+            }
+            st(&mut e.t_min, ld(&raw[6]));
+            st(&mut e.t_max, ld(&raw[7]));
+            st(&mut e.t_leave, tf);
+            // RayPre::new: kz the axis of |d|'s largest component (x > y, x > z, y > z, as
+            // the scalar comparisons, false for NaN), kx and ky the next two, swapped when
+            // d[kz] < 0.
+            let ad = d.map(|x| _mm256_andnot_ps(_mm256_set1_ps(-0.0), x));
+            let gxy = _mm256_cmp_ps::<_CMP_GT_OQ>(ad[0], ad[1]);
+            let gxz = _mm256_cmp_ps::<_CMP_GT_OQ>(ad[0], ad[2]);
+            let gyz = _mm256_cmp_ps::<_CMP_GT_OQ>(ad[1], ad[2]);
+            let two = _mm256_set1_epi32(2);
+            let kz = _mm256_blendv_epi8(
+                _mm256_blendv_epi8(two, _mm256_set1_epi32(1), im(gyz)),
+                _mm256_blendv_epi8(two, _mm256_setzero_si256(), im(gxz)),
+                im(gxy),
+            );
+            let dkz = pick(kz, d[0], d[1], d[2]);
+            // (k + 1) mod 3 for k in 0..3.
+            let inc = |k: __m256i| {
+                let k1 = _mm256_add_epi32(k, _mm256_set1_epi32(1));
+                _mm256_andnot_si256(_mm256_cmpeq_epi32(k1, _mm256_set1_epi32(3)), k1)
+            };
+            let kx0 = inc(kz);
+            let ky0 = inc(kx0);
+            let swap = im(_mm256_cmp_ps::<_CMP_LT_OQ>(dkz, zero));
+            let kx = _mm256_blendv_epi8(kx0, ky0, swap);
+            let ky = _mm256_blendv_epi8(ky0, kx0, swap);
+            let sz = _mm256_div_ps(one, dkz);
+            st(&mut e.sx, _mm256_mul_ps(pick(kx, d[0], d[1], d[2]), sz));
+            st(&mut e.sy, _mm256_mul_ps(pick(ky, d[0], d[1], d[2]), sz));
+            st(&mut e.sz, sz);
+            for (i, k) in [kx, ky, kz].into_iter().enumerate() {
+                sti(&mut e.k[i], k);
+                st(&mut e.ok[i], pick(k, o[0], o[1], o[2]));
+            }
+            let valid = if n == LANES { 0xff } else { (1u32 << n) - 1 };
+            q.missed = valid & !inside;
+            q.n = 0;
+            q.at = 0;
+            for x in 0..n {
+                if inside & (1 << x) != 0 {
+                    q.lane[q.n] = x as u8;
+                    q.ray[q.n] = x;
+                    q.n += 1;
+                }
+            }
+        }
+    }
+
     /// See [`super::trace`].
     #[target_feature(enable = "avx2")]
     pub unsafe fn trace(
@@ -208,6 +377,8 @@ mod avx2 {
         let mut best = [Hit::MISS; LANES];
         let mut total = RayCounts::default();
         let mut next = 0usize;
+        let consts = Consts::new(g);
+        let mut q = Queue::default();
         // The test queue's jobs (lane, reference index), reused from step to step.
         let mut jobs_lane: Vec<i32> = Vec::with_capacity(256);
         let mut jobs_ref: Vec<i32> = Vec::with_capacity(256);
@@ -226,45 +397,63 @@ mod avx2 {
         let zero_f = _mm256_setzero_ps();
 
         loop {
-            // 1. Idle lanes take the next rays that enter the grid (rays that miss it are
-            //    answered at once).
+            // 1. Idle lanes take the next rays that enter the grid, whose entry states are
+            //    computed eight at a time (rays that miss the grid are answered there).
             for j in 0..LANES {
                 if s.active.0[j] != 0 {
                     continue;
                 }
-                while next < hits.len() {
-                    let i = next;
-                    next += 1;
-                    let Some(l) = Lane::new(g, &rays.ray(first + i)) else {
-                        hits[i] = Hit::MISS;
-                        continue;
-                    };
-                    ray[j] = i;
-                    pre[j] = Some(l.pre);
-                    best[j] = Hit::MISS;
-                    let p = &l.pre;
-                    let kk = [p.kx, p.ky, p.kz];
-                    for (c, &kc) in kk.iter().enumerate() {
-                        s.o[c].0[j] = l.o[c];
-                        s.d[c].0[j] = l.d[c];
-                        s.inv[c].0[j] = l.inv[c];
-                        s.neg[c].0[j] = -(l.neg[c] as i32);
-                        s.k[c].0[j] = kc as i32;
-                        s.ok[c].0[j] = p.org[kc];
-                        s.v[c].0[j] = l.v[c] as i32;
+                while q.at == q.n && next < hits.len() {
+                    let n = (hits.len() - next).min(LANES);
+                    enter8(rays, first + next, n, &mut q, &consts);
+                    for x in 0..n {
+                        if q.missed & (1 << x) != 0 {
+                            hits[next + x] = Hit::MISS;
+                        }
                     }
-                    s.sx.0[j] = p.sx;
-                    s.sy.0[j] = p.sy;
-                    s.sz.0[j] = p.sz;
-                    s.t_min.0[j] = p.t_min;
-                    s.t_max.0[j] = p.t_max;
-                    s.t_leave.0[j] = l.t_leave;
-                    s.best_t.0[j] = f32::INFINITY;
-                    s.steps.0[j] = 0;
-                    s.tests.0[j] = 0;
-                    s.active.0[j] = -1;
+                    for r in &mut q.ray[..q.n] {
+                        *r += next;
+                    }
+                    next += n;
+                }
+                if q.at == q.n {
                     break;
                 }
+                let x = q.lane[q.at] as usize;
+                let e = &q.e;
+                ray[j] = q.ray[q.at];
+                q.at += 1;
+                for c in 0..3 {
+                    s.o[c].0[j] = e.o[c].0[x];
+                    s.d[c].0[j] = e.d[c].0[x];
+                    s.inv[c].0[j] = e.inv[c].0[x];
+                    s.neg[c].0[j] = e.neg[c].0[x];
+                    s.k[c].0[j] = e.k[c].0[x];
+                    s.ok[c].0[j] = e.ok[c].0[x];
+                    s.v[c].0[j] = e.v[c].0[x];
+                }
+                s.sx.0[j] = e.sx.0[x];
+                s.sy.0[j] = e.sy.0[x];
+                s.sz.0[j] = e.sz.0[x];
+                s.t_min.0[j] = e.t_min.0[x];
+                s.t_max.0[j] = e.t_max.0[x];
+                s.t_leave.0[j] = e.t_leave.0[x];
+                pre[j] = Some(RayPre {
+                    org: Vec3::new(e.o[0].0[x], e.o[1].0[x], e.o[2].0[x]),
+                    kx: e.k[0].0[x] as usize,
+                    ky: e.k[1].0[x] as usize,
+                    kz: e.k[2].0[x] as usize,
+                    sx: e.sx.0[x],
+                    sy: e.sy.0[x],
+                    sz: e.sz.0[x],
+                    t_min: e.t_min.0[x],
+                    t_max: e.t_max.0[x],
+                });
+                best[j] = Hit::MISS;
+                s.best_t.0[j] = f32::INFINITY;
+                s.steps.0[j] = 0;
+                s.tests.0[j] = 0;
+                s.active.0[j] = -1;
             }
             let mut act = ldi(&s.active);
             if mask_bits(act) == 0 {

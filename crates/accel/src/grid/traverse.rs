@@ -49,16 +49,16 @@ fn floor_i64(x: f32) -> i64 {
     }
 }
 
-/// One ray in flight (also the entry state of a lane of [`super::lanes`]).
+/// One ray in flight (`super::lanes` computes the same entry state eight rays at a time).
 #[derive(Clone, Copy)]
-pub(super) struct Lane {
-    pub(super) o: Vec3,
-    pub(super) d: Vec3,
-    pub(super) inv: Vec3,
-    pub(super) neg: [bool; 3],
-    pub(super) pre: RayPre,
-    pub(super) v: [u32; 3],
-    pub(super) t_leave: f32,
+struct Lane {
+    o: Vec3,
+    d: Vec3,
+    inv: Vec3,
+    neg: [bool; 3],
+    pre: RayPre,
+    v: [u32; 3],
+    t_leave: f32,
     best: Hit,
     counts: RayCounts,
 }
@@ -66,7 +66,7 @@ pub(super) struct Lane {
 impl Lane {
     /// The ray's state at its entry into the grid, or `None` when it misses the grid.
     #[inline]
-    pub(super) fn new(g: &Grid, ray: &Ray) -> Option<Lane> {
+    fn new(g: &Grid, ray: &Ray) -> Option<Lane> {
         let (o, d) = (ray.org, ray.dir);
         let inv = d.recip();
         let (t_enter, t_leave) = g.bounds.intersect(o, inv, ray.t_min, ray.t_max)?;
