@@ -50,7 +50,11 @@ pub fn available() -> bool {
 /// record words, voxel-map entries, references).
 fn fits(g: &Grid, tris: &[[Vec3; 3]]) -> bool {
     let lim = i32::MAX as usize;
-    tris.len() < lim / 9 && g.trav.len() < lim / 8 && g.entries.len() < lim && g.refs.len() < lim
+    tris.len() < lim / 9
+        && !g.trav.is_empty()
+        && g.trav.len() < lim / 8
+        && g.entries.len() < lim
+        && g.refs.len() < lim
 }
 
 /// Whether [`trace`] takes the 8-lane kernel for `g` on this CPU.
@@ -224,6 +228,37 @@ mod avx2 {
         at: usize,
         /// Rays of the block that miss the grid (bit x: ray x).
         missed: u32,
+    }
+
+    /// Rows r0..r7 of an 8×8 matrix to its columns.
+    #[inline(always)]
+    unsafe fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
+        let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+        let t1 = _mm256_unpackhi_ps(r[0], r[1]);
+        let t2 = _mm256_unpacklo_ps(r[2], r[3]);
+        let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+        let t4 = _mm256_unpacklo_ps(r[4], r[5]);
+        let t5 = _mm256_unpackhi_ps(r[4], r[5]);
+        let t6 = _mm256_unpacklo_ps(r[6], r[7]);
+        let t7 = _mm256_unpackhi_ps(r[6], r[7]);
+        let u0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+        let u1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+        let u2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+        let u3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+        let u4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+        let u5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+        let u6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+        let u7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+        [
+            _mm256_permute2f128_ps::<0x20>(u0, u4),
+            _mm256_permute2f128_ps::<0x20>(u1, u5),
+            _mm256_permute2f128_ps::<0x20>(u2, u6),
+            _mm256_permute2f128_ps::<0x20>(u3, u7),
+            _mm256_permute2f128_ps::<0x31>(u0, u4),
+            _mm256_permute2f128_ps::<0x31>(u1, u5),
+            _mm256_permute2f128_ps::<0x31>(u2, u6),
+            _mm256_permute2f128_ps::<0x31>(u3, u7),
+        ]
     }
 
     /// Per lane, `x` if `k` is 0, `y` if 1, `z` if 2.
@@ -495,22 +530,28 @@ mod avx2 {
                 sh = _mm256_blendv_epi8(sh, sh2, node);
             }
 
-            // 3. The cell's record: exit box and reference range.
-            let base = _mm256_slli_epi32::<3>(e);
-            let word = |f: i32| {
-                _mm256_mask_i32gather_epi32::<4>(
-                    zero_i,
-                    trav,
-                    _mm256_add_epi32(base, _mm256_set1_epi32(f)),
-                    act,
-                )
-            };
+            // 3. The cells' records (exit box and reference range): one 32-byte load per
+            //    lane, transposed into field vectors (idle lanes read cell 0's, unused).
+            let mut cell = I8::default();
+            sti(&mut cell, e);
+            let rec = |x: usize| _mm256_loadu_ps(trav.add(8 * cell.0[x] as usize) as *const f32);
+            let f = transpose8([
+                rec(0),
+                rec(1),
+                rec(2),
+                rec(3),
+                rec(4),
+                rec(5),
+                rec(6),
+                rec(7),
+            ])
+            .map(|x| im(x));
             for c in 0..3 {
-                sti(&mut s.lo[c], word(c as i32));
-                sti(&mut s.hi[c], word(3 + c as i32));
+                sti(&mut s.lo[c], f[c]);
+                sti(&mut s.hi[c], f[3 + c]);
             }
-            sti(&mut s.cur, word(6));
-            sti(&mut s.end, word(7));
+            sti(&mut s.cur, f[6]);
+            sti(&mut s.end, f[7]);
             let steps = _mm256_sub_epi32(ldi(&s.steps), act);
             sti(&mut s.steps, steps);
 
@@ -558,24 +599,57 @@ mod avx2 {
                     continue;
                 }
                 let tri = _mm256_mask_i32gather_epi32::<4>(zero_i, refs, ldi(&jr), tm);
-                let tb = _mm256_mullo_epi32(tri, nine);
                 let fmask = fm(tm);
                 let perm = |x: __m256| _mm256_permutevar8x32_ps(x, lane);
                 let kj = kk.map(|k| _mm256_permutevar8x32_epi32(k, lane));
                 let oj = okk.map(perm);
                 let [sx, sy, sz, t_min, t_max] = ray_f.map(perm);
-                // Vertex v's component on the job ray's axis kj[c], minus its origin's.
-                let comp = |v: i32, c: usize| {
-                    let idx =
-                        _mm256_add_epi32(_mm256_add_epi32(tb, _mm256_set1_epi32(3 * v)), kj[c]);
-                    _mm256_sub_ps(
-                        _mm256_mask_i32gather_ps::<4>(zero_f, tri_f, idx, fmask),
-                        oj[c],
+                // The jobs' triangles: one 8-float load per job (a, b, c.x, c.y: the first 8
+                // of its 9 floats) transposed into component vectors, and c.z gathered;
+                // masked-out jobs read triangle 0 (there is one: a job exists).
+                let mut tix = I8::default();
+                sti(&mut tix, tri);
+                let row = |x: usize| _mm256_loadu_ps(tri_f.add(9 * tix.0[x] as usize));
+                let [ax0, ay0, az0, bx0, by0, bz0, cx0, cy0] = transpose8([
+                    row(0),
+                    row(1),
+                    row(2),
+                    row(3),
+                    row(4),
+                    row(5),
+                    row(6),
+                    row(7),
+                ]);
+                let tb = _mm256_mullo_epi32(tri, nine);
+                let cz0 =
+                    _mm256_i32gather_ps::<4>(tri_f, _mm256_add_epi32(tb, _mm256_set1_epi32(8)));
+                // Vertex components on the job ray's axes kj[c], minus the origin's.
+                let is = |k: __m256i| {
+                    (
+                        fm(_mm256_cmpeq_epi32(k, _mm256_set1_epi32(1))),
+                        fm(_mm256_cmpeq_epi32(k, _mm256_set1_epi32(2))),
                     )
                 };
-                let (akx, aky, akz) = (comp(0, 0), comp(0, 1), comp(0, 2));
-                let (bkx, bky, bkz) = (comp(1, 0), comp(1, 1), comp(1, 2));
-                let (ckx, cky, ckz) = (comp(2, 0), comp(2, 1), comp(2, 2));
+                let sel = [is(kj[0]), is(kj[1]), is(kj[2])];
+                let comp = |x: __m256, y: __m256, z: __m256, c: usize| {
+                    let (e1, e2) = sel[c];
+                    _mm256_sub_ps(_mm256_blendv_ps(_mm256_blendv_ps(x, y, e1), z, e2), oj[c])
+                };
+                let (akx, aky, akz) = (
+                    comp(ax0, ay0, az0, 0),
+                    comp(ax0, ay0, az0, 1),
+                    comp(ax0, ay0, az0, 2),
+                );
+                let (bkx, bky, bkz) = (
+                    comp(bx0, by0, bz0, 0),
+                    comp(bx0, by0, bz0, 1),
+                    comp(bx0, by0, bz0, 2),
+                );
+                let (ckx, cky, ckz) = (
+                    comp(cx0, cy0, cz0, 0),
+                    comp(cx0, cy0, cz0, 1),
+                    comp(cx0, cy0, cz0, 2),
+                );
                 let ax = _mm256_sub_ps(akx, _mm256_mul_ps(sx, akz));
                 let ay = _mm256_sub_ps(aky, _mm256_mul_ps(sy, akz));
                 let bx = _mm256_sub_ps(bkx, _mm256_mul_ps(sx, bkz));

@@ -434,7 +434,7 @@ impl render::Tracer for GridEngine {
         assert_eq!(hits.len(), rays.len(), "one hit record per ray");
         // Chunks of consecutive rays (coherent batches stay coherent within a chunk), each
         // traced eight rays at a time (or, without AVX2, as one interleaved stream).
-        const CHUNK: usize = 256;
+        const CHUNK: usize = 1024;
         let c = hits
             .par_chunks_mut(CHUNK)
             .enumerate()
