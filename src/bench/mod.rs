@@ -125,8 +125,15 @@ pub fn provenance() -> String {
         .unwrap_or_else(|| "unknown CPU".into());
     // The commit the binary was built from (see build.rs), not the checkout it runs in.
     let commit = env!("RAYSPACE_BUILD_COMMIT");
+    // Which grid traversal kernel this CPU runs (decided at run time; the same hits either
+    // way, not the same speed).
+    let grid = if accel::grid::lanes::available() {
+        "8 AVX2 lanes"
+    } else {
+        "scalar stream"
+    };
     format!(
-        "rayspace {} (commit {commit}, {} build{}), {cpu}, {} threads",
+        "rayspace {} (commit {commit}, {} build{}), {cpu}, {} threads, grid traversal in {grid}",
         env!("CARGO_PKG_VERSION"),
         if cfg!(debug_assertions) {
             "debug"

@@ -12,7 +12,8 @@
 //! pointing at a block of its octree's voxels, with further blocks only below octrees deeper
 //! than a block holds, so octrees may be deep where a small dense object needs it.
 //! Traversal (§5, [`traverse`]): look up the cell of the current voxel, test its triangles,
-//! exit through the far planes of the cell's (expanded) box, step forward.
+//! exit through the far planes of the cell's (expanded) box, step forward; [`lanes`] runs
+//! those steps for eight rays at a time in AVX2 lanes with the same bits.
 //!
 //! Robustness: cell boxes are padded by a small fraction of a voxel when references are
 //! emitted, so a triangle within rounding distance of a cell boundary is referenced on both
