@@ -47,10 +47,12 @@ pub fn available() -> bool {
 }
 
 /// Whether every gather offset of `g` over `tris` fits an i32 (triangle floats, cell
-/// record words, voxel-map entries, references).
+/// record words, voxel-map entries, references), and triangle 0 and cell 0 exist (idle
+/// lanes read them and ignore what they read).
 fn fits(g: &Grid, tris: &[[Vec3; 3]]) -> bool {
     let lim = i32::MAX as usize;
-    tris.len() < lim / 9
+    !tris.is_empty()
+        && tris.len() < lim / 9
         && !g.trav.is_empty()
         && g.trav.len() < lim / 8
         && g.entries.len() < lim
