@@ -304,6 +304,42 @@ proptest! {
         lanes_equal_scalar(&g, &geo.tris, &rays, mode, "random");
     }
 
+    /// The lanes' edge paths: direction components that are ±0, subnormal (their reciprocal
+    /// is infinite) or tiny, origins far outside the grid or on its planes, bounded and
+    /// unbounded rays — where the entry's slab test skips NaN axes and the walk's floor
+    /// conversions saturate.
+    #[test]
+    fn lanes_equal_the_scalar_traversal_on_edge_rays(seed in 0u64..1_000_000, ntri in 1usize..200, any_hit in any::<bool>()) {
+        let (geo, _) = random_case(seed, ntri, 1);
+        let g = build_grid(&geo.tris, &GridConfig::default()).unwrap();
+        let mut rng = geom::rng::Pcg32::new(seed, 77);
+        let comps = [0.0f32, -0.0, 1e-40, -1e-40, 1e-30, -1e-20, 0.5, -1.0, 1.0];
+        let places = [0.0f32, -0.0, 1.0, -1.0, 1e6, -1e6, 0.25, 1e-38];
+        let mut rays = render::RayBatch::default();
+        for i in 0..256u32 {
+            let d = Vec3::new(
+                comps[rng.below(comps.len() as u32) as usize],
+                comps[rng.below(comps.len() as u32) as usize],
+                comps[rng.below(comps.len() as u32) as usize],
+            );
+            if d == Vec3::ZERO {
+                continue;
+            }
+            let o = Vec3::new(
+                places[rng.below(places.len() as u32) as usize] + rng.range(-0.01, 0.01) * (i % 2) as f32,
+                places[rng.below(places.len() as u32) as usize],
+                places[rng.below(places.len() as u32) as usize],
+            );
+            let t_max = if i % 3 == 0 { rng.range(0.0, 3.0) } else { f32::INFINITY };
+            rays.push(geom::Ray::new(o, d, 0.0, t_max), render::RayKind::Reflection, i, 0, Vec3::ONE, 0);
+        }
+        let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
+        lanes_equal_scalar(&g, &geo.tris, &rays, mode, "edge rays");
+        let mut expect = vec![Hit::MISS; rays.len()];
+        BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
+        assert_same_hits(&GridEngine::new(&geo, &GridConfig::default()).unwrap(), &rays, mode, &expect, "edge rays");
+    }
+
     #[test]
     fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..500, nray in 1usize..800, which in 0usize..7, any_hit in any::<bool>()) {
         let (geo, rays) = random_case(seed, ntri, nray);

@@ -38,12 +38,15 @@ impl std::ops::Add for RayCounts {
 pub const STREAM_WIDTH: usize = 8;
 
 /// `floor(x)` as an integer without a libm call (x86-64 without SSE4.1 has no rounding
-/// instruction); exact for |x| < 2^63, NaN → 0 like `floor(x) as i64`.
+/// instruction); exact for |x| < 2^63, saturating beyond (−∞ → i64::MIN, as the GPU twin's
+/// float floor and the 8-lane kernel see it), NaN → 0 like `floor(x) as i64`.
 #[inline]
 fn floor_i64(x: f32) -> i64 {
     let t = x as i64;
     if (t as f32) > x {
-        t - 1
+        // Below −2^63 the cast saturates to i64::MIN, which still compares above x: the
+        // subtraction must saturate too (it wrapped to i64::MAX, a voxel on the far side).
+        t.saturating_sub(1)
     } else {
         t
     }
