@@ -5,9 +5,15 @@
 //! few triangles (Sponza primary rays: N_I / N_T ≈ 1.3), so eight triangles of one cell
 //! would leave most lanes empty, while every step of every ray does the same work — a
 //! voxel-map descent, a cell record, the watertight tests of its list, the exit through the
-//! cell's far planes — which lines up across rays whatever cells they are in. The loads are
-//! gathers, so the eight rays' dependent loads are in flight together (what
-//! [`super::traverse::trace_stream`] gets from prefetching, here for free).
+//! cell's far planes — which lines up across rays whatever cells they are in. The eight
+//! rays' dependent loads are in flight together (what [`super::traverse::trace_stream`]
+//! gets from prefetching): voxel-map entries by gathers, cell records and triangles as one
+//! row load per lane transposed into component vectors (cheaper than gathers).
+//!
+//! Per step: idle lanes take new rays (their entry computed eight at a time); each lane
+//! finds its cell and reads its record; the cells' reference lists become one queue of
+//! (lane, reference) jobs tested eight at a time whatever lane they belong to (a lane per
+//! ray would idle while the longest list runs); then every lane leaves its cell.
 //!
 //! Exactness: every lane performs the scalar code's IEEE-754 operations in the same order
 //! (no FMA: the kernel enables AVX2 only, and Rust never contracts), so each lane's voxel
@@ -20,8 +26,10 @@
 //! - the closest hit is the minimum over (t, triangle), which does not depend on the order
 //!   of the tests; an any-hit lane stops at the first hit of its list order, as the scalar
 //!   loop does, so the test counts agree too;
-//! - `floor` is the rounding instruction, with the scalar conversion's saturation and NaN
-//!   cases mapped to values that take the same branch (see `floor_i32`).
+//! - `floor` is the rounding instruction, with the scalar conversion's saturation (both
+//!   ways) and NaN cases mapped to values that take the same branch (see `floor_i32`);
+//! - the entry's `f32::max`/`min` keep the scalar operand choice except between +0 and −0,
+//!   which give the same voxel (see `enter8`).
 //!
 //! Without AVX2 (checked at run time), or where an index would not fit the gathers' signed
 //! 32-bit offsets, the batch goes to [`super::traverse::trace_stream`] instead.
