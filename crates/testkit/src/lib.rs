@@ -33,8 +33,9 @@ pub fn temp_dir(tag: &str) -> PathBuf {
 }
 
 /// A test that cannot run here for want of `need` (`gpu`: a GPU driver; `scenes`: the shared
-/// real scenes; `display`: an X server; `avx2`: the grid's 8-lane kernel's CPU): prints one `SKIPPED: why` line straight to the terminal (the test harness
-/// hides a passing test's captured output), and the caller returns. A skipped test is not
+/// real scenes; `display`: an X server; `avx2`: the CPU of the grid's 8-lane kernel): prints
+/// one `SKIPPED: why` line straight to the terminal (the test harness hides a passing test's
+/// captured output), and the caller returns. A skipped test is not
 /// a passed test: where `need` is listed in `RAYSPACE_REQUIRE` (comma-separated; `.ci/run`
 /// sets it), it panics instead, so CI fails rather than reporting "ok".
 pub fn skip(need: &str, why: impl std::fmt::Display) {
