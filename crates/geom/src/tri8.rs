@@ -147,6 +147,10 @@ pub fn intersect8(lanes: &RayLanes, first: usize, n: usize, a: Vec3, b: Vec3, c:
     }
 }
 
+/// The 8-lane watertight core, for other kernels that lay out their lanes differently.
+#[cfg(target_arch = "x86_64")]
+pub use avx::{watertight8, Watertight8};
+
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::{Lanes8, RayLanes};
@@ -162,27 +166,45 @@ mod avx {
         _mm256_blendv_ps(_mm256_blendv_ps(v[2], v[1], is1), v[0], is0)
     }
 
+    /// The watertight test's lanes, from here on shared by every 8-lane kernel (this file's
+    /// rays against one triangle, the grid's rays against their own triangles).
+    #[derive(Clone, Copy)]
+    pub struct Watertight8 {
+        /// Lanes with an edge function exactly 0: the scalar kernel's f64 path decides.
+        pub edge: __m256,
+        /// Lanes that hit within (t_min, t_max) (edge lanes included: mask them out).
+        pub hit: __m256,
+        /// Hit distance.
+        pub t: __m256,
+        /// 1 / det (the barycentrics are v · inv and w · inv).
+        pub inv: __m256,
+        /// Edge function v.
+        pub v: __m256,
+        /// Edge function w.
+        pub w: __m256,
+    }
+
+    /// [`crate::tri::intersect`] per lane, from each vertex minus the ray's origin on the
+    /// shear's axes (kx, ky, kz), the shear constants (sx, sy, sz) and the ray's interval:
+    /// the shear (a product, then a difference: never fused), the three edge functions, the
+    /// sign test, det = (u + v) + w, ((u·az + v·bz) + w·cz) · (1 / det). Each step is one
+    /// IEEE-754 operation, so a lane's t has the scalar kernel's bits.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must have AVX (callers check at run time, or call from a function that
+    /// enables AVX or AVX2).
+    #[inline]
     #[target_feature(enable = "avx")]
-    pub(super) unsafe fn intersect8(l: &RayLanes, first: usize, all: u8, tri: [Vec3; 3]) -> Lanes8 {
-        // SAFETY (every load): the arrays hold len + 8 floats and first < len.
-        let ld = |v: &Vec<f32>| unsafe { _mm256_loadu_ps(v.as_ptr().add(first)) };
-        let k = [ld(&l.k[0]), ld(&l.k[1]), ld(&l.k[2])];
-        let ok = [ld(&l.ok[0]), ld(&l.ok[1]), ld(&l.ok[2])];
-        // Each vertex minus the origin, in the shear's axes: v[k] − org[k] (tri.rs: `a - r.org`).
-        let rel = |p: Vec3| {
-            let v = [
-                _mm256_set1_ps(p.x),
-                _mm256_set1_ps(p.y),
-                _mm256_set1_ps(p.z),
-            ];
-            [
-                _mm256_sub_ps(pick(v, k[0]), ok[0]),
-                _mm256_sub_ps(pick(v, k[1]), ok[1]),
-                _mm256_sub_ps(pick(v, k[2]), ok[2]),
-            ]
-        };
-        let (sx, sy, sz) = (ld(&l.s[0]), ld(&l.s[1]), ld(&l.s[2]));
-        let [a, b, c] = tri.map(rel);
+    pub fn watertight8(
+        a: [__m256; 3],
+        b: [__m256; 3],
+        c: [__m256; 3],
+        s: [__m256; 3],
+        t_min: __m256,
+        t_max: __m256,
+    ) -> Watertight8 {
+        let [sx, sy, sz] = s;
         // Shear: x − s·z, a product then a difference.
         let sh = |p: [__m256; 3], s: __m256, j: usize| _mm256_sub_ps(p[j], _mm256_mul_ps(s, p[2]));
         let (ax, ay) = (sh(a, sx, 0), sh(a, sy, 1));
@@ -212,11 +234,44 @@ mod avx {
         let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
         let t = _mm256_mul_ps(t_scaled, inv);
         let inside = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_GT_OQ>(t, ld(&l.t_min)),
-            _mm256_cmp_ps::<_CMP_LT_OQ>(t, ld(&l.t_max)),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(t, t_min),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(t, t_max),
         );
         let miss = _mm256_or_ps(_mm256_and_ps(neg, pos), eq0(det));
         let hit = _mm256_andnot_ps(miss, inside);
+        Watertight8 {
+            edge,
+            hit,
+            t,
+            inv,
+            v,
+            w,
+        }
+    }
+
+    #[target_feature(enable = "avx")]
+    pub(super) unsafe fn intersect8(l: &RayLanes, first: usize, all: u8, tri: [Vec3; 3]) -> Lanes8 {
+        // SAFETY (every load): the arrays hold len + 8 floats and first < len.
+        let ld = |v: &Vec<f32>| unsafe { _mm256_loadu_ps(v.as_ptr().add(first)) };
+        let k = [ld(&l.k[0]), ld(&l.k[1]), ld(&l.k[2])];
+        let ok = [ld(&l.ok[0]), ld(&l.ok[1]), ld(&l.ok[2])];
+        // Each vertex minus the origin, in the shear's axes: v[k] − org[k] (tri.rs: `a - r.org`).
+        let rel = |p: Vec3| {
+            let v = [
+                _mm256_set1_ps(p.x),
+                _mm256_set1_ps(p.y),
+                _mm256_set1_ps(p.z),
+            ];
+            [
+                _mm256_sub_ps(pick(v, k[0]), ok[0]),
+                _mm256_sub_ps(pick(v, k[1]), ok[1]),
+                _mm256_sub_ps(pick(v, k[2]), ok[2]),
+            ]
+        };
+        let s = [ld(&l.s[0]), ld(&l.s[1]), ld(&l.s[2])];
+        let [a, b, c] = tri.map(rel);
+        let w = watertight8(a, b, c, s, ld(&l.t_min), ld(&l.t_max));
+        let (edge, hit, t) = (w.edge, w.hit, w.t);
         let redo = _mm256_movemask_ps(edge) as u8 & all;
         let hit = _mm256_movemask_ps(hit) as u8 & all & !redo;
         let mut out = [0.0f32; 8];

@@ -97,6 +97,7 @@ mod avx2 {
     use super::super::{CellRec, Grid};
     use super::LANES;
     use geom::tri::{intersect, RayPre};
+    use geom::tri8::watertight8;
     use geom::Vec3;
     use render::{Hit, RayBatch, TraceMode};
     use std::arch::x86_64::*;
@@ -115,21 +116,8 @@ mod avx2 {
     /// lane writes its column).
     #[derive(Default)]
     struct State {
-        o: [F8; 3],
-        d: [F8; 3],
-        inv: [F8; 3],
-        /// All ones where the direction's component has its sign bit set.
-        neg: [I8; 3],
-        /// The shear's axes (kx, ky, kz) and the origin's components on them.
-        k: [I8; 3],
-        ok: [F8; 3],
-        sx: F8,
-        sy: F8,
-        sz: F8,
-        t_min: F8,
-        t_max: F8,
-        v: [I8; 3],
-        t_leave: F8,
+        /// Each lane's ray as it entered the grid, its voxel and exit distance since.
+        r: Entry,
         best_t: F8,
         steps: I8,
         tests: I8,
@@ -193,6 +181,7 @@ mod avx2 {
     struct Consts {
         bmin: [__m256; 3],
         bmax: [__m256; 3],
+        voxel: [__m256; 3],
         inv_voxel: [__m256; 3],
         dims_m1: [__m256i; 3],
     }
@@ -203,6 +192,7 @@ mod avx2 {
             Consts {
                 bmin: [0, 1, 2].map(|k| _mm256_set1_ps(g.bounds.min[k])),
                 bmax: [0, 1, 2].map(|k| _mm256_set1_ps(g.bounds.max[k])),
+                voxel: [0, 1, 2].map(|k| _mm256_set1_ps(g.voxel[k])),
                 inv_voxel: [0, 1, 2].map(|k| _mm256_set1_ps(g.inv_voxel[k])),
                 dims_m1: [0, 1, 2].map(|k| _mm256_set1_epi32(g.dims[k] as i32 - 1)),
             }
@@ -210,12 +200,14 @@ mod avx2 {
     }
 
     /// A ray's state at its entry into the grid (`traverse::Lane::new`'s), eight rays at a time.
-    #[derive(Default)]
+    #[derive(Clone, Copy, Default)]
     struct Entry {
         o: [F8; 3],
         d: [F8; 3],
         inv: [F8; 3],
+        /// All ones where the direction's component has its sign bit set.
         neg: [I8; 3],
+        /// The shear's axes (kx, ky, kz) and the origin's components on them.
         k: [I8; 3],
         ok: [F8; 3],
         sx: F8,
@@ -225,6 +217,31 @@ mod avx2 {
         t_max: F8,
         v: [I8; 3],
         t_leave: F8,
+    }
+
+    impl Entry {
+        /// Lane `x` of `from` into lane `j`.
+        fn copy_lane(&mut self, j: usize, from: &Entry, x: usize) {
+            for c in 0..3 {
+                self.o[c].0[j] = from.o[c].0[x];
+                self.d[c].0[j] = from.d[c].0[x];
+                self.inv[c].0[j] = from.inv[c].0[x];
+                self.neg[c].0[j] = from.neg[c].0[x];
+                self.k[c].0[j] = from.k[c].0[x];
+                self.ok[c].0[j] = from.ok[c].0[x];
+                self.v[c].0[j] = from.v[c].0[x];
+            }
+            for (dst, src) in [
+                (&mut self.sx, &from.sx),
+                (&mut self.sy, &from.sy),
+                (&mut self.sz, &from.sz),
+                (&mut self.t_min, &from.t_min),
+                (&mut self.t_max, &from.t_max),
+                (&mut self.t_leave, &from.t_leave),
+            ] {
+                dst.0[j] = src.0[x];
+            }
+        }
     }
 
     /// Rays that entered the grid, waiting for a lane: `lane[at..n]` index `e`'s columns,
@@ -429,10 +446,13 @@ mod avx2 {
         let mut jobs_ref: Vec<i32> = Vec::with_capacity(256);
 
         // Grid constants.
-        let bmin = [0, 1, 2].map(|k| _mm256_set1_ps(g.bounds.min[k]));
-        let voxel = [0, 1, 2].map(|k| _mm256_set1_ps(g.voxel[k]));
-        let inv_voxel = [0, 1, 2].map(|k| _mm256_set1_ps(g.inv_voxel[k]));
-        let dims = [0, 1, 2].map(|k| _mm256_set1_epi32(g.dims[k] as i32));
+        let Consts {
+            bmin,
+            voxel,
+            inv_voxel,
+            dims_m1,
+            ..
+        } = consts;
         let shift = _mm256_set1_epi32(g.shift as i32);
         let td0 = _mm256_set1_epi32(g.top_dims[0] as i32);
         let td1 = _mm256_set1_epi32(g.top_dims[1] as i32);
@@ -468,21 +488,7 @@ mod avx2 {
                 let e = &q.e;
                 ray[j] = q.ray[q.at];
                 q.at += 1;
-                for c in 0..3 {
-                    s.o[c].0[j] = e.o[c].0[x];
-                    s.d[c].0[j] = e.d[c].0[x];
-                    s.inv[c].0[j] = e.inv[c].0[x];
-                    s.neg[c].0[j] = e.neg[c].0[x];
-                    s.k[c].0[j] = e.k[c].0[x];
-                    s.ok[c].0[j] = e.ok[c].0[x];
-                    s.v[c].0[j] = e.v[c].0[x];
-                }
-                s.sx.0[j] = e.sx.0[x];
-                s.sy.0[j] = e.sy.0[x];
-                s.sz.0[j] = e.sz.0[x];
-                s.t_min.0[j] = e.t_min.0[x];
-                s.t_max.0[j] = e.t_max.0[x];
-                s.t_leave.0[j] = e.t_leave.0[x];
+                s.r.copy_lane(j, e, x);
                 pre[j] = Some(RayPre {
                     org: Vec3::new(e.o[0].0[x], e.o[1].0[x], e.o[2].0[x]),
                     kx: e.k[0].0[x] as usize,
@@ -507,7 +513,7 @@ mod avx2 {
 
             // 2. The cell of each lane's voxel: the top entry, then down the blocks
             //    (`Grid::lookup`, `voxelmap::descend`).
-            let v = [ldi(&s.v[0]), ldi(&s.v[1]), ldi(&s.v[2])];
+            let v = [ldi(&s.r.v[0]), ldi(&s.r.v[1]), ldi(&s.r.v[2])];
             let t = [0, 1, 2].map(|k| _mm256_srlv_epi32(v[k], shift));
             let top = _mm256_add_epi32(
                 t[0],
@@ -585,9 +591,15 @@ mod avx2 {
                     jobs_ref.push(r);
                 }
             }
-            let kk = [ldi(&s.k[0]), ldi(&s.k[1]), ldi(&s.k[2])];
-            let okk = [ld(&s.ok[0]), ld(&s.ok[1]), ld(&s.ok[2])];
-            let ray_f = [ld(&s.sx), ld(&s.sy), ld(&s.sz), ld(&s.t_min), ld(&s.t_max)];
+            let kk = [ldi(&s.r.k[0]), ldi(&s.r.k[1]), ldi(&s.r.k[2])];
+            let okk = [ld(&s.r.ok[0]), ld(&s.r.ok[1]), ld(&s.r.ok[2])];
+            let ray_f = [
+                ld(&s.r.sx),
+                ld(&s.r.sy),
+                ld(&s.r.sz),
+                ld(&s.r.t_min),
+                ld(&s.r.t_max),
+            ];
             let iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
             let mut at = 0;
             while at < jobs_lane.len() {
@@ -645,56 +657,19 @@ mod avx2 {
                     let (e1, e2) = sel[c];
                     _mm256_sub_ps(_mm256_blendv_ps(_mm256_blendv_ps(x, y, e1), z, e2), oj[c])
                 };
-                let (akx, aky, akz) = (
-                    comp(ax0, ay0, az0, 0),
-                    comp(ax0, ay0, az0, 1),
-                    comp(ax0, ay0, az0, 2),
+                let rel = |x: __m256, y: __m256, z: __m256| {
+                    [comp(x, y, z, 0), comp(x, y, z, 1), comp(x, y, z, 2)]
+                };
+                let wt = watertight8(
+                    rel(ax0, ay0, az0),
+                    rel(bx0, by0, bz0),
+                    rel(cx0, cy0, cz0),
+                    [sx, sy, sz],
+                    t_min,
+                    t_max,
                 );
-                let (bkx, bky, bkz) = (
-                    comp(bx0, by0, bz0, 0),
-                    comp(bx0, by0, bz0, 1),
-                    comp(bx0, by0, bz0, 2),
-                );
-                let (ckx, cky, ckz) = (
-                    comp(cx0, cy0, cz0, 0),
-                    comp(cx0, cy0, cz0, 1),
-                    comp(cx0, cy0, cz0, 2),
-                );
-                let ax = _mm256_sub_ps(akx, _mm256_mul_ps(sx, akz));
-                let ay = _mm256_sub_ps(aky, _mm256_mul_ps(sy, akz));
-                let bx = _mm256_sub_ps(bkx, _mm256_mul_ps(sx, bkz));
-                let by = _mm256_sub_ps(bky, _mm256_mul_ps(sy, bkz));
-                let cx = _mm256_sub_ps(ckx, _mm256_mul_ps(sx, ckz));
-                let cy = _mm256_sub_ps(cky, _mm256_mul_ps(sy, ckz));
-                let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
-                let vv = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
-                let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-                let eq0 = |x| _mm256_cmp_ps::<_CMP_EQ_OQ>(x, zero_f);
-                let lt0 = |x| _mm256_cmp_ps::<_CMP_LT_OQ>(x, zero_f);
-                let gt0 = |x| _mm256_cmp_ps::<_CMP_GT_OQ>(x, zero_f);
-                let redo = _mm256_or_ps(_mm256_or_ps(eq0(u), eq0(vv)), eq0(w));
-                let rej = _mm256_and_ps(
-                    _mm256_or_ps(_mm256_or_ps(lt0(u), lt0(vv)), lt0(w)),
-                    _mm256_or_ps(_mm256_or_ps(gt0(u), gt0(vv)), gt0(w)),
-                );
-                let det = _mm256_add_ps(_mm256_add_ps(u, vv), w);
-                let az = _mm256_mul_ps(sz, akz);
-                let bz = _mm256_mul_ps(sz, bkz);
-                let cz = _mm256_mul_ps(sz, ckz);
-                let ts = _mm256_add_ps(
-                    _mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(vv, bz)),
-                    _mm256_mul_ps(w, cz),
-                );
-                let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
-                let tt = _mm256_mul_ps(ts, inv);
-                let inside = _mm256_and_ps(
-                    _mm256_cmp_ps::<_CMP_GT_OQ>(tt, t_min),
-                    _mm256_cmp_ps::<_CMP_LT_OQ>(tt, t_max),
-                );
-                let hit = _mm256_andnot_ps(
-                    _mm256_or_ps(_mm256_or_ps(redo, rej), eq0(det)),
-                    _mm256_and_ps(inside, fmask),
-                );
+                let redo = wt.edge;
+                let hit = _mm256_andnot_ps(redo, _mm256_and_ps(wt.hit, fmask));
                 let look = _mm256_movemask_ps(_mm256_or_ps(hit, _mm256_and_ps(redo, fmask)));
                 if look == 0 {
                     continue;
@@ -704,9 +679,9 @@ mod avx2 {
                 let hit_bits = _mm256_movemask_ps(hit);
                 let (mut ta, mut ua, mut va, mut tria) =
                     (F8::default(), F8::default(), F8::default(), I8::default());
-                st(&mut ta, tt);
-                st(&mut ua, _mm256_mul_ps(vv, inv));
-                st(&mut va, _mm256_mul_ps(w, inv));
+                st(&mut ta, wt.t);
+                st(&mut ua, _mm256_mul_ps(wt.v, wt.inv));
+                st(&mut va, _mm256_mul_ps(wt.w, wt.inv));
                 sti(&mut tria, tri);
                 for x in 0..n {
                     let j = jl.0[x] as usize;
@@ -743,9 +718,9 @@ mod avx2 {
             sti(&mut s.tests, tests);
 
             // 5. Leave each lane's cell through its exit box's far planes (`Lane::leave`).
-            let o = [ld(&s.o[0]), ld(&s.o[1]), ld(&s.o[2])];
-            let d = [ld(&s.d[0]), ld(&s.d[1]), ld(&s.d[2])];
-            let neg = [ldi(&s.neg[0]), ldi(&s.neg[1]), ldi(&s.neg[2])];
+            let o = [ld(&s.r.o[0]), ld(&s.r.o[1]), ld(&s.r.o[2])];
+            let d = [ld(&s.r.d[0]), ld(&s.r.d[1]), ld(&s.r.d[2])];
+            let neg = [ldi(&s.r.neg[0]), ldi(&s.r.neg[1]), ldi(&s.r.neg[2])];
             let lo = [ldi(&s.lo[0]), ldi(&s.lo[1]), ldi(&s.lo[2])];
             let hi = [ldi(&s.hi[0]), ldi(&s.hi[1]), ldi(&s.hi[2])];
             let mut t_exit = _mm256_set1_ps(f32::INFINITY);
@@ -755,7 +730,7 @@ mod avx2 {
                 let face = _mm256_blendv_epi8(hi[k], lo[k], neg[k]);
                 let plane =
                     _mm256_add_ps(bmin[k], _mm256_mul_ps(_mm256_cvtepi32_ps(face), voxel[k]));
-                let tk = _mm256_mul_ps(_mm256_sub_ps(plane, o[k]), ld(&s.inv[k]));
+                let tk = _mm256_mul_ps(_mm256_sub_ps(plane, o[k]), ld(&s.r.inv[k]));
                 let upd = _mm256_and_ps(moving, _mm256_cmp_ps::<_CMP_LT_OQ>(tk, t_exit));
                 t_exit = _mm256_blendv_ps(t_exit, tk, upd);
                 axis = _mm256_blendv_epi8(axis, _mm256_set1_epi32(k as i32), im(upd));
@@ -763,7 +738,7 @@ mod avx2 {
             let mut done = _mm256_or_si256(
                 im(_mm256_or_ps(
                     _mm256_cmp_ps::<_CMP_LT_OQ>(ld(&s.best_t), t_exit),
-                    _mm256_cmp_ps::<_CMP_GE_OQ>(t_exit, ld(&s.t_leave)),
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(t_exit, ld(&s.r.t_leave)),
                 )),
                 _mm256_cmpeq_epi32(axis, _mm256_set1_epi32(3)),
             );
@@ -783,14 +758,14 @@ mod avx2 {
                     _mm256_blendv_epi8(_mm256_blendv_epi8(forward, v[k], still), across, on_axis);
                 let out = _mm256_or_si256(
                     _mm256_cmpgt_epi32(zero_i, n),
-                    _mm256_cmpgt_epi32(n, _mm256_sub_epi32(dims[k], one)),
+                    _mm256_cmpgt_epi32(n, dims_m1[k]),
                 );
                 done = _mm256_or_si256(done, out);
                 nv[k] = n;
             }
             let go = _mm256_andnot_si256(done, act);
             for k in 0..3 {
-                sti(&mut s.v[k], _mm256_blendv_epi8(v[k], nv[k], go));
+                sti(&mut s.r.v[k], _mm256_blendv_epi8(v[k], nv[k], go));
             }
             let fin = mask_bits(_mm256_and_si256(done, act));
             if fin != 0 {
