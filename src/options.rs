@@ -7,7 +7,7 @@ use crate::engines::{Engine, EngineOptions};
 use accel::grid::{GridConfig, Subdivision};
 use clap::builder::TypedValueParser as _;
 use clap::{Args, Parser};
-use rsh::{Descent, HashBits, HashKind, NodeTest, ObjectHierarchy, RshConfig, Union};
+use rsh::{Descent, HashBits, HashKind, NodeTest, ObjectHierarchy, RshConfig, Schedule, Union};
 use scene::MeshSplit;
 
 /// A command's options with every default, as if given no arguments.
@@ -139,6 +139,10 @@ pub struct RshArgs {
     /// With `--object-hierarchy bvh`: which node of a surviving pair is expanded.
     #[arg(long, value_enum, default_value_t = RshConfig::crsh().descent)]
     pub descent: Descent,
+    /// With `--object-hierarchy bvh`: take the pairs depth first per top ray node (fast on
+    /// the CPU), or level by level in data-parallel steps (the GPU's shape).
+    #[arg(long, value_enum, default_value_t = RshConfig::crsh().schedule)]
+    pub schedule: Schedule,
 }
 
 impl RshArgs {
@@ -154,6 +158,7 @@ impl RshArgs {
             node_test: self.node_test,
             pair_budget: self.pair_budget,
             descent: self.descent,
+            schedule: self.schedule,
             ..RshConfig::crsh()
         }
     }

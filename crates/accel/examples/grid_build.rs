@@ -18,10 +18,12 @@ fn main() {
     let (s, geo) = common::load(spec);
     let mut best: Option<Vec<(&'static str, f64)>> = None;
     let mut cells = 0;
+    let mut shape = (0, 0, 0);
     let mut best_total = f64::MAX;
     for _ in 0..repeats {
         let g = build_grid(&geo.tris, &cfg).unwrap();
         cells = g.cells();
+        shape = (g.build.initial_cells, g.build.merge_rounds, g.refs.len());
         let p = g.build.passes();
         best_total = best_total.min(p.iter().map(|x| x.1).sum());
         best = Some(match best {
@@ -33,7 +35,15 @@ fn main() {
                 .collect(),
         });
     }
-    println!("{}: {} triangles, {} cells", s.name, geo.len(), cells);
+    println!(
+        "{}: {} triangles, {} initial cells, {} merge rounds, {} cells, {} references",
+        s.name,
+        geo.len(),
+        shape.0,
+        shape.1,
+        cells,
+        shape.2
+    );
     for (name, t) in best.unwrap() {
         println!("{name:>12} {:8.2} ms", t * 1e3);
     }

@@ -27,7 +27,7 @@ use geom::cone::{exact_test, rah_test, ConeSc};
 use geom::{intersect, Vec3};
 use par::{compress_runs, emit_streams, sort_pairs, Pairs, SortScratch};
 use rayon::prelude::*;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 /// Which side of a surviving (ray node, inner object node) pair is expanded.
@@ -42,6 +42,74 @@ pub enum Descent {
     ObjectFirst,
     /// The ray node until single rays, then the object node (each ray walks its subtree).
     RayFirst,
+}
+
+/// In which order the pairs are taken (the same pairs are tested either way, except those an
+/// any-hit ray that already hit no longer needs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Schedule {
+    /// Each top ray node's pairs depth first on one worker's stack, top nodes in parallel
+    /// (the default): no pair array is ever materialised, a ray node's record stays in
+    /// cache while it walks an object subtree, and a ray's hits are known to its later
+    /// pairs (an any-hit ray that hit drops out). Every ray belongs to one top node, so a
+    /// ray's work happens in one task, in one order: hits and counts do not depend on the
+    /// schedule of the workers.
+    Depth,
+    /// Level by level, the GPU's shape: one stack of pairs per ray level; each step tests a
+    /// chunk of one stack data-parallel and emits the survivors' expansions (count → scan
+    /// → emit), memory bounded by the pair budget.
+    Breadth,
+}
+
+/// A pair waiting on a depth-first task's stack: ray level `l` (0: the single ray at leaf
+/// position `r`; L ≥ 1: node `r` of `levels[L − 1]`) and object node `o`.
+#[derive(Clone, Copy)]
+struct Job {
+    l: u32,
+    r: u32,
+    o: u32,
+}
+
+/// One depth-first task's counts (merged in a fixed order: sums and a maximum).
+#[derive(Clone)]
+struct Tally {
+    tests: Vec<[u64; 4]>,
+    hits: Vec<[u64; 4]>,
+    inner: u64,
+    finals: [u64; 4],
+    boxes: u64,
+    passes: u64,
+    peak: u64,
+}
+
+impl Tally {
+    fn new(levels: usize) -> Tally {
+        Tally {
+            tests: vec![[0; 4]; levels],
+            hits: vec![[0; 4]; levels],
+            inner: 0,
+            finals: [0; 4],
+            boxes: 0,
+            passes: 0,
+            peak: 0,
+        }
+    }
+
+    fn merge(mut self, o: Tally) -> Tally {
+        for (a, b) in self.tests.iter_mut().zip(&o.tests) {
+            *a = std::array::from_fn(|k| a[k] + b[k]);
+        }
+        for (a, b) in self.hits.iter_mut().zip(&o.hits) {
+            *a = std::array::from_fn(|k| a[k] + b[k]);
+        }
+        self.inner += o.inner;
+        self.finals = std::array::from_fn(|k| self.finals[k] + o.finals[k]);
+        self.boxes += o.boxes;
+        self.passes += o.passes;
+        self.peak = self.peak.max(o.peak);
+        self
+    }
 }
 
 /// What a tested pair becomes.
@@ -216,6 +284,167 @@ impl Traversal<'_> {
         }
     }
 
+    /// Run the dual traversal depth first ([`Schedule::Depth`]), the final tests among it,
+    /// adding to `c`: every top ray node is one task that pops pairs from its own stack
+    /// (`peak_pairs`: the most one task held). `descent` and `diag` as in
+    /// [`Traversal::run_dual`]. An object node's two children are pushed nearer first
+    /// along the ray node's cone axis, a ray node's children in leaf order.
+    pub fn run_depth(
+        &self,
+        tree: &ObjectTree,
+        descent: Descent,
+        diag: f32,
+        rays: &RaySide,
+        c: &mut Counters,
+    ) {
+        let nl = self.h.levels.len();
+        c.tests = vec![[0; 4]; nl];
+        c.hits = vec![[0; 4]; nl];
+        if nl == 0 {
+            return;
+        }
+        let ray_nodes = self.ray_nodes(rays, diag);
+        // Any hit: per node, its rays still without a hit (a node at 0 has no work left),
+        // and each node's parent, so a ray's first hit is counted off every node above it. Only the
+        // task of the ray's top node touches these (Relaxed atomics, never contended).
+        let open = rays.any_hit.then(|| self.open_rays());
+        let resolve = |p: usize| {
+            if let Some((left, parent)) = &open {
+                let mut n = p;
+                for (l, up) in left.iter().zip(parent) {
+                    n = up[n] as usize;
+                    l[n].fetch_sub(1, Ordering::Relaxed);
+                }
+            }
+        };
+        let done = |li: usize, n: usize| {
+            open.as_ref()
+                .is_some_and(|(left, _)| left[li][n].load(Ordering::Relaxed) == 0)
+        };
+        let nt = self.h.levels[nl - 1].len();
+        let t = (0..nt)
+            .into_par_iter()
+            .with_min_len(4)
+            .fold(
+                || (Tally::new(nl), Vec::<Job>::new(), Vec::<u32>::new()),
+                |(mut t, mut stack, mut walk), top| {
+                    stack.push(Job {
+                        l: nl as u32,
+                        r: top as u32,
+                        o: tree.root,
+                    });
+                    while let Some(j) = stack.pop() {
+                        t.peak = t.peak.max(stack.len() as u64 + 1);
+                        let (r, o) = (j.r as usize, j.o);
+                        if j.l == 0 {
+                            walk.push(o);
+                            let (kind, w, first) = self.walk_ray(tree, rays, r, &mut walk);
+                            if first {
+                                resolve(r);
+                            }
+                            t.finals[kind] += w[0];
+                            t.boxes += w[1];
+                            t.passes += w[2];
+                            continue;
+                        }
+                        let li = j.l as usize - 1;
+                        if done(li, r) {
+                            continue;
+                        }
+                        let node = &ray_nodes[li][r];
+                        let a = self.classify(tree, descent, node, li, o);
+                        let k = node.kind as usize;
+                        t.tests[li][k] += 1;
+                        t.hits[li][k] += (a != DROP) as u64;
+                        t.inner += (o & LEAF == 0) as u64;
+                        match a {
+                            FINAL => {
+                                t.finals[k] += self.final_test(r, o & !LEAF, &mut |p| resolve(p))
+                            }
+                            RAY => {
+                                let ch = self.h.levels[li].children(r);
+                                stack.extend(ch.rev().map(|x| Job {
+                                    l: li as u32,
+                                    r: x as u32,
+                                    o,
+                                }));
+                            }
+                            OBJECT => {
+                                let [x, y] = tree.child[o as usize];
+                                let along = |x: u32| {
+                                    let b = if x & LEAF != 0 {
+                                        &tree.leaf[(x & !LEAF) as usize]
+                                    } else {
+                                        &tree.node[x as usize]
+                                    };
+                                    (b.sphere.center - node.center).dot(node.cone.axis)
+                                };
+                                let (near, far) =
+                                    if along(x) <= along(y) { (x, y) } else { (y, x) };
+                                stack.push(Job {
+                                    l: j.l,
+                                    r: j.r,
+                                    o: far,
+                                });
+                                stack.push(Job {
+                                    l: j.l,
+                                    r: j.r,
+                                    o: near,
+                                });
+                            }
+                            _ => {}
+                        }
+                    }
+                    (t, stack, walk)
+                },
+            )
+            .map(|(t, _, _)| t)
+            .reduce(|| Tally::new(nl), Tally::merge);
+        for li in 0..nl {
+            c.tests[li] = t.tests[li];
+            c.hits[li] = t.hits[li];
+        }
+        c.object_tests += t.inner;
+        c.final_tests = std::array::from_fn(|k| c.final_tests[k] + t.finals[k]);
+        c.ray_box_tests += t.boxes;
+        c.ray_box_passes += t.passes;
+        c.peak_pairs = c.peak_pairs.max(t.peak);
+    }
+
+    /// Per level, every node's count of rays without a hit yet, and every node's parent one
+    /// level up (level 0's parents: the leaf positions').
+    #[allow(clippy::type_complexity)]
+    fn open_rays(&self) -> (Vec<Vec<AtomicU32>>, Vec<Vec<u32>>) {
+        let levels = &self.h.levels;
+        let mut left: Vec<Vec<AtomicU32>> = Vec::with_capacity(levels.len());
+        let mut parent: Vec<Vec<u32>> = Vec::with_capacity(levels.len());
+        for (li, level) in levels.iter().enumerate() {
+            let below = if li == 0 {
+                self.h.order.len()
+            } else {
+                levels[li - 1].len()
+            };
+            let mut up = vec![0u32; below];
+            let mut count = Vec::with_capacity(level.len());
+            for n in 0..level.len() {
+                let mut rays = 0u32;
+                for ch in level.children(n) {
+                    up[ch] = n as u32;
+                    rays += if li == 0 {
+                        (self.best[self.h.order[ch] as usize].load(Ordering::Relaxed) == u64::MAX)
+                            as u32
+                    } else {
+                        left[li - 1][ch].load(Ordering::Relaxed)
+                    };
+                }
+                count.push(AtomicU32::new(rays));
+            }
+            left.push(count);
+            parent.push(up);
+        }
+        (left, parent)
+    }
+
     /// Every level's node records: beams of level 1 from its rays, of each level above
     /// from its children; `diag` caps unbounded rays' lengths in the reach.
     fn ray_nodes(&self, rays: &RaySide, diag: f32) -> Vec<Vec<RayNode>> {
@@ -264,6 +493,44 @@ impl Traversal<'_> {
         out
     }
 
+    /// What pair (ray node `node` of `levels[li]`, object node `o`) becomes: the node's cone
+    /// against the object's sphere, then its rays as a beam against the object's box (both
+    /// conservative, so both must pass); a survivor is a final test (a triangle at level 1),
+    /// or expands the side `descent` picks (always the ray side against a triangle).
+    #[inline]
+    fn classify(
+        &self,
+        tree: &ObjectTree,
+        descent: Descent,
+        node: &RayNode,
+        li: usize,
+        o: u32,
+    ) -> u8 {
+        let leaf = o & LEAF != 0;
+        let ob = if leaf {
+            &tree.leaf[(o & !LEAF) as usize]
+        } else {
+            &tree.node[o as usize]
+        };
+        let (p, d) = (ob.sphere.center, ob.sphere.radius);
+        if !node.beam_test(&ob.bbox) || !node.cone_test(self.test, p, d) {
+            return DROP;
+        }
+        if leaf {
+            return if li == 0 { FINAL } else { RAY };
+        }
+        let object = match descent {
+            Descent::ObjectFirst => true,
+            Descent::RayFirst => false,
+            Descent::Size => d >= node.reach,
+        };
+        if object {
+            OBJECT
+        } else {
+            RAY
+        }
+    }
+
     /// Test (node of `levels[li]`, object node) pairs; run the final tests of the (level-1
     /// node, triangle) survivors and return the expanded pairs: (one ray level down, same
     /// level).
@@ -281,33 +548,7 @@ impl Traversal<'_> {
         let level = &self.h.levels[li];
         // Test, decide what each survivor becomes, and count (in the same pass): tests and
         // passes per ray kind, object-node tests apart as well.
-        let classify = |node: &RayNode, o: u32| {
-            let leaf = o & LEAF != 0;
-            let ob = if leaf {
-                &tree.leaf[(o & !LEAF) as usize]
-            } else {
-                &tree.node[o as usize]
-            };
-            let (p, d) = (ob.sphere.center, ob.sphere.radius);
-            // The node's cone against the object's sphere, then its rays as a beam
-            // against the object's box: both conservative, so both must pass.
-            if !node.cone_test(self.test, p, d) || !node.beam_test(&ob.bbox) {
-                return DROP;
-            }
-            if leaf {
-                return if li == 0 { FINAL } else { RAY };
-            }
-            let object = match descent {
-                Descent::ObjectFirst => true,
-                Descent::RayFirst => false,
-                Descent::Size => d >= node.reach,
-            };
-            if object {
-                OBJECT
-            } else {
-                RAY
-            }
-        };
+        let classify = |node: &RayNode, o: u32| self.classify(tree, descent, node, li, o);
         const BLOCK: usize = 2048;
         let mut action = vec![DROP; rn.len()];
         let (tests, hits, inner) = action
@@ -381,6 +622,73 @@ impl Traversal<'_> {
         (below, here)
     }
 
+    /// The ray at leaf position `pos` walks the object subtrees on `stack` (popped from the
+    /// top) depth first: a triangle is a final test, an inner node's children get robust
+    /// slab tests, the nearer child first. The ray's closest hit so far caps the slabs
+    /// (inclusive, so a tie with a smaller triangle id still gets through); with any-hit it
+    /// stops at its first hit. Returns the ray's kind, (final tests, slab tests, slab
+    /// passes) and whether this walk gave the ray its first hit.
+    fn walk_ray(
+        &self,
+        tree: &ObjectTree,
+        rays: &RaySide,
+        pos: usize,
+        stack: &mut Vec<u32>,
+    ) -> (usize, [u64; 3], bool) {
+        let r = self.h.order[pos] as usize;
+        let kind = rays.kind[r] as usize & 3;
+        let pre = &self.pre[r];
+        let inv = rays.inv_dir[r];
+        let mut best = self.best[r].load(Ordering::Relaxed);
+        let (mut f, mut b, mut p) = (0u64, 0u64, 0u64);
+        while let Some(o) = stack.pop() {
+            if rays.any_hit && best != u64::MAX {
+                stack.clear();
+                break;
+            }
+            if o & LEAF != 0 {
+                let t = o & !LEAF;
+                let [a, bb, cc] = self.scene.tris[t as usize];
+                f += 1;
+                if let Some(hit) = intersect(pre, a, bb, cc) {
+                    best = best.min(pack(hit.t, t));
+                }
+                continue;
+            }
+            let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
+            let [bx, by] = &tree.child_box[o as usize];
+            let slab = |x: u32, b: &geom::Aabb| {
+                if x & LEAF != 0 {
+                    Some(0.0)
+                } else {
+                    b.intersect(pre.org, inv, pre.t_min, far).map(|h| h.0)
+                }
+            };
+            let [x, y] = tree.child[o as usize];
+            let inner = (x & LEAF == 0) as u64 + (y & LEAF == 0) as u64;
+            let (hx, hy) = (slab(x, bx), slab(y, by));
+            b += inner;
+            p += inner
+                - (x & LEAF == 0 && hx.is_none()) as u64
+                - (y & LEAF == 0 && hy.is_none()) as u64;
+            match (hx, hy) {
+                (Some(tx), Some(ty)) => {
+                    // Nearer child on top of the stack.
+                    if tx <= ty {
+                        stack.extend([y, x]);
+                    } else {
+                        stack.extend([x, y]);
+                    }
+                }
+                (Some(_), None) => stack.push(x),
+                (None, Some(_)) => stack.push(y),
+                (None, None) => {}
+            }
+        }
+        let first = best != u64::MAX && self.best[r].fetch_min(best, Ordering::Relaxed) == u64::MAX;
+        (kind, [f, b, p], first)
+    }
+
     /// Single rays (leaf positions) against object nodes: the pairs are sorted by ray, then
     /// each ray walks its object subtrees depth first on its own (a triangle is a final
     /// test, an inner node's children get robust slab tests, the nearer child first). A ray
@@ -402,67 +710,19 @@ impl Traversal<'_> {
         let mut run_ray = vec![0u32; pos.len()];
         let mut run_size = vec![0u32; pos.len()];
         let runs = compress_runs(&pos, &mut run_ray, &mut head, &mut run_size);
-        let order = &self.h.order;
         let (finals, boxes, passes) = (0..runs)
             .into_par_iter()
             .with_min_len(256)
             .fold(
                 || ([0u64; 4], 0u64, 0u64, Vec::<u32>::new()),
                 |(mut f, mut b, mut p, mut stack), k| {
-                    let r = order[run_ray[k] as usize] as usize;
-                    let kind = rays.kind[r] as usize & 3;
-                    let pre = &self.pre[r];
-                    let inv = rays.inv_dir[r];
-                    let mut best = self.best[r].load(Ordering::Relaxed);
                     let start = head[k] as usize;
                     stack.clear();
                     stack.extend(on[start..start + run_size[k] as usize].iter().rev());
-                    while let Some(o) = stack.pop() {
-                        if rays.any_hit && best != u64::MAX {
-                            break;
-                        }
-                        if o & LEAF != 0 {
-                            let t = o & !LEAF;
-                            let [a, bb, cc] = self.scene.tris[t as usize];
-                            f[kind] += 1;
-                            if let Some(hit) = intersect(pre, a, bb, cc) {
-                                best = best.min(pack(hit.t, t));
-                            }
-                            continue;
-                        }
-                        let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
-                        let [bx, by] = &tree.child_box[o as usize];
-                        let slab = |x: u32, b: &geom::Aabb| {
-                            if x & LEAF != 0 {
-                                Some(0.0)
-                            } else {
-                                b.intersect(pre.org, inv, pre.t_min, far).map(|h| h.0)
-                            }
-                        };
-                        let [x, y] = tree.child[o as usize];
-                        let inner = (x & LEAF == 0) as u64 + (y & LEAF == 0) as u64;
-                        let (hx, hy) = (slab(x, bx), slab(y, by));
-                        b += inner;
-                        p += inner
-                            - (x & LEAF == 0 && hx.is_none()) as u64
-                            - (y & LEAF == 0 && hy.is_none()) as u64;
-                        match (hx, hy) {
-                            (Some(tx), Some(ty)) => {
-                                // Nearer child on top of the stack.
-                                if tx <= ty {
-                                    stack.extend([y, x]);
-                                } else {
-                                    stack.extend([x, y]);
-                                }
-                            }
-                            (Some(_), None) => stack.push(x),
-                            (None, Some(_)) => stack.push(y),
-                            (None, None) => {}
-                        }
-                    }
-                    if best != u64::MAX {
-                        self.best[r].fetch_min(best, Ordering::Relaxed);
-                    }
+                    let (kind, w, _) = self.walk_ray(tree, rays, run_ray[k] as usize, &mut stack);
+                    f[kind] += w[0];
+                    b += w[1];
+                    p += w[2];
                     (f, b, p, stack)
                 },
             )

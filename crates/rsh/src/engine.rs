@@ -2,7 +2,7 @@
 //! they differ only where the papers differ (leaf order, mesh culling, defaults).
 
 use crate::build::{build, Union};
-use crate::dual::{Descent, RaySide};
+use crate::dual::{Descent, RaySide, Schedule};
 use crate::hash::{HashBits, HashKind};
 use crate::objects::{self, ObjectTree};
 use crate::order::{leaf_order, Grouping};
@@ -64,6 +64,8 @@ pub struct RshConfig {
     pub objects: ObjectHierarchy,
     /// With [`ObjectHierarchy::Bvh`]: which node of a pair is expanded.
     pub descent: Descent,
+    /// With [`ObjectHierarchy::Bvh`]: in which order the pairs are taken.
+    pub schedule: Schedule,
 }
 
 /// Default pair budget: 2^24 pairs (128 MiB for the two u32 arrays of one buffer).
@@ -105,6 +107,7 @@ impl RshConfig {
             pair_budget: DEFAULT_PAIR_BUDGET,
             objects: ObjectHierarchy::MeshSpheres,
             descent: Descent::Size,
+            schedule: Schedule::Depth,
         }
     }
 
@@ -304,7 +307,12 @@ impl Tracer for RshEngine {
                     kind: &kind,
                     any_hit: mode == TraceMode::Any,
                 };
-                trav.run_dual(
+                let run = match self.cfg.schedule {
+                    Schedule::Depth => Traversal::run_depth,
+                    Schedule::Breadth => Traversal::run_dual,
+                };
+                run(
+                    &trav,
                     tree,
                     self.cfg.descent,
                     self.bounds.diagonal(),
@@ -320,7 +328,12 @@ impl Tracer for RshEngine {
         }
         let total = t1.elapsed().as_secs_f64();
         stats.time(Phase::Traversal, total - c.final_seconds);
-        stats.time(Phase::FinalTests, c.final_seconds);
+        // The depth-first schedule interleaves the final tests with the pair tests (timing
+        // each would cost more than many of them): its traversal phase holds both.
+        let interleaved = dual.is_some() && self.cfg.schedule == Schedule::Depth;
+        if !interleaved {
+            stats.time(Phase::FinalTests, c.final_seconds);
+        }
         // Records: recompute the winner with the shared kernel (bit-identical to brute force).
         hits.par_iter_mut().enumerate().for_each(|(i, out)| {
             let b = best[i].load(Ordering::Relaxed);

@@ -18,7 +18,7 @@ pub mod order;
 pub mod traverse;
 
 pub use build::Union;
-pub use dual::Descent;
+pub use dual::{Descent, Schedule};
 pub use engine::{Method, ObjectHierarchy, RshConfig, RshEngine};
 pub use hash::{HashBits, HashKind};
 pub use traverse::NodeTest;

@@ -374,7 +374,6 @@ impl Traversal<'_> {
     /// Level-1 survivors: every ray of the node against the triangle (§3.2.9).
     pub(crate) fn final_tests(&self, sn: &[u32], st: &[u32], c: &mut Counters) {
         let l1 = &self.h.levels[0];
-        let order = &self.h.order;
         let tests = sn
             .par_iter()
             .zip(st.par_iter())
@@ -382,32 +381,46 @@ impl Traversal<'_> {
             .fold(
                 || [0u64; 4],
                 |mut acc, (&n, &t)| {
-                    let [a, b, cc] = self.scene.tris[t as usize];
-                    let leaves = l1.children(n as usize);
-                    acc[l1.kind[n as usize] as usize & 3] += leaves.len() as u64;
-                    // The node's rays 8 lanes at a time, with the scalar kernel's bits; lanes
-                    // on an exact edge (and every lane without AVX) take the scalar kernel.
-                    let mut p = leaves.start;
-                    while p < leaves.end {
-                        let k = (leaves.end - p).min(8);
-                        let r8 = intersect8(self.lanes, p, k, a, b, cc);
-                        for_lanes(r8.hit, |l| {
-                            let r = order[p + l] as usize;
-                            self.best[r].fetch_min(pack(r8.t[l], t), Ordering::Relaxed);
-                        });
-                        for_lanes(r8.redo, |l| {
-                            let r = order[p + l] as usize;
-                            if let Some(hit) = intersect(&self.pre[r], a, b, cc) {
-                                self.best[r].fetch_min(pack(hit.t, t), Ordering::Relaxed);
-                            }
-                        });
-                        p += k;
-                    }
+                    acc[l1.kind[n as usize] as usize & 3] +=
+                        self.final_test(n as usize, t, &mut |_| {});
                     acc
                 },
             )
             .reduce(|| [0; 4], add4);
         c.final_tests = add4(c.final_tests, tests);
+    }
+
+    /// The exact tests of level-1 node `n`'s rays against triangle `t`, closest hits by
+    /// atomic minimum; `first` is told the leaf position of every ray that had no hit
+    /// before. Returns the tests made (the node's rays).
+    #[inline]
+    pub(crate) fn final_test(&self, n: usize, t: u32, first: &mut impl FnMut(usize)) -> u64 {
+        let [a, b, cc] = self.scene.tris[t as usize];
+        let leaves = self.h.levels[0].children(n);
+        let order = &self.h.order;
+        // The node's rays 8 lanes at a time, with the scalar kernel's bits; lanes on an
+        // exact edge (and every lane without AVX) take the scalar kernel.
+        let mut p = leaves.start;
+        while p < leaves.end {
+            let k = (leaves.end - p).min(8);
+            let r8 = intersect8(self.lanes, p, k, a, b, cc);
+            for_lanes(r8.hit, |l| {
+                let r = order[p + l] as usize;
+                if self.best[r].fetch_min(pack(r8.t[l], t), Ordering::Relaxed) == u64::MAX {
+                    first(p + l);
+                }
+            });
+            for_lanes(r8.redo, |l| {
+                let r = order[p + l] as usize;
+                if let Some(hit) = intersect(&self.pre[r], a, b, cc) {
+                    if self.best[r].fetch_min(pack(hit.t, t), Ordering::Relaxed) == u64::MAX {
+                        first(p + l);
+                    }
+                }
+            });
+            p += k;
+        }
+        leaves.len() as u64
     }
 }
 

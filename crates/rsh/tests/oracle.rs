@@ -11,7 +11,7 @@ use accel::BruteForce;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
 use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
-use rsh::{Descent, HashKind, NodeTest, ObjectHierarchy, RshConfig, RshEngine, Union};
+use rsh::{Descent, HashKind, NodeTest, ObjectHierarchy, RshConfig, RshEngine, Schedule, Union};
 use scene::{builtin, Geometry};
 use testkit::soup_case as random_case;
 
@@ -62,19 +62,25 @@ fn object_hierarchy_matches_brute_force() {
         for base in [RshConfig::crsh(), RshConfig::rah()] {
             for (k, descent) in descents.into_iter().enumerate() {
                 for (b, d, budget) in [(8u32, 2u32, 1 << 20), (4, 3, 1024), (16, 0, 1 << 20)] {
-                    let cfg = RshConfig {
-                        objects: ObjectHierarchy::Bvh,
-                        descent,
-                        branching: b,
-                        levels: d,
-                        pair_budget: budget,
-                        mesh_culling: base.mesh_culling ^ (k == 1),
-                        ..base.clone()
-                    };
-                    let e = RshEngine::new(&geo, cfg.clone()).unwrap();
-                    for (j, (rays, mode, hits)) in batches.iter().enumerate() {
-                        let what = format!("{name} {:?} {descent:?} {b}/{d} batch {j}", cfg.method);
-                        assert_same_hits(&e, rays, *mode, hits, &what);
+                    for schedule in [Schedule::Depth, Schedule::Breadth] {
+                        let cfg = RshConfig {
+                            objects: ObjectHierarchy::Bvh,
+                            descent,
+                            schedule,
+                            branching: b,
+                            levels: d,
+                            pair_budget: budget,
+                            mesh_culling: base.mesh_culling ^ (k == 1),
+                            ..base.clone()
+                        };
+                        let e = RshEngine::new(&geo, cfg.clone()).unwrap();
+                        for (j, (rays, mode, hits)) in batches.iter().enumerate() {
+                            let what = format!(
+                                "{name} {:?} {descent:?} {schedule:?} {b}/{d} batch {j}",
+                                cfg.method
+                            );
+                            assert_same_hits(&e, rays, *mode, hits, &what);
+                        }
                     }
                 }
             }
@@ -88,10 +94,14 @@ fn object_hierarchy_counts_are_deterministic() {
     let s = builtin::office(7);
     let geo = Geometry::from_scene(&s);
     let batches = record_render(&s, &geo, 48, 40, 2);
-    for descent in [Descent::RayFirst, Descent::Size, Descent::ObjectFirst] {
+    let runs = [Descent::RayFirst, Descent::Size, Descent::ObjectFirst]
+        .into_iter()
+        .flat_map(|d| [(d, Schedule::Depth), (d, Schedule::Breadth)]);
+    for (descent, schedule) in runs {
         let cfg = RshConfig {
             objects: ObjectHierarchy::Bvh,
             descent,
+            schedule,
             ..RshConfig::crsh()
         };
         let e = RshEngine::new(&geo, cfg).unwrap();
@@ -105,7 +115,7 @@ fn object_hierarchy_counts_are_deterministic() {
         };
         let first = run();
         for _ in 0..3 {
-            assert_eq!(run(), first, "{descent:?}");
+            assert_eq!(run(), first, "{descent:?} {schedule:?}");
         }
     }
 }
@@ -219,16 +229,65 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
     #[test]
-    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4) {
+    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4, breadth in any::<bool>()) {
         let (geo, rays) = random_case(seed, ntri, nray);
         let base = if rah { RshConfig::rah() } else { RshConfig::crsh() };
         // 0: the thesis's mesh spheres; 1–3: the object hierarchy with each descent rule.
         let descents = [Descent::RayFirst, Descent::RayFirst, Descent::Size, Descent::ObjectFirst];
         let objects_kind = if objects == 0 { ObjectHierarchy::MeshSpheres } else { ObjectHierarchy::Bvh };
-        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, objects: objects_kind, descent: descents[objects], ..base };
+        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, objects: objects_kind, descent: descents[objects], schedule: if breadth { Schedule::Breadth } else { Schedule::Depth }, ..base };
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];
         BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
         assert_same_hits(&RshEngine::new(&geo, cfg).unwrap(), &rays, mode, &expect, "random");
+    }
+}
+
+/// The two schedules take the same pairs in different orders: with closest hits (where no
+/// pair depends on a hit) they test the same pairs, level by level, and with any hit the
+/// depth-first one, which drops rays that hit, tests no more.
+#[test]
+fn schedules_test_the_same_pairs() {
+    let s = builtin::office(7);
+    let geo = Geometry::from_scene(&s);
+    let batches = record_render(&s, &geo, 48, 40, 2);
+    for descent in [Descent::RayFirst, Descent::Size, Descent::ObjectFirst] {
+        let counts = |schedule| {
+            let cfg = RshConfig {
+                objects: ObjectHierarchy::Bvh,
+                descent,
+                schedule,
+                ..RshConfig::crsh()
+            };
+            let e = RshEngine::new(&geo, cfg).unwrap();
+            batches
+                .iter()
+                .map(|(rays, mode, _)| {
+                    let mut st = TraceStats::default();
+                    let mut got = vec![Hit::MISS; rays.len()];
+                    e.trace(rays, *mode, &mut got, &mut st);
+                    let object = st.counters[render::stats::counter::OBJECT_NODE_TESTS];
+                    (*mode, st.levels.clone(), object)
+                })
+                .collect::<Vec<_>>()
+        };
+        let (depth, breadth) = (counts(Schedule::Depth), counts(Schedule::Breadth));
+        let mut any = 0;
+        for ((mode, dl, dobj), (_, bl, bobj)) in depth.iter().zip(&breadth) {
+            match mode {
+                TraceMode::Closest => {
+                    assert_eq!(dl.tests, bl.tests, "{descent:?}: per-level tests");
+                    assert_eq!(dl.hits, bl.hits, "{descent:?}: per-level passes");
+                    assert_eq!(dobj, bobj, "{descent:?}: object-node tests");
+                }
+                TraceMode::Any => {
+                    any += 1;
+                    for (d, b) in dl.tests.iter().flatten().zip(bl.tests.iter().flatten()) {
+                        assert!(d <= b, "{descent:?}: depth first tested more ({d} > {b})");
+                    }
+                }
+            }
+        }
+        assert!(any > 0, "the render traced shadow rays");
     }
 }
