@@ -21,6 +21,7 @@
 //! step's other rays), and the sequence of steps depends only on the pair counts, so hits
 //! and counts are the same from run to run.
 
+use crate::node8::{self, NodeFields, NodeLanes};
 use crate::objects::{ObjectTree, LEAF};
 use crate::traverse::{pack, Counters, NodeTest, Traversal};
 use geom::cone::{exact_test, rah_test, ConeSc};
@@ -63,12 +64,14 @@ pub enum Schedule {
 }
 
 /// A pair waiting on a depth-first task's stack: ray level `l` (0: the single ray at leaf
-/// position `r`; L ≥ 1: node `r` of `levels[L − 1]`) and object node `o`.
+/// position `r`; L ≥ 1: node `r` of `levels[L − 1]`), object node `o`, and what it becomes
+/// when it was tested already (with its siblings, in lanes), else `DROP`.
 #[derive(Clone, Copy)]
 struct Job {
     l: u32,
     r: u32,
     o: u32,
+    act: u8,
 }
 
 /// One depth-first task's counts (merged in a fixed order: sums and a maximum).
@@ -96,6 +99,14 @@ impl Tally {
         }
     }
 
+    /// One test of a ray node of `levels[li]` (kind `k`) against object node `o`.
+    #[inline]
+    fn count(&mut self, li: usize, k: usize, pass: bool, o: u32) {
+        self.tests[li][k] += 1;
+        self.hits[li][k] += pass as u64;
+        self.inner += (o & LEAF == 0) as u64;
+    }
+
     fn merge(mut self, o: Tally) -> Tally {
         for (a, b) in self.tests.iter_mut().zip(&o.tests) {
             *a = std::array::from_fn(|k| a[k] + b[k]);
@@ -112,7 +123,27 @@ impl Tally {
     }
 }
 
-/// What a tested pair becomes.
+/// What a pair (ray node `node` of `levels[li]`, object node `o` of sphere radius `d`) that
+/// passed its test becomes: a final test (a triangle at level 1), else an expansion of the
+/// side `descent` picks (always the ray side against a triangle).
+#[inline]
+fn action(descent: Descent, node: &RayNode, li: usize, o: u32, d: f32) -> u8 {
+    if o & LEAF != 0 {
+        return if li == 0 { FINAL } else { RAY };
+    }
+    let object = match descent {
+        Descent::ObjectFirst => true,
+        Descent::RayFirst => false,
+        Descent::Size => d >= node.reach,
+    };
+    if object {
+        OBJECT
+    } else {
+        RAY
+    }
+}
+
+/// What a tested pair becomes (on a depth-first stack, `DROP` marks a pair not tested yet).
 const DROP: u8 = 0;
 const FINAL: u8 = 1;
 const RAY: u8 = 2;
@@ -321,6 +352,32 @@ impl Traversal<'_> {
             open.as_ref()
                 .is_some_and(|(left, _)| left[li][n].load(Ordering::Relaxed) == 0)
         };
+        // Ray nodes as lanes for the children tests (RAH's node test on a CPU with AVX; every
+        // level but the top is some node's children).
+        let lanes = (self.test == NodeTest::Rah && node8::available()).then(|| {
+            ray_nodes[..nl - 1]
+                .iter()
+                .map(|level| {
+                    NodeLanes::new(level.len(), |i| {
+                        let x = &level[i];
+                        NodeFields {
+                            center: x.center,
+                            radius: x.radius,
+                            axis: x.cone.axis,
+                            sin: x.cone.sin,
+                            cos: x.cone.cos,
+                            wide: x.cone.wide,
+                            max_t: x.max_t,
+                            tmin: x.tmin,
+                            omin: x.omin,
+                            omax: x.omax,
+                            ilo: x.ilo,
+                            ihi: x.ihi,
+                        }
+                    })
+                })
+                .collect::<Vec<_>>()
+        });
         let nt = self.h.levels[nl - 1].len();
         let t = (0..nt)
             .into_par_iter()
@@ -332,6 +389,7 @@ impl Traversal<'_> {
                         l: nl as u32,
                         r: top as u32,
                         o: tree.root,
+                        act: DROP,
                     });
                     while let Some(j) = stack.pop() {
                         t.peak = t.peak.max(stack.len() as u64 + 1);
@@ -348,18 +406,51 @@ impl Traversal<'_> {
                             continue;
                         }
                         let li = j.l as usize - 1;
-                        if done(li, r) {
-                            continue;
-                        }
                         let node = &ray_nodes[li][r];
-                        let a = self.classify(tree, descent, node, li, o);
                         let k = node.kind as usize;
-                        t.tests[li][k] += 1;
-                        t.hits[li][k] += (a != DROP) as u64;
-                        t.inner += (o & LEAF == 0) as u64;
+                        let a = if j.act != DROP {
+                            j.act
+                        } else {
+                            if done(li, r) {
+                                continue;
+                            }
+                            let a = self.classify(tree, descent, node, li, o);
+                            t.count(li, k, a != DROP, o);
+                            a
+                        };
                         match a {
                             FINAL => {
                                 t.finals[k] += self.final_test(r, o & !LEAF, &mut |p| resolve(p))
+                            }
+                            RAY if li >= 1 && lanes.is_some() => {
+                                // The children against the object 8 at a time; the pairs
+                                // that pass wait with their action, first child on top.
+                                let (cl, lanes) = (li - 1, &lanes.as_ref().unwrap()[li - 1]);
+                                let ch = self.h.levels[li].children(r);
+                                let ob = tree.bounds(o);
+                                let (p, d) = (ob.sphere.center, ob.sphere.radius);
+                                let from = stack.len();
+                                for x0 in ch.clone().step_by(8) {
+                                    let n = (ch.end - x0).min(8);
+                                    let m = node8::test8(lanes, x0, p, d, &ob.bbox);
+                                    for (i, x) in (x0..x0 + n).enumerate() {
+                                        if done(cl, x) {
+                                            continue;
+                                        }
+                                        let cn = &ray_nodes[cl][x];
+                                        let pass = m >> i & 1 != 0;
+                                        t.count(cl, cn.kind as usize, pass, o);
+                                        if pass {
+                                            stack.push(Job {
+                                                l: li as u32,
+                                                r: x as u32,
+                                                o,
+                                                act: action(descent, cn, cl, o, d),
+                                            });
+                                        }
+                                    }
+                                }
+                                stack[from..].reverse();
                             }
                             RAY => {
                                 let ch = self.h.levels[li].children(r);
@@ -367,30 +458,24 @@ impl Traversal<'_> {
                                     l: li as u32,
                                     r: x as u32,
                                     o,
+                                    act: DROP,
                                 }));
                             }
                             OBJECT => {
                                 let [x, y] = tree.child[o as usize];
                                 let along = |x: u32| {
-                                    let b = if x & LEAF != 0 {
-                                        &tree.leaf[(x & !LEAF) as usize]
-                                    } else {
-                                        &tree.node[x as usize]
-                                    };
-                                    (b.sphere.center - node.center).dot(node.cone.axis)
+                                    (tree.bounds(x).sphere.center - node.center).dot(node.cone.axis)
                                 };
                                 let (near, far) =
                                     if along(x) <= along(y) { (x, y) } else { (y, x) };
-                                stack.push(Job {
-                                    l: j.l,
-                                    r: j.r,
-                                    o: far,
-                                });
-                                stack.push(Job {
-                                    l: j.l,
-                                    r: j.r,
-                                    o: near,
-                                });
+                                for o in [far, near] {
+                                    stack.push(Job {
+                                        l: j.l,
+                                        r: j.r,
+                                        o,
+                                        act: DROP,
+                                    });
+                                }
                             }
                             _ => {}
                         }
@@ -506,29 +591,12 @@ impl Traversal<'_> {
         li: usize,
         o: u32,
     ) -> u8 {
-        let leaf = o & LEAF != 0;
-        let ob = if leaf {
-            &tree.leaf[(o & !LEAF) as usize]
-        } else {
-            &tree.node[o as usize]
-        };
+        let ob = tree.bounds(o);
         let (p, d) = (ob.sphere.center, ob.sphere.radius);
         if !node.beam_test(&ob.bbox) || !node.cone_test(self.test, p, d) {
             return DROP;
         }
-        if leaf {
-            return if li == 0 { FINAL } else { RAY };
-        }
-        let object = match descent {
-            Descent::ObjectFirst => true,
-            Descent::RayFirst => false,
-            Descent::Size => d >= node.reach,
-        };
-        if object {
-            OBJECT
-        } else {
-            RAY
-        }
+        action(descent, node, li, o, d)
     }
 
     /// Test (node of `levels[li]`, object node) pairs; run the final tests of the (level-1
@@ -795,8 +863,98 @@ mod tests {
         }
     }
 
+    /// A random ray node: a bundle of up to 8 rays (some axis-parallel, some unbounded) with
+    /// a random cone, sometimes wide.
+    fn random_node(rng: &mut Pcg32, scale: f32) -> RayNode {
+        let c = Vec3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        ) * scale;
+        let axis = rng.unit_vector();
+        let spread = rng.range(0.0, 1.0);
+        let n = 1 + (rng.next_f32() * 8.0) as usize;
+        let flat = (rng.next_f32() * 5.0) as usize;
+        let rays: Vec<_> = (0..n)
+            .map(|i| {
+                let o = c + rng.unit_vector() * spread * scale * 0.1;
+                let mut d = (axis + rng.unit_vector() * spread).normalize_or(Vec3::X);
+                if i % 2 == 0 && flat < 3 {
+                    d[flat] = 0.0;
+                    d = d.normalize_or(Vec3::Y);
+                }
+                let t1 = if rng.next_f32() < 0.3 {
+                    f32::INFINITY
+                } else {
+                    rng.range(0.1, 4.0) * scale
+                };
+                (o, d, rng.range(0.0, 0.01) * scale, t1)
+            })
+            .collect();
+        let mut node = beam_node(&rays);
+        let angle = rng.range(0.0, 2.0);
+        node.center = c;
+        node.radius = spread * scale * 0.1;
+        node.cone = ConeSc {
+            axis,
+            sin: angle.sin(),
+            cos: angle.cos(),
+            wide: angle >= std::f32::consts::FRAC_PI_2,
+            full: false,
+        };
+        if rng.next_f32() < 0.2 {
+            node.max_t = f32::INFINITY;
+        }
+        node
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2048))]
+
+        /// Eight nodes in lanes give the scalar tests' answers bit for bit (RAH's cone test and
+        /// the beam test), whatever the nodes and the object.
+        #[test]
+        fn lanes_equal_the_scalar_node_test(seed in 0u64..1_000_000, scale in 0.01f32..1000.0) {
+            if !node8::available() {
+                testkit::skip("avx2", "this CPU has no AVX: the dual traversal tests nodes one at a time");
+                return Ok(());
+            }
+            let mut rng = Pcg32::new(seed, 11);
+            let nodes: Vec<RayNode> = (0..13).map(|_| random_node(&mut rng, scale)).collect();
+            let lanes = NodeLanes::new(nodes.len(), |i| {
+                let x = &nodes[i];
+                NodeFields { center: x.center, radius: x.radius, axis: x.cone.axis, sin: x.cone.sin, cos: x.cone.cos, wide: x.cone.wide, max_t: x.max_t, tmin: x.tmin, omin: x.omin, omax: x.omax, ilo: x.ilo, ihi: x.ihi }
+            });
+            for _ in 0..16 {
+                let lo = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0)) * scale;
+                let ext = Vec3::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0)) * scale * rng.range(0.0, 1.0);
+                let b = Aabb::new(lo, lo + ext);
+                let (p, d) = (b.center(), ext.length() * 0.5);
+                // Besides the object's own radius, radii right at each node's cone boundary
+                // (where one rounding decides), a few ulps either side.
+                let at_boundary = |x: &RayNode| {
+                    let cp = p - x.center;
+                    let along = cp.dot(x.cone.axis);
+                    let radial = (cp - x.cone.axis * along).length();
+                    radial * x.cone.cos - along.abs() * x.cone.sin - x.radius - 1e-5 * cp.length()
+                };
+                let mut radii = vec![d];
+                for x in &nodes[..3] {
+                    let d0 = at_boundary(x).max(0.0);
+                    radii.extend((0..7u32).map(|k| f32::from_bits((d0.to_bits() + k).saturating_sub(3))));
+                }
+                for d in radii {
+                    for first in [0usize, 5] {
+                        let m = node8::test8(&lanes, first, p, d, &b);
+                        for i in 0..8.min(nodes.len() - first) {
+                            let x = &nodes[first + i];
+                            let scalar = x.beam_test(&b) && x.cone_test(NodeTest::Rah, p, d);
+                            prop_assert_eq!(m >> i & 1 != 0, scalar, "node {} radius {}", first + i, d);
+                        }
+                    }
+                }
+            }
+        }
 
         /// The beam test never culls a box that one of the node's rays meets: coherent
         /// and incoherent bundles, axis-parallel directions, boxes thin and far.

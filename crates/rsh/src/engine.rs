@@ -249,7 +249,10 @@ impl Tracer for RshEngine {
             self.cfg.union,
         );
         stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
-        let best: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(u64::MAX)).collect();
+        let best: Vec<AtomicU64> = (0..n)
+            .into_par_iter()
+            .map(|_| AtomicU64::new(u64::MAX))
+            .collect();
         // The dual traversal reads rays in leaf order: its rays' constants and best hits are
         // laid out in that order (the hash order scatters ray ids, and every final test
         // would miss the cache), with the hierarchy's leaves renumbered to match. Only the
@@ -270,8 +273,10 @@ impl Tracer for RshEngine {
                 .map(|i| RayPre::new(&rays.ray(i)))
                 .collect(),
         };
-        let best_leaf: Vec<AtomicU64> =
-            leaf_rays.iter().map(|_| AtomicU64::new(u64::MAX)).collect();
+        let best_leaf: Vec<AtomicU64> = leaf_rays
+            .par_iter()
+            .map(|_| AtomicU64::new(u64::MAX))
+            .collect();
         // The final tests' rays in leaf order, 8 lanes at a time (geom::tri8).
         let lanes = RayLanes::gather(&pre, &h.order);
         let trav = Traversal {

@@ -63,6 +63,16 @@ impl ObjectTree {
         self.child.len()
     }
 
+    /// The bounds of node reference `o`: an internal node's, or a leaf's triangle's.
+    #[inline]
+    pub fn bounds(&self, o: u32) -> &Bounds {
+        if o & LEAF != 0 {
+            &self.leaf[(o & !LEAF) as usize]
+        } else {
+            &self.node[o as usize]
+        }
+    }
+
     /// Whether the tree has no internal node (zero or one triangle).
     pub fn is_empty(&self) -> bool {
         self.child.is_empty()

@@ -1,0 +1,225 @@
+//! Eight ray nodes against one object node at once: the dual traversal's node test
+//! ([`crate::dual`]) in AVX lanes, for the pairs a ray-side expansion makes (a node's children,
+//! contiguous in their level, against the object the node met).
+//!
+//! The test is the scalar one, lane by lane, with the same IEEE operations in the same order
+//! and no fused multiply-add, so every lane's answer equals the scalar test's bit for bit
+//! (and so do the traversal's counts):
+//! - RAH's node test (thesis eq. 3.16, Roger et al. 2007 §4.2) of the node's cone against the
+//!   object's bounding sphere ([`geom::cone::rah_test`]); wide cones pass;
+//! - the beam test of the node's rays against the object's box (interval slab arithmetic,
+//!   `RayNode::beam_test` in [`crate::dual`]).
+//!
+//! The exact cone test ([`crate::NodeTest::Exact`]) and CPUs without AVX take the scalar path.
+
+use geom::{Aabb, Vec3};
+
+/// One ray level's node records as lanes (structure of arrays, padded by 8 so a window of 8
+/// lanes starting at any node is in bounds).
+pub(crate) struct NodeLanes {
+    /// Origin sphere centre (x, y, z) and radius.
+    pub c: [Vec<f32>; 3],
+    pub radius: Vec<f32>,
+    /// Cone axis (x, y, z), sin α, cos α; `wide` is all ones where the cone always passes.
+    pub axis: [Vec<f32>; 3],
+    pub sin: Vec<f32>,
+    pub cos: Vec<f32>,
+    pub wide: Vec<f32>,
+    /// Longest ray, smallest t_min.
+    pub max_t: Vec<f32>,
+    pub tmin: Vec<f32>,
+    /// The beam: origins' box and reciprocal directions' box, per axis.
+    pub omin: [Vec<f32>; 3],
+    pub omax: [Vec<f32>; 3],
+    pub ilo: [Vec<f32>; 3],
+    pub ihi: [Vec<f32>; 3],
+}
+
+/// What one node contributes to its lane (the fields of `dual::RayNode` the test reads).
+pub(crate) struct NodeFields {
+    pub center: Vec3,
+    pub radius: f32,
+    pub axis: Vec3,
+    pub sin: f32,
+    pub cos: f32,
+    pub wide: bool,
+    pub max_t: f32,
+    pub tmin: f32,
+    pub omin: Vec3,
+    pub omax: Vec3,
+    pub ilo: Vec3,
+    pub ihi: Vec3,
+}
+
+impl NodeLanes {
+    /// The lanes of `n` nodes, node i's fields from `f(i)`.
+    pub fn new(n: usize, f: impl Fn(usize) -> NodeFields) -> NodeLanes {
+        let z = || vec![0.0f32; n + 8];
+        let z3 = || [z(), z(), z()];
+        let mut l = NodeLanes {
+            c: z3(),
+            radius: z(),
+            axis: z3(),
+            sin: z(),
+            cos: z(),
+            wide: z(),
+            max_t: z(),
+            tmin: z(),
+            omin: z3(),
+            omax: z3(),
+            ilo: z3(),
+            ihi: z3(),
+        };
+        for i in 0..n {
+            let x = f(i);
+            for k in 0..3 {
+                l.c[k][i] = x.center[k];
+                l.axis[k][i] = x.axis[k];
+                l.omin[k][i] = x.omin[k];
+                l.omax[k][i] = x.omax[k];
+                l.ilo[k][i] = x.ilo[k];
+                l.ihi[k][i] = x.ihi[k];
+            }
+            l.radius[i] = x.radius;
+            l.sin[i] = x.sin;
+            l.cos[i] = x.cos;
+            l.wide[i] = if x.wide { f32::from_bits(!0) } else { 0.0 };
+            l.max_t[i] = x.max_t;
+            l.tmin[i] = x.tmin;
+        }
+        l
+    }
+}
+
+/// Whether this CPU runs [`test8`].
+pub(crate) fn available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Lanes `first .. first + 8` against the object of sphere `(p, d)` and box `b`: bit i set
+/// when node `first + i` passes both the RAH cone test and the beam test. Lanes past the
+/// level's nodes read padding; the caller masks them. Needs [`available`].
+#[inline]
+pub(crate) fn test8(l: &NodeLanes, first: usize, p: Vec3, d: f32, b: &Aabb) -> u8 {
+    assert!(first + 8 <= l.radius.len(), "a window of lanes");
+    #[cfg(target_arch = "x86_64")]
+    {
+        debug_assert!(available());
+        // SAFETY: AVX is present (the caller checked `available`); the window is in bounds.
+        unsafe { avx::test8(l, first, p, d, b) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (l, first, p, d, b);
+        unreachable!("test8 without AVX")
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::NodeLanes;
+    use geom::{Aabb, Vec3};
+    use std::arch::x86_64::*;
+
+    #[inline]
+    #[target_feature(enable = "avx")]
+    unsafe fn ld(v: &[f32], at: usize) -> __m256 {
+        _mm256_loadu_ps(v.as_ptr().add(at))
+    }
+
+    #[target_feature(enable = "avx")]
+    pub(super) unsafe fn test8(l: &NodeLanes, at: usize, p: Vec3, d: f32, b: &Aabb) -> u8 {
+        let sign = _mm256_set1_ps(-0.0);
+        let abs = |x: __m256| _mm256_andnot_ps(sign, x);
+        let neg = |x: __m256| _mm256_xor_ps(sign, x);
+        let zero = _mm256_setzero_ps();
+        let inf = _mm256_set1_ps(f32::INFINITY);
+        let dv = _mm256_set1_ps(d);
+        let r = ld(&l.radius, at);
+        let max_t = ld(&l.max_t, at);
+
+        // The beam: tn ≤ tf after every axis whose reciprocal directions are finite and of
+        // one sign (dual::RayNode::beam_test).
+        let mut tn = ld(&l.tmin, at);
+        let mut tf = max_t;
+        for k in 0..3 {
+            let (ilo, ihi) = (ld(&l.ilo[k], at), ld(&l.ihi[k], at));
+            let finite = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_LT_OQ>(abs(ilo), inf),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(abs(ihi), inf),
+            );
+            let pos = _mm256_cmp_ps::<_CMP_GT_OQ>(ilo, zero);
+            let negd = _mm256_cmp_ps::<_CMP_LT_OQ>(ihi, zero);
+            let active = _mm256_and_ps(finite, _mm256_or_ps(pos, negd));
+            let (bmin, bmax) = (_mm256_set1_ps(b.min[k]), _mm256_set1_ps(b.max[k]));
+            let (omin, omax) = (ld(&l.omin[k], at), ld(&l.omax[k], at));
+            // blendv(a, b, m): b where m is set.
+            let near = _mm256_blendv_ps(neg(bmax), bmin, pos);
+            let far = _mm256_blendv_ps(neg(bmin), bmax, pos);
+            let olo = _mm256_blendv_ps(neg(omax), omin, pos);
+            let ohi = _mm256_blendv_ps(neg(omin), omax, pos);
+            let a = _mm256_blendv_ps(neg(ihi), ilo, pos);
+            let c = _mm256_blendv_ps(neg(ilo), ihi, pos);
+            let e = _mm256_sub_ps(near, ohi);
+            let e_pos = _mm256_cmp_ps::<_CMP_GE_OQ>(e, zero);
+            let enter = _mm256_blendv_ps(_mm256_mul_ps(e, c), _mm256_mul_ps(e, a), e_pos);
+            let x = _mm256_sub_ps(far, olo);
+            let x_pos = _mm256_cmp_ps::<_CMP_GE_OQ>(x, zero);
+            let exit = _mm256_blendv_ps(_mm256_mul_ps(x, a), _mm256_mul_ps(x, c), x_pos);
+            let m1 = _mm256_max_ps(abs(near), abs(far));
+            let m2 = _mm256_max_ps(abs(olo), abs(ohi));
+            let slack = _mm256_mul_ps(
+                _mm256_mul_ps(_mm256_add_ps(m1, m2), c),
+                _mm256_set1_ps(1e-6),
+            );
+            // f32::max / min keep the non-NaN operand: max_ps returns its second operand
+            // when either is NaN, and tn, tf are never NaN.
+            let tn2 = _mm256_max_ps(_mm256_sub_ps(enter, slack), tn);
+            let tf2 = _mm256_min_ps(_mm256_add_ps(exit, slack), tf);
+            tn = _mm256_blendv_ps(tn, tn2, active);
+            tf = _mm256_blendv_ps(tf, tf2, active);
+        }
+        let beam = _mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf);
+
+        // RAH's cone test (geom::cone::rah_test), glam's operation order.
+        let cpx = _mm256_sub_ps(_mm256_set1_ps(p.x), ld(&l.c[0], at));
+        let cpy = _mm256_sub_ps(_mm256_set1_ps(p.y), ld(&l.c[1], at));
+        let cpz = _mm256_sub_ps(_mm256_set1_ps(p.z), ld(&l.c[2], at));
+        let dot = |x: __m256, y: __m256, z: __m256, u: __m256, v: __m256, w: __m256| {
+            _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(x, u), _mm256_mul_ps(y, v)),
+                _mm256_mul_ps(z, w),
+            )
+        };
+        let len = _mm256_sqrt_ps(dot(cpx, cpy, cpz, cpx, cpy, cpz));
+        let reach = _mm256_mul_ps(
+            _mm256_add_ps(_mm256_add_ps(r, max_t), dv),
+            _mm256_set1_ps(1.0 + 1e-5),
+        );
+        // Rejected only when len > reach (a NaN passes, as in the scalar `if`).
+        let near_enough = _mm256_cmp_ps::<_CMP_NGT_UQ>(len, reach);
+        let (ax, ay, az) = (ld(&l.axis[0], at), ld(&l.axis[1], at), ld(&l.axis[2], at));
+        let along = dot(cpx, cpy, cpz, ax, ay, az);
+        let rx = _mm256_sub_ps(cpx, _mm256_mul_ps(ax, along));
+        let ry = _mm256_sub_ps(cpy, _mm256_mul_ps(ay, along));
+        let rz = _mm256_sub_ps(cpz, _mm256_mul_ps(az, along));
+        let radial = _mm256_sqrt_ps(dot(rx, ry, rz, rx, ry, rz));
+        let lhs = _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(abs(along), ld(&l.sin, at)),
+                _mm256_add_ps(dv, r),
+            ),
+            _mm256_mul_ps(_mm256_set1_ps(1e-5), len),
+        );
+        let inside = _mm256_cmp_ps::<_CMP_GE_OQ>(lhs, _mm256_mul_ps(radial, ld(&l.cos, at)));
+        let cone = _mm256_or_ps(ld(&l.wide, at), _mm256_and_ps(near_enough, inside));
+        _mm256_movemask_ps(_mm256_and_ps(cone, beam)) as u8
+    }
+}
