@@ -15,11 +15,21 @@
 //! all of them at once (this is what lets the ray hierarchy cut work on real scenes: the
 //! sphere–cone test alone passes most object nodes).
 //!
-//! Pairs wait in one stack per ray level (see [`Traversal::run_dual`]); nothing is ever
-//! dropped. The closest hit per ray is an atomic minimum over (t, triangle), as in
-//! [`crate::traverse`]. Single rays read the hits of earlier steps only (never of their own
-//! step's other rays), and the sequence of steps depends only on the pair counts, so hits
-//! and counts are the same from run to run.
+//! Two schedules take the same pairs ([`Schedule`]):
+//! - `depth` ([`Traversal::run_depth`], the default): every top ray node is one task that
+//!   pops its pairs from its own stack, so no pair array is made, a ray node stays in cache
+//!   while it walks an object subtree, and an any-hit node whose rays all hit drops out. The
+//!   children a ray-side expansion makes are tested 8 at a time in AVX lanes
+//!   ([`crate::node8`]), with the scalar test's bits;
+//! - `breadth` ([`Traversal::run_dual`]): one stack of pairs per ray level, each step a
+//!   data-parallel test → count → scan → emit over a chunk (the GPU's shape), memory bounded
+//!   by the pair budget.
+//!
+//! Nothing is ever dropped. The closest hit per ray is an atomic minimum over (t, triangle),
+//! as in [`crate::traverse`]. Depth first, a ray's work all happens in its top node's task,
+//! in one order; level by level, single rays read the hits of earlier steps only (never of
+//! their own step's other rays), and the sequence of steps depends only on the pair counts.
+//! Either way hits and counts are the same from run to run.
 
 use crate::node8::{self, NodeFields, NodeLanes};
 use crate::objects::{ObjectTree, LEAF};

@@ -13,7 +13,7 @@ pub mod build;
 pub mod dual;
 pub mod engine;
 pub mod hash;
-mod node8;
+pub mod node8;
 pub mod objects;
 pub mod order;
 pub mod traverse;
