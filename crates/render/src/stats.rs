@@ -122,6 +122,9 @@ pub mod counter {
     /// Ray hierarchies with an object hierarchy: the most (ray node, object node) pairs
     /// waiting at once.
     pub const PEAK_PAIRS: &str = "peak pairs";
+    /// Ray hierarchies with an object hierarchy: the bytes those pairs took (depth first:
+    /// one worker's most × the workers, the most they can hold at once).
+    pub const PEAK_PAIR_BYTES: &str = "peak pair bytes";
     /// GPU backend: compute dispatches.
     pub const GPU_KERNEL_LAUNCHES: &str = "gpu kernel launches";
 }

@@ -309,6 +309,8 @@ impl Traversal<'_> {
             };
             let held: usize = stacks.iter().map(|s| s.0.len()).sum();
             c.peak_pairs = c.peak_pairs.max(held as u64);
+            // Two u32 per pair waiting (ray node, object node).
+            c.peak_pair_bytes = c.peak_pair_bytes.max(8 * held as u64);
             let s = &mut stacks[l];
             let at = s.0.len().saturating_sub(chunk);
             let (rn, on) = (s.0.split_off(at), s.1.split_off(at));
@@ -504,6 +506,9 @@ impl Traversal<'_> {
         c.ray_box_tests += t.boxes;
         c.ray_box_passes += t.passes;
         c.peak_pairs = c.peak_pairs.max(t.peak);
+        let workers = rayon::current_num_threads() as u64;
+        let bytes = t.peak * std::mem::size_of::<Job>() as u64 * workers;
+        c.peak_pair_bytes = c.peak_pair_bytes.max(bytes);
     }
 
     /// Per level, every node's count of rays without a hit yet, and every node's parent one

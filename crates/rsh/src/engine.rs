@@ -367,6 +367,7 @@ impl Tracer for RshEngine {
             // Every test counts towards the total (the thesis's % of brute force).
             stats.node_tri_tests += c.ray_box_tests;
             stats.count(counter::PEAK_PAIRS, c.peak_pairs);
+            stats.count(counter::PEAK_PAIR_BYTES, c.peak_pair_bytes);
         }
     }
 

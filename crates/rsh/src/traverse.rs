@@ -71,8 +71,10 @@ pub struct Counters {
     pub ray_box_tests: u64,
     /// Dual traversal: slab tests that passed.
     pub ray_box_passes: u64,
-    /// Dual traversal: the most pairs waiting at once.
+    /// Dual traversal: the most pairs waiting at once (depth first: on one worker's stack).
     pub peak_pairs: u64,
+    /// Dual traversal: the bytes of the pairs waiting at once, at most.
+    pub peak_pair_bytes: u64,
 }
 
 /// One trace call's traversal: the hierarchy, the scene, the rays' constants and their best
