@@ -30,12 +30,13 @@ pub struct TriHit {
 pub struct RayPre {
     /// The ray's origin.
     pub org: Vec3,
-    /// The dimension mapped to x by the shear.
-    pub kx: usize,
+    /// The dimension mapped to x by the shear (a byte: the record is read per triangle test,
+    /// and a batch holds one per ray, so it is kept small).
+    pub kx: u8,
     /// The dimension mapped to y by the shear.
-    pub ky: usize,
+    pub ky: u8,
     /// The dimension of the direction's largest magnitude, mapped to z.
-    pub kz: usize,
+    pub kz: u8,
     /// Shear of x: `d[kx] / d[kz]` (subtracted, times the vertex z, from the vertex x).
     pub sx: f32,
     /// Shear of y: `d[ky] / d[kz]`.
@@ -75,9 +76,9 @@ impl RayPre {
         let sz = 1.0 / d[kz];
         RayPre {
             org: ray.org,
-            kx,
-            ky,
-            kz,
+            kx: kx as u8,
+            ky: ky as u8,
+            kz: kz as u8,
             sx: d[kx] * sz,
             sy: d[ky] * sz,
             sz,
@@ -93,7 +94,7 @@ pub fn intersect(r: &RayPre, a: Vec3, b: Vec3, c: Vec3) -> Option<TriHit> {
     let a = a - r.org;
     let b = b - r.org;
     let c = c - r.org;
-    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
+    let (kx, ky, kz) = (r.kx as usize, r.ky as usize, r.kz as usize);
     let ax = a[kx] - r.sx * a[kz];
     let ay = a[ky] - r.sy * a[kz];
     let bx = b[kx] - r.sx * b[kz];

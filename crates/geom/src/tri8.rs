@@ -76,9 +76,9 @@ impl RayLanes {
                 let q = &pre[r as usize];
                 let org = q.org.to_array();
                 let v = [
-                    org[q.kx],
-                    org[q.ky],
-                    org[q.kz],
+                    org[q.kx as usize],
+                    org[q.ky as usize],
+                    org[q.kz as usize],
                     q.kx as f32,
                     q.ky as f32,
                     q.kz as f32,

@@ -145,7 +145,7 @@ fn group_starts(kind: &[u8], b: usize) -> Vec<u32> {
 /// Build level 1 over the sorted leaves and `levels − 1` more levels above it; with
 /// `levels == 0`, keep going until every kind has a single root.
 pub fn build(rays: &RayBatch, order: Vec<u32>, b: usize, levels: u32, union: Union) -> Hierarchy {
-    assert!(b >= 2, "branching factor must be at least 2");
+    assert!((2..=64).contains(&b), "branching factor must be in 2..=64");
     let leaf_kind: Vec<u8> = order.iter().map(|&r| rays.kind[r as usize]).collect();
     let first = group_starts(&leaf_kind, b);
     let nodes: Vec<(Sphere, Cone, f32, u8)> = (0..first.len() - 1)
@@ -155,8 +155,12 @@ pub fn build(rays: &RayBatch, order: Vec<u32>, b: usize, levels: u32, union: Uni
             let r0 = leaves[0] as usize;
             let sphere = match union {
                 Union::Exact => {
-                    let pts: Vec<Vec3> = leaves.iter().map(|&r| rays.org[r as usize]).collect();
-                    miniball::minimal_ball(&pts).unwrap_or_default()
+                    // At most 64 leaves (the branching factor's cap): no allocation per node.
+                    let mut pts = [Vec3::ZERO; 64];
+                    for (p, &r) in pts.iter_mut().zip(leaves) {
+                        *p = rays.org[r as usize];
+                    }
+                    miniball::minimal_ball(&pts[..leaves.len()]).unwrap_or_default()
                 }
                 Union::Thesis => leaves[1..]
                     .iter()

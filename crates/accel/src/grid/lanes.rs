@@ -491,9 +491,9 @@ mod avx2 {
                 s.r.copy_lane(j, e, x);
                 pre[j] = Some(RayPre {
                     org: Vec3::new(e.o[0].0[x], e.o[1].0[x], e.o[2].0[x]),
-                    kx: e.k[0].0[x] as usize,
-                    ky: e.k[1].0[x] as usize,
-                    kz: e.k[2].0[x] as usize,
+                    kx: e.k[0].0[x] as u8,
+                    ky: e.k[1].0[x] as u8,
+                    kz: e.k[2].0[x] as u8,
                     sx: e.sx.0[x],
                     sy: e.sy.0[x],
                     sz: e.sz.0[x],
