@@ -278,16 +278,22 @@ impl TraceStats {
         self.hits += o.hits;
         self.levels.add(&o.levels);
         for (k, v) in &o.counters {
-            *self.counters.entry(k.clone()).or_default() += v;
+            self.count(k, *v);
         }
         for (k, v) in &o.phases {
             *self.phases.entry(*k).or_default() += v;
         }
     }
 
-    /// Add `n` to the counter `name` (one of [`counter`]).
+    /// Add `n` to the counter `name` (one of [`counter`]); a peak (a name starting with
+    /// "peak") keeps the largest value instead, over calls as within one.
     pub fn count(&mut self, name: &str, n: u64) {
-        *self.counters.entry(name.to_string()).or_default() += n;
+        let c = self.counters.entry(name.to_string()).or_default();
+        if name.starts_with("peak") {
+            *c = (*c).max(n);
+        } else {
+            *c += n;
+        }
     }
 
     /// Add `secs` to `phase`.
@@ -444,6 +450,20 @@ impl RenderStats {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn peaks_keep_the_largest_and_counts_add() {
+        let mut a = TraceStats::default();
+        a.count(counter::PEAK_PAIRS, 30);
+        a.count(counter::PEAK_PAIRS, 12);
+        a.count(counter::CHUNKS, 5);
+        let mut b = TraceStats::default();
+        b.count(counter::PEAK_PAIRS, 40);
+        b.count(counter::CHUNKS, 7);
+        a.add(&b);
+        assert_eq!(a.counters[counter::PEAK_PAIRS], 40);
+        assert_eq!(a.counters[counter::CHUNKS], 12);
+    }
 
     #[test]
     fn totals_and_merge() {
