@@ -348,8 +348,9 @@ impl Traversal<'_> {
         }
         let ray_nodes = self.ray_nodes(rays, diag);
         // Any hit: per node, its rays still without a hit (a node at 0 has no work left),
-        // and each node's parent, so a ray's first hit is counted off every node above it. Only the
-        // task of the ray's top node touches these (Relaxed atomics, never contended).
+        // and each node's parent, so a ray's first hit is counted off every node above it.
+        // Only the task of the ray's top node touches these (Relaxed atomics, never
+        // contended).
         let open = rays.any_hit.then(|| self.open_rays());
         let resolve = |p: usize| {
             if let Some((left, parent)) = &open {
