@@ -175,7 +175,8 @@ pub struct RaySide<'a> {
 /// *beam* for a conservative interval slab test against object boxes (the interval
 /// arithmetic of Boulos et al. 2007's packet tests, applied to the node's rays): the box of
 /// its rays' origins, per axis the interval of their reciprocal directions, the smallest
-/// t_min and the largest t_max.
+/// t_min and the largest t_max (in the rays' own parameter, which is a distance only for unit
+/// directions: `max_t` is the distance, for the cone test).
 #[derive(Clone, Copy)]
 struct RayNode {
     center: Vec3,
@@ -189,21 +190,24 @@ struct RayNode {
     ilo: Vec3,
     ihi: Vec3,
     tmin: f32,
+    tmax: f32,
 }
 
-/// The beam part of a [`RayNode`]: origins' box, reciprocal directions' box, smallest t_min.
-type Beam = (Vec3, Vec3, Vec3, Vec3, f32);
+/// The beam part of a [`RayNode`]: origins' box, reciprocal directions' box, smallest t_min,
+/// largest t_max.
+type Beam = (Vec3, Vec3, Vec3, Vec3, f32, f32);
 
 /// The smallest beam holding every beam of `it`.
 fn beam_union(it: impl Iterator<Item = Beam>) -> Beam {
     let (inf, ninf) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    it.fold((inf, ninf, inf, ninf, f32::INFINITY), |a, b| {
+    it.fold((inf, ninf, inf, ninf, f32::INFINITY, 0.0), |a, b| {
         (
             a.0.min(b.0),
             a.1.max(b.1),
             a.2.min(b.2),
             a.3.max(b.3),
             a.4.min(b.4),
+            a.5.max(b.5),
         )
     })
 }
@@ -225,7 +229,7 @@ impl RayNode {
     /// not restrict.
     #[inline]
     fn beam_test(&self, b: &geom::Aabb) -> bool {
-        let (mut tn, mut tf) = (self.tmin, self.max_t);
+        let (mut tn, mut tf) = (self.tmin, self.tmax);
         for k in 0..3 {
             let (ilo, ihi) = (self.ilo[k], self.ihi[k]);
             if !(ilo.is_finite() && ihi.is_finite()) {
@@ -382,6 +386,7 @@ impl Traversal<'_> {
                             wide: x.cone.wide,
                             max_t: x.max_t,
                             tmin: x.tmin,
+                            tmax: x.tmax,
                             omin: x.omin,
                             omax: x.omax,
                             ilo: x.ilo,
@@ -560,11 +565,11 @@ impl Traversal<'_> {
                     let beam = match below {
                         None => beam_union(order[level.children(n)].iter().map(|&r| {
                             let (p, i) = (&self.pre[r as usize], rays.inv_dir[r as usize]);
-                            (p.org, p.org, i, i, p.t_min)
+                            (p.org, p.org, i, i, p.t_min, p.t_max)
                         })),
                         Some(b) => beam_union(level.children(n).map(|c| {
                             let x = &b[c];
-                            (x.omin, x.omax, x.ilo, x.ihi, x.tmin)
+                            (x.omin, x.omax, x.ilo, x.ihi, x.tmin, x.tmax)
                         })),
                     };
                     let cone = level.cone_sc(n);
@@ -585,6 +590,7 @@ impl Traversal<'_> {
                         ilo: beam.2,
                         ihi: beam.3,
                         tmin: beam.4,
+                        tmax: beam.5,
                     }
                 })
                 .collect();
@@ -856,7 +862,7 @@ mod tests {
     fn beam_node(rays: &[(Vec3, Vec3, f32, f32)]) -> RayNode {
         let beam = beam_union(
             rays.iter()
-                .map(|&(o, d, t0, _)| (o, o, d.recip(), d.recip(), t0)),
+                .map(|&(o, d, t0, t1)| (o, o, d.recip(), d.recip(), t0, t1)),
         );
         RayNode {
             center: Vec3::ZERO,
@@ -876,6 +882,7 @@ mod tests {
             ilo: beam.2,
             ihi: beam.3,
             tmin: beam.4,
+            tmax: beam.5,
         }
     }
 
@@ -921,6 +928,9 @@ mod tests {
         if rng.next_f32() < 0.2 {
             node.max_t = f32::INFINITY;
         }
+        if rng.next_f32() < 0.2 {
+            node.tmax = f32::INFINITY;
+        }
         node
     }
 
@@ -939,7 +949,7 @@ mod tests {
             let nodes: Vec<RayNode> = (0..13).map(|_| random_node(&mut rng, scale)).collect();
             let lanes = NodeLanes::new(nodes.len(), |i| {
                 let x = &nodes[i];
-                NodeFields { center: x.center, radius: x.radius, axis: x.cone.axis, sin: x.cone.sin, cos: x.cone.cos, wide: x.cone.wide, max_t: x.max_t, tmin: x.tmin, omin: x.omin, omax: x.omax, ilo: x.ilo, ihi: x.ihi }
+                NodeFields { center: x.center, radius: x.radius, axis: x.cone.axis, sin: x.cone.sin, cos: x.cone.cos, wide: x.cone.wide, max_t: x.max_t, tmin: x.tmin, tmax: x.tmax, omin: x.omin, omax: x.omax, ilo: x.ilo, ihi: x.ihi }
             });
             for _ in 0..16 {
                 let lo = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0)) * scale;

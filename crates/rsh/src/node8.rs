@@ -25,9 +25,11 @@ pub(crate) struct NodeLanes {
     pub sin: Vec<f32>,
     pub cos: Vec<f32>,
     pub wide: Vec<f32>,
-    /// Longest ray, smallest t_min.
+    /// Longest ray (a distance: the cone test), smallest t_min and largest t_max (the rays'
+    /// parameter: the beam test).
     pub max_t: Vec<f32>,
     pub tmin: Vec<f32>,
+    pub tmax: Vec<f32>,
     /// The beam: origins' box and reciprocal directions' box, per axis.
     pub omin: [Vec<f32>; 3],
     pub omax: [Vec<f32>; 3],
@@ -45,6 +47,7 @@ pub(crate) struct NodeFields {
     pub wide: bool,
     pub max_t: f32,
     pub tmin: f32,
+    pub tmax: f32,
     pub omin: Vec3,
     pub omax: Vec3,
     pub ilo: Vec3,
@@ -65,6 +68,7 @@ impl NodeLanes {
             wide: z(),
             max_t: z(),
             tmin: z(),
+            tmax: z(),
             omin: z3(),
             omax: z3(),
             ilo: z3(),
@@ -86,6 +90,7 @@ impl NodeLanes {
             l.wide[i] = if x.wide { f32::from_bits(!0) } else { 0.0 };
             l.max_t[i] = x.max_t;
             l.tmin[i] = x.tmin;
+            l.tmax[i] = x.tmax;
         }
         l
     }
@@ -148,7 +153,7 @@ mod avx {
         // The beam: tn ≤ tf after every axis whose reciprocal directions are finite and of
         // one sign (dual::RayNode::beam_test).
         let mut tn = ld(&l.tmin, at);
-        let mut tf = max_t;
+        let mut tf = ld(&l.tmax, at);
         for k in 0..3 {
             let (ilo, ihi) = (ld(&l.ilo[k], at), ld(&l.ihi[k], at));
             let finite = _mm256_and_ps(

@@ -291,3 +291,87 @@ fn schedules_test_the_same_pairs() {
         assert!(any > 0, "the render traced shadow rays");
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(160))]
+
+    /// Rays whose directions are not unit vectors (ray files may hold any): the hierarchy
+    /// measures lengths in distance, the traversal's slab and beam tests in the rays' own
+    /// parameter; hits stay brute force's for every object hierarchy and schedule.
+    #[test]
+    fn unnormalised_directions_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..300, nray in 1usize..1200, scale_pow in -6i32..7, any_hit in any::<bool>(), objects in 0usize..3) {
+        let (geo, mut rays) = random_case(seed, ntri, nray);
+        let s = 2f32.powi(scale_pow);
+        for i in 0..rays.len() {
+            // Bounded rays (most nodes then have a finite reach), lengths in distance units
+            // before the scaling.
+            let len = if i % 5 == 0 { f32::INFINITY } else { 0.25 + (i % 11) as f32 * 0.5 };
+            rays.dir[i] *= s;
+            rays.t_min[i] /= s;
+            rays.t_max[i] = len / s;
+        }
+        let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
+        let mut expect = vec![Hit::MISS; rays.len()];
+        BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
+        let (objects, schedule) = [
+            (ObjectHierarchy::MeshSpheres, Schedule::Depth),
+            (ObjectHierarchy::Bvh, Schedule::Depth),
+            (ObjectHierarchy::Bvh, Schedule::Breadth),
+        ][objects];
+        for base in [RshConfig::crsh(), RshConfig::rah()] {
+            let cfg = RshConfig { objects, schedule, ..base };
+            assert_same_hits(&RshEngine::new(&geo, cfg).unwrap(), &rays, mode, &expect, "unnormalised");
+        }
+    }
+}
+
+/// A short direction and a long parameter range: the hierarchy's lengths are distances,
+/// the beam's entry and exit are ray parameters.
+#[test]
+fn short_directions_reach_far_triangles() {
+    let tris = vec![
+        [
+            Vec3::new(-1.0, -1.0, 2.0),
+            Vec3::new(1.0, -1.0, 2.0),
+            Vec3::new(0.0, 1.0, 2.0),
+        ],
+        [
+            Vec3::new(-1.0, -1.0, 3.0),
+            Vec3::new(1.0, -1.0, 3.0),
+            Vec3::new(0.0, 1.0, 3.0),
+        ],
+    ];
+    let geo = Geometry::soup(tris, Vec3::Y);
+    let mut rays = RayBatch::default();
+    for i in 0..16 {
+        let o = Vec3::new(i as f32 * 0.01, 0.0, 0.0);
+        let r = Ray::new(o, Vec3::new(0.0, 0.0, 1.0 / 64.0), 0.0, 4.0 * 64.0);
+        rays.push(r, RayKind::Shadow, i, 0, Vec3::ONE, 0);
+    }
+    let mut expect = vec![Hit::MISS; rays.len()];
+    BruteForce::new(&geo).trace(
+        &rays,
+        TraceMode::Closest,
+        &mut expect,
+        &mut TraceStats::default(),
+    );
+    assert!(expect.iter().all(|h| h.is_hit()));
+    for objects in [ObjectHierarchy::MeshSpheres, ObjectHierarchy::Bvh] {
+        for schedule in [Schedule::Depth, Schedule::Breadth] {
+            let cfg = RshConfig {
+                objects,
+                schedule,
+                mesh_culling: false,
+                ..RshConfig::crsh()
+            };
+            let e = RshEngine::new(&geo, cfg).unwrap();
+            assert_same_hits(
+                &e,
+                &rays,
+                TraceMode::Closest,
+                &expect,
+                &format!("{objects:?} {schedule:?}"),
+            );
+        }
+    }
+}
