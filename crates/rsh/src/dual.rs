@@ -16,12 +16,12 @@
 //! sphere–cone test alone passes most object nodes).
 //!
 //! Two schedules take the same pairs ([`Schedule`]):
-//! - `depth` ([`Traversal::run_depth`], the default): every top ray node is one task that
+//! - `depth` (the default): every top ray node is one task that
 //!   pops its pairs from its own stack, so no pair array is made, a ray node stays in cache
 //!   while it walks an object subtree, and an any-hit node whose rays all hit drops out. The
 //!   children a ray-side expansion makes are tested 8 at a time in AVX lanes
 //!   ([`crate::node8`]), with the scalar test's bits;
-//! - `breadth` ([`Traversal::run_dual`]): one stack of pairs per ray level, each step a
+//! - `breadth`: one stack of pairs per ray level, each step a
 //!   data-parallel test → count → scan → emit over a chunk (the GPU's shape), memory bounded
 //!   by the pair budget.
 //!
@@ -262,15 +262,12 @@ impl RayNode {
 }
 
 impl Traversal<'_> {
-    /// Run the dual traversal over `tree` and the final tests, adding to `c`. Pairs wait in
-    /// one stack per ray level. Each step takes at most a chunk of `budget / max(b, 2)`
-    /// pairs from the top of one stack, so its output fits the pair budget: from the lowest
-    /// level holding a full chunk, else from the highest level holding any, so steps are
-    /// whole waves and no stack holds more than a chunk plus one step's output. The top
-    /// level's pairs are made one chunk of top nodes at a time. `descent` picks
-    /// the side to expand, `diag` caps unbounded rays' lengths for [`Descent::Size`].
+    /// Run the dual traversal over `tree` and the final tests in the order `schedule` takes
+    /// the pairs, adding to `c`. `descent` picks the side to expand, `diag` caps unbounded
+    /// rays' lengths for [`Descent::Size`].
     pub fn run_dual(
         &self,
+        schedule: Schedule,
         tree: &ObjectTree,
         descent: Descent,
         diag: f32,
@@ -283,6 +280,27 @@ impl Traversal<'_> {
         if nl == 0 {
             return;
         }
+        match schedule {
+            Schedule::Depth => self.depth_first(tree, descent, diag, rays, c),
+            Schedule::Breadth => self.level_by_level(tree, descent, diag, rays, c),
+        }
+    }
+
+    /// [`Schedule::Breadth`] over `nl ≥ 1` ray levels. Pairs wait in
+    /// one stack per ray level. Each step takes at most a chunk of `budget / max(b, 2)`
+    /// pairs from the top of one stack, so its output fits the pair budget: from the lowest
+    /// level holding a full chunk, else from the highest level holding any, so steps are
+    /// whole waves and no stack holds more than a chunk plus one step's output. The top
+    /// level's pairs are made one chunk of top nodes at a time.
+    fn level_by_level(
+        &self,
+        tree: &ObjectTree,
+        descent: Descent,
+        diag: f32,
+        rays: &RaySide,
+        c: &mut Counters,
+    ) {
+        let nl = self.h.levels.len();
         let widest = self
             .h
             .levels
@@ -331,12 +349,11 @@ impl Traversal<'_> {
         }
     }
 
-    /// Run the dual traversal depth first ([`Schedule::Depth`]), the final tests among it,
-    /// adding to `c`: every top ray node is one task that pops pairs from its own stack
-    /// (`peak_pairs`: the most one task held). `descent` and `diag` as in
-    /// [`Traversal::run_dual`]. An object node's two children are pushed nearer first
-    /// along the ray node's cone axis, a ray node's children in leaf order.
-    pub fn run_depth(
+    /// [`Schedule::Depth`] over `nl ≥ 1` ray levels, the final tests among it: every top
+    /// ray node is one task that pops pairs from its own stack (`peak_pairs`: the most one
+    /// task held). An object node's two children are pushed nearer first along the ray
+    /// node's cone axis, a ray node's children in leaf order.
+    fn depth_first(
         &self,
         tree: &ObjectTree,
         descent: Descent,
@@ -345,11 +362,6 @@ impl Traversal<'_> {
         c: &mut Counters,
     ) {
         let nl = self.h.levels.len();
-        c.tests = vec![[0; 4]; nl];
-        c.hits = vec![[0; 4]; nl];
-        if nl == 0 {
-            return;
-        }
         let ray_nodes = self.ray_nodes(rays, diag);
         // Any hit: per node, its rays still without a hit (a node at 0 has no work left),
         // and each node's parent, so a ray's first hit is counted off every node above it.

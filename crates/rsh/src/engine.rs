@@ -312,12 +312,8 @@ impl Tracer for RshEngine {
                     kind: &kind,
                     any_hit: mode == TraceMode::Any,
                 };
-                let run = match self.cfg.schedule {
-                    Schedule::Depth => Traversal::run_depth,
-                    Schedule::Breadth => Traversal::run_dual,
-                };
-                run(
-                    &trav,
+                trav.run_dual(
+                    self.cfg.schedule,
                     tree,
                     self.cfg.descent,
                     self.bounds.diagonal(),

@@ -88,6 +88,16 @@ fn object_hierarchy_matches_brute_force() {
     }
 }
 
+/// CRSH's defaults with the object hierarchy, `descent` and `schedule`.
+fn bvh(descent: Descent, schedule: Schedule) -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::Bvh,
+        descent,
+        schedule,
+        ..RshConfig::crsh()
+    }
+}
+
 /// The dual traversal's counters are the same from run to run (rayon schedules differ).
 #[test]
 fn object_hierarchy_counts_are_deterministic() {
@@ -98,12 +108,7 @@ fn object_hierarchy_counts_are_deterministic() {
         .into_iter()
         .flat_map(|d| [(d, Schedule::Depth), (d, Schedule::Breadth)]);
     for (descent, schedule) in runs {
-        let cfg = RshConfig {
-            objects: ObjectHierarchy::Bvh,
-            descent,
-            schedule,
-            ..RshConfig::crsh()
-        };
+        let cfg = bvh(descent, schedule);
         let e = RshEngine::new(&geo, cfg).unwrap();
         let run = || {
             let mut st = TraceStats::default();
@@ -253,12 +258,7 @@ fn schedules_test_the_same_pairs() {
     let batches = record_render(&s, &geo, 48, 40, 2);
     for descent in [Descent::RayFirst, Descent::Size, Descent::ObjectFirst] {
         let counts = |schedule| {
-            let cfg = RshConfig {
-                objects: ObjectHierarchy::Bvh,
-                descent,
-                schedule,
-                ..RshConfig::crsh()
-            };
+            let cfg = bvh(descent, schedule);
             let e = RshEngine::new(&geo, cfg).unwrap();
             batches
                 .iter()
