@@ -5,8 +5,9 @@
 //! Each scene is rendered once on the CPU while every traced batch is recorded; then CPU
 //! CRSH and GPU CRSH (and RAH) trace exactly those batches. The hits and the counters of the
 //! two are compared in the same run and the report says whether they agree. The irregular
-//! grid's GPU traversal runs beside the CPU grid on primary, AO and random rays (paper §5,
-//! Table 3's kinds) over the same CPU-built grid, with the same agreement check. GPU phase times
+//! grid is built on the GPU too (its kernel passes, then the CPU's remaining passes; every
+//! pass's time and device are reported) and its GPU traversal runs beside the CPU grid on
+//! primary, AO and random rays (paper §5, Table 3's kinds), with the same agreement check. GPU phase times
 //! come from timestamp queries where they time kernels, otherwise from the wall clock with a
 //! wait at every phase boundary (the report names which).
 
@@ -208,8 +209,8 @@ fn pass_ms(e: &dyn Tracer, name: &str) -> f64 {
 /// reported; the first also warms the drivers up).
 const GRID_REPEATS: usize = 4;
 
-/// The irregular grid (paper §5, Table 3's ray kinds): the CPU engine and the GPU traversal
-/// of the very same grid (built once on the CPU) on the same primary, ambient-occlusion
+/// The irregular grid (paper §5, Table 3's ray kinds): the CPU engine and the GPU engine (its
+/// grid built by `GpuGrid::new`, which must equal the CPU's) on the same primary, ambient-occlusion
 /// (any hit) and random rays; MRays/s from the best of [`GRID_REPEATS`] runs, the GPU's
 /// both from its traversal kernel alone and from the whole trace call (upload, launch,
 /// read-back), and whether hits, N_T and N_I agree.
@@ -222,8 +223,25 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
     let t0 = Instant::now();
     let cpu = GridEngine::new(geo, &cfg).map_err(anyhow::Error::msg)?;
     let build = t0.elapsed().as_secs_f64();
-    let gpu = gpu::GpuGrid::upload(device()?, &cpu.grid, &geo.tris, "grid-gpu")
-        .map_err(|e| anyhow::anyhow!("bench gpu: grid: {e}"))?;
+    // The GPU builds its own grid (the passes `gpu::grid::PASS_DEVICE` places there as
+    // kernels): the better of two builds (the first also warms the drivers up).
+    let gpu_build = || {
+        gpu::GpuGrid::new(device()?, geo, &cfg).map_err(|e| anyhow::anyhow!("bench gpu: grid: {e}"))
+    };
+    let first = gpu_build()?;
+    let second = gpu_build()?;
+    let total = |g: &gpu::GpuGrid| {
+        g.build_passes()
+            .iter()
+            .filter(|p| !p.0.starts_with("kernel compilation"))
+            .map(|p| p.1)
+            .sum::<f64>()
+    };
+    let gpu = if total(&second) <= total(&first) {
+        second
+    } else {
+        first
+    };
     let opts = Options {
         width: spec.width,
         height: spec.height,
@@ -243,18 +261,26 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
         .iter()
         .map(|(n, t)| format!("{n} {:.1}", t * 1e3))
         .collect();
+    let gpu_passes: Vec<String> = gpu
+        .build_passes()
+        .iter()
+        .filter(|p| !p.0.starts_with("kernel compilation"))
+        .map(|(n, t)| format!("{n} {:.1}", t * 1e3))
+        .collect();
     let mut md = format!(
-        "\n### Irregular grid (λ₁ = {}, λ₂ = {}): {} cells, {} references; CPU build {:.1} ms ({}), upload {:.1} ms (kernel compilation {:.0} ms); CPU traversal on {} threads\n\n",
+        "\n### Irregular grid (λ₁ = {}, λ₂ = {}): {} cells, {} references; CPU build {:.1} ms ({}); GPU build {:.1} ms ({}; kernel compilation {:.0} ms); CPU traversal on {} threads\n\n",
         cfg.top_density,
         cfg.leaf_density,
         cpu.grid.cells(),
         cpu.grid.refs.len(),
         build * 1e3,
         passes.join(", "),
-        pass_ms(&gpu, "upload"),
+        total(&gpu) * 1e3,
+        gpu_passes.join(", "),
         pass_ms(&gpu, "kernel compilation"),
         rayon::current_num_threads()
     );
+    md += "The GPU traces the grid it built; the agreement column compares it with the CPU-built grid's hits and counts, so a build that differs shows there.\n\n";
     md += "| rays | count | CPU MRays/s | GPU kernel MRays/s | GPU call MRays/s | kernel speed-up over CPU | N_T | N_I | agreement |\n|---|---:|---:|---:|---:|---:|---:|---:|---|\n";
     for (label, kind, mode) in kinds {
         let rays = generate(s, geo, kind, &opts);

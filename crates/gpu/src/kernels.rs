@@ -49,10 +49,11 @@ enum Module {
     Final,
     Stages,
     Grid,
+    GridBuild,
 }
 
 impl Module {
-    const ALL: [Module; 12] = [
+    const ALL: [Module; 13] = [
         Module::Scan,
         Module::Sort,
         Module::Compact,
@@ -65,6 +66,7 @@ impl Module {
         Module::Final,
         Module::Stages,
         Module::Grid,
+        Module::GridBuild,
     ];
 
     /// The module's source after the prelude.
@@ -82,6 +84,7 @@ impl Module {
             Module::Final => format!("{GEOM}{}", include_str!("rsh/final.wgsl")),
             Module::Stages => include_str!("stages.wgsl").into(),
             Module::Grid => format!("{GEOM}{}", include_str!("grid/traverse.wgsl")),
+            Module::GridBuild => include_str!("grid/build.wgsl").into(),
         }
     }
 }
@@ -147,11 +150,29 @@ pub enum Kernel {
     ShadeLocal,
     /// Irregular-grid traversal, one thread per ray.
     GridTrace,
+    /// Grid build: triangle boxes and the scene box.
+    GridTriBoxes,
+    /// Grid build: references to the top cells, counted or emitted.
+    GridTopRefs,
+    /// Grid build: references per octree node.
+    GridHistogram,
+    /// Grid build: which nodes want to split.
+    GridWants,
+    /// Grid build: child masks of the references.
+    GridMasks,
+    /// Grid build: which nodes split.
+    GridSplit,
+    /// Grid build: a level's voxel-map entries, leaf cells and children.
+    GridNodes,
+    /// Grid build: kept and child reference counts.
+    GridRefFlags,
+    /// Grid build: kept or child references written.
+    GridRefEmit,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 28] = [
+    pub const ALL: [Kernel; 37] = [
         Kernel::ScanReduce,
         Kernel::ScanDown,
         Kernel::KeyBits,
@@ -180,6 +201,15 @@ impl Kernel {
         Kernel::BounceRays,
         Kernel::ShadeLocal,
         Kernel::GridTrace,
+        Kernel::GridTriBoxes,
+        Kernel::GridTopRefs,
+        Kernel::GridHistogram,
+        Kernel::GridWants,
+        Kernel::GridMasks,
+        Kernel::GridSplit,
+        Kernel::GridNodes,
+        Kernel::GridRefFlags,
+        Kernel::GridRefEmit,
     ];
 
     /// The WGSL entry point and the module that holds it.
@@ -214,6 +244,15 @@ impl Kernel {
             BounceRays => ("bounce_rays", Module::Stages),
             ShadeLocal => ("shade_local", Module::Stages),
             GridTrace => ("grid_trace", Module::Grid),
+            GridTriBoxes => ("grid_tri_boxes", Module::GridBuild),
+            GridTopRefs => ("grid_top_refs", Module::GridBuild),
+            GridHistogram => ("grid_histogram", Module::GridBuild),
+            GridWants => ("grid_wants", Module::GridBuild),
+            GridMasks => ("grid_masks", Module::GridBuild),
+            GridSplit => ("grid_split", Module::GridBuild),
+            GridNodes => ("grid_nodes", Module::GridBuild),
+            GridRefFlags => ("grid_ref_flags", Module::GridBuild),
+            GridRefEmit => ("grid_ref_emit", Module::GridBuild),
         }
     }
 

@@ -52,6 +52,11 @@ pub fn padded_bounds(tris: &[[Vec3; 3]]) -> Aabb {
         .with_min_len(4096)
         .map(|t| Aabb::from_points(t.iter().copied()))
         .reduce(Aabb::default, |a, b| a.union(&b));
+    pad_bounds(b)
+}
+
+/// [`padded_bounds`] from the triangles' box `b` (the GPU reduces the box on the device).
+pub fn pad_bounds(b: Aabb) -> Aabb {
     let e = b.extent();
     let m = e.max_element().max(1e-6);
     let pad = (e * 0.001).max(Vec3::splat(m * 1e-3));
@@ -159,14 +164,7 @@ fn count_scan_emit(
     count: impl Fn(usize) -> u32 + Sync,
     emit: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
 ) -> Result<(Vec<u32>, Vec<u32>), String> {
-    let check = |total: u64| {
-        if total > lim.refs {
-            Err(lim.refs_error(total))
-        } else {
-            Ok(())
-        }
-    };
-    emit_pairs(n, count, check, emit)
+    emit_pairs(n, count, |total| lim.check_refs(total), emit)
 }
 
 /// Most references one build holds, per level and in all, whatever the memory: 2^28 keeps
@@ -185,10 +183,12 @@ pub const BYTES_PER_REF: u64 = 24;
 pub const BYTES_PER_NODE: u64 = 52;
 
 /// The build's caps: the fixed index limits, lowered to what `max_bytes` holds.
-#[derive(Clone, Copy)]
-struct Limits {
-    refs: u64,
-    nodes: u64,
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// Most references, per level and in all.
+    pub refs: u64,
+    /// Most octree nodes (voxel-map entries) and cells.
+    pub nodes: u64,
     max_bytes: u64,
 }
 
@@ -219,6 +219,29 @@ impl Limits {
 
     fn refs_error(&self, need: u64) -> String {
         self.error("triangle references", need, self.refs, BYTES_PER_REF)
+    }
+
+    /// `total` references in a level or in all: within the cap, or the error naming it.
+    pub fn check_refs(&self, total: u64) -> Result<(), String> {
+        if total > self.refs {
+            Err(self.refs_error(total))
+        } else {
+            Ok(())
+        }
+    }
+
+    /// `need` nodes or cells after octree level `level`: within the cap, or the error.
+    pub fn check_nodes(&self, need: u64, level: u32) -> Result<(), String> {
+        if need >= self.nodes {
+            Err(self.error(
+                &format!("octree nodes at level {level}"),
+                need,
+                self.nodes,
+                BYTES_PER_NODE,
+            ))
+        } else {
+            Ok(())
+        }
     }
 }
 
@@ -309,14 +332,14 @@ fn top_refs(f: &Frame, top_dims: [u32; 3], lim: &Limits) -> Result<(Vec<u32>, Ve
 
 /// Below the paper's depth, an adaptive node splits while λ₂ · (its references to triangles
 /// at most half its size) reaches this: eq. 1 on the node asks for this many cells.
-const ADAPTIVE_SPLIT: f32 = 64.0;
+pub const ADAPTIVE_SPLIT: f32 = 64.0;
 
 /// An adaptive split is made only while its children receive fewer than this many copies of
 /// each reference on average (8: no separation at all). Measured (`grid_build`,
 /// `grid_trace`): 3 keeps the stadium's 23 tests per primary ray (2 gives 45) and cuts
 /// Conference's adaptive build from 680 to 555 ms (its deepest levels had copied fans of
 /// small triangles around shared vertices: 3.3 M references in 17 k nodes at level 9).
-const ADAPTIVE_COPIES: f32 = 3.0;
+pub const ADAPTIVE_COPIES: f32 = 3.0;
 
 /// Reference counts per node (a histogram; the GPU's atomic add); keys ≥ n are not counted.
 fn histogram(keys: &[u32], n: usize) -> Vec<u32> {
@@ -339,33 +362,41 @@ fn paper_depth(tsize: Vec3, n: u32, leaf_density: f32, max_depth: u32) -> u32 {
     ceil_log2(r[0].max(r[1]).max(r[2])).min(max_depth)
 }
 
-/// The initial structure: top grid, octrees, voxel map, sorted references.
-pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
+/// The frame of one build (§4.1), from the triangles' box and count alone: the CPU and the
+/// GPU (which reduces the box on the device) derive the same one with this function.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Setup {
+    /// Padded scene box ([`pad_bounds`]).
+    pub bounds: Aabb,
+    /// Top-grid resolution (eq. 1 with λ₁).
+    pub top_dims: [u32; 3],
+    /// Size of a top cell.
+    pub tsize: Vec3,
+    /// Reference-test padding ([`ref_padding`]).
+    pub pad: f32,
+    /// Top cells.
+    pub ntop: usize,
+    /// Deepest octree level: the configuration's, within exact voxel coordinates.
+    pub max_depth: u32,
+    /// The build's caps.
+    pub limits: Limits,
+}
+
+/// The build's [`Setup`] for `ntris` triangles whose box is `tri_bounds`, with every check
+/// that precedes the first pass.
+pub fn setup(tri_bounds: Aabb, ntris: usize, cfg: &GridConfig) -> Result<Setup, String> {
     cfg.validate()?;
-    if tris.is_empty() {
+    if ntris == 0 {
         return Err("the grid needs at least one triangle".into());
     }
-    if tris.len() >= (INDEX as usize) {
+    if ntris >= (INDEX as usize) {
         return Err(format!(
-            "{} triangles exceed the grid's 27-bit references",
-            tris.len()
+            "{ntris} triangles exceed the grid's 27-bit references"
         ));
     }
-    let t0 = Instant::now();
-    let bounds = padded_bounds(tris);
+    let bounds = pad_bounds(tri_bounds);
     let ext = bounds.extent();
-    let top_dims = resolution(ext, tris.len(), cfg.top_density);
-    let frame = Frame {
-        tris,
-        tri_box: tris
-            .par_iter()
-            .with_min_len(4096)
-            .map(|t| Aabb::from_points(t.iter().copied()))
-            .collect(),
-        bounds,
-        tsize: ext / Vec3::new(top_dims[0] as f32, top_dims[1] as f32, top_dims[2] as f32),
-        pad: ref_padding(&bounds),
-    };
+    let top_dims = resolution(ext, ntris, cfg.top_density);
     let ntop = top_dims.iter().map(|&d| d as u64).product::<u64>();
     if ntop > MAX_TOP {
         return Err(format!(
@@ -373,17 +404,116 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
             top_dims[0], top_dims[1], top_dims[2]
         ));
     }
-    let lim = Limits::of(cfg);
-    if ntop >= lim.nodes {
-        return Err(lim.error("top cells", ntop, lim.nodes, BYTES_PER_NODE));
+    let limits = Limits::of(cfg);
+    if ntop >= limits.nodes {
+        return Err(limits.error("top cells", ntop, limits.nodes, BYTES_PER_NODE));
     }
-    let ntop = ntop as usize;
+    Ok(Setup {
+        bounds,
+        top_dims,
+        tsize: ext / Vec3::new(top_dims[0] as f32, top_dims[1] as f32, top_dims[2] as f32),
+        pad: ref_padding(&bounds),
+        ntop: ntop as usize,
+        max_depth: cfg.max_depth.min(coordinate_depth_limit(top_dims)),
+        limits,
+    })
+}
+
+impl Setup {
+    /// The paper's octree depth as a table: entry d − 1 is the smallest reference count whose
+    /// top cell gets depth ≥ d (u32::MAX when none does), so a count's depth is the number of
+    /// entries at or below it. Eq. 1 rises with the count, which makes the table exact (a
+    /// test checks it against [`Setup::paper_depth`] count by count); the GPU reads the
+    /// table instead of evaluating `cbrt`, whose last bit a device may round differently.
+    pub fn depth_table(&self, leaf_density: f32, ntris: usize) -> Vec<u32> {
+        (1..=self.max_depth)
+            .map(|d| {
+                let hi = ntris.min(u32::MAX as usize - 1) as u32;
+                if self.paper_depth(hi, leaf_density) < d {
+                    return u32::MAX;
+                }
+                // The first count in [1, hi] with depth ≥ d.
+                let (mut lo, mut hi) = (1u32, hi);
+                while lo < hi {
+                    let mid = lo + (hi - lo) / 2;
+                    if self.paper_depth(mid, leaf_density) >= d {
+                        hi = mid;
+                    } else {
+                        lo = mid + 1;
+                    }
+                }
+                lo
+            })
+            .collect()
+    }
+
+    /// The octree depth the paper gives a top cell of `n` references.
+    pub fn paper_depth(&self, n: u32, leaf_density: f32) -> u32 {
+        paper_depth(self.tsize, n, leaf_density, self.max_depth)
+    }
+}
+
+/// The octrees of §4.1 before the voxel map is flattened: the state the GPU's subdivision
+/// passes must reproduce bit for bit.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Octrees {
+    /// The sparse voxel map, level after level: a node's entry is its leaf cell (level
+    /// order) or [`voxelmap::node`] of its 8 children's first entry.
+    pub entries: Vec<u32>,
+    /// Leaf cells in level order: octree coordinates at their level …
+    pub cell_coord: Vec<[u32; 3]>,
+    /// … their level …
+    pub cell_level: Vec<u8>,
+    /// … and their reference counts.
+    pub cell_count: Vec<u32>,
+    /// Final references (leaf cell, triangle), grouped by level, in each level's order.
+    pub kept_cell: Vec<u32>,
+    /// The triangles of `kept_cell`'s references.
+    pub kept_tri: Vec<u32>,
+    /// Levels below the top (the virtual grid's shift).
+    pub levels: u32,
+}
+
+/// The initial structure: top grid, octrees, voxel map, sorted references.
+pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
+    let (setup, oct, [top_refs_seconds, octree_seconds]) = subdivide(tris, cfg)?;
+    let mut g = finish(&setup, oct)?;
+    g.build.top_refs_seconds = top_refs_seconds;
+    g.build.octree_seconds = octree_seconds;
+    Ok(g)
+}
+
+/// The top-level references and the octrees (§4.1), with the seconds of the two passes.
+pub fn subdivide(
+    tris: &[[Vec3; 3]],
+    cfg: &GridConfig,
+) -> Result<(Setup, Octrees, [f64; 2]), String> {
+    let t0 = Instant::now();
+    let tri_box: Vec<Aabb> = tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|t| Aabb::from_points(t.iter().copied()))
+        .collect();
+    let tb = tri_box
+        .par_iter()
+        .with_min_len(4096)
+        .copied()
+        .reduce(Aabb::default, |a, b| a.union(&b));
+    let st = setup(tb, tris.len(), cfg)?;
+    let frame = Frame {
+        tris,
+        tri_box,
+        bounds: st.bounds,
+        tsize: st.tsize,
+        pad: st.pad,
+    };
+    let (top_dims, ntop, lim) = (st.top_dims, st.ntop, st.limits);
     let (mut ref_node, mut ref_tri) = top_refs(&frame, top_dims, &lim)?;
     let top_refs_seconds = t0.elapsed().as_secs_f64();
 
     // Octree levels. Per level: nodes (coordinates, top cell), references (node, triangle).
     let t1 = Instant::now();
-    let max_depth = cfg.max_depth.min(coordinate_depth_limit(top_dims));
+    let max_depth = st.max_depth;
     let mut depth = vec![0u32; ntop];
     let mut coords: Vec<[u32; 3]> = (0..ntop as u32)
         .map(|t| {
@@ -507,14 +637,7 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         let first_cell = cell_coord.len() as u32;
         let next_level_entry = (entries.len() + nodes) as u64;
         let need = (next_level_entry + 8 * nsplit as u64).max(first_cell as u64 + nleaf as u64);
-        if need >= lim.nodes {
-            return Err(lim.error(
-                &format!("octree nodes at level {level}"),
-                need,
-                lim.nodes,
-                BYTES_PER_NODE,
-            ));
-        }
+        lim.check_nodes(need, level)?;
         // This level's voxel-map entries, and its leaves appended to the cell lists (each
         // leaf at its scanned slot).
         let at = entries.len();
@@ -554,9 +677,7 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         let mut kept_at = vec![0u32; ref_node.len()];
         let nkept = exclusive_scan(&kept, &mut kept_at) as usize;
         let base = kept_cell.len();
-        if (base + nkept) as u64 > lim.refs {
-            return Err(lim.refs_error((base + nkept) as u64));
-        }
+        lim.check_refs((base + nkept) as u64)?;
         kept_cell.resize(base + nkept, 0);
         kept_tri.resize(base + nkept, 0);
         {
@@ -639,9 +760,32 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         level += 1;
     }
     let octree_seconds = t1.elapsed().as_secs_f64();
+    let oct = Octrees {
+        entries,
+        cell_coord,
+        cell_level,
+        cell_count,
+        kept_cell,
+        kept_tri,
+        levels: level,
+    };
+    Ok((st, oct, [top_refs_seconds, octree_seconds]))
+}
 
-    // The voxel map in blocks, cells renumbered in its order; cells on the virtual grid, and
-    // their references sorted by (cell, triangle).
+/// The voxel map in blocks, cells renumbered in its order; cells on the virtual grid, and
+/// their references sorted by (cell, triangle): the [`Grid`] of the initial cells.
+pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, String> {
+    let Octrees {
+        entries,
+        cell_coord,
+        cell_level,
+        cell_count,
+        mut kept_cell,
+        kept_tri,
+        levels: level,
+    } = oct;
+    let (bounds, top_dims, ntop) = (st.bounds, st.top_dims, st.ntop);
+    let ext = bounds.extent();
     let t2 = Instant::now();
     let ncells = cell_coord.len();
     let voxelmap::Flattened {
@@ -721,11 +865,46 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
         refs,
         entries,
         build: BuildStats {
-            top_refs_seconds,
-            octree_seconds,
             voxel_map_seconds,
             initial_cells: ncells,
             ..Default::default()
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The depth table gives eq. 1's depth for every count: exhaustively up to 2^18 and at
+    /// spread counts beyond, over cell shapes from flat to cubic and both densities' scales.
+    #[test]
+    fn depth_table_equals_the_paper_rule() {
+        for (tsize, density) in [
+            (Vec3::new(1.0, 1.0, 1.0), 2.4),
+            (Vec3::new(0.37, 2.9, 0.011), 2.4),
+            (Vec3::new(13.0, 7.0, 5.0), 0.5),
+            (Vec3::new(1e-3, 2e-3, 5e-4), 8.0),
+        ] {
+            let b = Aabb::new(Vec3::ZERO, tsize * 4.0);
+            let cfg = GridConfig {
+                leaf_density: density,
+                ..GridConfig::default()
+            };
+            let mut st = setup(b, 1 << 22, &cfg).unwrap();
+            st.tsize = tsize;
+            let table = st.depth_table(density, 1 << 22);
+            let by_table = |n: u32| table.iter().filter(|&&t| t <= n).count() as u32;
+            let counts = (1..1u32 << 18)
+                .chain((18..22).flat_map(|e| (0..4096).map(move |k| (1 << e) + k * 997)));
+            for n in counts {
+                assert_eq!(
+                    by_table(n),
+                    st.paper_depth(n, density),
+                    "count {n}, {tsize:?}"
+                );
+            }
+            assert_eq!(by_table(0), 0);
+        }
+    }
 }

@@ -183,16 +183,23 @@ pub struct BuildStats {
     pub merge_rounds: usize,
 }
 
+/// The build's passes in order, as reports name them: top-level references and octrees
+/// ([`build::subdivide`]), cells and voxel map ([`build::finish`]), [`merge`], [`expand`].
+/// The GPU build (`gpu::grid`) states where it runs each one against this list, so a pass
+/// added here and not there fails its test.
+pub const PASSES: [&str; 5] = ["top_refs", "octrees", "cells", "merge", "expansion"];
+
 impl BuildStats {
-    /// Each build pass's time in seconds, in build order.
+    /// Each build pass's time in seconds, in build order ([`PASSES`]).
     pub fn passes(&self) -> [(&'static str, f64); 5] {
-        [
-            ("top_refs", self.top_refs_seconds),
-            ("octrees", self.octree_seconds),
-            ("cells", self.voxel_map_seconds),
-            ("merge", self.merge_seconds),
-            ("expansion", self.expand_seconds),
-        ]
+        let t = [
+            self.top_refs_seconds,
+            self.octree_seconds,
+            self.voxel_map_seconds,
+            self.merge_seconds,
+            self.expand_seconds,
+        ];
+        std::array::from_fn(|i| (PASSES[i], t[i]))
     }
 }
 
@@ -361,7 +368,12 @@ pub(crate) fn is_subset(a: &[u32], b: &[u32]) -> bool {
 
 /// Build an irregular grid (or, with `merge: false, expansion_passes: 0`, the two-level grid).
 pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
-    let mut g = build::initial(tris, cfg)?;
+    Ok(complete(build::initial(tris, cfg)?, cfg))
+}
+
+/// The passes after the initial cells: merging and expansion as `cfg` asks, then the
+/// traversal records.
+pub fn complete(mut g: Grid, cfg: &GridConfig) -> Grid {
     if cfg.merge {
         let t0 = std::time::Instant::now();
         g.build.merge_rounds = merge::merge(&mut g, cfg.alpha, cfg.empty_only);
@@ -380,7 +392,7 @@ pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> 
             end: g.ref_first[c + 1],
         })
         .collect();
-    Ok(g)
+    g
 }
 
 /// The irregular grid (or two-level grid) as a tracing engine.

@@ -4,19 +4,42 @@
 //! N_I triangle tests). The §5 traversal is a WGSL kernel ([`traverse`], `traverse.wgsl`
 //! beside `accel/src/grid/traverse.rs`), closest and any hit.
 //!
-//! The build (§4) still runs on the CPU: `accel::grid::build_grid` makes the cells, the
-//! references and the voxel map, which are uploaded once; its passes are reported as the
-//! CPU's, with the upload beside them. The build's passes as kernels are not written yet.
+//! The build (§4) follows `accel::grid::PASSES`; [`PASS_DEVICE`] says where each runs. The
+//! top-level references and the octrees are kernels ([`build`], `build.wgsl` beside
+//! `accel/src/grid/build.rs`) whose result equals the CPU's bit for bit; the cells and voxel
+//! map, merging and expansion still run on the CPU over the read-back octrees (their kernels
+//! are not written yet), and the finished grid is uploaded for traversal. Every pass is
+//! reported with where it ran.
 
+pub mod build;
 pub mod traverse;
 
 use crate::device::{Gpu, GpuError};
 use crate::kernels::Kernels;
-use accel::grid::{build_grid, BuildStats, Grid, GridConfig};
+use accel::grid::{complete, BuildStats, Grid, GridConfig};
 use render::Phase;
 use scene::Geometry;
 use std::sync::Mutex;
 use std::time::Instant;
+
+/// Where a build pass runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Device {
+    /// WGSL kernels.
+    Gpu,
+    /// The CPU pass of `accel::grid`, on read-back data.
+    Cpu,
+}
+
+/// Where [`GpuGrid::new`] runs each pass of `accel::grid::PASSES`, in the same order (a test
+/// checks the names, so a pass added to the CPU build must be placed here).
+pub const PASS_DEVICE: [(&str, Device); 5] = [
+    ("top_refs", Device::Gpu),
+    ("octrees", Device::Gpu),
+    ("cells", Device::Cpu),
+    ("merge", Device::Cpu),
+    ("expansion", Device::Cpu),
+];
 
 /// The grid on the device: what the traversal kernel reads.
 pub struct GpuGrid {
@@ -37,22 +60,46 @@ pub struct GpuGrid {
     build: BuildStats,
     compile_seconds: f64,
     upload_seconds: f64,
+    /// Built by [`GpuGrid::new`] (the passes of [`PASS_DEVICE`] on the GPU), not uploaded.
+    built_on_gpu: bool,
     /// GPU seconds per phase of the last trace calls (drained by [`crate::GpuEngine::take_times`]).
     pub(crate) times: Mutex<Vec<(Phase, f64)>>,
 }
 
 impl GpuGrid {
-    /// Build the grid of `cfg` over `geo` on the CPU and upload it (`grid`, or `grid2l` when
+    /// Build the grid of `cfg` over `geo` (the passes [`PASS_DEVICE`] places on the GPU as
+    /// kernels, the others on the CPU) and upload it for traversal (`grid`, or `grid2l` when
     /// `cfg` neither merges nor expands).
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: &GridConfig) -> Result<GpuGrid, GpuError> {
         cfg.validate().map_err(GpuError::Config)?;
-        let grid = build_grid(&geo.tris, cfg).map_err(GpuError::Config)?;
         let name = if cfg.merge || cfg.expansion_passes > 0 {
             "grid-gpu"
         } else {
             "grid2l-gpu"
         };
-        Self::upload(gpu, &grid, &geo.tris, name)
+        let limit = gpu.max_binding();
+        if geo.tris.len() as u64 * 48 > limit {
+            return Err(GpuError::Limits(format!(
+                "the grid's triangles need {} MiB in one binding; this device allows {} MiB",
+                (geo.tris.len() as u64 * 48).div_ceil(1 << 20),
+                limit >> 20
+            )));
+        }
+        let t0 = Instant::now();
+        let kernels = Kernels::new(&gpu);
+        let compile_seconds = t0.elapsed().as_secs_f64();
+        let tris = gpu.upload("triangles", &tri4(&geo.tris));
+        let (st, oct, [top_refs_seconds, octree_seconds]) =
+            build::subdivide(&gpu, &kernels, &tris, geo.tris.len(), cfg)?;
+        let mut grid = accel::grid::build::finish(&st, oct).map_err(GpuError::Config)?;
+        grid.build.top_refs_seconds = top_refs_seconds;
+        grid.build.octree_seconds = octree_seconds;
+        let grid = complete(grid, cfg);
+        let g = Self::upload_with(gpu, kernels, &grid, Some(tris), &geo.tris, name)?;
+        Ok(GpuGrid {
+            compile_seconds,
+            ..g
+        })
     }
 
     /// Upload a grid built on the CPU over `tris` (benchmarks trace the very grid the CPU
@@ -63,7 +110,27 @@ impl GpuGrid {
         tris: &[[geom::Vec3; 3]],
         name: &'static str,
     ) -> Result<GpuGrid, GpuError> {
+        let t0 = Instant::now();
+        let kernels = Kernels::new(&gpu);
+        let compile_seconds = t0.elapsed().as_secs_f64();
+        let g = Self::upload_with(gpu, kernels, grid, None, tris, name)?;
+        Ok(GpuGrid {
+            compile_seconds,
+            ..g
+        })
+    }
+
+    /// Upload `grid` (and the triangles, unless already on the device) with `kernels`.
+    fn upload_with(
+        gpu: Gpu,
+        kernels: Kernels,
+        grid: &Grid,
+        tri_buf: Option<wgpu::Buffer>,
+        tris: &[[geom::Vec3; 3]],
+        name: &'static str,
+    ) -> Result<GpuGrid, GpuError> {
         let limit = gpu.max_binding();
+        let tri_buf_given = tri_buf.is_some();
         let check = |what: &str, bytes: u64| {
             if bytes > limit {
                 Err(GpuError::Limits(format!(
@@ -79,9 +146,6 @@ impl GpuGrid {
         check("cells", grid.cells() as u64 * 32)?;
         check("voxel map entries", grid.entries.len() as u64 * 4)?;
         check("triangles", tris.len() as u64 * 48)?;
-        let t0 = Instant::now();
-        let kernels = Kernels::new(&gpu);
-        let compile_seconds = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let v4 = |v: geom::Vec3| [v.x, v.y, v.z, 0.0];
         let consts = [
@@ -99,21 +163,21 @@ impl GpuGrid {
                 ]
             })
             .collect();
-        let tri4: Vec<[f32; 4]> = tris.iter().flat_map(|t| t.map(v4)).collect();
         let g = GpuGrid {
             consts: gpu.upload("grid constants", &consts),
             map: gpu.upload("voxel map", &grid.entries),
             cells: gpu.upload("grid cells", &cells),
             refs: gpu.upload("grid references", &grid.refs),
-            tris: gpu.upload("triangles", &tri4),
+            tris: tri_buf.unwrap_or_else(|| gpu.upload("triangles", &tri4(tris))),
             shift: grid.shift,
             dims: grid.dims,
             top_dims: grid.top_dims,
             max_rays: (limit / 16).clamp(1, 1 << 26) as usize,
             name,
             build: grid.build.clone(),
-            compile_seconds,
+            compile_seconds: 0.0,
             upload_seconds: 0.0,
+            built_on_gpu: tri_buf_given,
             times: Mutex::new(Vec::new()),
             kernels,
             gpu,
@@ -129,6 +193,13 @@ impl GpuGrid {
     }
 }
 
+/// Triangles as the kernels read them: 3 × vec4 each.
+fn tri4(tris: &[[geom::Vec3; 3]]) -> Vec<[f32; 4]> {
+    tris.iter()
+        .flat_map(|t| t.map(|v| [v.x, v.y, v.z, 0.0]))
+        .collect()
+}
+
 impl render::Tracer for GpuGrid {
     fn name(&self) -> &str {
         self.name
@@ -139,7 +210,14 @@ impl render::Tracer for GpuGrid {
             .build
             .passes()
             .iter()
-            .map(|(n, t)| (format!("{n} (CPU)"), *t))
+            .zip(PASS_DEVICE)
+            .map(|((n, t), (_, d))| {
+                let on = match (self.built_on_gpu, d) {
+                    (true, Device::Gpu) => "GPU",
+                    _ => "CPU",
+                };
+                (format!("{n} ({on})"), *t)
+            })
             .collect();
         v.push(("kernel compilation".into(), self.compile_seconds));
         v.push(("upload".into(), self.upload_seconds));

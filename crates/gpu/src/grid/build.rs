@@ -1,0 +1,385 @@
+//! The irregular grid's initial cells built on the GPU (paper §4.1; `build.wgsl`), the twin of
+//! `accel/src/grid/build.rs`'s [`accel::grid::build::subdivide`] pass for pass:
+//! - **top_refs**: triangle boxes and the scene box (one launch; the box is read back, since
+//!   the top grid's size sizes every later buffer), the frame from
+//!   [`accel::grid::build::setup`] on the host (the same function as the CPU's), then the
+//!   references to the top cells by count → scan → emit with exact triangle–box tests;
+//! - **octrees**, level by level: reference histogram, which nodes want to split (the paper's
+//!   depth from [`accel::grid::build::Setup::depth_table`]), child masks, which nodes split,
+//!   the level's voxel-map entries and leaf cells, the kept references and the children's.
+//!
+//! The only host round trips are the totals that size the next buffers (the scene box, the
+//! reference count, per level the split and leaf counts and the kept and child reference
+//! counts); each total is checked against the build's caps ([`accel::grid::build::Limits`])
+//! before anything is allocated for it, with the CPU's error messages. The result is the
+//! CPU's [`Octrees`] bit for bit (tests compare them), read back once; the voxel map,
+//! merging and expansion then run on the CPU (their kernels are not written yet).
+
+use crate::device::{Gpu, GpuError};
+use crate::kernels::{Exec, Kernel, Params};
+use accel::grid::build::{self, Octrees, Setup, ADAPTIVE_COPIES, ADAPTIVE_SPLIT};
+use accel::grid::{GridConfig, Subdivision};
+use geom::{Aabb, Vec3};
+use std::time::Instant;
+
+/// The GPU's subdivision: the frame, the octrees (read back) and the wall-clock seconds of
+/// the two passes (top-level references; octrees and the read-back).
+pub fn subdivide(
+    g: &Gpu,
+    k: &crate::kernels::Kernels,
+    tris: &wgpu::Buffer,
+    ntris: usize,
+    cfg: &GridConfig,
+) -> Result<(Setup, Octrees, [f64; 2]), GpuError> {
+    cfg.validate().map_err(GpuError::Config)?;
+    if ntris == 0 {
+        return Err(GpuError::Config(
+            "the grid needs at least one triangle".into(),
+        ));
+    }
+    let limit = g.max_binding();
+    let check = |what: &str, bytes: u64| {
+        if bytes > limit {
+            Err(GpuError::Limits(format!(
+                "the grid build's {what} need {} MiB in one binding; this device allows {} MiB (raise --grid-top-density or lower --grid-leaf-density for fewer references)",
+                bytes.div_ceil(1 << 20),
+                limit >> 20
+            )))
+        } else {
+            Ok(())
+        }
+    };
+    check("triangle boxes", ntris as u64 * 32)?;
+    let t0 = Instant::now();
+    let mut ex = Exec::new(g, k);
+    let n = ntris as u32;
+
+    // Triangle boxes and the scene box.
+    let tbox = g.storage("triangle boxes", ntris as u64 * 32);
+    let bounds = g.upload("scene box", &[u32::MAX, u32::MAX, u32::MAX, 0, 0, 0]);
+    ex.run(
+        Kernel::GridTriBoxes,
+        Params::n(n, 0, 0, 0),
+        &[(1, tris), (2, &tbox), (3, &bounds)],
+        ntris as u64,
+        256,
+    );
+    let key: Vec<u32> = ex.read(&bounds, 6);
+    let unkey = |b: u32| {
+        f32::from_bits(if b & 0x8000_0000 != 0 {
+            b & 0x7fff_ffff
+        } else {
+            !b
+        })
+    };
+    let v = |o: usize| Vec3::new(unkey(key[o]), unkey(key[o + 1]), unkey(key[o + 2]));
+    let st = build::setup(Aabb::new(v(0), v(3)), ntris, cfg).map_err(GpuError::Config)?;
+    let lim = st.limits;
+    let v4 = |a: Vec3, w: f32| [a.x, a.y, a.z, w];
+    let frame = |size: Vec3, small: f32, half: Vec3| {
+        g.upload(
+            "grid build frame",
+            &[v4(st.bounds.min, st.pad), v4(size, small), v4(half, 0.0)],
+        )
+    };
+    let mut dims = Params::n(n, 0, 0, 0);
+    dims.u[1] = [st.top_dims[0], st.top_dims[1], st.top_dims[2], 0];
+
+    // References to the top cells.
+    let fr = frame(st.tsize, 0.0, st.tsize / 2.0 + Vec3::splat(st.pad));
+    let cnt = g.storage("top reference counts", ntris as u64 * 4);
+    let offs = g.storage("top reference offsets", (ntris as u64 + 1) * 4);
+    // Every launch binds all the kernel uses (its layout is inferred); the count launch's
+    // outputs are placeholders it never writes.
+    let none = g.storage("unused", 4);
+    ex.run(
+        Kernel::GridTopRefs,
+        dims,
+        &[
+            (1, tris),
+            (2, &tbox),
+            (4, &fr),
+            (5, &cnt),
+            (6, &offs),
+            (7, &none),
+            (8, &none),
+        ],
+        ntris as u64,
+        256,
+    );
+    ex.scan(&cnt, &offs, ntris as u64);
+    let nref = ex.read_at(&offs, ntris) as u64;
+    lim.check_refs(nref).map_err(GpuError::Config)?;
+    check("references", nref * 4)?;
+    let mut ref_node = g.storage("references' nodes", nref * 4);
+    let mut ref_tri = g.storage("references' triangles", nref * 4);
+    let mut emit = dims;
+    emit.u[0][2] = 1;
+    ex.run(
+        Kernel::GridTopRefs,
+        emit,
+        &[
+            (1, tris),
+            (2, &tbox),
+            (4, &fr),
+            (5, &cnt),
+            (6, &offs),
+            (7, &ref_node),
+            (8, &ref_tri),
+        ],
+        ntris as u64,
+        256,
+    );
+    ex.finish();
+    let top_refs_seconds = t0.elapsed().as_secs_f64();
+
+    // Octree levels.
+    let t1 = Instant::now();
+    let ntop = st.ntop;
+    let table = st.depth_table(cfg.leaf_density, ntris);
+    let dtab = g.upload("depth table", &table);
+    let depth = g.storage("top cells' depths", ntop as u64 * 4);
+    let td = st.top_dims;
+    let top_coords: Vec<[u32; 4]> = (0..ntop as u32)
+        .map(|t| [t % td[0], (t / td[0]) % td[1], t / (td[0] * td[1]), t])
+        .collect();
+    let mut coords = g.upload("node coordinates", &top_coords);
+    let adaptive = cfg.subdivision == Subdivision::Adaptive;
+    let mut nodes = ntop;
+    let mut nref = nref;
+    let mut level = 0u32;
+    let mut entries_at = 0u64;
+    // Per level, read back at the end: entries, leaf cells, kept references.
+    let mut parts: Vec<(
+        wgpu::Buffer,
+        usize,
+        wgpu::Buffer,
+        usize,
+        [wgpu::Buffer; 2],
+        usize,
+    )> = Vec::new();
+    let mut ncells = 0u64;
+    let mut nkept_all = 0u64;
+    loop {
+        let nn = nodes as u64;
+        check("octree nodes", nn * 16)?;
+        let size = st.tsize / (1u32 << (level + 1)) as f32;
+        let half = st.tsize / (2u32 << (level + 1)) as f32 + Vec3::splat(st.pad);
+        let fr = frame(size, size.min_element(), half);
+        let mut prm = Params::n(nref as u32, level, 0, st.max_depth);
+        let small = adaptive && level >= 1;
+        prm.u[0][2] = adaptive as u32 | (small as u32) << 1;
+        prm.u[2] = [0, table.len() as u32, 0, 0];
+        prm.f[0] = [cfg.leaf_density, ADAPTIVE_SPLIT, ADAPTIVE_COPIES, 0.0];
+        let with_n = |n: u64| {
+            let mut p = prm;
+            p.u[0][0] = n as u32;
+            p
+        };
+        let count = g.storage("node counts", nn * 4);
+        let smallc = g.storage("node small counts", nn * 4);
+        ex.run(
+            Kernel::GridHistogram,
+            with_n(nref),
+            &[
+                (2, &tbox),
+                (4, &fr),
+                (9, &ref_node),
+                (10, &ref_tri),
+                (11, &count),
+                (12, &smallc),
+            ],
+            nref,
+            256,
+        );
+        let flags = g.storage("node flags", nn * 4);
+        ex.run(
+            Kernel::GridWants,
+            with_n(nn),
+            &[
+                (11, &count),
+                (12, &smallc),
+                (13, &depth),
+                (14, &dtab),
+                (15, &coords),
+                (16, &flags),
+            ],
+            nn,
+            256,
+        );
+        let mask = g.storage("child masks", nref * 4);
+        let sepcop = g.storage("node separation and copies", nn * 8);
+        ex.run(
+            Kernel::GridMasks,
+            with_n(nref),
+            &[
+                (1, tris),
+                (2, &tbox),
+                (4, &fr),
+                (9, &ref_node),
+                (10, &ref_tri),
+                (15, &coords),
+                (16, &flags),
+                (17, &mask),
+                (18, &sepcop),
+            ],
+            nref,
+            256,
+        );
+        let split = g.storage("split", nn * 4);
+        let leaf = g.storage("leaf", nn * 4);
+        ex.run(
+            Kernel::GridSplit,
+            with_n(nn),
+            &[
+                (11, &count),
+                (16, &flags),
+                (18, &sepcop),
+                (19, &split),
+                (20, &leaf),
+            ],
+            nn,
+            256,
+        );
+        let child_base = g.storage("child base", (nn + 1) * 4);
+        let leaf_index = g.storage("leaf index", (nn + 1) * 4);
+        ex.scan(&split, &child_base, nn);
+        ex.scan(&leaf, &leaf_index, nn);
+        let nsplit = ex.read_at(&child_base, nodes) as u64;
+        let nleaf = ex.read_at(&leaf_index, nodes) as u64;
+        let next_level_entry = entries_at + nn;
+        let need = (next_level_entry + 8 * nsplit).max(ncells + nleaf);
+        lim.check_nodes(need, level).map_err(GpuError::Config)?;
+        check("octree nodes", 8 * nsplit * 16)?;
+        let entries = g.storage("voxel-map entries", nn * 4);
+        let cells = g.storage("leaf cells", (nleaf * 16).max(16));
+        let new_coords = g.storage("node coordinates", (8 * nsplit * 16).max(16));
+        let mut p = with_n(nn);
+        p.u[1][3] = ncells as u32;
+        p.u[2][0] = next_level_entry as u32;
+        ex.run(
+            Kernel::GridNodes,
+            p,
+            &[
+                (11, &count),
+                (15, &coords),
+                (19, &split),
+                (21, &child_base),
+                (22, &leaf_index),
+                (23, &entries),
+                (24, &cells),
+                (25, &new_coords),
+            ],
+            nn,
+            256,
+        );
+        // References: kept by leaves, or one per child overlapped.
+        let kept = g.storage("kept flags", nref * 4);
+        let ccnt = g.storage("child reference counts", nref * 4);
+        ex.run(
+            Kernel::GridRefFlags,
+            with_n(nref),
+            &[
+                (5, &ccnt),
+                (9, &ref_node),
+                (17, &mask),
+                (19, &split),
+                (26, &kept),
+            ],
+            nref,
+            256,
+        );
+        let kept_at = g.storage("kept slots", (nref + 1) * 4);
+        let child_at = g.storage("child reference slots", (nref + 1) * 4);
+        ex.scan(&kept, &kept_at, nref);
+        ex.scan(&ccnt, &child_at, nref);
+        let nkept = ex.read_at(&kept_at, nref as usize) as u64;
+        let nnew = ex.read_at(&child_at, nref as usize) as u64;
+        lim.check_refs(nkept_all + nkept)
+            .map_err(GpuError::Config)?;
+        lim.check_refs(nnew).map_err(GpuError::Config)?;
+        check("references", nnew * 4)?;
+        let kept_cell = g.storage("kept references' cells", nkept * 4);
+        let kept_tri = g.storage("kept references' triangles", nkept * 4);
+        let mut p = with_n(nref);
+        p.u[0][2] = 1;
+        p.u[1][3] = ncells as u32;
+        ex.run(
+            Kernel::GridRefEmit,
+            p,
+            &[
+                (6, &child_at),
+                (7, &kept_cell),
+                (8, &kept_tri),
+                (9, &ref_node),
+                (10, &ref_tri),
+                (17, &mask),
+                (19, &split),
+                (21, &child_base),
+                (22, &leaf_index),
+                (26, &kept_at),
+            ],
+            nref,
+            256,
+        );
+        parts.push((
+            entries,
+            nodes,
+            cells,
+            nleaf as usize,
+            [kept_cell, kept_tri],
+            nkept as usize,
+        ));
+        entries_at = next_level_entry;
+        ncells += nleaf;
+        nkept_all += nkept;
+        if nsplit == 0 {
+            break;
+        }
+        let new_node = g.storage("references' nodes", nnew * 4);
+        let new_tri = g.storage("references' triangles", nnew * 4);
+        let mut p = with_n(nref);
+        p.u[0][2] = 0;
+        ex.run(
+            Kernel::GridRefEmit,
+            p,
+            &[
+                (6, &child_at),
+                (7, &new_node),
+                (8, &new_tri),
+                (9, &ref_node),
+                (10, &ref_tri),
+                (17, &mask),
+                (19, &split),
+                (21, &child_base),
+                (22, &leaf_index),
+                (26, &kept_at),
+            ],
+            nref,
+            256,
+        );
+        coords = new_coords;
+        ref_node = new_node;
+        ref_tri = new_tri;
+        nodes = 8 * nsplit as usize;
+        nref = nnew;
+        level += 1;
+    }
+    // One read-back of every level's results, concatenated in level order.
+    let mut oct = Octrees {
+        levels: level,
+        ..Octrees::default()
+    };
+    for (l, (entries, nn, cells, nleaf, [kc, kt], nkept)) in parts.iter().enumerate() {
+        oct.entries.extend(ex.read::<u32>(entries, *nn));
+        for c in ex.read::<[u32; 4]>(cells, *nleaf) {
+            oct.cell_coord.push([c[0], c[1], c[2]]);
+            oct.cell_count.push(c[3]);
+            oct.cell_level.push(l as u8);
+        }
+        oct.kept_cell.extend(ex.read::<u32>(kc, *nkept));
+        oct.kept_tri.extend(ex.read::<u32>(kt, *nkept));
+    }
+    ex.finish();
+    Ok((st, oct, [top_refs_seconds, t1.elapsed().as_secs_f64()]))
+}
