@@ -50,10 +50,11 @@ enum Module {
     Stages,
     Grid,
     GridBuild,
+    VoxelMap,
 }
 
 impl Module {
-    const ALL: [Module; 13] = [
+    const ALL: [Module; 14] = [
         Module::Scan,
         Module::Sort,
         Module::Compact,
@@ -67,6 +68,7 @@ impl Module {
         Module::Stages,
         Module::Grid,
         Module::GridBuild,
+        Module::VoxelMap,
     ];
 
     /// The module's source after the prelude.
@@ -85,6 +87,7 @@ impl Module {
             Module::Stages => include_str!("stages.wgsl").into(),
             Module::Grid => format!("{GEOM}{}", include_str!("grid/traverse.wgsl")),
             Module::GridBuild => include_str!("grid/build.wgsl").into(),
+            Module::VoxelMap => include_str!("grid/voxelmap.wgsl").into(),
         }
     }
 }
@@ -168,11 +171,25 @@ pub enum Kernel {
     GridRefFlags,
     /// Grid build: kept or child references written.
     GridRefEmit,
+    /// Voxel map: subtree depths and leaf counts (bottom-up).
+    VmUp,
+    /// Voxel map: block roots and places in blocks (top-down).
+    VmDown,
+    /// Voxel map: block entries per subtree (bottom-up).
+    VmBsum,
+    /// Voxel map: pre-order block and leaf offsets (top-down).
+    VmOffsets,
+    /// Voxel map: entries painted, cells renumbered.
+    VmFill,
+    /// Voxel map: cells in map order.
+    VmCells,
+    /// Voxel map: references' renumbered cells.
+    VmKeys,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 37] = [
+    pub const ALL: [Kernel; 44] = [
         Kernel::ScanReduce,
         Kernel::ScanDown,
         Kernel::KeyBits,
@@ -210,6 +227,13 @@ impl Kernel {
         Kernel::GridNodes,
         Kernel::GridRefFlags,
         Kernel::GridRefEmit,
+        Kernel::VmUp,
+        Kernel::VmDown,
+        Kernel::VmBsum,
+        Kernel::VmOffsets,
+        Kernel::VmFill,
+        Kernel::VmCells,
+        Kernel::VmKeys,
     ];
 
     /// The WGSL entry point and the module that holds it.
@@ -253,6 +277,13 @@ impl Kernel {
             GridNodes => ("grid_nodes", Module::GridBuild),
             GridRefFlags => ("grid_ref_flags", Module::GridBuild),
             GridRefEmit => ("grid_ref_emit", Module::GridBuild),
+            VmUp => ("vm_up", Module::VoxelMap),
+            VmDown => ("vm_down", Module::VoxelMap),
+            VmBsum => ("vm_bsum", Module::VoxelMap),
+            VmOffsets => ("vm_offsets", Module::VoxelMap),
+            VmFill => ("vm_fill", Module::VoxelMap),
+            VmCells => ("vm_cells", Module::VoxelMap),
+            VmKeys => ("vm_keys", Module::VoxelMap),
         }
     }
 
@@ -514,6 +545,21 @@ impl<'a> Exec<'a> {
         if bytes > 0 {
             self.encoder()
                 .copy_buffer_to_buffer(src, src_off, dst, 0, bytes);
+        }
+    }
+
+    /// Copy `bytes` from `src` at `src_off` to `dst` at `dst_off`.
+    pub fn copy_at(
+        &mut self,
+        src: &wgpu::Buffer,
+        src_off: u64,
+        dst: &wgpu::Buffer,
+        dst_off: u64,
+        bytes: u64,
+    ) {
+        if bytes > 0 {
+            self.encoder()
+                .copy_buffer_to_buffer(src, src_off, dst, dst_off, bytes);
         }
     }
 

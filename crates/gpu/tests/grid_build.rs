@@ -1,14 +1,16 @@
-//! The irregular grid's build passes on the GPU against the CPU's: on every built-in scene
-//! and on random soups, in the paper's configuration, with adaptive subdivision and with deep
-//! octrees, the GPU's frame and octrees (sparse voxel map, leaf cells, kept references) equal
-//! `accel::grid::build::subdivide`'s bit for bit; a grid built by `GpuGrid::new` traces as the
+//! The irregular grid's build passes on the GPU against the CPU's: on every built-in scene,
+//! on random soups and on the real scenes, in the paper's configuration, with adaptive
+//! subdivision and with deep octrees, the GPU's frame and octrees (sparse voxel map, leaf
+//! cells, kept references) equal `accel::grid::build::subdivide`'s bit for bit, and its
+//! cells pass (block voxel map, cells in map order, sorted references) equals
+//! `accel::grid::build::finish`'s; a grid built by `GpuGrid::new` traces as the
 //! CPU grid does; the build's caps and binding limits refuse with the CPU's lines; and the GPU
 //! places every pass of the CPU's pass list. Without an adapter every test prints why and
 //! passes locally (CI installs lavapipe and requires the GPU).
 
 use accel::grid::build::subdivide;
 use accel::grid::{GridConfig, GridEngine, Subdivision, PASSES};
-use gpu::grid::{build, Device, PASS_DEVICE};
+use gpu::grid::{build, voxelmap, Device, PASS_DEVICE};
 use gpu::kernels::Kernels;
 use gpu::{Gpu, GpuGrid};
 use render::raygen::{generate, Kind, Options};
@@ -48,10 +50,19 @@ fn tri4(tris: &[[geom::Vec3; 3]]) -> Vec<[f32; 4]> {
 }
 
 /// The GPU's subdivision of `tris` equals the CPU's, frame and octrees.
-fn same_subdivision(g: &Gpu, k: &Kernels, tris: &[[geom::Vec3; 3]], cfg: &GridConfig, what: &str) {
+/// Returns the blocks nested below the top cells' (so callers can check that deep octrees,
+/// whose numbering is the subtle part, were exercised).
+fn same_subdivision(
+    g: &Gpu,
+    k: &Kernels,
+    tris: &[[geom::Vec3; 3]],
+    cfg: &GridConfig,
+    what: &str,
+) -> usize {
     let (cs, co, _) = subdivide(tris, cfg).unwrap();
     let buf = g.upload("triangles", &tri4(tris));
-    let (gs, go, _) = build::subdivide(g, k, &buf, tris.len(), cfg).unwrap();
+    let (gs, d, _) = build::subdivide_on_device(g, k, &buf, tris.len(), cfg).unwrap();
+    let go = d.read(&mut gpu::kernels::Exec::new(g, k));
     assert_eq!(gs, cs, "{what}: frame");
     same(
         &go.entries,
@@ -85,6 +96,33 @@ fn same_subdivision(g: &Gpu, k: &Kernels, tris: &[[geom::Vec3; 3]], cfg: &GridCo
     );
     assert_eq!(go.levels, co.levels, "{what}: levels");
     assert!(co.levels >= 1, "{what}: the octrees split somewhere");
+    // The cells pass: voxel map, cells in its order, references by cell.
+    let cg = accel::grid::build::finish(&cs, co).unwrap();
+    let gg = voxelmap::finish(g, k, &gs, &d).unwrap();
+    same(&gg.entries, &cg.entries, &format!("{what}: voxel map"));
+    same(&gg.cell_min, &cg.cell_min, &format!("{what}: cells' min"));
+    same(&gg.cell_max, &cg.cell_max, &format!("{what}: cells' max"));
+    same(
+        &gg.ref_first,
+        &cg.ref_first,
+        &format!("{what}: reference ranges"),
+    );
+    same(&gg.refs, &cg.refs, &format!("{what}: references"));
+    let nested = cg.entries[cs.ntop..]
+        .iter()
+        .filter(|&&e| e & accel::grid::voxelmap::NODE != 0)
+        .count();
+    eprintln!(
+        "{what}: {} levels, {} cells, {nested} nested blocks",
+        cg.shift,
+        cg.cells()
+    );
+    assert_eq!(
+        (gg.shift, gg.dims, gg.voxel, gg.bounds),
+        (cg.shift, cg.dims, cg.voxel, cg.bounds),
+        "{what}: grid frame"
+    );
+    nested
 }
 
 /// Equal lists, or a panic naming the lengths and the first difference (not the lists).
@@ -105,12 +143,14 @@ fn same<T: PartialEq + std::fmt::Debug>(gpu: &[T], cpu: &[T], what: &str) {
 fn builtin_subdivisions_match_the_cpu() {
     let Some(g) = gpu() else { return };
     let k = Kernels::new(&g);
+    let mut nested = 0;
     for name in builtin::NAMES {
         let geo = Geometry::from_scene(&builtin::by_name(name).unwrap());
         for (cname, cfg) in configs() {
-            same_subdivision(&g, &k, &geo.tris, &cfg, &format!("{name} {cname}"));
+            nested += same_subdivision(&g, &k, &geo.tris, &cfg, &format!("{name} {cname}"));
         }
     }
+    assert!(nested > 1000, "deep octrees nest blocks ({nested})");
 }
 
 #[test]

@@ -784,8 +784,7 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, String> {
         kept_tri,
         levels: level,
     } = oct;
-    let (bounds, top_dims, ntop) = (st.bounds, st.top_dims, st.ntop);
-    let ext = bounds.extent();
+    let ntop = st.ntop;
     let t2 = Instant::now();
     let ncells = cell_coord.len();
     let voxelmap::Flattened {
@@ -846,12 +845,28 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, String> {
                 s.sort_unstable();
             });
     }
-    let dims = top_dims.map(|d| d << shift);
-    let voxel = ext / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
-    let voxel_map_seconds = t2.elapsed().as_secs_f64();
-    Ok(Grid {
-        bounds,
-        top_dims,
+    let mut g = assemble(st, shift, entries, (cell_min, cell_max), ref_first, refs);
+    g.build.voxel_map_seconds = t2.elapsed().as_secs_f64();
+    Ok(g)
+}
+
+/// The [`Grid`] of the initial cells from the cells pass's results: the flattened voxel map,
+/// the cells' footprints on the virtual grid ([min, max)), their reference ranges and
+/// references (the GPU's cells pass hands in the same arrays).
+pub fn assemble(
+    st: &Setup,
+    shift: u32,
+    entries: Vec<u32>,
+    (cell_min, cell_max): (Vec<[u32; 3]>, Vec<[u32; 3]>),
+    ref_first: Vec<u32>,
+    refs: Vec<u32>,
+) -> Grid {
+    let dims = st.top_dims.map(|d| d << shift);
+    let voxel = st.bounds.extent() / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+    let ncells = cell_min.len();
+    Grid {
+        bounds: st.bounds,
+        top_dims: st.top_dims,
         shift,
         dims,
         voxel,
@@ -865,11 +880,10 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, String> {
         refs,
         entries,
         build: BuildStats {
-            voxel_map_seconds,
             initial_cells: ncells,
             ..Default::default()
         },
-    })
+    }
 }
 
 #[cfg(test)]

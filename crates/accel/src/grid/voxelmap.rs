@@ -112,6 +112,17 @@ fn paint(sparse: &[u32], e: u32, lo: [u32; 3], lk: [u32; 2], start: usize, out: 
     }
 }
 
+/// A flattened map of `total` entries fits the entries' index bits, or the error naming the
+/// options that shrink it (the GPU's cells pass checks its total with the same line).
+pub fn check_total(total: u64) -> Result<(), String> {
+    if total > INDEX as u64 {
+        return Err(format!(
+            "the grid's voxel map would need {total} entries, more than 2^27; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
+        ));
+    }
+    Ok(())
+}
+
 /// What [`flatten`] returns.
 pub struct Flattened {
     /// The voxel map: top entries, then the blocks.
@@ -148,11 +159,7 @@ pub fn flatten(sparse: &[u32], ntop: usize, ncells: usize) -> Result<Flattened, 
         })
         .collect();
     let total: usize = ntop + parts.iter().map(|p| p.1.entries.len()).sum::<usize>();
-    if total > INDEX as usize {
-        return Err(format!(
-            "the grid's voxel map would need {total} entries, more than 2^27; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
-        ));
-    }
+    check_total(total as u64)?;
     let order: Vec<u32> = parts
         .iter()
         .flat_map(|p| p.1.cells.iter().copied())

@@ -22,8 +22,7 @@ use accel::grid::{GridConfig, Subdivision};
 use geom::{Aabb, Vec3};
 use std::time::Instant;
 
-/// The GPU's subdivision: the frame, the octrees (read back) and the wall-clock seconds of
-/// the two passes (top-level references; octrees and the read-back).
+/// The GPU's subdivision read back: the frame, the octrees and the seconds of the passes.
 pub fn subdivide(
     g: &Gpu,
     k: &crate::kernels::Kernels,
@@ -31,6 +30,20 @@ pub fn subdivide(
     ntris: usize,
     cfg: &GridConfig,
 ) -> Result<(Setup, Octrees, [f64; 2]), GpuError> {
+    let (st, d, t) = subdivide_on_device(g, k, tris, ntris, cfg)?;
+    let oct = d.read(&mut Exec::new(g, k));
+    Ok((st, oct, t))
+}
+
+/// The GPU's subdivision: the frame, the octrees on the device and the wall-clock seconds of
+/// the two passes (top-level references; octrees).
+pub fn subdivide_on_device(
+    g: &Gpu,
+    k: &crate::kernels::Kernels,
+    tris: &wgpu::Buffer,
+    ntris: usize,
+    cfg: &GridConfig,
+) -> Result<(Setup, DeviceOctrees, [f64; 2]), GpuError> {
     cfg.validate().map_err(GpuError::Config)?;
     if ntris == 0 {
         return Err(GpuError::Config(
@@ -149,15 +162,18 @@ pub fn subdivide(
     let mut nref = nref;
     let mut level = 0u32;
     let mut entries_at = 0u64;
-    // Per level, read back at the end: entries, leaf cells, kept references.
-    let mut parts: Vec<(
-        wgpu::Buffer,
-        usize,
-        wgpu::Buffer,
-        usize,
-        [wgpu::Buffer; 2],
-        usize,
-    )> = Vec::new();
+    // Per level, gathered into whole-build buffers at the end.
+    struct Level {
+        entries: wgpu::Buffer,
+        coords: wgpu::Buffer,
+        nodes: u64,
+        cells: wgpu::Buffer,
+        cell_level: wgpu::Buffer,
+        nleaf: u64,
+        kept: [wgpu::Buffer; 2],
+        nkept: u64,
+    }
+    let mut parts: Vec<Level> = Vec::new();
     let mut ncells = 0u64;
     let mut nkept_all = 0u64;
     loop {
@@ -254,6 +270,7 @@ pub fn subdivide(
         let entries = g.storage("voxel-map entries", nn * 4);
         let cells = g.storage("leaf cells", (nleaf * 16).max(16));
         let new_coords = g.storage("node coordinates", (8 * nsplit * 16).max(16));
+        let cell_level = g.storage("leaf cells' levels", nleaf * 4);
         let mut p = with_n(nn);
         p.u[1][3] = ncells as u32;
         p.u[2][0] = next_level_entry as u32;
@@ -269,6 +286,7 @@ pub fn subdivide(
                 (23, &entries),
                 (24, &cells),
                 (25, &new_coords),
+                (27, &cell_level),
             ],
             nn,
             256,
@@ -322,14 +340,16 @@ pub fn subdivide(
             nref,
             256,
         );
-        parts.push((
+        parts.push(Level {
             entries,
-            nodes,
+            coords: coords.clone(),
+            nodes: nn,
             cells,
-            nleaf as usize,
-            [kept_cell, kept_tri],
-            nkept as usize,
-        ));
+            cell_level,
+            nleaf,
+            kept: [kept_cell, kept_tri],
+            nkept,
+        });
         entries_at = next_level_entry;
         ncells += nleaf;
         nkept_all += nkept;
@@ -365,21 +385,81 @@ pub fn subdivide(
         nref = nnew;
         level += 1;
     }
-    // One read-back of every level's results, concatenated in level order.
-    let mut oct = Octrees {
-        levels: level,
-        ..Octrees::default()
+    // Every level's results gathered, in level order, into buffers of the whole build.
+    let sum = |f: &dyn Fn(&Level) -> u64| parts.iter().map(f).sum::<u64>();
+    let (nentries, ncells, nkept) = (sum(&|l| l.nodes), sum(&|l| l.nleaf), sum(&|l| l.nkept));
+    check("voxel-map entries", nentries * 16)?;
+    let mut d = DeviceOctrees {
+        entries: g.storage("sparse voxel map", nentries * 4),
+        coords: g.storage("node coordinates", nentries * 16),
+        cells: g.storage("leaf cells", (ncells * 16).max(16)),
+        cell_level: g.storage("leaf cells' levels", ncells * 4),
+        kept_cell: g.storage("kept references' cells", nkept * 4),
+        kept_tri: g.storage("kept references' triangles", nkept * 4),
+        levels: Vec::new(),
+        ntop: st.ntop as u64,
+        ncells,
+        nkept,
+        shift: level,
     };
-    for (l, (entries, nn, cells, nleaf, [kc, kt], nkept)) in parts.iter().enumerate() {
-        oct.entries.extend(ex.read::<u32>(entries, *nn));
-        for c in ex.read::<[u32; 4]>(cells, *nleaf) {
-            oct.cell_coord.push([c[0], c[1], c[2]]);
-            oct.cell_count.push(c[3]);
-            oct.cell_level.push(l as u8);
-        }
-        oct.kept_cell.extend(ex.read::<u32>(kc, *nkept));
-        oct.kept_tri.extend(ex.read::<u32>(kt, *nkept));
+    let (mut at_e, mut at_c, mut at_k) = (0u64, 0u64, 0u64);
+    for l in &parts {
+        ex.copy_at(&l.entries, 0, &d.entries, at_e * 4, l.nodes * 4);
+        ex.copy_at(&l.coords, 0, &d.coords, at_e * 16, l.nodes * 16);
+        ex.copy_at(&l.cells, 0, &d.cells, at_c * 16, l.nleaf * 16);
+        ex.copy_at(&l.cell_level, 0, &d.cell_level, at_c * 4, l.nleaf * 4);
+        ex.copy_at(&l.kept[0], 0, &d.kept_cell, at_k * 4, l.nkept * 4);
+        ex.copy_at(&l.kept[1], 0, &d.kept_tri, at_k * 4, l.nkept * 4);
+        d.levels.push((at_e, l.nodes));
+        at_e += l.nodes;
+        at_c += l.nleaf;
+        at_k += l.nkept;
     }
     ex.finish();
-    Ok((st, oct, [top_refs_seconds, t1.elapsed().as_secs_f64()]))
+    Ok((st, d, [top_refs_seconds, t1.elapsed().as_secs_f64()]))
+}
+
+/// The octrees on the device, as [`Octrees`] holds them on the host: nodes by their index
+/// in the sparse voxel map (level after level), leaf cells in level order, kept references.
+pub struct DeviceOctrees {
+    /// The sparse voxel map.
+    pub entries: wgpu::Buffer,
+    /// Per entry: the node's coordinates at its level and its top cell (vec4<u32>).
+    pub coords: wgpu::Buffer,
+    /// Per leaf cell: coordinates and reference count (vec4<u32>).
+    pub cells: wgpu::Buffer,
+    /// Per leaf cell: its level.
+    pub cell_level: wgpu::Buffer,
+    /// Kept references' cells (level order).
+    pub kept_cell: wgpu::Buffer,
+    /// Kept references' triangles.
+    pub kept_tri: wgpu::Buffer,
+    /// Per level: its first entry and its node count.
+    pub levels: Vec<(u64, u64)>,
+    /// Top cells (level 0's nodes).
+    pub ntop: u64,
+    /// Leaf cells.
+    pub ncells: u64,
+    /// Kept references.
+    pub nkept: u64,
+    /// Levels below the top.
+    pub shift: u32,
+}
+
+impl DeviceOctrees {
+    /// Read the octrees back (tests compare them with the CPU's).
+    pub fn read(&self, ex: &mut Exec) -> Octrees {
+        let nentries = self.levels.iter().map(|l| l.1).sum::<u64>() as usize;
+        let cells: Vec<[u32; 4]> = ex.read(&self.cells, self.ncells as usize);
+        let levels: Vec<u32> = ex.read(&self.cell_level, self.ncells as usize);
+        Octrees {
+            entries: ex.read(&self.entries, nentries),
+            cell_coord: cells.iter().map(|c| [c[0], c[1], c[2]]).collect(),
+            cell_level: levels.iter().map(|&l| l as u8).collect(),
+            cell_count: cells.iter().map(|c| c[3]).collect(),
+            kept_cell: ex.read(&self.kept_cell, self.nkept as usize),
+            kept_tri: ex.read(&self.kept_tri, self.nkept as usize),
+            levels: self.shift,
+        }
+    }
 }

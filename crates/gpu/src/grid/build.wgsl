@@ -44,6 +44,8 @@
 @group(0) @binding(24) var<storage, read_write> b_cells: array<vec4<u32>>;
 @group(0) @binding(25) var<storage, read_write> b_new_coords: array<vec4<u32>>;
 @group(0) @binding(26) var<storage, read_write> b_kept: array<u32>;
+// Leaf cells' levels (beside binding 24).
+@group(0) @binding(27) var<storage, read_write> b_cell_level: array<u32>;
 
 // voxelmap.rs: an inner entry is NODE | log2 of its block's resolution << 27 | first entry.
 const NODE: u32 = 0x80000000u;
@@ -409,6 +411,7 @@ fn grid_nodes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         let l = b_leaf_index[i];
         b_entries[i] = P.u1.w + l;
         b_cells[l] = vec4<u32>(c.xyz, atomicLoad(&b_count[i]));
+        b_cell_level[l] = P.u0.y;
     }
 }
 

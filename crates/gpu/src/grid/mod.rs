@@ -5,14 +5,16 @@
 //! beside `accel/src/grid/traverse.rs`), closest and any hit.
 //!
 //! The build (§4) follows `accel::grid::PASSES`; [`PASS_DEVICE`] says where each runs. The
-//! top-level references and the octrees are kernels ([`build`], `build.wgsl` beside
-//! `accel/src/grid/build.rs`) whose result equals the CPU's bit for bit; the cells and voxel
-//! map, merging and expansion still run on the CPU over the read-back octrees (their kernels
-//! are not written yet), and the finished grid is uploaded for traversal. Every pass is
-//! reported with where it ran.
+//! top-level references and the octrees ([`build`], `build.wgsl` beside
+//! `accel/src/grid/build.rs`) and the cells with their voxel map ([`voxelmap`],
+//! `voxelmap.wgsl` beside `accel/src/grid/voxelmap.rs`) are kernels whose results equal the
+//! CPU's bit for bit; merging and expansion still run on the CPU over the read-back initial
+//! grid (their kernels are not written yet), and the finished grid is uploaded for
+//! traversal. Every pass is reported with where it ran.
 
 pub mod build;
 pub mod traverse;
+pub mod voxelmap;
 
 use crate::device::{Gpu, GpuError};
 use crate::kernels::Kernels;
@@ -36,7 +38,7 @@ pub enum Device {
 pub const PASS_DEVICE: [(&str, Device); 5] = [
     ("top_refs", Device::Gpu),
     ("octrees", Device::Gpu),
-    ("cells", Device::Cpu),
+    ("cells", Device::Gpu),
     ("merge", Device::Cpu),
     ("expansion", Device::Cpu),
 ];
@@ -90,8 +92,11 @@ impl GpuGrid {
         let compile_seconds = t0.elapsed().as_secs_f64();
         let tris = gpu.upload("triangles", &tri4(&geo.tris));
         let (st, oct, [top_refs_seconds, octree_seconds]) =
-            build::subdivide(&gpu, &kernels, &tris, geo.tris.len(), cfg)?;
-        let mut grid = accel::grid::build::finish(&st, oct).map_err(GpuError::Config)?;
+            build::subdivide_on_device(&gpu, &kernels, &tris, geo.tris.len(), cfg)?;
+        let t0 = Instant::now();
+        let mut grid = voxelmap::finish(&gpu, &kernels, &st, &oct)?;
+        drop(oct);
+        grid.build.voxel_map_seconds = t0.elapsed().as_secs_f64();
         grid.build.top_refs_seconds = top_refs_seconds;
         grid.build.octree_seconds = octree_seconds;
         let grid = complete(grid, cfg);
