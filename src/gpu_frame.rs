@@ -53,7 +53,7 @@ impl GpuFrame {
                     .map_err(|e| anyhow!("--backend gpu: {e}"))?,
             ),
             None => {
-                // The grid's build runs on the CPU; its traversal is the GPU kernel.
+                // The grid is built and traversed by kernels (gpu::grid::PASS_DEVICE).
                 let cfg = eopts.grid_config(engine == Engine::Grid2l);
                 eopts.validate(engine)?;
                 Box::new(

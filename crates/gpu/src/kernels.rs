@@ -51,10 +51,12 @@ enum Module {
     Grid,
     GridBuild,
     VoxelMap,
+    Merge,
+    Expand,
 }
 
 impl Module {
-    const ALL: [Module; 14] = [
+    const ALL: [Module; 16] = [
         Module::Scan,
         Module::Sort,
         Module::Compact,
@@ -69,6 +71,8 @@ impl Module {
         Module::Grid,
         Module::GridBuild,
         Module::VoxelMap,
+        Module::Merge,
+        Module::Expand,
     ];
 
     /// The module's source after the prelude.
@@ -88,6 +92,8 @@ impl Module {
             Module::Grid => format!("{GEOM}{}", include_str!("grid/traverse.wgsl")),
             Module::GridBuild => include_str!("grid/build.wgsl").into(),
             Module::VoxelMap => include_str!("grid/voxelmap.wgsl").into(),
+            Module::Merge => include_str!("grid/merge.wgsl").into(),
+            Module::Expand => include_str!("grid/expand.wgsl").into(),
         }
     }
 }
@@ -185,11 +191,39 @@ pub enum Kernel {
     VmCells,
     /// Voxel map: references' renumbered cells.
     VmKeys,
+    /// Merge: list ranges from the reference ranges.
+    MInit,
+    /// Merge: candidates of the live cells.
+    MCandidates,
+    /// Merge: cells a candidate points at.
+    MPredecessors,
+    /// Merge: chains walked from their heads into pairs.
+    MChains,
+    /// Merge: list lengths after the pass.
+    MCounts,
+    /// Merge: lists rewritten, pairs merged.
+    MEmit,
+    /// Merge: owners one step deep.
+    MCompress,
+    /// Merge: cells still live.
+    MLiveFlags,
+    /// Merge: live cells renumbered.
+    MFinalIndex,
+    /// Merge: the voxel map repointed.
+    MFinalMap,
+    /// Merge: live cells gathered.
+    MFinalCells,
+    /// Expansion: blocked sides and boxes at the start.
+    EInit,
+    /// Expansion: one side of every cell.
+    ESide,
+    /// The traversal's cell records.
+    ERecords,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 44] = [
+    pub const ALL: [Kernel; 58] = [
         Kernel::ScanReduce,
         Kernel::ScanDown,
         Kernel::KeyBits,
@@ -234,6 +268,20 @@ impl Kernel {
         Kernel::VmFill,
         Kernel::VmCells,
         Kernel::VmKeys,
+        Kernel::MInit,
+        Kernel::MCandidates,
+        Kernel::MPredecessors,
+        Kernel::MChains,
+        Kernel::MCounts,
+        Kernel::MEmit,
+        Kernel::MCompress,
+        Kernel::MLiveFlags,
+        Kernel::MFinalIndex,
+        Kernel::MFinalMap,
+        Kernel::MFinalCells,
+        Kernel::EInit,
+        Kernel::ESide,
+        Kernel::ERecords,
     ];
 
     /// The WGSL entry point and the module that holds it.
@@ -284,6 +332,20 @@ impl Kernel {
             VmFill => ("vm_fill", Module::VoxelMap),
             VmCells => ("vm_cells", Module::VoxelMap),
             VmKeys => ("vm_keys", Module::VoxelMap),
+            MInit => ("m_init", Module::Merge),
+            MCandidates => ("m_candidates", Module::Merge),
+            MPredecessors => ("m_predecessors", Module::Merge),
+            MChains => ("m_chains", Module::Merge),
+            MCounts => ("m_counts", Module::Merge),
+            MEmit => ("m_emit", Module::Merge),
+            MCompress => ("m_compress", Module::Merge),
+            MLiveFlags => ("m_live_flags", Module::Merge),
+            MFinalIndex => ("m_final_index", Module::Merge),
+            MFinalMap => ("m_final_map", Module::Merge),
+            MFinalCells => ("m_final_cells", Module::Merge),
+            EInit => ("e_init", Module::Expand),
+            ESide => ("e_side", Module::Expand),
+            ERecords => ("e_records", Module::Expand),
         }
     }
 

@@ -7,18 +7,21 @@
 //! The build (§4) follows `accel::grid::PASSES`; [`PASS_DEVICE`] says where each runs. The
 //! top-level references and the octrees ([`build`], `build.wgsl` beside
 //! `accel/src/grid/build.rs`) and the cells with their voxel map ([`voxelmap`],
-//! `voxelmap.wgsl` beside `accel/src/grid/voxelmap.rs`) are kernels whose results equal the
-//! CPU's bit for bit; merging and expansion still run on the CPU over the read-back initial
-//! grid (their kernels are not written yet), and the finished grid is uploaded for
-//! traversal. Every pass is reported with where it ran.
+//! `voxelmap.wgsl` beside `accel/src/grid/voxelmap.rs`), SAH merging ([`merge`]) and
+//! expansion ([`expand`]) are kernels whose results equal the CPU's bit for bit; the grid
+//! never leaves the device ([`DeviceGrid`]): the host reads only the totals that size the
+//! next buffers, and the traversal reads the build's buffers. Every pass is reported with
+//! where it ran ([`GpuGrid::upload`] traces a CPU-built grid instead, for benchmarks).
 
 pub mod build;
+pub mod expand;
+pub mod merge;
 pub mod traverse;
 pub mod voxelmap;
 
 use crate::device::{Gpu, GpuError};
 use crate::kernels::Kernels;
-use accel::grid::{complete, BuildStats, Grid, GridConfig};
+use accel::grid::{BuildStats, Grid, GridConfig};
 use render::Phase;
 use scene::Geometry;
 use std::sync::Mutex;
@@ -39,9 +42,62 @@ pub const PASS_DEVICE: [(&str, Device); 5] = [
     ("top_refs", Device::Gpu),
     ("octrees", Device::Gpu),
     ("cells", Device::Gpu),
-    ("merge", Device::Cpu),
-    ("expansion", Device::Cpu),
+    ("merge", Device::Gpu),
+    ("expansion", Device::Gpu),
 ];
+
+/// A grid being built on the device: its cells, references and voxel map in buffers, and
+/// its frame (box, resolutions, voxel size, build statistics) on the host.
+pub struct DeviceGrid {
+    /// The frame, as a [`Grid`] whose per-cell arrays are empty.
+    pub frame: Grid,
+    /// The voxel map.
+    pub entries: wgpu::Buffer,
+    /// Its entries.
+    pub nentries: u64,
+    /// Cells' footprints on the virtual grid, min corners (vec4<u32>) …
+    pub cell_min: wgpu::Buffer,
+    /// … and max corners (exclusive).
+    pub cell_max: wgpu::Buffer,
+    /// Expanded exit boxes, min corners (vec4<u32>) …
+    pub exp_min: wgpu::Buffer,
+    /// … and max corners.
+    pub exp_max: wgpu::Buffer,
+    /// Cells.
+    pub ncells: u64,
+    /// Each cell's first reference (cells + 1 entries).
+    pub ref_first: wgpu::Buffer,
+    /// The references.
+    pub refs: wgpu::Buffer,
+    /// References.
+    pub nrefs: u64,
+}
+
+impl DeviceGrid {
+    /// The grid read back (tests compare it with the CPU's).
+    pub fn read(&self, g: &Gpu, k: &Kernels) -> Grid {
+        let mut ex = crate::kernels::Exec::new(g, k);
+        let n = self.ncells as usize;
+        let mut v3 = |b: &wgpu::Buffer| -> Vec<[u32; 3]> {
+            ex.read::<[u32; 4]>(b, n)
+                .iter()
+                .map(|c| [c[0], c[1], c[2]])
+                .collect()
+        };
+        let (cell_min, cell_max) = (v3(&self.cell_min), v3(&self.cell_max));
+        let (exp_min, exp_max) = (v3(&self.exp_min), v3(&self.exp_max));
+        Grid {
+            cell_min,
+            cell_max,
+            exp_min,
+            exp_max,
+            ref_first: ex.read(&self.ref_first, n + 1),
+            refs: ex.read(&self.refs, self.nrefs as usize),
+            entries: ex.read(&self.entries, self.nentries as usize),
+            ..self.frame.clone()
+        }
+    }
+}
 
 /// The grid on the device: what the traversal kernel reads.
 pub struct GpuGrid {
@@ -91,19 +147,38 @@ impl GpuGrid {
         let kernels = Kernels::new(&gpu);
         let compile_seconds = t0.elapsed().as_secs_f64();
         let tris = gpu.upload("triangles", &tri4(&geo.tris));
-        let (st, oct, [top_refs_seconds, octree_seconds]) =
-            build::subdivide_on_device(&gpu, &kernels, &tris, geo.tris.len(), cfg)?;
-        let t0 = Instant::now();
-        let mut grid = voxelmap::finish(&gpu, &kernels, &st, &oct)?;
-        drop(oct);
-        grid.build.voxel_map_seconds = t0.elapsed().as_secs_f64();
-        grid.build.top_refs_seconds = top_refs_seconds;
-        grid.build.octree_seconds = octree_seconds;
-        let grid = complete(grid, cfg);
-        let g = Self::upload_with(gpu, kernels, &grid, Some(tris), &geo.tris, name)?;
+        let d = build_on_device(&gpu, &kernels, &tris, geo.tris.len(), cfg)?;
+        let check = binding_check(&gpu);
+        check("references", d.nrefs * 4)?;
+        check("cells", d.ncells * 32)?;
+        check("voxel map entries", d.nentries * 4)?;
+        let cells = expand::records(&gpu, &kernels, &d);
+        let f = &d.frame;
+        let v4 = |v: geom::Vec3| [v.x, v.y, v.z, 0.0];
+        let consts = [
+            v4(f.bounds.min),
+            v4(f.bounds.max),
+            v4(f.voxel),
+            v4(f.inv_voxel),
+        ];
         Ok(GpuGrid {
+            consts: gpu.upload("grid constants", &consts),
+            map: d.entries,
+            cells,
+            refs: d.refs,
+            tris,
+            shift: f.shift,
+            dims: f.dims,
+            top_dims: f.top_dims,
+            max_rays: (gpu.max_binding() / 16).clamp(1, 1 << 26) as usize,
+            name,
+            build: f.build.clone(),
             compile_seconds,
-            ..g
+            upload_seconds: 0.0,
+            built_on_gpu: true,
+            times: Mutex::new(Vec::new()),
+            kernels,
+            gpu,
         })
     }
 
@@ -115,42 +190,15 @@ impl GpuGrid {
         tris: &[[geom::Vec3; 3]],
         name: &'static str,
     ) -> Result<GpuGrid, GpuError> {
-        let t0 = Instant::now();
-        let kernels = Kernels::new(&gpu);
-        let compile_seconds = t0.elapsed().as_secs_f64();
-        let g = Self::upload_with(gpu, kernels, grid, None, tris, name)?;
-        Ok(GpuGrid {
-            compile_seconds,
-            ..g
-        })
-    }
-
-    /// Upload `grid` (and the triangles, unless already on the device) with `kernels`.
-    fn upload_with(
-        gpu: Gpu,
-        kernels: Kernels,
-        grid: &Grid,
-        tri_buf: Option<wgpu::Buffer>,
-        tris: &[[geom::Vec3; 3]],
-        name: &'static str,
-    ) -> Result<GpuGrid, GpuError> {
         let limit = gpu.max_binding();
-        let tri_buf_given = tri_buf.is_some();
-        let check = |what: &str, bytes: u64| {
-            if bytes > limit {
-                Err(GpuError::Limits(format!(
-                    "the grid's {what} need {} MiB in one binding; this device allows {} MiB (raise --grid-top-density or lower --grid-leaf-density for fewer references)",
-                    bytes.div_ceil(1 << 20),
-                    limit >> 20
-                )))
-            } else {
-                Ok(())
-            }
-        };
+        let check = binding_check(&gpu);
         check("references", grid.refs.len() as u64 * 4)?;
         check("cells", grid.cells() as u64 * 32)?;
         check("voxel map entries", grid.entries.len() as u64 * 4)?;
         check("triangles", tris.len() as u64 * 48)?;
+        let t0 = Instant::now();
+        let kernels = Kernels::new(&gpu);
+        let compile_seconds = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let v4 = |v: geom::Vec3| [v.x, v.y, v.z, 0.0];
         let consts = [
@@ -173,16 +221,16 @@ impl GpuGrid {
             map: gpu.upload("voxel map", &grid.entries),
             cells: gpu.upload("grid cells", &cells),
             refs: gpu.upload("grid references", &grid.refs),
-            tris: tri_buf.unwrap_or_else(|| gpu.upload("triangles", &tri4(tris))),
+            tris: gpu.upload("triangles", &tri4(tris)),
             shift: grid.shift,
             dims: grid.dims,
             top_dims: grid.top_dims,
             max_rays: (limit / 16).clamp(1, 1 << 26) as usize,
             name,
             build: grid.build.clone(),
-            compile_seconds: 0.0,
+            compile_seconds,
             upload_seconds: 0.0,
-            built_on_gpu: tri_buf_given,
+            built_on_gpu: false,
             times: Mutex::new(Vec::new()),
             kernels,
             gpu,
@@ -196,6 +244,55 @@ impl GpuGrid {
             ..g
         })
     }
+}
+
+/// The check of one binding's size against the device's limit, naming what needs it.
+fn binding_check(gpu: &Gpu) -> impl Fn(&str, u64) -> Result<(), GpuError> {
+    let limit = gpu.max_binding();
+    move |what: &str, bytes: u64| {
+        if bytes > limit {
+            Err(GpuError::Limits(format!(
+                "the grid's {what} need {} MiB in one binding; this device allows {} MiB (raise --grid-top-density or lower --grid-leaf-density for fewer references)",
+                bytes.div_ceil(1 << 20),
+                limit >> 20
+            )))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// Build the grid of `cfg` over the `ntris` triangles in `tris` (3 × vec4 each) with the
+/// passes of `accel::grid::PASSES`, every one as kernels; each pass's wall-clock time (with
+/// its totals' read-backs and a wait at its end) goes into the frame's build statistics.
+pub fn build_on_device(
+    gpu: &Gpu,
+    kernels: &Kernels,
+    tris: &wgpu::Buffer,
+    ntris: usize,
+    cfg: &GridConfig,
+) -> Result<DeviceGrid, GpuError> {
+    let (st, oct, [top_refs_seconds, octree_seconds]) =
+        build::subdivide_on_device(gpu, kernels, tris, ntris, cfg)?;
+    let t0 = Instant::now();
+    let mut d = voxelmap::finish(gpu, kernels, &st, &oct)?;
+    drop(oct);
+    let b = &mut d.frame.build;
+    b.voxel_map_seconds = t0.elapsed().as_secs_f64();
+    b.top_refs_seconds = top_refs_seconds;
+    b.octree_seconds = octree_seconds;
+    if cfg.merge {
+        let t0 = Instant::now();
+        let rounds = merge::merge(gpu, kernels, &mut d, cfg.alpha, cfg.empty_only);
+        d.frame.build.merge_rounds = rounds;
+        d.frame.build.merge_seconds = t0.elapsed().as_secs_f64();
+    }
+    if cfg.expansion_passes > 0 {
+        let t0 = Instant::now();
+        expand::expand(gpu, kernels, &mut d, cfg.expansion_passes, cfg.empty_only);
+        d.frame.build.expand_seconds = t0.elapsed().as_secs_f64();
+    }
+    Ok(d)
 }
 
 /// Triangles as the kernels read them: 3 × vec4 each.

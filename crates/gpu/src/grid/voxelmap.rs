@@ -7,18 +7,17 @@
 //!
 //! The CPU numbers blocks and cells in a recursive depth-first walk; here both are pre-order
 //! offsets computed level by level (see the kernel file), so the map equals the CPU's entry
-//! for entry. The totals read back are the map's size (checked against the entries' index
-//! bits with the CPU's line) and, at the end, the grid itself for the passes that still run
-//! on the CPU.
+//! for entry. The only total read back is the map's size (checked against the entries'
+//! index bits with the CPU's line, and against the binding limit).
 
 use super::build::DeviceOctrees;
+use super::DeviceGrid;
 use crate::device::{Gpu, GpuError};
 use crate::kernels::{Exec, Kernel, Kernels, Params};
 use accel::grid::build::{assemble, Setup};
-use accel::grid::Grid;
 
-/// Flatten `d`'s octrees into the voxel map and the cells of the initial grid (read back).
-pub fn finish(g: &Gpu, k: &Kernels, st: &Setup, d: &DeviceOctrees) -> Result<Grid, GpuError> {
+/// Flatten `d`'s octrees into the voxel map and the cells of the initial grid, on the device.
+pub fn finish(g: &Gpu, k: &Kernels, st: &Setup, d: &DeviceOctrees) -> Result<DeviceGrid, GpuError> {
     let mut ex = Exec::new(g, k);
     let nentries: u64 = d.levels.iter().map(|l| l.1).sum();
     let node = |what: &str| g.storage(what, nentries * 4);
@@ -157,16 +156,27 @@ pub fn finish(g: &Gpu, k: &Kernels, st: &Setup, d: &DeviceOctrees) -> Result<Gri
         d.nkept,
         32 - (nc.max(1) as u32 - 1).leading_zeros(),
     );
-    let v3 = |v: Vec<[u32; 4]>| -> Vec<[u32; 3]> { v.iter().map(|c| [c[0], c[1], c[2]]).collect() };
-    let entries: Vec<u32> = ex.read(&out, total as usize);
-    let cmin = v3(ex.read(&cell_min, nc as usize));
-    let cmax = v3(ex.read(&cell_max, nc as usize));
-    let first: Vec<u32> = ex.read(&ref_first, nc as usize + 1);
-    debug_assert_eq!(
-        first[nc as usize] as u64, d.nkept,
-        "every reference in one cell"
-    );
-    let refs: Vec<u32> = ex.read(&refs, d.nkept as usize);
     ex.finish();
-    Ok(assemble(st, d.shift, entries, (cmin, cmax), first, refs))
+    let mut frame = assemble(
+        st,
+        d.shift,
+        Vec::new(),
+        (Vec::new(), Vec::new()),
+        Vec::new(),
+        Vec::new(),
+    );
+    frame.build.initial_cells = nc as usize;
+    Ok(DeviceGrid {
+        frame,
+        entries: out,
+        nentries: total,
+        exp_min: cell_min.clone(),
+        exp_max: cell_max.clone(),
+        cell_min,
+        cell_max,
+        ncells: nc,
+        ref_first,
+        refs,
+        nrefs: d.nkept,
+    })
 }

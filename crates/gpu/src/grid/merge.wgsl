@@ -1,0 +1,331 @@
+// SAH cell merging (Pérard-Gayot et al. 2017, §4.2), the twin of accel/src/grid/merge.rs: a
+// pass along one axis makes every live cell whose +axis neighbour is exactly aligned and
+// whose merge lowers the SAH cost a candidate; chains of candidates are walked from their
+// heads, cells at even positions absorbing their successor; reference lists merge as merge
+// sort (ascending, duplicates once). The CPU caches candidates between passes and keeps a
+// growing reference pool; here every live cell is evaluated in every pass and the lists are
+// rewritten compactly after each pass. Neither changes what is merged: the candidates are
+// the same function of the same cells, and list contents do not depend on where they lie.
+//
+// Cells keep their initial index while merging; owner[i] is the live cell holding cell i.
+// Params: u0 = (live cells, axis, shift, empty only), u1 = virtual dims, u2 = top dims,
+// f0.xyz = voxel size. m_compress / m_final_* take u0.x = their own count.
+
+@group(0) @binding(1) var<storage, read> m_map: array<u32>;
+@group(0) @binding(2) var<storage, read> m_live: array<u32>;
+@group(0) @binding(3) var<storage, read_write> m_owner: array<u32>;
+@group(0) @binding(4) var<storage, read_write> m_min: array<vec4<u32>>;
+@group(0) @binding(5) var<storage, read_write> m_max: array<vec4<u32>>;
+// Each live cell's list: pool[begin[i] .. end[i]] (2 per cell: begin, end).
+@group(0) @binding(6) var<storage, read> m_range: array<u32>;
+@group(0) @binding(7) var<storage, read> m_pool: array<u32>;
+@group(0) @binding(8) var<storage, read_write> m_cand: array<u32>;
+// Per cell: [2i] has a predecessor, [2i + 1] absorbed in this pass.
+@group(0) @binding(9) var<storage, read_write> m_mark: array<u32>;
+@group(0) @binding(10) var<storage, read_write> m_partner: array<u32>;
+@group(0) @binding(11) var<storage, read_write> m_count: array<u32>;
+@group(0) @binding(12) var<storage, read> m_offs: array<u32>;
+@group(0) @binding(13) var<storage, read_write> m_range_out: array<u32>;
+@group(0) @binding(14) var<storage, read_write> m_pool_out: array<u32>;
+@group(0) @binding(15) var<storage, read_write> m_owner_out: array<u32>;
+@group(0) @binding(16) var<storage, read_write> m_out: array<u32>;
+
+const NODE: u32 = 0x80000000u;
+const LOG_DIM_SHIFT: u32 = 27u;
+const INDEX: u32 = 0x07ffffffu;
+const NONE: u32 = 0xffffffffu;
+
+fn lin(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.x + gid.y * nwg.x * 256u;
+}
+
+// Grid::lookup: the top cell's entry, then one entry per block below it.
+fn lookup(v: vec3<u32>) -> u32 {
+    var s = P.u0.z;
+    let td = P.u2.xyz;
+    let t = v >> vec3<u32>(s);
+    var e = m_map[t.x + td.x * (t.y + td.y * t.z)];
+    while (e & NODE) != 0u {
+        let k = (e >> LOG_DIM_SHIFT) & 0xfu;
+        s -= k;
+        let m = (1u << k) - 1u;
+        let i = ((v.x >> s) & m) | (((v.y >> s) & m) << k) | (((v.z >> s) & m) << (2u * k));
+        e = m_map[(e & INDEX) + i];
+    }
+    return e;
+}
+
+// grid::half_area: the box's extent in world units, e.x e.y + e.y e.z + e.z e.x.
+fn half_area(lo: vec3<u32>, hi: vec3<u32>) -> f32 {
+    let v = P.f0.xyz;
+    let e = vec3<f32>(mul(f32(hi.x - lo.x), v.x), mul(f32(hi.y - lo.y), v.y), mul(f32(hi.z - lo.z), v.z));
+    return keep(mul(e.x, e.y) + mul(e.y, e.z)) + mul(e.z, e.x);
+}
+
+// grid::union_len of two live cells' ascending lists.
+fn union_len(i: u32, j: u32) -> u32 {
+    var a = m_range[2u * i];
+    let ae = m_range[2u * i + 1u];
+    var b = m_range[2u * j];
+    let be = m_range[2u * j + 1u];
+    var n = 0u;
+    while a < ae && b < be {
+        let x = m_pool[a];
+        let y = m_pool[b];
+        if x <= y {
+            a++;
+        }
+        if y <= x {
+            b++;
+        }
+        n++;
+    }
+    return n + (ae - a) + (be - b);
+}
+
+fn list_len(i: u32) -> u32 {
+    return m_range[2u * i + 1u] - m_range[2u * i];
+}
+
+// merge.rs `neighbour` and `worth_merging`: the cell at i's +axis probe voxel, if exactly
+// aligned and if merging lowers the SAH cost.
+fn candidate(i: u32, axis: u32) -> u32 {
+    let lo = m_min[i].xyz;
+    let hi = m_max[i].xyz;
+    if hi[axis] >= P.u1[axis] {
+        return NONE;
+    }
+    var p = lo;
+    p[axis] = hi[axis];
+    let j = m_owner[lookup(p)];
+    let jl = m_min[j].xyz;
+    let jh = m_max[j].xyz;
+    for (var k = 0u; k < 3u; k++) {
+        let ok = select(jl[k] == lo[k] && jh[k] == hi[k], jl[k] == hi[k], k == axis);
+        if !ok {
+            return NONE;
+        }
+    }
+    let ni = list_len(i);
+    let nj = list_len(j);
+    if P.u0.w != 0u && !(ni == 0u && nj == 0u) {
+        return NONE;
+    }
+    let ai = half_area(lo, hi);
+    let aj = half_area(jl, jh);
+    var uh = hi;
+    uh[axis] = jh[axis];
+    let au = half_area(lo, uh);
+    let nu = f32(union_len(i, j));
+    let lhs = mul(au, nu + 1.0);
+    let rhs = keep(mul(ai, f32(ni) + 1.0)) + mul(aj, f32(nj) + 1.0);
+    if lhs <= rhs {
+        return j;
+    }
+    return NONE;
+}
+
+// 1. Candidates of the live cells; their marks cleared.
+@compute @workgroup_size(256)
+fn m_candidates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = lin(gid, nwg);
+    if k >= P.u0.x {
+        return;
+    }
+    let i = m_live[k];
+    m_cand[i] = candidate(i, P.u0.y);
+    m_mark[2u * i] = 0u;
+    m_mark[2u * i + 1u] = 0u;
+    m_partner[i] = NONE;
+}
+
+// 2. Cells that some candidate points at (at most one: the neighbour's face is exactly the
+// pointing cell's).
+@compute @workgroup_size(256)
+fn m_predecessors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = lin(gid, nwg);
+    if k >= P.u0.x {
+        return;
+    }
+    let j = m_cand[m_live[k]];
+    if j != NONE {
+        m_mark[2u * j] = 1u;
+    }
+}
+
+// 3. From each chain's head: even positions absorb their successor.
+@compute @workgroup_size(256)
+fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = lin(gid, nwg);
+    if k >= P.u0.x {
+        return;
+    }
+    let head = m_live[k];
+    if m_cand[head] == NONE || m_mark[2u * head] != 0u {
+        return;
+    }
+    var i = head;
+    loop {
+        let j = m_cand[i];
+        if j == NONE {
+            break;
+        }
+        m_partner[i] = j;
+        m_mark[2u * j + 1u] = 1u;
+        let n = m_cand[j];
+        if n == NONE {
+            break;
+        }
+        i = n;
+    }
+}
+
+// 4. Each live cell's list length after the pass (absorbers: the union; residue: none).
+@compute @workgroup_size(256)
+fn m_counts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = lin(gid, nwg);
+    if k >= P.u0.x {
+        return;
+    }
+    let i = m_live[k];
+    let j = m_partner[i];
+    var n = list_len(i);
+    if j != NONE {
+        n = union_len(i, j);
+    } else if m_mark[2u * i + 1u] != 0u {
+        n = 0u;
+    }
+    m_count[k] = n;
+}
+
+// 5. The lists rewritten (merged where a pair merges); absorbers take their residue's far
+// face and become its owner.
+@compute @workgroup_size(256)
+fn m_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = lin(gid, nwg);
+    if k >= P.u0.x {
+        return;
+    }
+    let i = m_live[k];
+    let j = m_partner[i];
+    var at = m_offs[k];
+    m_range_out[2u * i] = at;
+    m_range_out[2u * i + 1u] = m_offs[k + 1u];
+    if m_mark[2u * i + 1u] != 0u {
+        return;
+    }
+    var a = m_range[2u * i];
+    let ae = m_range[2u * i + 1u];
+    if j == NONE {
+        for (; a < ae; a++) {
+            m_pool_out[at] = m_pool[a];
+            at++;
+        }
+        return;
+    }
+    var b = m_range[2u * j];
+    let be = m_range[2u * j + 1u];
+    while a < ae && b < be {
+        let x = m_pool[a];
+        let y = m_pool[b];
+        m_pool_out[at] = min(x, y);
+        at++;
+        if x <= y {
+            a++;
+        }
+        if y <= x {
+            b++;
+        }
+    }
+    for (; a < ae; a++) {
+        m_pool_out[at] = m_pool[a];
+        at++;
+    }
+    for (; b < be; b++) {
+        m_pool_out[at] = m_pool[b];
+        at++;
+    }
+    let axis = P.u0.y;
+    var hi = m_max[i];
+    hi[axis] = m_max[j][axis];
+    m_max[i] = hi;
+    m_owner[j] = i;
+}
+
+// 6. Owners one step deep again (merge.rs `compress_owners`). u0.x = all cells.
+@compute @workgroup_size(256)
+fn m_compress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let x = lin(gid, nwg);
+    if x >= P.u0.x {
+        return;
+    }
+    m_owner_out[x] = m_owner[m_owner[x]];
+}
+
+// 7. Flags of the cells still live (for the compaction of the live list).
+@compute @workgroup_size(256)
+fn m_live_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = lin(gid, nwg);
+    if k >= P.u0.x {
+        return;
+    }
+    let i = m_live[k];
+    m_out[k] = u32(m_owner[i] == i);
+}
+
+// Final compaction (merge.rs `compact`): the live cells' new numbers (u0.x = live cells) …
+@compute @workgroup_size(256)
+fn m_final_index(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = lin(gid, nwg);
+    if k >= P.u0.x {
+        return;
+    }
+    m_out[m_live[k]] = k;
+}
+
+// … and the voxel map pointed at them (u0.x = entries; binding 16 holds the new numbers,
+// binding 15 the map rewritten).
+@compute @workgroup_size(256)
+fn m_final_map(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let x = lin(gid, nwg);
+    if x >= P.u0.x {
+        return;
+    }
+    let e = m_map[x];
+    if (e & NODE) == 0u {
+        m_owner_out[x] = m_out[m_owner[e]];
+    } else {
+        m_owner_out[x] = e;
+    }
+}
+
+@group(0) @binding(17) var<storage, read_write> m_min_out: array<vec4<u32>>;
+@group(0) @binding(18) var<storage, read_write> m_max_out: array<vec4<u32>>;
+
+// … and the live cells gathered in their order: boxes and first references (u0.x = live
+// cells; the pool is already in live order, the residue's lists being empty).
+@compute @workgroup_size(256)
+fn m_final_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = lin(gid, nwg);
+    if k >= P.u0.x {
+        return;
+    }
+    let i = m_live[k];
+    m_min_out[k] = m_min[i];
+    m_max_out[k] = m_max[i];
+    m_count[k] = m_range[2u * i];
+    if k + 1u == P.u0.x {
+        m_count[k + 1u] = m_range[2u * i + 1u];
+    }
+}
+
+// The initial lists' ranges from the reference ranges (u0.x = cells; binding 11 holds them).
+@compute @workgroup_size(256)
+fn m_init(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = lin(gid, nwg);
+    if i >= P.u0.x {
+        return;
+    }
+    m_range_out[2u * i] = m_count[i];
+    m_range_out[2u * i + 1u] = m_count[i + 1u];
+}
