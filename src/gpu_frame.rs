@@ -1,8 +1,9 @@
 //! One Whitted frame on the wgpu backend, shared by `render --backend gpu` and the viewer:
-//! the G-buffer from the GPU's render pipeline, CRSH/RAH or the grid's traversal (on a grid
-//! built by the CPU), secondary ray generation and shading as compute kernels; the Whitted
-//! loop's sequencing, the surface records between generations and the pixel accumulation on
-//! the CPU (thesis §3.1–3.3 on the GPU; see `crates/gpu`).
+//! the G-buffer from the GPU's render pipeline, CRSH/RAH or the grid (built and traversed by
+//! kernels), secondary ray generation and shading as compute kernels; the Whitted loop's
+//! sequencing, the surface records between generations and the pixel accumulation on the
+//! CPU (thesis §3.1–3.3 on the GPU; see `crates/gpu`). The bytes moved between host and
+//! device during the frame are reported (`host_device_bytes`).
 
 use crate::engines::{Engine, EngineOptions};
 use anyhow::{anyhow, Result};
@@ -82,6 +83,7 @@ impl GpuFrame {
         progress: &dyn Progress,
         build_seconds: f64,
     ) -> Result<(Rendered, Vec<(String, f64)>)> {
+        let moved = self.engine.gpu().bytes_moved();
         let raster = gpu::GpuRaster::new(self.engine.gpu(), geo, &scene.materials)
             .map_err(|e| anyhow!("--backend gpu: {e}"))?;
         raster
@@ -99,6 +101,7 @@ impl GpuFrame {
         );
         out.stats
             .put_build(build_seconds, self.engine.build_passes());
+        out.stats.host_device_bytes = Some(self.engine.gpu().bytes_moved() - moved);
         let mut phases: Vec<(String, f64)> = Vec::new();
         if let Some(t) = raster.last_gpu_seconds.get() {
             phases.push(("rasterize".into(), t));

@@ -613,7 +613,14 @@ fn gpu_backend_renders_or_says_why() {
         .as_array()
         .is_some_and(|a| !a.is_empty()));
     assert!(stats["total_tests"].as_u64().unwrap() > 0);
-    // The grid: traversal on the GPU, its CPU build passes in the stats; the counts equal
+    // The frame's host-device traffic: at least the G-buffer's read-back (5 targets of 16
+    // bytes per pixel), in the JSON and the table.
+    assert!(
+        stats["host_device_bytes"].as_u64().unwrap() >= 48 * 40 * 16 * 5,
+        "{stats}"
+    );
+    assert!(out.contains("host-device bytes"), "{out}");
+    // The grid: built and traversed on the GPU, its passes in the stats; the counts equal
     // the CPU grid's render where the two G-buffers agree, so only their presence is checked.
     let gjson = d.join("grid.json");
     let o = ok(&[
@@ -635,7 +642,7 @@ fn gpu_backend_renders_or_says_why() {
         gjson.to_str().unwrap(),
     ]);
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("build: merge (CPU)"), "{out}");
+    assert!(out.contains("build: merge (GPU)"), "{out}");
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&gjson).unwrap()).unwrap();
     assert!(stats["total_tests"].as_u64().unwrap() > 0);

@@ -52,6 +52,9 @@ pub struct Gpu {
     /// How phases are timed: GPU timestamps, or (where they are absent or do not mean GPU
     /// execution time) wall-clock time with a wait at every phase boundary.
     pub timer: PhaseTimer,
+    /// Bytes written to the device by [`Gpu::upload`] and [`Gpu::uniform`] and read back by
+    /// [`Gpu::map_read`], since the device was made (every transfer goes through them).
+    moved: std::sync::atomic::AtomicU64,
 }
 
 /// How [`crate::kernels::Exec`] times phases.
@@ -135,7 +138,18 @@ impl Gpu {
             limits,
             timestamps,
             timer,
+            moved: std::sync::atomic::AtomicU64::new(0),
         })
+    }
+
+    /// Bytes moved between host and device so far, both ways (see the field).
+    pub fn bytes_moved(&self) -> u64 {
+        self.moved.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn count_moved(&self, bytes: u64) {
+        self.moved
+            .fetch_add(bytes, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// One line naming the adapter, for reports.
@@ -196,6 +210,7 @@ impl Gpu {
         let buf = self.storage(label, bytes.len() as u64);
         if !bytes.is_empty() {
             self.queue.write_buffer(&buf, 0, bytes);
+            self.count_moved(bytes.len() as u64);
         }
         buf
     }
@@ -209,6 +224,7 @@ impl Gpu {
             mapped_at_creation: false,
         });
         self.queue.write_buffer(&buf, 0, bytemuck::bytes_of(data));
+        self.count_moved(std::mem::size_of::<T>() as u64);
         buf
     }
 
@@ -245,6 +261,7 @@ impl Gpu {
             .expect("mapping a read-back buffer");
         let data = slice.get_mapped_range().expect("mapped read-back range");
         let bytes = count * std::mem::size_of::<T>();
+        self.count_moved(data.len() as u64);
         let out: Vec<T> = bytemuck::pod_collect_to_vec(&data[..bytes]);
         drop(data);
         staging.unmap();

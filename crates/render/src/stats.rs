@@ -350,6 +350,10 @@ pub struct RenderStats {
     pub brute_force_tests: u64,
     /// Wall-clock seconds per renderer phase, in execution order.
     pub phases: Vec<(String, f64)>,
+    /// GPU backend: bytes moved between host and device during the frame, both ways (every
+    /// upload, launch parameter block and read-back; absent on the CPU).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub host_device_bytes: Option<u64>,
 }
 
 impl RenderStats {
@@ -424,6 +428,9 @@ impl RenderStats {
         }
         for (k, v) in &self.trace.counters {
             s += &format!("| {k} | {v} |\n");
+        }
+        if let Some(b) = self.host_device_bytes {
+            s += &format!("| host-device bytes (both ways) | {b} |\n");
         }
         s += &format!("| total tests | {} |\n", self.total_tests);
         s += &format!(
