@@ -68,18 +68,20 @@ fn project(i: u32, a: vec3<f32>, v: vec3<f32>) -> f32 {
     if i < 3u {
         return v[i];
     }
+    // Results kept: the tests add a radius to them, and a sum of three or more terms keeps
+    // its partial sums (common.wgsl).
     if i == 3u {
-        return dot3(a, v);
+        return keep(dot3(a, v));
     }
     switch (i - 4u) % 3u {
         case 0u: {
-            return mul(a.y, v.y) + mul(a.z, v.z);
+            return keep(mul(a.y, v.y) + mul(a.z, v.z));
         }
         case 1u: {
-            return mul(a.x, v.x) + mul(a.z, v.z);
+            return keep(mul(a.x, v.x) + mul(a.z, v.z));
         }
         default: {
-            return mul(a.x, v.x) + mul(a.y, v.y);
+            return keep(mul(a.x, v.x) + mul(a.y, v.y));
         }
     }
 }
@@ -117,7 +119,7 @@ fn sat_radii(s: Sat, h: vec3<f32>) -> array<f32, 13> {
     var r: array<f32, 13>;
     for (var i = 0u; i < 13u; i++) {
         let a = s.axis[i];
-        r[i] = keep(mul(h.x, abs(a.x)) + mul(h.y, abs(a.y))) + mul(h.z, abs(a.z));
+        r[i] = keep(keep(mul(h.x, abs(a.x)) + mul(h.y, abs(a.y))) + mul(h.z, abs(a.z)));
     }
     return r;
 }
@@ -145,8 +147,13 @@ fn pad() -> f32 {
 fn centre(c: vec3<u32>) -> vec3<f32> {
     let size = b_frame[1].xyz;
     let m = bmin();
-    let f = vec3<f32>(c) + vec3<f32>(0.5);
-    return vec3<f32>(m.x + mul(f.x, size.x), m.y + mul(f.y, size.y), m.z + mul(f.z, size.z));
+    // Kept, so that no compiler turns (c + 0.5) · size into one fused multiply–add.
+    let f = vec3<f32>(keep(f32(c.x) + 0.5), keep(f32(c.y) + 0.5), keep(f32(c.z) + 0.5));
+    return vec3<f32>(
+        keep(m.x + mul(f.x, size.x)),
+        keep(m.y + mul(f.y, size.y)),
+        keep(m.z + mul(f.z, size.z)),
+    );
 }
 
 fn tri_box_min(t: u32) -> vec3<f32> {
@@ -323,7 +330,7 @@ fn child_mask(c: vec3<u32>, t: u32) -> u32 {
     var mask = 0xffu;
     let low = vec3<u32>(0x55u, 0x33u, 0x0fu);
     for (var k = 0u; k < 3u; k++) {
-        let mid = m[k] + mul(f32(2u * c[k] + 1u), size[k]);
+        let mid = keep(m[k] + mul(f32(2u * c[k] + 1u), size[k]));
         if bl[k] > mid + p {
             mask &= ~low[k] & 0xffu;
         }

@@ -59,7 +59,7 @@ fn lookup(v: vec3<u32>) -> u32 {
 fn half_area(lo: vec3<u32>, hi: vec3<u32>) -> f32 {
     let v = P.f0.xyz;
     let e = vec3<f32>(mul(f32(hi.x - lo.x), v.x), mul(f32(hi.y - lo.y), v.y), mul(f32(hi.z - lo.z), v.z));
-    return keep(mul(e.x, e.y) + mul(e.y, e.z)) + mul(e.z, e.x);
+    return keep(keep(mul(e.x, e.y) + mul(e.y, e.z)) + mul(e.z, e.x));
 }
 
 // grid::union_len of two live cells' ascending lists.
@@ -117,8 +117,10 @@ fn candidate(i: u32, axis: u32) -> u32 {
     uh[axis] = jh[axis];
     let au = half_area(lo, uh);
     let nu = f32(union_len(i, j));
-    let lhs = mul(au, nu + 1.0);
-    let rhs = keep(mul(ai, f32(ni) + 1.0)) + mul(aj, f32(nj) + 1.0);
+    // Each count + 1 kept: a sum that a product takes must not be folded into it (see
+    // common.wgsl).
+    let lhs = mul(au, keep(nu + 1.0));
+    let rhs = keep(mul(ai, keep(f32(ni) + 1.0))) + mul(aj, keep(f32(nj) + 1.0));
     if lhs <= rhs {
         return j;
     }
