@@ -5,9 +5,9 @@
 //! Each scene is rendered once on the CPU while every traced batch is recorded; then CPU
 //! CRSH and GPU CRSH (and RAH) trace exactly those batches. The hits and the counters of the
 //! two are compared in the same run and the report says whether they agree. The irregular
-//! grid is built on the GPU too (its kernel passes, then the CPU's remaining passes; every
-//! pass's time and device are reported) and its GPU traversal runs beside the CPU grid on
-//! primary, AO and random rays (paper §5, Table 3's kinds), with the same agreement check. GPU phase times
+//! grid is built on the GPU too (every pass as kernels, each pass's time reported) and its
+//! GPU traversal runs beside the CPU grid on primary, AO and random rays (paper §5, Table
+//! 3's kinds), with the same agreement check. GPU phase times
 //! come from timestamp queries where they time kernels, otherwise from the wall clock with a
 //! wait at every phase boundary (the report names which).
 
@@ -223,8 +223,9 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
     let t0 = Instant::now();
     let cpu = GridEngine::new(geo, &cfg).map_err(anyhow::Error::msg)?;
     let build = t0.elapsed().as_secs_f64();
-    // The GPU builds its own grid (the passes `gpu::grid::PASS_DEVICE` places there as
-    // kernels): the better of two builds (the first also warms the drivers up).
+    // The GPU builds its own grid (every pass as kernels): the better of two builds (the
+    // first also warms the drivers up). Pass times are wall clock, with the waits for the
+    // totals each pass reads back.
     let gpu_build = || {
         gpu::GpuGrid::new(device()?, geo, &cfg).map_err(|e| anyhow::anyhow!("bench gpu: grid: {e}"))
     };

@@ -382,9 +382,9 @@ pub struct Setup {
     pub limits: Limits,
 }
 
-/// The build's [`Setup`] for `ntris` triangles whose box is `tri_bounds`, with every check
-/// that precedes the first pass.
-pub fn setup(tri_bounds: Aabb, ntris: usize, cfg: &GridConfig) -> Result<Setup, String> {
+/// The checks of a build's input before anything is computed: the configuration, and a
+/// triangle count the references can index.
+pub fn check_input(ntris: usize, cfg: &GridConfig) -> Result<(), String> {
     cfg.validate()?;
     if ntris == 0 {
         return Err("the grid needs at least one triangle".into());
@@ -394,6 +394,13 @@ pub fn setup(tri_bounds: Aabb, ntris: usize, cfg: &GridConfig) -> Result<Setup, 
             "{ntris} triangles exceed the grid's 27-bit references"
         ));
     }
+    Ok(())
+}
+
+/// The build's [`Setup`] for `ntris` triangles whose box is `tri_bounds`, with every check
+/// that precedes the first pass.
+pub fn setup(tri_bounds: Aabb, ntris: usize, cfg: &GridConfig) -> Result<Setup, String> {
+    check_input(ntris, cfg)?;
     let bounds = pad_bounds(tri_bounds);
     let ext = bounds.extent();
     let top_dims = resolution(ext, ntris, cfg.top_density);

@@ -44,12 +44,7 @@ pub fn subdivide_on_device(
     ntris: usize,
     cfg: &GridConfig,
 ) -> Result<(Setup, DeviceOctrees, [f64; 2]), GpuError> {
-    cfg.validate().map_err(GpuError::Config)?;
-    if ntris == 0 {
-        return Err(GpuError::Config(
-            "the grid needs at least one triangle".into(),
-        ));
-    }
+    build::check_input(ntris, cfg).map_err(GpuError::Config)?;
     let limit = g.max_binding();
     let check = |what: &str, bytes: u64| {
         if bytes > limit {

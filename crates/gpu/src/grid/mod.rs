@@ -125,9 +125,8 @@ pub struct GpuGrid {
 }
 
 impl GpuGrid {
-    /// Build the grid of `cfg` over `geo` (the passes [`PASS_DEVICE`] places on the GPU as
-    /// kernels, the others on the CPU) and upload it for traversal (`grid`, or `grid2l` when
-    /// `cfg` neither merges nor expands).
+    /// Build the grid of `cfg` over `geo` with kernels ([`build_on_device`]) and trace the
+    /// buffers it built (`grid`, or `grid2l` when `cfg` neither merges nor expands).
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: &GridConfig) -> Result<GpuGrid, GpuError> {
         cfg.validate().map_err(GpuError::Config)?;
         let name = if cfg.merge || cfg.expansion_passes > 0 {
@@ -135,14 +134,7 @@ impl GpuGrid {
         } else {
             "grid2l-gpu"
         };
-        let limit = gpu.max_binding();
-        if geo.tris.len() as u64 * 48 > limit {
-            return Err(GpuError::Limits(format!(
-                "the grid's triangles need {} MiB in one binding; this device allows {} MiB",
-                (geo.tris.len() as u64 * 48).div_ceil(1 << 20),
-                limit >> 20
-            )));
-        }
+        binding_check(&gpu)("triangles", geo.tris.len() as u64 * 48)?;
         let t0 = Instant::now();
         let kernels = Kernels::new(&gpu);
         let compile_seconds = t0.elapsed().as_secs_f64();
@@ -322,7 +314,9 @@ impl render::Tracer for GpuGrid {
             })
             .collect();
         v.push(("kernel compilation".into(), self.compile_seconds));
-        v.push(("upload".into(), self.upload_seconds));
+        if !self.built_on_gpu {
+            v.push(("upload".into(), self.upload_seconds));
+        }
         v
     }
 
