@@ -419,9 +419,9 @@ pub fn subdivide_on_device(
 pub struct DeviceOctrees {
     /// The sparse voxel map.
     pub entries: wgpu::Buffer,
-    /// Per entry: the node's coordinates at its level and its top cell (vec4<u32>).
+    /// Per entry: the node's coordinates at its level and its top cell (`vec4<u32>`).
     pub coords: wgpu::Buffer,
-    /// Per leaf cell: coordinates and reference count (vec4<u32>).
+    /// Per leaf cell: coordinates and reference count (`vec4<u32>`).
     pub cells: wgpu::Buffer,
     /// Per leaf cell: its level.
     pub cell_level: wgpu::Buffer,

@@ -58,7 +58,7 @@ pub fn expand(g: &Gpu, k: &Kernels, d: &mut DeviceGrid, passes: u32, empty_only:
     d.exp_max = exp_max;
 }
 
-/// The traversal's cell records (2 × vec4<u32>: expanded min | first reference, expanded max
+/// The traversal's cell records (2 × `vec4<u32>`: expanded min | first reference, expanded max
 /// | end), built on the device.
 pub fn records(g: &Gpu, k: &Kernels, d: &DeviceGrid) -> wgpu::Buffer {
     let mut ex = Exec::new(g, k);

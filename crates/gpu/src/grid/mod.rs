@@ -55,11 +55,11 @@ pub struct DeviceGrid {
     pub entries: wgpu::Buffer,
     /// Its entries.
     pub nentries: u64,
-    /// Cells' footprints on the virtual grid, min corners (vec4<u32>) …
+    /// Cells' footprints on the virtual grid, min corners (`vec4<u32>`) …
     pub cell_min: wgpu::Buffer,
     /// … and max corners (exclusive).
     pub cell_max: wgpu::Buffer,
-    /// Expanded exit boxes, min corners (vec4<u32>) …
+    /// Expanded exit boxes, min corners (`vec4<u32>`) …
     pub exp_min: wgpu::Buffer,
     /// … and max corners.
     pub exp_max: wgpu::Buffer,
