@@ -2,7 +2,8 @@
 //! by transform, the irregular grid is rebuilt every frame, §5.3): update, rebuild, render,
 //! with build and trace times apart, and the frame's `--frame-csv` record. The command
 //! line's `render --frames` and the bindings' distributed frames both render through
-//! [`frame`], so their images and records agree by construction.
+//! [`frame`], so their images and records agree by construction; `--backend gpu` renders
+//! through [`gpu_frame`] with the same record.
 
 use crate::engines::{self, Engine, EngineOptions};
 use anyhow::Result;
@@ -83,18 +84,49 @@ pub fn frame(
     let t2 = Instant::now();
     let out = render(&s, &geo, tracer.as_ref(), opts, &());
     let trace_s = t2.elapsed().as_secs_f64();
-    let row = FrameRow {
-        frame: index,
-        time: t,
-        triangles: geo.len(),
-        update_ms: update_s * 1e3,
-        build_ms: build_s * 1e3,
-        trace_ms: trace_s * 1e3,
-        rays: out.stats.rays_traced(),
-        total_tests: out.stats.trace.total_tests(),
-        phases_ms: engine_phases()
-            .map(|p| (p, out.stats.trace.seconds(p) * 1e3))
-            .collect(),
-    };
+    let row = FrameRow::of(index, t, &geo, [update_s, build_s, trace_s], &out);
+    Ok((out, row))
+}
+
+impl FrameRow {
+    /// The record of frame `index` at time `t`: seconds of update, build and render, and the
+    /// render's counts and engine phases.
+    fn of(index: u32, t: f32, geo: &Geometry, secs: [f64; 3], out: &Rendered) -> FrameRow {
+        FrameRow {
+            frame: index,
+            time: t,
+            triangles: geo.len(),
+            update_ms: secs[0] * 1e3,
+            build_ms: secs[1] * 1e3,
+            trace_ms: secs[2] * 1e3,
+            rays: out.stats.rays_traced(),
+            total_tests: out.stats.trace.total_tests(),
+            phases_ms: engine_phases()
+                .map(|p| (p, out.stats.trace.seconds(p) * 1e3))
+                .collect(),
+        }
+    }
+}
+
+/// Frame `index` of `scene` at time `t` on the GPU backend: update the transforms, rebuild
+/// `gf`'s engine on its device (one upload of the frame's geometry; the grid's every pass
+/// as kernels), render. The record has the CPU's columns; the engine phases are GPU time.
+#[cfg(feature = "gpu")]
+pub fn gpu_frame(
+    gf: &mut crate::gpu_frame::GpuFrame,
+    scene: &scene::Scene,
+    t: f32,
+    index: u32,
+    opts: &RenderOptions,
+) -> Result<(Rendered, FrameRow)> {
+    let t0 = Instant::now();
+    let s = scene.at_time(t);
+    let geo = Geometry::from_scene(&s);
+    let update_s = t0.elapsed().as_secs_f64();
+    let build_s = gf.rebuild(&geo)?;
+    let t2 = Instant::now();
+    let (out, _) = gf.render(&s, &geo, opts, &(), build_s)?;
+    let trace_s = t2.elapsed().as_secs_f64();
+    let row = FrameRow::of(index, t, &geo, [update_s, build_s, trace_s], &out);
     Ok((out, row))
 }

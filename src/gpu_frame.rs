@@ -73,6 +73,16 @@ impl GpuFrame {
         })
     }
 
+    /// A dynamic scene's next frame: rebuild the engine over `geo` on the same device, with
+    /// the same kernels and configuration; returns the wall-clock seconds.
+    pub fn rebuild(&mut self, geo: &Geometry) -> Result<f64> {
+        let t0 = std::time::Instant::now();
+        self.engine
+            .rebuild(geo)
+            .map_err(|e| anyhow!("--backend gpu: {e}"))?;
+        Ok(t0.elapsed().as_secs_f64())
+    }
+
     /// Render one frame; returns it with the GPU seconds per phase (rasterize, the
     /// engine's, the stages').
     pub fn render(

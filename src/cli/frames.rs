@@ -3,7 +3,7 @@
 //! every frame, §5.3): update, rebuild, render, with build and trace times apart, the frames
 //! as PNGs, per-frame CSV and an animated GIF.
 
-use super::args::RenderArgs;
+use super::args::{Backend, RenderArgs};
 use super::progress::step_bar;
 use super::{check_dir, check_out_dir};
 use anyhow::{bail, Context, Result};
@@ -76,9 +76,16 @@ pub fn render_frames(
     };
     let mut rows = Vec::new();
     let mut gif_frames = Vec::new();
+    // The GPU backend keeps one device, its compiled kernels and its engine across frames
+    // and rebuilds the engine per frame.
+    let mut gpu = GpuFrames::default();
     for (i, &t) in times.iter().enumerate() {
         bar.step(&format!("frame {i} (t = {t:.3})"));
-        let (out, row) = frame(scene, t, i as u32, a.engine, eopts, &opts)?;
+        let (out, row) = if a.backend == Backend::Gpu {
+            gpu.frame(a, eopts, scene, t, i as u32, &opts)?
+        } else {
+            frame(scene, t, i as u32, a.engine, eopts, &opts)?
+        };
         let path = frame_path(&a.out, i as u32)?;
         render::output::write_png(&out.pixels, a.width, a.height, &path)
             .map_err(anyhow::Error::msg)
@@ -134,4 +141,56 @@ pub fn render_frames(
         say!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// The GPU backend's frames: the device and engine made at the first frame.
+#[derive(Default)]
+struct GpuFrames {
+    #[cfg(feature = "gpu")]
+    frame: Option<rayspace::gpu_frame::GpuFrame>,
+}
+
+impl GpuFrames {
+    #[cfg(feature = "gpu")]
+    fn frame(
+        &mut self,
+        a: &RenderArgs,
+        eopts: &EngineOptions,
+        scene: &scene::Scene,
+        t: f32,
+        index: u32,
+        opts: &RenderOptions,
+    ) -> Result<(render::whitted::Rendered, FrameRow)> {
+        if self.frame.is_none() {
+            let s = scene.at_time(t);
+            let geo = scene::Geometry::from_scene(&s);
+            self.frame = Some(rayspace::gpu_frame::GpuFrame::new(
+                a.engine,
+                eopts,
+                &s,
+                &geo,
+                |e| {
+                    eprintln!(
+                        "error: --backend gpu: the device failed ({e}); lower --width/--height"
+                    );
+                    std::process::exit(1);
+                },
+            )?);
+        }
+        let gf = self.frame.as_mut().expect("made above");
+        rayspace::frames::gpu_frame(gf, scene, t, index, opts)
+    }
+
+    #[cfg(not(feature = "gpu"))]
+    fn frame(
+        &mut self,
+        _a: &RenderArgs,
+        _eopts: &EngineOptions,
+        _scene: &scene::Scene,
+        _t: f32,
+        _index: u32,
+        _opts: &RenderOptions,
+    ) -> Result<(render::whitted::Rendered, FrameRow)> {
+        bail!("--backend gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
+    }
 }

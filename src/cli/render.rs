@@ -97,9 +97,6 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         },
     );
     if a.backend == Backend::Gpu {
-        if a.frames.is_some() {
-            bail!("--backend gpu renders one frame; --frames runs on the CPU backend only");
-        }
         if !matches!(
             a.engine,
             Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l

@@ -45,6 +45,9 @@ pub trait GpuEngine: render::Tracer {
     fn kernels(&self) -> &kernels::Kernels;
     /// GPU seconds per phase since the last call (empty without timestamp queries).
     fn take_times(&self) -> Vec<(render::Phase, f64)>;
+    /// Take a dynamic scene's next frame: rebuild over `geo` on the same device, with the
+    /// same kernels and configuration (what the CPU engine rebuilds per frame).
+    fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError>;
 }
 
 impl GpuEngine for GpuRsh {
@@ -57,6 +60,9 @@ impl GpuEngine for GpuRsh {
     fn take_times(&self) -> Vec<(render::Phase, f64)> {
         GpuRsh::take_times(self)
     }
+    fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError> {
+        GpuRsh::rebuild(self, geo)
+    }
 }
 
 impl GpuEngine for GpuGrid {
@@ -68,6 +74,9 @@ impl GpuEngine for GpuGrid {
     }
     fn take_times(&self) -> Vec<(render::Phase, f64)> {
         std::mem::take(&mut *self.times.lock().unwrap())
+    }
+    fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError> {
+        GpuGrid::rebuild(self, geo)
     }
 }
 pub use stages::GpuStages;

@@ -116,6 +116,8 @@ pub struct GpuGrid {
     pub(crate) max_rays: usize,
     name: &'static str,
     build: BuildStats,
+    /// The configuration a GPU-built grid is rebuilt with (none for an uploaded grid).
+    cfg: Option<GridConfig>,
     compile_seconds: f64,
     upload_seconds: f64,
     /// Built by [`GpuGrid::new`] (the passes of [`PASS_DEVICE`] on the GPU), not uploaded.
@@ -134,37 +136,23 @@ impl GpuGrid {
         } else {
             "grid2l-gpu"
         };
-        binding_check(&gpu)("triangles", geo.tris.len() as u64 * 48)?;
         let t0 = Instant::now();
         let kernels = Kernels::new(&gpu);
         let compile_seconds = t0.elapsed().as_secs_f64();
-        let tris = gpu.upload("triangles", &tri4(&geo.tris));
-        let d = build_on_device(&gpu, &kernels, &tris, geo.tris.len(), cfg)?;
-        let check = binding_check(&gpu);
-        check("references", d.nrefs * 4)?;
-        check("cells", d.ncells * 32)?;
-        check("voxel map entries", d.nentries * 4)?;
-        let cells = expand::records(&gpu, &kernels, &d);
-        let f = &d.frame;
-        let v4 = |v: geom::Vec3| [v.x, v.y, v.z, 0.0];
-        let consts = [
-            v4(f.bounds.min),
-            v4(f.bounds.max),
-            v4(f.voxel),
-            v4(f.inv_voxel),
-        ];
+        let b = Built::new(&gpu, &kernels, geo, cfg)?;
         Ok(GpuGrid {
-            consts: gpu.upload("grid constants", &consts),
-            map: d.entries,
-            cells,
-            refs: d.refs,
-            tris,
-            shift: f.shift,
-            dims: f.dims,
-            top_dims: f.top_dims,
+            consts: b.consts,
+            map: b.map,
+            cells: b.cells,
+            refs: b.refs,
+            tris: b.tris,
+            shift: b.frame.shift,
+            dims: b.frame.dims,
+            top_dims: b.frame.top_dims,
             max_rays: (gpu.max_binding() / 16).clamp(1, 1 << 26) as usize,
             name,
-            build: f.build.clone(),
+            build: b.frame.build,
+            cfg: Some(cfg.clone()),
             compile_seconds,
             upload_seconds: 0.0,
             built_on_gpu: true,
@@ -172,6 +160,29 @@ impl GpuGrid {
             kernels,
             gpu,
         })
+    }
+
+    /// Rebuild the grid over `geo` (a dynamic scene's next frame) with the same device,
+    /// kernels and configuration: the triangles uploaded once, every pass run again on the
+    /// device. A grid made by [`GpuGrid::upload`] has no configuration to rebuild with.
+    pub fn rebuild(&mut self, geo: &Geometry) -> Result<(), GpuError> {
+        let Some(cfg) = self.cfg.clone() else {
+            return Err(GpuError::Config(
+                "a grid uploaded from the CPU cannot be rebuilt on the GPU".into(),
+            ));
+        };
+        let b = Built::new(&self.gpu, &self.kernels, geo, &cfg)?;
+        self.consts = b.consts;
+        self.map = b.map;
+        self.cells = b.cells;
+        self.refs = b.refs;
+        self.tris = b.tris;
+        self.shift = b.frame.shift;
+        self.dims = b.frame.dims;
+        self.top_dims = b.frame.top_dims;
+        self.build = b.frame.build;
+        self.compile_seconds = 0.0;
+        Ok(())
     }
 
     /// Upload a grid built on the CPU over `tris` (benchmarks trace the very grid the CPU
@@ -220,6 +231,7 @@ impl GpuGrid {
             max_rays: (limit / 16).clamp(1, 1 << 26) as usize,
             name,
             build: grid.build.clone(),
+            cfg: None,
             compile_seconds,
             upload_seconds: 0.0,
             built_on_gpu: false,
@@ -234,6 +246,51 @@ impl GpuGrid {
         Ok(GpuGrid {
             upload_seconds: t0.elapsed().as_secs_f64(),
             ..g
+        })
+    }
+}
+
+/// What one build on the device leaves for traversal.
+struct Built {
+    consts: wgpu::Buffer,
+    map: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    refs: wgpu::Buffer,
+    tris: wgpu::Buffer,
+    frame: Grid,
+}
+
+impl Built {
+    /// Upload `geo`'s triangles (the frame's one upload of geometry) and build over them.
+    fn new(
+        gpu: &Gpu,
+        kernels: &Kernels,
+        geo: &Geometry,
+        cfg: &GridConfig,
+    ) -> Result<Built, GpuError> {
+        binding_check(gpu)("triangles", geo.tris.len() as u64 * 48)?;
+        let tris = gpu.upload("triangles", &tri4(&geo.tris));
+        let d = build_on_device(gpu, kernels, &tris, geo.tris.len(), cfg)?;
+        let check = binding_check(gpu);
+        check("references", d.nrefs * 4)?;
+        check("cells", d.ncells * 32)?;
+        check("voxel map entries", d.nentries * 4)?;
+        let cells = expand::records(gpu, kernels, &d);
+        let f = &d.frame;
+        let v4 = |v: geom::Vec3| [v.x, v.y, v.z, 0.0];
+        let consts = [
+            v4(f.bounds.min),
+            v4(f.bounds.max),
+            v4(f.voxel),
+            v4(f.inv_voxel),
+        ];
+        Ok(Built {
+            consts: gpu.upload("grid constants", &consts),
+            map: d.entries,
+            cells,
+            refs: d.refs,
+            tris,
+            frame: d.frame,
         })
     }
 }

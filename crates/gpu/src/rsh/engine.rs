@@ -61,34 +61,22 @@ fn v4(s: &Sphere) -> [f32; 4] {
     [s.center.x, s.center.y, s.center.z, s.radius]
 }
 
-impl GpuRsh {
-    /// Upload the scene; fails when no adapter is found or the configuration is one the GPU
-    /// pipeline does not implement (the 64-bit Morton hash).
-    pub fn new(gpu: Gpu, geo: &Geometry, cfg: RshConfig) -> Result<GpuRsh, GpuError> {
-        cfg.validate().map_err(GpuError::Config)?;
-        if cfg.objects != ObjectHierarchy::MeshSpheres {
-            return Err(GpuError::Config(
-                "--object-hierarchy bvh: the GPU backend implements mesh-spheres only".into(),
-            ));
-        }
-        if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
-            return Err(GpuError::Config(
-                "the GPU backend implements the thesis's 32-bit hash only".into(),
-            ));
-        }
-        let kernels = Kernels::new(&gpu);
+/// What the engine uploads of one frame's scene.
+struct SceneBuffers {
+    tris: wgpu::Buffer,
+    tri_sphere: wgpu::Buffer,
+    tri_mesh: wgpu::Buffer,
+    mesh_sphere: wgpu::Buffer,
+    mesh_first: Vec<u32>,
+    ntri: u32,
+    box_min: [f32; 4],
+    box_ext: [f32; 4],
+    max_rays: usize,
+}
+
+impl SceneBuffers {
+    fn new(gpu: &Gpu, geo: &Geometry, cfg: &RshConfig) -> Result<SceneBuffers, GpuError> {
         let ntri = geo.tris.len();
-        // Pair buffers hold at most `pair_budget` u32s each (as on the CPU, where the budget
-        // bounds the same buffers); they must fit one binding.
-        if cfg.pair_budget as u64 * 4 > gpu.max_binding() {
-            return Err(GpuError::Limits(format!(
-                "--pair-budget {} needs {} MiB per binding; this device allows {} MiB (use at most {})",
-                cfg.pair_budget,
-                (cfg.pair_budget as u64 * 4) >> 20,
-                gpu.max_binding() >> 20,
-                gpu.max_binding() / 4
-            )));
-        }
         let max_tris = gpu.max_binding() / 48;
         if ntri as u64 > max_tris {
             return Err(GpuError::Limits(format!(
@@ -121,22 +109,81 @@ impl GpuRsh {
         let bit_entries = (gpu.max_binding() * 8).min(1 << 31);
         let by_pass = (bit_entries / nm.max(1) as u64).saturating_sub(4) * cfg.branching as u64;
         let max_rays = (gpu.max_binding() / 16).min(1 << 26).min(by_pass).max(1) as usize;
-        Ok(GpuRsh {
+        Ok(SceneBuffers {
             tris: gpu.upload("triangles", &tris),
             tri_sphere: gpu.upload("triangle spheres", &spheres),
             tri_mesh: gpu.upload("triangle meshes", &tri_mesh),
             mesh_sphere: gpu.upload("mesh spheres", &meshes),
-            shuffles: gpu.upload("miniball shuffles", &shuffle_table(cfg.branching)),
             mesh_first: geo.mesh_first.clone(),
             ntri: ntri as u32,
             box_min: [b.x, b.y, b.z, 0.0],
             box_ext: [ext.x, ext.y, ext.z, 0.0],
             max_rays,
+        })
+    }
+}
+
+impl GpuRsh {
+    /// Upload the scene; fails when no adapter is found or the configuration is one the GPU
+    /// pipeline does not implement (the 64-bit Morton hash).
+    pub fn new(gpu: Gpu, geo: &Geometry, cfg: RshConfig) -> Result<GpuRsh, GpuError> {
+        cfg.validate().map_err(GpuError::Config)?;
+        if cfg.objects != ObjectHierarchy::MeshSpheres {
+            return Err(GpuError::Config(
+                "--object-hierarchy bvh: the GPU backend implements mesh-spheres only".into(),
+            ));
+        }
+        if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
+            return Err(GpuError::Config(
+                "the GPU backend implements the thesis's 32-bit hash only".into(),
+            ));
+        }
+        let kernels = Kernels::new(&gpu);
+        // Pair buffers hold at most `pair_budget` u32s each (as on the CPU, where the budget
+        // bounds the same buffers); they must fit one binding.
+        if cfg.pair_budget as u64 * 4 > gpu.max_binding() {
+            return Err(GpuError::Limits(format!(
+                "--pair-budget {} needs {} MiB per binding; this device allows {} MiB (use at most {})",
+                cfg.pair_budget,
+                (cfg.pair_budget as u64 * 4) >> 20,
+                gpu.max_binding() >> 20,
+                gpu.max_binding() / 4
+            )));
+        }
+        let sb = SceneBuffers::new(&gpu, geo, &cfg)?;
+        Ok(GpuRsh {
+            tris: sb.tris,
+            tri_sphere: sb.tri_sphere,
+            tri_mesh: sb.tri_mesh,
+            mesh_sphere: sb.mesh_sphere,
+            shuffles: gpu.upload("miniball shuffles", &shuffle_table(cfg.branching)),
+            mesh_first: sb.mesh_first,
+            ntri: sb.ntri,
+            box_min: sb.box_min,
+            box_ext: sb.box_ext,
+            max_rays: sb.max_rays,
             gpu,
             kernels,
             cfg,
             times: Mutex::new(Vec::new()),
         })
+    }
+
+    /// The scene of a dynamic scene's next frame: its triangles, spheres and mesh spheres
+    /// uploaded in place of the last frame's (the ray hierarchy is built per trace call
+    /// anyway); the device, kernels and configuration stay.
+    pub fn rebuild(&mut self, geo: &Geometry) -> Result<(), GpuError> {
+        let sb = SceneBuffers::new(&self.gpu, geo, &self.cfg)?;
+        self.tris = sb.tris;
+        self.tri_sphere = sb.tri_sphere;
+        self.tri_mesh = sb.tri_mesh;
+        self.mesh_sphere = sb.mesh_sphere;
+        self.mesh_first = sb.mesh_first;
+        self.ntri = sb.ntri;
+        self.box_min = sb.box_min;
+        self.box_ext = sb.box_ext;
+        self.max_rays = sb.max_rays;
+        Ok(())
     }
 
     /// The device.
