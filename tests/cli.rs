@@ -663,6 +663,24 @@ fn gpu_backend_renders_or_says_why() {
         3,
         "the grid's three ray kinds agree: {md}"
     );
+    // Whole frames: a row per engine, with the GPU frame's traffic and the image agreement
+    // within the GPU renders' 2 % tolerance.
+    assert!(md.contains("### Whole frames (3 bounces)"), "{md}");
+    for engine in ["crsh", "grid"] {
+        let row = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {engine} |")))
+            .unwrap_or_else(|| panic!("a whole-frame row for {engine}: {md}"));
+        let off: f64 = row
+            .trim_end_matches(" |")
+            .rsplit("| ")
+            .next()
+            .unwrap()
+            .trim_end_matches(" %")
+            .parse()
+            .unwrap();
+        assert!(off <= 2.0, "{row}");
+    }
 }
 
 /// `render --frames N --backend gpu` (issue 18, animation on the GPU): one device and

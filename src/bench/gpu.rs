@@ -7,7 +7,8 @@
 //! two are compared in the same run and the report says whether they agree. The irregular
 //! grid is built on the GPU too (every pass as kernels, each pass's time reported) and its
 //! GPU traversal runs beside the CPU grid on primary, AO and random rays (paper §5, Table
-//! 3's kinds), with the same agreement check. GPU phase times
+//! 3's kinds), with the same agreement check; then whole 3-bounce frames per engine on both
+//! backends, with the GPU frame's host↔device bytes and the image agreement. GPU phase times
 //! come from timestamp queries where they time kernels, otherwise from the wall clock with a
 //! wait at every phase boundary (the report names which).
 
@@ -192,6 +193,95 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
         }
         progress(&format!("{name}: irregular grid"));
         md += &grid_section(&s, &geo, spec)?;
+        progress(&format!("{name}: whole frames"));
+        md += &frames_section(&s, &geo, spec, rah)?;
+    }
+    Ok(md)
+}
+
+/// Bounces of the whole-frame rows (the thesis's frame times are 3-bounce Whitted frames).
+const FRAME_BOUNCES: u32 = 3;
+
+/// Whole Whitted frames (issue 18's rows): per engine, the CPU backend's frame (engine build
+/// and render: raster, every generation's tracing, ray generation and shading) beside the
+/// GPU backend's (engine rebuilt on its device, and render), the better of two frames each
+/// after a warm-up frame, with the GPU frame's host↔device bytes and how many pixels differ
+/// from the CPU's image by more than 2/255 (the GPU renders' tolerance is 2 %).
+fn frames_section(
+    s: &scene::Scene,
+    geo: &scene::Geometry,
+    spec: &Spec,
+    rah: bool,
+) -> Result<String> {
+    use crate::engines::{self, Engine, EngineOptions};
+    use render::whitted::{render, RenderOptions};
+    let opts = RenderOptions {
+        width: spec.width,
+        height: spec.height,
+        bounces: FRAME_BOUNCES,
+    };
+    let eopts = EngineOptions::default();
+    // The image as the PNG stores it (sRGB bytes).
+    let rgb = |p: &[geom::Vec3]| -> Vec<[u8; 3]> {
+        render::output::to_rgb8(p, spec.width, spec.height)
+            .pixels()
+            .map(|x| x.0)
+            .collect()
+    };
+    let mut md = format!(
+        "\n### Whole frames ({FRAME_BOUNCES} bounces): engine build + render, the better of two after a warm-up\n\nThe CPU engines use their defaults (CRSH/RAH with the object hierarchy; on {} threads), the GPU backend its pipeline (CRSH/RAH with mesh spheres).\n\n| engine | CPU frame ms | GPU frame ms | GPU / CPU | GPU host↔device MB | image bytes MB | pixels off by > 2/255 |\n|---|---:|---:|---:|---:|---:|---:|\n",
+        rayon::current_num_threads()
+    );
+    let mut list = vec![Engine::Crsh];
+    if rah {
+        list.push(Engine::Rah);
+    }
+    list.push(Engine::Grid);
+    for engine in list {
+        let cpu_frame = || -> Result<(f64, Vec<[u8; 3]>)> {
+            let t0 = Instant::now();
+            let tracer = engines::build(engine, &eopts, geo)?.tracer;
+            let out = render(s, geo, tracer.as_ref(), &opts, &());
+            let t = t0.elapsed().as_secs_f64();
+            Ok((t, rgb(&out.pixels)))
+        };
+        cpu_frame()?;
+        let (c1, img) = cpu_frame()?;
+        let c2 = cpu_frame()?.0;
+        let mut gf = crate::gpu_frame::GpuFrame::new(engine, &eopts, s, geo, |e| {
+            eprintln!("error: bench gpu: the device failed ({e}); lower --width/--height");
+            std::process::exit(1);
+        })?;
+        let mut gpu_frame = || -> Result<(f64, Vec<[u8; 3]>, u64)> {
+            let t0 = Instant::now();
+            let b = gf.rebuild(geo)?;
+            let (out, _) = gf.render(s, geo, &opts, &(), b)?;
+            let t = t0.elapsed().as_secs_f64();
+            Ok((
+                t,
+                rgb(&out.pixels),
+                out.stats.host_device_bytes.unwrap_or(0),
+            ))
+        };
+        gpu_frame()?;
+        let (g1, gimg, bytes) = gpu_frame()?;
+        let g2 = gpu_frame()?.0;
+        let (c, g) = (c1.min(c2), g1.min(g2));
+        let off = img
+            .iter()
+            .zip(&gimg)
+            .filter(|(a, b)| a.iter().zip(b.iter()).any(|(p, q)| p.abs_diff(*q) > 2))
+            .count();
+        md += &format!(
+            "| {} | {:.1} | {:.1} | {:.2} | {:.2} | {:.2} | {:.3} % |\n",
+            engine.name(),
+            c * 1e3,
+            g * 1e3,
+            g / c.max(1e-12),
+            bytes as f64 / 1e6,
+            (spec.width as u64 * spec.height as u64 * 3) as f64 / 1e6,
+            100.0 * off as f64 / img.len().max(1) as f64
+        );
     }
     Ok(md)
 }
