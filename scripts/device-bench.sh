@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# The GPU numbers of record in one run, for a session that is lent a real GPU (the `device`
+# tool): the grid built and traversed on the GPU (issue 17), whole frames and host↔device
+# traffic (issue 18), CRSH/RAH phases, and the GPU tests that compare against the CPU.
+#
+# Prepare on the dev machine (no GPU needed), then carry `dev-bin` and the scenes:
+#   cargo build --release && cargo test --release -p gpu --no-run 2>&1 | grep -o 'target/release/deps/[a-z_]*-[0-9a-f]*' > /tmp/tests.txt
+#   mkdir -p dev-bin && cp target/release/rayspace $(cat /tmp/tests.txt) dev-bin/
+#   mkdir -p dev-scenes && cp -r ../shared/scenes/{dabrovic-sponza,conference,cornell-box} dev-scenes/
+# (both ignored by git; about 52 MB together, within the device tool's 64 MiB carry), then
+# on the device: `scripts/device-bench.sh` (writes the reports and the log into $OUT).
+# Each step is bounded by `timeout`, so one slow step cannot eat the device time of the rest.
+set -uo pipefail
+OUT=${OUT:-out}
+mkdir -p "$OUT"
+LOG="$OUT/device-log.txt"
+BIN=${BIN:-dev-bin}
+export RAYSPACE_SCENES=${RAYSPACE_SCENES:-dev-scenes}
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
+{
+    git log -1 --format='commit %h' 2>/dev/null || true
+    date
+    nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv 2>/dev/null || true
+    lscpu | grep -E 'Model name|^CPU\(s\)' || true
+} >>"$LOG"
+step() {
+    local limit=$1 name=$2
+    shift 2
+    echo "== $name" >>"$LOG"
+    timeout "$limit" "$@" >>"$LOG" 2>&1
+    echo "rc $?" >>"$LOG"
+}
+R="$BIN/rayspace"
+S=bench/scenes
+# Issue 17: the grid built by kernels and traversed, against the CPU grid (Sponza's 512²
+# primary target is the paper's 653 MRays/s on a Titan X; its build, 12–26 ms there).
+step 150 "bench gpu grid 512" "$R" bench gpu --scenes cornell,$S/sponza.toml,$S/conference.toml \
+    --grid-only --width 512 --height 512 --md "$OUT/bench-gpu-grid-512.md"
+step 150 "bench gpu grid 1024" "$R" bench gpu --scenes $S/sponza.toml --grid-only \
+    --width 1024 --height 1024 --md "$OUT/bench-gpu-grid-1024.md"
+# Issue 18: CRSH/RAH phases, whole 3-bounce frames and their host↔device bytes.
+step 200 "bench gpu 512 shadows" "$R" bench gpu --scenes cornell,office,$S/sponza.toml \
+    --width 512 --height 512 --bounces 0 --rah --md "$OUT/bench-gpu-512-shadows.md"
+step 200 "bench gpu 1024 b3" "$R" bench gpu --scenes office,$S/sponza.toml \
+    --width 1024 --height 1024 --bounces 3 --md "$OUT/bench-gpu-1024-b3.md"
+# The GPU tests (the minimal-ball fix eb34266 is checked by hierarchies_match_the_cpu_node_for_node).
+for t in "$BIN"/grid_build-* "$BIN"/grid-* "$BIN"/agreement-*; do
+    [ -x "$t" ] && step 120 "test $(basename "$t")" "$t" --test-threads 4
+done
+echo "== done" >>"$LOG"
