@@ -3,8 +3,9 @@
 //! [`render::whitted::Stages`] so `render_with` runs them in place of the CPU passes.
 //!
 //! The surfaces arrive from the host (the loop builds them from the G-buffer or from the
-//! previous generation's hits) and the rays and colours go back to it, so each pass costs an
-//! upload and a read-back; the ray generation reproduces the CPU's rays bit for bit (same
+//! previous generation's hits) and the rays and colours go back to it: a generation's
+//! surfaces are uploaded once and shared by its three passes ([`Stages::generation`]), and
+//! each pass costs a read-back; the ray generation reproduces the CPU's rays bit for bit (same
 //! operation order, unfused products), the shading uses the device's `pow` for the specular
 //! exponent and may differ from the CPU's in the last bits.
 
@@ -12,7 +13,7 @@ use crate::device::Gpu;
 use crate::kernels::{Exec, Kernel, Kernels, Params};
 use geom::Vec3;
 use render::secondary::Surfaces;
-use render::whitted::Stages;
+use render::whitted::{Generation, Stages};
 use render::{RayBatch, RayKind};
 use scene::{Light, Material, Scene};
 use std::cell::RefCell;
@@ -140,7 +141,20 @@ fn ray_of(o: [f32; 4], d: [f32; 4]) -> geom::Ray {
 }
 
 impl GpuStages<'_> {
-    fn shadow_rays_part(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
+    /// `pre`, or `s` uploaded now.
+    fn surf_or<'a>(
+        &self,
+        s: &Surfaces,
+        pre: Option<&'a Surf>,
+        own: &'a mut Option<Surf>,
+    ) -> &'a Surf {
+        match pre {
+            Some(x) => x,
+            None => own.insert(self.surf(s)),
+        }
+    }
+
+    fn shadow_rays_part(&self, s: &Surfaces, lights: &[Light], pre: Option<&Surf>) -> RayBatch {
         let (n, nl) = (s.len(), lights.len());
         if n * nl == 0 {
             return RayBatch::default();
@@ -148,7 +162,8 @@ impl GpuStages<'_> {
         self.timed("shadow-ray kernel", || {
             let g = self.gpu;
             let mut ex = Exec::new(g, self.kernels);
-            let sf = self.surf(s);
+            let mut own = None;
+            let sf = self.surf_or(s, pre, &mut own);
             let lb = self.lights(lights);
             let m = (n * nl) as u64;
             let (org, dir) = (g.storage("org", m * 16), g.storage("dir", m * 16));
@@ -184,7 +199,13 @@ impl GpuStages<'_> {
         })
     }
 
-    fn local_shading_part(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+    fn local_shading_part(
+        &self,
+        s: &Surfaces,
+        scene: &Scene,
+        occluded: &[bool],
+        pre: Option<&Surf>,
+    ) -> Vec<Vec3> {
         let (materials, lights) = (&scene.materials, &scene.lights);
         let n = s.len();
         if n == 0 {
@@ -193,7 +214,8 @@ impl GpuStages<'_> {
         self.timed("shading kernel", || {
             let g = self.gpu;
             let mut ex = Exec::new(g, self.kernels);
-            let sf = self.surf(s);
+            let mut own = None;
+            let sf = self.surf_or(s, pre, &mut own);
             let lb = self.lights(lights);
             let mb = self.materials(materials, scene.ambient);
             let occ: Vec<u32> = occluded.iter().map(|&o| o as u32).collect();
@@ -211,7 +233,12 @@ impl GpuStages<'_> {
         })
     }
 
-    fn bounce_rays_part(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
+    fn bounce_rays_part(
+        &self,
+        s: &Surfaces,
+        materials: &[Material],
+        pre: Option<&Surf>,
+    ) -> RayBatch {
         let n = s.len();
         if n == 0 {
             return RayBatch::default();
@@ -219,7 +246,8 @@ impl GpuStages<'_> {
         self.timed("bounce-ray kernel", || {
             let g = self.gpu;
             let mut ex = Exec::new(g, self.kernels);
-            let sf = self.surf(s);
+            let mut own = None;
+            let sf = self.surf_or(s, pre, &mut own);
             let mb = self.materials(materials, Vec3::ZERO);
             let m = 2 * n as u64;
             let (org, dir, w) = (
@@ -281,11 +309,11 @@ impl Stages for GpuStages<'_> {
         // Per surface: one origin and one direction (vec4) per light.
         let per = self.part(16 * lights.len().max(1) as u64);
         if s.len() <= per {
-            return self.shadow_rays_part(s, lights);
+            return self.shadow_rays_part(s, lights, None);
         }
         let mut b = RayBatch::default();
         for r in Self::parts(s.len(), per) {
-            b.append(self.shadow_rays_part(&s.slice(r), lights));
+            b.append(self.shadow_rays_part(&s.slice(r), lights, None));
         }
         b
     }
@@ -295,12 +323,12 @@ impl Stages for GpuStages<'_> {
         let nl = scene.lights.len();
         let per = self.part(16u64.max(4 * nl as u64));
         if s.len() <= per {
-            return self.local_shading_part(s, scene, occluded);
+            return self.local_shading_part(s, scene, occluded, None);
         }
         let mut c = Vec::with_capacity(s.len());
         for r in Self::parts(s.len(), per) {
             let occ = &occluded[r.start * nl..r.end * nl];
-            c.extend(self.local_shading_part(&s.slice(r), scene, occ));
+            c.extend(self.local_shading_part(&s.slice(r), scene, occ, None));
         }
         c
     }
@@ -309,12 +337,62 @@ impl Stages for GpuStages<'_> {
         // Per surface: two ray slots of origin, direction and weight (vec4 each).
         let per = self.part(32);
         if s.len() <= per {
-            return self.bounce_rays_part(s, materials);
+            return self.bounce_rays_part(s, materials, None);
         }
         let mut b = RayBatch::default();
         for r in Self::parts(s.len(), per) {
-            b.append(self.bounce_rays_part(&s.slice(r), materials));
+            b.append(self.bounce_rays_part(&s.slice(r), materials, None));
         }
         b
+    }
+
+    /// The generation's surfaces go to the device once, at the first pass that needs them,
+    /// when they fit every pass in one part (else each pass uploads its parts, as above).
+    fn generation<'a>(&'a self, s: &'a Surfaces) -> Box<dyn Generation + 'a> {
+        Box::new(GpuGeneration {
+            stages: self,
+            s,
+            surf: std::cell::OnceCell::new(),
+        })
+    }
+}
+
+/// One generation on the GPU: its surfaces uploaded once and shared by the passes.
+struct GpuGeneration<'a, 'g> {
+    stages: &'a GpuStages<'g>,
+    s: &'a Surfaces,
+    surf: std::cell::OnceCell<Surf>,
+}
+
+impl GpuGeneration<'_, '_> {
+    /// The uploaded surfaces, when a pass with `per` surfaces per part takes them whole.
+    fn whole(&self, per: usize) -> Option<&Surf> {
+        (self.s.len() <= per).then(|| self.surf.get_or_init(|| self.stages.surf(self.s)))
+    }
+}
+
+impl Generation for GpuGeneration<'_, '_> {
+    fn shadow_rays(&self, lights: &[Light]) -> RayBatch {
+        let st = self.stages;
+        match self.whole(st.part(16 * lights.len().max(1) as u64)) {
+            Some(sf) => st.shadow_rays_part(self.s, lights, Some(sf)),
+            None => st.shadow_rays(self.s, lights),
+        }
+    }
+
+    fn local_shading(&self, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+        let st = self.stages;
+        match self.whole(st.part(16u64.max(4 * scene.lights.len() as u64))) {
+            Some(sf) => st.local_shading_part(self.s, scene, occluded, Some(sf)),
+            None => st.local_shading(self.s, scene, occluded),
+        }
+    }
+
+    fn bounce_rays(&self, materials: &[Material]) -> RayBatch {
+        let st = self.stages;
+        match self.whole(st.part(32)) {
+            Some(sf) => st.bounce_rays_part(self.s, materials, Some(sf)),
+            None => st.bounce_rays(self.s, materials),
+        }
     }
 }

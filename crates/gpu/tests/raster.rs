@@ -218,13 +218,38 @@ fn ray_generation_and_shading_match_the_cpu_passes() {
                     .map(|k| k % 3 == 1)
                     .collect();
                 let ca = CpuStages.local_shading(surf, &s, &occ);
+                let moved = g.bytes_moved();
                 let cb = stages.local_shading(surf, &s, &occ);
+                let apart = g.bytes_moved() - moved;
                 for (i, (x, y)) in ca.iter().zip(&cb).enumerate() {
                     let tol = 1e-4 * x.abs().max_element().max(1e-3);
                     assert!(
                         (*x - *y).abs().max_element() <= tol,
                         "{what}: colour {i}: {x} vs {y}"
                     );
+                }
+                // The generation's passes together: the same results as the passes one by
+                // one, and the surfaces moved to the device once (unless they come in parts),
+                // so fewer bytes than the three separate passes.
+                let gen = stages.generation(surf);
+                let sh = gen.shadow_rays(&s.lights);
+                let one = stages.shadow_rays(surf, &s.lights);
+                assert_eq!((&sh.org, &sh.dir), (&one.org, &one.dir), "{what}: shadows");
+                assert_eq!(gen.local_shading(&s, &occ), cb, "{what}: colours");
+                let bo = gen.bounce_rays(&s.materials);
+                let one = stages.bounce_rays(surf, &s.materials);
+                assert_eq!(
+                    (&bo.org, &bo.dir, &bo.kind),
+                    (&one.org, &one.dir, &one.kind),
+                    "{what}: bounces"
+                );
+                if !small && !surf.is_empty() {
+                    // The shading pass alone re-sends the surfaces; within the generation
+                    // it does not.
+                    let m0 = g.bytes_moved();
+                    let _ = gen.local_shading(&s, &occ);
+                    let within = g.bytes_moved() - m0;
+                    assert!(within < apart, "{what}: {within} ≥ {apart} bytes");
                 }
             }
         }

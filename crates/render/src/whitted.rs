@@ -163,6 +163,41 @@ pub trait Stages {
     fn bounce_rays(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
         bounce_rays(s, materials)
     }
+
+    /// The three passes of one generation over surfaces `s`, which the borrow keeps
+    /// unchanged across them (so a backend may move them to its device once, not once per
+    /// pass). The default runs the passes above with `s` each time.
+    fn generation<'a>(&'a self, s: &'a Surfaces) -> Box<dyn Generation + 'a> {
+        Box::new(EachPass { stages: self, s })
+    }
+}
+
+/// One generation's passes over its surfaces (see [`Stages::generation`]).
+pub trait Generation {
+    /// [`Stages::shadow_rays`] of the generation's surfaces.
+    fn shadow_rays(&self, lights: &[Light]) -> RayBatch;
+    /// [`Stages::local_shading`] of the generation's surfaces.
+    fn local_shading(&self, scene: &Scene, occluded: &[bool]) -> Vec<Vec3>;
+    /// [`Stages::bounce_rays`] of the generation's surfaces.
+    fn bounce_rays(&self, materials: &[Material]) -> RayBatch;
+}
+
+/// The default [`Generation`]: each pass called with the surfaces.
+struct EachPass<'a, S: Stages + ?Sized> {
+    stages: &'a S,
+    s: &'a Surfaces,
+}
+
+impl<S: Stages + ?Sized> Generation for EachPass<'_, S> {
+    fn shadow_rays(&self, lights: &[Light]) -> RayBatch {
+        self.stages.shadow_rays(self.s, lights)
+    }
+    fn local_shading(&self, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+        self.stages.local_shading(self.s, scene, occluded)
+    }
+    fn bounce_rays(&self, materials: &[Material]) -> RayBatch {
+        self.stages.bounce_rays(self.s, materials)
+    }
 }
 
 /// The CPU passes.
@@ -217,11 +252,11 @@ pub fn render_with(
     debug_assert_eq!(pixels.len(), npix);
     let mut generation = 0u32;
     loop {
+        // The generation's passes share its surfaces (a backend moves them once).
+        let gen = stages.generation(&surfaces);
         // Shadows of this generation's surfaces, then local shading.
         progress.stage(&format!("shadow rays, generation {generation}"));
-        let shadows = timed(&mut stats, "ray creation", || {
-            stages.shadow_rays(&surfaces, lights)
-        });
+        let shadows = timed(&mut stats, "ray creation", || gen.shadow_rays(lights));
         let occl = if shadows.is_empty() {
             Vec::new()
         } else {
@@ -230,7 +265,7 @@ pub fn render_with(
         progress.stage(&format!("shading, generation {generation}"));
         timed(&mut stats, "shading", || {
             let occluded: Vec<bool> = occl.iter().map(|h| h.is_hit()).collect();
-            let local = stages.local_shading(&surfaces, scene, &occluded);
+            let local = gen.local_shading(scene, &occluded);
             for (i, c) in local.into_iter().enumerate() {
                 pixels[surfaces.pixel[i] as usize] += c;
             }
@@ -240,8 +275,9 @@ pub fn render_with(
         }
         progress.stage(&format!("secondary rays, generation {}", generation + 1));
         let rays = timed(&mut stats, "ray creation", || {
-            stages.bounce_rays(&surfaces, &scene.materials)
+            gen.bounce_rays(&scene.materials)
         });
+        drop(gen);
         if rays.is_empty() {
             break;
         }
