@@ -65,6 +65,15 @@ impl FrameRow {
     }
 }
 
+/// The scene at time `t` and its geometry (transforms and the meshes' culling spheres
+/// updated), with the seconds it took.
+fn update(scene: &scene::Scene, t: f32) -> (scene::Scene, Geometry, f64) {
+    let t0 = Instant::now();
+    let s = scene.at_time(t);
+    let geo = Geometry::from_scene(&s);
+    (s, geo, t0.elapsed().as_secs_f64())
+}
+
 /// Frame `index` of `scene` at time `t`: update the transforms, rebuild `engine`, render.
 pub fn frame(
     scene: &scene::Scene,
@@ -74,10 +83,7 @@ pub fn frame(
     eopts: &EngineOptions,
     opts: &RenderOptions,
 ) -> Result<(Rendered, FrameRow)> {
-    let t0 = Instant::now();
-    let s = scene.at_time(t);
-    let geo = Geometry::from_scene(&s);
-    let update_s = t0.elapsed().as_secs_f64();
+    let (s, geo, update_s) = update(scene, t);
     let t1 = Instant::now();
     let tracer = engines::build(engine, eopts, &geo)?.tracer;
     let build_s = t1.elapsed().as_secs_f64();
@@ -119,10 +125,7 @@ pub fn gpu_frame(
     index: u32,
     opts: &RenderOptions,
 ) -> Result<(Rendered, FrameRow)> {
-    let t0 = Instant::now();
-    let s = scene.at_time(t);
-    let geo = Geometry::from_scene(&s);
-    let update_s = t0.elapsed().as_secs_f64();
+    let (s, geo, update_s) = update(scene, t);
     let build_s = gf.rebuild(&geo)?;
     let t2 = Instant::now();
     let (out, _) = gf.render(&s, &geo, opts, &(), build_s)?;

@@ -33,6 +33,8 @@ impl Params {
 const COMMON: &str = include_str!("shaders/common.wgsl");
 const GEOM: &str = include_str!("shaders/geom.wgsl");
 const PRIM_BINDINGS: &str = include_str!("prims/bindings.wgsl");
+/// The voxel map's layout and lookup, shared by the grid kernels that look voxels up.
+const GRID_MAP: &str = include_str!("grid/map.wgsl");
 
 /// A compiled WGSL module: its files after the shared prelude (constants, `common.wgsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -89,11 +91,11 @@ impl Module {
             Module::Traverse => format!("{GEOM}{}", include_str!("rsh/traverse.wgsl")),
             Module::Final => format!("{GEOM}{}", include_str!("rsh/final.wgsl")),
             Module::Stages => include_str!("stages.wgsl").into(),
-            Module::Grid => format!("{GEOM}{}", include_str!("grid/traverse.wgsl")),
+            Module::Grid => format!("{GEOM}{}{GRID_MAP}", include_str!("grid/traverse.wgsl")),
             Module::GridBuild => include_str!("grid/build.wgsl").into(),
             Module::VoxelMap => include_str!("grid/voxelmap.wgsl").into(),
-            Module::Merge => include_str!("grid/merge.wgsl").into(),
-            Module::Expand => include_str!("grid/expand.wgsl").into(),
+            Module::Merge => format!("{}{GRID_MAP}", include_str!("grid/merge.wgsl")),
+            Module::Expand => format!("{}{GRID_MAP}", include_str!("grid/expand.wgsl")),
         }
     }
 }

@@ -16,28 +16,15 @@
 @group(0) @binding(8) var<storage, read_write> e_blocked: array<u32>;
 @group(0) @binding(9) var<storage, read_write> e_rec: array<vec4<u32>>;
 
-const NODE: u32 = 0x80000000u;
-const LOG_DIM_SHIFT: u32 = 27u;
-const INDEX: u32 = 0x07ffffffu;
+// The voxel map read by `lookup` (map.wgsl).
+fn map_entry(i: u32) -> u32 {
+    return e_map[i];
+}
 
 fn lin(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
 }
 
-fn lookup(v: vec3<u32>) -> u32 {
-    var s = P.u0.z;
-    let td = P.u2.xyz;
-    let t = v >> vec3<u32>(s);
-    var e = e_map[t.x + td.x * (t.y + td.y * t.z)];
-    while (e & NODE) != 0u {
-        let k = (e >> LOG_DIM_SHIFT) & 0xfu;
-        s -= k;
-        let m = (1u << k) - 1u;
-        let i = ((v.x >> s) & m) | (((v.y >> s) & m) << k) | (((v.z >> s) & m) << (2u * k));
-        e = e_map[(e & INDEX) + i];
-    }
-    return e;
-}
 
 // grid::is_subset: cell a's ascending list within cell b's.
 fn is_subset(a: u32, b: u32) -> bool {

@@ -30,30 +30,16 @@
 @group(0) @binding(15) var<storage, read_write> m_owner_out: array<u32>;
 @group(0) @binding(16) var<storage, read_write> m_out: array<u32>;
 
-const NODE: u32 = 0x80000000u;
-const LOG_DIM_SHIFT: u32 = 27u;
-const INDEX: u32 = 0x07ffffffu;
+// The voxel map read by `lookup` (map.wgsl).
+fn map_entry(i: u32) -> u32 {
+    return m_map[i];
+}
 const NONE: u32 = 0xffffffffu;
 
 fn lin(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
 }
 
-// Grid::lookup: the top cell's entry, then one entry per block below it.
-fn lookup(v: vec3<u32>) -> u32 {
-    var s = P.u0.z;
-    let td = P.u2.xyz;
-    let t = v >> vec3<u32>(s);
-    var e = m_map[t.x + td.x * (t.y + td.y * t.z)];
-    while (e & NODE) != 0u {
-        let k = (e >> LOG_DIM_SHIFT) & 0xfu;
-        s -= k;
-        let m = (1u << k) - 1u;
-        let i = ((v.x >> s) & m) | (((v.y >> s) & m) << k) | (((v.z >> s) & m) << (2u * k));
-        e = m_map[(e & INDEX) + i];
-    }
-    return e;
-}
 
 // grid::half_area: the box's extent in world units, e.x e.y + e.y e.z + e.z e.x.
 fn half_area(lo: vec3<u32>, hi: vec3<u32>) -> f32 {

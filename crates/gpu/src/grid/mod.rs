@@ -203,13 +203,6 @@ impl GpuGrid {
         let kernels = Kernels::new(&gpu);
         let compile_seconds = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
-        let v4 = |v: geom::Vec3| [v.x, v.y, v.z, 0.0];
-        let consts = [
-            v4(grid.bounds.min),
-            v4(grid.bounds.max),
-            v4(grid.voxel),
-            v4(grid.inv_voxel),
-        ];
         let cells: Vec<[u32; 8]> = grid
             .trav
             .iter()
@@ -220,7 +213,7 @@ impl GpuGrid {
             })
             .collect();
         let g = GpuGrid {
-            consts: gpu.upload("grid constants", &consts),
+            consts: upload_consts(&gpu, grid),
             map: gpu.upload("voxel map", &grid.entries),
             cells: gpu.upload("grid cells", &cells),
             refs: gpu.upload("grid references", &grid.refs),
@@ -276,16 +269,8 @@ impl Built {
         check("cells", d.ncells * 32)?;
         check("voxel map entries", d.nentries * 4)?;
         let cells = expand::records(gpu, kernels, &d);
-        let f = &d.frame;
-        let v4 = |v: geom::Vec3| [v.x, v.y, v.z, 0.0];
-        let consts = [
-            v4(f.bounds.min),
-            v4(f.bounds.max),
-            v4(f.voxel),
-            v4(f.inv_voxel),
-        ];
         Ok(Built {
-            consts: gpu.upload("grid constants", &consts),
+            consts: upload_consts(gpu, &d.frame),
             map: d.entries,
             cells,
             refs: d.refs,
@@ -293,6 +278,18 @@ impl Built {
             frame: d.frame,
         })
     }
+}
+
+/// The traversal's grid constants: box min, box max, voxel size, 1 / voxel size (vec4 each).
+fn upload_consts(gpu: &Gpu, g: &Grid) -> wgpu::Buffer {
+    let v4 = |v: geom::Vec3| [v.x, v.y, v.z, 0.0];
+    let consts = [
+        v4(g.bounds.min),
+        v4(g.bounds.max),
+        v4(g.voxel),
+        v4(g.inv_voxel),
+    ];
+    gpu.upload("grid constants", &consts)
 }
 
 /// The check of one binding's size against the device's limit, naming what needs it.

@@ -25,10 +25,10 @@
 @group(0) @binding(8) var<storage, read_write> gr_rec: array<vec4<u32>>;
 @group(0) @binding(9) var<storage, read_write> gr_cnt: array<vec2<u32>>;
 
-// voxelmap.rs: an entry is a cell, or NODE | log2 of the block's resolution << 27 | first.
-const NODE: u32 = 0x80000000u;
-const LOG_DIM_SHIFT: u32 = 27u;
-const INDEX: u32 = 0x07ffffffu;
+// The voxel map read by `lookup` (map.wgsl).
+fn map_entry(i: u32) -> u32 {
+    return gr_map[i];
+}
 
 fn f_inf() -> f32 {
     return bitcast<f32>(0x7f800000u);
@@ -46,21 +46,6 @@ fn floor_or_zero(x: f32) -> f32 {
     return floor(x);
 }
 
-// Grid::lookup: the top cell's entry, then one entry per block below it.
-fn lookup(v: vec3<u32>) -> u32 {
-    var s = P.u0.z;
-    let td = P.u2.xyz;
-    let t = v >> vec3<u32>(s);
-    var e = gr_map[t.x + td.x * (t.y + td.y * t.z)];
-    while (e & NODE) != 0u {
-        let k = (e >> LOG_DIM_SHIFT) & 0xfu;
-        s -= k;
-        let m = (1u << k) - 1u;
-        let i = ((v.x >> s) & m) | (((v.y >> s) & m) << k) | (((v.z >> s) & m) << (2u * k));
-        e = gr_map[(e & INDEX) + i];
-    }
-    return e;
-}
 
 @compute @workgroup_size(256)
 fn grid_trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
