@@ -36,11 +36,16 @@ pub struct RayLanes {
 }
 
 impl RayLanes {
-    /// Lane p holds ray `order[p]` of `pre` (filled in parallel: one pass over the rays,
-    /// each task writing its own range of lanes in all eleven arrays).
+    /// Lane p holds ray `order[p]` of `pre`.
     pub fn gather(pre: &[RayPre], order: &[u32]) -> RayLanes {
+        RayLanes::build(order.len(), |p| pre[order[p] as usize])
+    }
+
+    /// Lane p holds the constants `f(p)` for p in `0..n` (filled in parallel: one pass,
+    /// each task writing its own range of lanes in all eleven arrays; no per-ray record is
+    /// kept besides the lanes, [`RayLanes::pre`] rebuilds one).
+    pub fn build(n: usize, f: impl Fn(usize) -> RayPre + Sync) -> RayLanes {
         use rayon::prelude::*;
-        let n = order.len();
         let zeros = || vec![0.0f32; n + 8];
         let mut l = RayLanes {
             ok: std::array::from_fn(|_| zeros()),
@@ -70,10 +75,10 @@ impl RayLanes {
             .map(|v| v.as_mut_ptr()),
         );
         const CHUNK: usize = 4096;
-        order.par_chunks(CHUNK).enumerate().for_each(|(c, rays)| {
+        (0..n.div_ceil(CHUNK)).into_par_iter().for_each(|c| {
             let out = &out;
-            for (i, &r) in rays.iter().enumerate() {
-                let q = &pre[r as usize];
+            for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let q = f(p);
                 let org = q.org.to_array();
                 let v = [
                     org[q.kx as usize],
@@ -88,14 +93,36 @@ impl RayLanes {
                     q.t_min,
                     q.t_max,
                 ];
-                for (f, x) in v.into_iter().enumerate() {
-                    // SAFETY: lane c·CHUNK + i < n is written by this task only, in arrays of
-                    // n + 8 floats that outlive the loop.
-                    unsafe { *out.0[f].add(c * CHUNK + i) = x };
+                for (i, x) in v.into_iter().enumerate() {
+                    // SAFETY: lane p < n is written by this task only, in arrays of n + 8
+                    // floats that outlive the loop.
+                    unsafe { *out.0[i].add(p) = x };
                 }
             }
         });
         l
+    }
+
+    /// Lane p's constants as one record, bit for bit those it was built from (the origin
+    /// un-permuted by the shear's axes).
+    #[inline]
+    pub fn pre(&self, p: usize) -> RayPre {
+        let (kx, ky, kz) = (self.k[0][p] as u8, self.k[1][p] as u8, self.k[2][p] as u8);
+        let mut org = [0.0f32; 3];
+        org[kx as usize] = self.ok[0][p];
+        org[ky as usize] = self.ok[1][p];
+        org[kz as usize] = self.ok[2][p];
+        RayPre {
+            org: Vec3::from_array(org),
+            kx,
+            ky,
+            kz,
+            sx: self.s[0][p],
+            sy: self.s[1][p],
+            sz: self.s[2][p],
+            t_min: self.t_min[p],
+            t_max: self.t_max[p],
+        }
     }
 
     /// Number of rays.
@@ -376,6 +403,19 @@ mod tests {
         fn lanes_equal_the_scalar_kernel(seed in 0u64..1_000_000, n in 1usize..40, degenerate in 0u32..4) {
             let (pre, order, tri) = case(seed, n, degenerate);
             check(&pre, &order, tri)?;
+        }
+
+        /// A lane's record is the one it was built from, bit for bit (the traversal's scalar
+        /// tests read rays back from the lanes).
+        #[test]
+        fn lanes_give_back_their_records(seed in 0u64..1_000_000, n in 1usize..40, degenerate in 0u32..4) {
+            let (pre, order, _) = case(seed, n, degenerate);
+            let lanes = RayLanes::gather(&pre, &order);
+            for (p, &r) in order.iter().enumerate() {
+                let (a, b) = (lanes.pre(p), pre[r as usize]);
+                let bits = |q: &RayPre| (q.org.to_array().map(f32::to_bits), [q.kx, q.ky, q.kz], [q.sx, q.sy, q.sz, q.t_min, q.t_max].map(f32::to_bits));
+                prop_assert_eq!(bits(&a), bits(&b), "lane {}", p);
+            }
         }
     }
 

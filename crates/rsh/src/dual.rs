@@ -5,8 +5,10 @@
 //! 1. test every pair (the node test of eq. 3.16 or the exact cone test, with the object
 //!    node's bounding sphere in place of the triangle's; a leaf is a triangle, tested exactly
 //!    as in §3.2.8);
-//! 2. expand each surviving pair on one side ([`Descent`]): the object side gives the node's
-//!    2 children, the ray side the node's b children one level down;
+//! 2. expand each surviving pair on one side ([`Descent`]): the object side gives the up to 8
+//!    children of the node's collapsed node ([`crate::objects::WideNode`]: descendants of the
+//!    binary node, tested against the ray node 8 at a time), the ray side the node's b
+//!    children one level down;
 //! 3. (level-1 node, triangle) pairs go to the exact final tests (§3.2.9).
 //!
 //! Besides the cone test, every pair's ray node is tested as a *beam* against the object
@@ -213,6 +215,25 @@ fn beam_union(it: impl Iterator<Item = Beam>) -> Beam {
 }
 
 impl RayNode {
+    /// The fields the AVX node tests read ([`crate::node8`]).
+    fn fields(&self) -> NodeFields {
+        NodeFields {
+            center: self.center,
+            radius: self.radius,
+            axis: self.cone.axis,
+            sin: self.cone.sin,
+            cos: self.cone.cos,
+            wide: self.cone.wide,
+            max_t: self.max_t,
+            tmin: self.tmin,
+            tmax: self.tmax,
+            omin: self.omin,
+            omax: self.omax,
+            ilo: self.ilo,
+            ihi: self.ihi,
+        }
+    }
+
     /// The cone test (RAH's or the exact one) against sphere `(p, d)`.
     #[inline]
     fn cone_test(&self, test: NodeTest, p: Vec3, d: f32) -> bool {
@@ -386,26 +407,7 @@ impl Traversal<'_> {
         let lanes = (self.test == NodeTest::Rah && node8::available()).then(|| {
             ray_nodes[..nl - 1]
                 .iter()
-                .map(|level| {
-                    NodeLanes::new(level.len(), |i| {
-                        let x = &level[i];
-                        NodeFields {
-                            center: x.center,
-                            radius: x.radius,
-                            axis: x.cone.axis,
-                            sin: x.cone.sin,
-                            cos: x.cone.cos,
-                            wide: x.cone.wide,
-                            max_t: x.max_t,
-                            tmin: x.tmin,
-                            tmax: x.tmax,
-                            omin: x.omin,
-                            omax: x.omax,
-                            ilo: x.ilo,
-                            ihi: x.ihi,
-                        }
-                    })
-                })
+                .map(|level| NodeLanes::new(level.len(), |i| level[i].fields()))
                 .collect::<Vec<_>>()
         });
         let nt = self.h.levels[nl - 1].len();
@@ -438,12 +440,14 @@ impl Traversal<'_> {
                         let li = j.l as usize - 1;
                         let node = &ray_nodes[li][r];
                         let k = node.kind as usize;
+                        // An any-hit node whose rays all hit has no work left, whatever
+                        // the pair was to become.
+                        if done(li, r) {
+                            continue;
+                        }
                         let a = if j.act != DROP {
                             j.act
                         } else {
-                            if done(li, r) {
-                                continue;
-                            }
                             let a = self.classify(tree, descent, node, li, o);
                             t.count(li, k, a != DROP, o);
                             a
@@ -492,20 +496,52 @@ impl Traversal<'_> {
                                 }));
                             }
                             OBJECT => {
-                                let [x, y] = tree.child[o as usize];
-                                let along = |x: u32| {
-                                    (tree.bounds(x).sphere.center - node.center).dot(node.cone.axis)
+                                // The collapsed node's children against the ray node, 8 at
+                                // a time (or one by one: the same tests); the survivors wait
+                                // with their action, the nearest along the cone's axis on top.
+                                let w = &tree.wide[tree.wide_of[o as usize] as usize];
+                                let n = w.count as usize;
+                                let m = if lanes.is_some() {
+                                    node8::test8_objects(&node.fields(), w)
+                                } else {
+                                    (0..n).fold(0u8, |m, i| {
+                                        let b = tree.bounds(w.child[i]);
+                                        let pass = node.beam_test(&b.bbox)
+                                            && node.cone_test(
+                                                self.test,
+                                                b.sphere.center,
+                                                b.sphere.radius,
+                                            );
+                                        m | (pass as u8) << i
+                                    })
                                 };
-                                let (near, far) =
-                                    if along(x) <= along(y) { (x, y) } else { (y, x) };
-                                for o in [far, near] {
-                                    stack.push(Job {
-                                        l: j.l,
-                                        r: j.r,
-                                        o,
-                                        act: DROP,
-                                    });
+                                let mut near = [(0.0f32, 0u32, DROP); 8];
+                                let mut ns = 0;
+                                for (i, &x) in w.child[..n].iter().enumerate() {
+                                    let pass = m >> i & 1 != 0;
+                                    t.count(li, k, pass, x);
+                                    if pass {
+                                        let b = tree.bounds(x);
+                                        let along =
+                                            (b.sphere.center - node.center).dot(node.cone.axis);
+                                        let a = action(descent, node, li, x, b.sphere.radius);
+                                        // Insertion by distance along the axis (ties keep
+                                        // the children's order).
+                                        let mut at = ns;
+                                        while at > 0 && near[at - 1].0 > along {
+                                            near[at] = near[at - 1];
+                                            at -= 1;
+                                        }
+                                        near[at] = (along, x, a);
+                                        ns += 1;
+                                    }
                                 }
+                                stack.extend(near[..ns].iter().rev().map(|&(_, o, act)| Job {
+                                    l: j.l,
+                                    r: j.r,
+                                    o,
+                                    act,
+                                }));
                             }
                             _ => {}
                         }
@@ -575,8 +611,9 @@ impl Traversal<'_> {
                 .with_min_len(1024)
                 .map(|n| {
                     let beam = match below {
-                        None => beam_union(order[level.children(n)].iter().map(|&r| {
-                            let (p, i) = (&self.pre[r as usize], rays.inv_dir[r as usize]);
+                        None => beam_union(level.children(n).map(|pos| {
+                            let p = self.lanes.pre(pos);
+                            let i = rays.inv_dir[order[pos] as usize];
                             (p.org, p.org, i, i, p.t_min, p.t_max)
                         })),
                         Some(b) => beam_union(level.children(n).map(|c| {
@@ -687,14 +724,14 @@ impl Traversal<'_> {
         // What the survivors make, in one count pass and one emit pass: (level-1 node,
         // triangle) pairs for the final tests; on the ray side (child, object) for the
         // node's children one level down (leaf positions below level 1); on the object side
-        // (node, child) for both children.
+        // (node, child) for the collapsed node's children.
         let never = |_| Ok::<(), std::convert::Infallible>(());
         let made = emit_streams(
             action.len(),
             |i| match action[i] {
                 FINAL => [1, 0, 0],
                 RAY => [0, level.children(rn[i] as usize).len() as u32, 0],
-                OBJECT => [0, 0, 2],
+                OBJECT => [0, 0, tree.wide[tree.wide_of[on[i] as usize] as usize].count],
                 _ => [0; 3],
             },
             never,
@@ -706,7 +743,8 @@ impl Traversal<'_> {
                     }
                 }
                 _ => {
-                    for ch in tree.child[on[i] as usize] {
+                    let w = &tree.wide[tree.wide_of[on[i] as usize] as usize];
+                    for &ch in &w.child[..w.count as usize] {
                         out(2, rn[i], ch);
                     }
                 }
@@ -739,7 +777,7 @@ impl Traversal<'_> {
     ) -> (usize, [u64; 3], bool) {
         let r = self.h.order[pos] as usize;
         let kind = rays.kind[r] as usize & 3;
-        let pre = &self.pre[r];
+        let pre = &self.lanes.pre(pos);
         let inv = rays.inv_dir[r];
         let mut best = self.best[r].load(Ordering::Relaxed);
         let (mut f, mut b, mut p) = (0u64, 0u64, 0u64);
@@ -959,10 +997,7 @@ mod tests {
             }
             let mut rng = Pcg32::new(seed, 11);
             let nodes: Vec<RayNode> = (0..13).map(|_| random_node(&mut rng, scale)).collect();
-            let lanes = NodeLanes::new(nodes.len(), |i| {
-                let x = &nodes[i];
-                NodeFields { center: x.center, radius: x.radius, axis: x.cone.axis, sin: x.cone.sin, cos: x.cone.cos, wide: x.cone.wide, max_t: x.max_t, tmin: x.tmin, tmax: x.tmax, omin: x.omin, omax: x.omax, ilo: x.ilo, ihi: x.ihi }
-            });
+            let lanes = NodeLanes::new(nodes.len(), |i| nodes[i].fields());
             for _ in 0..16 {
                 let lo = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0)) * scale;
                 let ext = Vec3::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0)) * scale * rng.range(0.0, 1.0);
@@ -990,6 +1025,58 @@ mod tests {
                             prop_assert_eq!(m >> i & 1 != 0, scalar, "node {} radius {}", first + i, d);
                         }
                     }
+                }
+            }
+        }
+
+        /// One node against a collapsed node's children in lanes gives the scalar tests'
+        /// answers bit for bit, lanes past the children masked off: objects near and far,
+        /// radii at the node's cone boundary, nodes of every kind.
+        #[test]
+        fn object_lanes_equal_the_scalar_node_test(seed in 0u64..1_000_000, scale in 0.01f32..1000.0, count in 1usize..9) {
+            if !node8::available() {
+                testkit::skip("avx2", "this CPU has no AVX: the dual traversal tests nodes one at a time");
+                return Ok(());
+            }
+            let mut rng = Pcg32::new(seed, 13);
+            for _ in 0..8 {
+                let x = random_node(&mut rng, scale);
+                let mut w = crate::objects::WideNode {
+                    center: [[0.0; 8]; 3],
+                    radius: [0.0; 8],
+                    min: [[0.0; 8]; 3],
+                    max: [[0.0; 8]; 3],
+                    child: [0; 8],
+                    count: count as u32,
+                };
+                let mut objects = Vec::new();
+                for i in 0..8 {
+                    let lo = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0)) * scale;
+                    let ext = Vec3::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0)) * scale * rng.range(0.0, 1.0);
+                    let b = Aabb::new(lo, lo + ext);
+                    let p = b.center();
+                    // Half the lanes right at the node's cone boundary (one rounding decides).
+                    let d = if i % 2 == 0 {
+                        ext.length() * 0.5
+                    } else {
+                        let cp = p - x.center;
+                        let along = cp.dot(x.cone.axis);
+                        let radial = (cp - x.cone.axis * along).length();
+                        let d0 = (radial * x.cone.cos - along.abs() * x.cone.sin - x.radius - 1e-5 * cp.length()).max(0.0);
+                        f32::from_bits((d0.to_bits() + rng.below(7)).saturating_sub(3))
+                    };
+                    for k in 0..3 {
+                        w.center[k][i] = p[k];
+                        w.min[k][i] = b.min[k];
+                        w.max[k][i] = b.max[k];
+                    }
+                    w.radius[i] = d;
+                    objects.push((b, p, d));
+                }
+                let m = node8::test8_objects(&x.fields(), &w);
+                for (i, (b, p, d)) in objects.iter().enumerate() {
+                    let scalar = i < count && x.beam_test(b) && x.cone_test(NodeTest::Rah, *p, *d);
+                    prop_assert_eq!(m >> i & 1 != 0, scalar, "lane {} of {}", i, count);
                 }
             }
         }

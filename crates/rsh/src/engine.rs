@@ -10,6 +10,7 @@ use crate::traverse::{Counters, NodeTest, SceneData, Traversal};
 use geom::tri::RayPre;
 use geom::tri8::RayLanes;
 use geom::{intersect, Aabb, Sphere, Vec3};
+use par::SharedMut;
 use rayon::prelude::*;
 use render::stats::{counter, LevelCounts};
 use render::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
@@ -249,36 +250,30 @@ impl Tracer for RshEngine {
             self.cfg.union,
         );
         stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
-        let best: Vec<AtomicU64> = (0..n)
-            .into_par_iter()
-            .map(|_| AtomicU64::new(u64::MAX))
-            .collect();
         // The dual traversal reads rays in leaf order: its rays' constants and best hits are
         // laid out in that order (the hash order scatters ray ids, and every final test
         // would miss the cache), with the hierarchy's leaves renumbered to match. Only the
-        // layout in use is made (fresh memory costs page faults on every trace).
+        // arrays in use are made (fresh memory costs page faults on every trace): the
+        // constants only as the final tests' lanes, the best hits only by leaf position.
         let dual = self.tree.as_ref().filter(|_| !self.tris.is_empty());
         let leaves = dual.map(|_| {
             let len = h.order.len() as u32;
             std::mem::replace(&mut h.order, (0..len).collect())
         });
         let leaf_rays = leaves.as_deref().unwrap_or_default();
-        let pre: Vec<RayPre> = match dual {
-            Some(_) => leaf_rays
-                .par_iter()
-                .map(|&r| RayPre::new(&rays.ray(r as usize)))
-                .collect(),
-            None => (0..n)
-                .into_par_iter()
-                .map(|i| RayPre::new(&rays.ray(i)))
-                .collect(),
-        };
-        let best_leaf: Vec<AtomicU64> = leaf_rays
-            .par_iter()
+        let best: Vec<AtomicU64> = (0..if dual.is_some() { leaf_rays.len() } else { n })
+            .into_par_iter()
             .map(|_| AtomicU64::new(u64::MAX))
             .collect();
-        // The final tests' rays in leaf order, 8 lanes at a time (geom::tri8).
-        let lanes = RayLanes::gather(&pre, &h.order);
+        // The rays' constants in leaf order, 8 lanes at a time (geom::tri8).
+        let lanes = match dual {
+            Some(_) => RayLanes::build(leaf_rays.len(), |p| {
+                RayPre::new(&rays.ray(leaf_rays[p] as usize))
+            }),
+            None => RayLanes::build(h.order.len(), |p| {
+                RayPre::new(&rays.ray(h.order[p] as usize))
+            }),
+        };
         let trav = Traversal {
             h: &h,
             scene: SceneData {
@@ -288,9 +283,8 @@ impl Tracer for RshEngine {
                 mesh_first: &self.mesh_first,
                 mesh_sphere: &self.mesh_sphere,
             },
-            pre: &pre,
             lanes: &lanes,
-            best: if dual.is_some() { &best_leaf } else { &best },
+            best: &best,
             test: self.cfg.node_test,
             mesh_culling: self.cfg.mesh_culling,
             budget: self.cfg.pair_budget,
@@ -320,9 +314,6 @@ impl Tracer for RshEngine {
                     &side,
                     &mut c,
                 );
-                leaf_rays.par_iter().zip(&best_leaf).for_each(|(&r, b)| {
-                    best[r as usize].store(b.load(Ordering::Relaxed), Ordering::Relaxed)
-                });
             }
             None if self.tris.is_empty() => {}
             None => trav.run(&mut c),
@@ -336,9 +327,8 @@ impl Tracer for RshEngine {
             stats.time(Phase::FinalTests, c.final_seconds);
         }
         // Records: recompute the winner with the shared kernel (bit-identical to brute force).
-        hits.par_iter_mut().enumerate().for_each(|(i, out)| {
-            let b = best[i].load(Ordering::Relaxed);
-            *out = if b == u64::MAX {
+        let record = |i: usize, b: u64| {
+            if b == u64::MAX {
                 Hit::MISS
             } else {
                 let tri = b as u32;
@@ -351,8 +341,27 @@ impl Tracer for RshEngine {
                     u: h.u,
                     v: h.v,
                 }
-            };
-        });
+            }
+        };
+        if dual.is_some() {
+            // Best hits by leaf position: rays outside the leaves (t_min ≥ t_max) miss.
+            hits.par_iter_mut().for_each(|h| *h = Hit::MISS);
+            let out = SharedMut(hits.as_mut_ptr());
+            leaf_rays
+                .par_iter()
+                .zip(&best)
+                .with_min_len(1024)
+                .for_each(|(&r, b)| {
+                    let hit = record(r as usize, b.load(Ordering::Relaxed));
+                    // SAFETY: every ray is at most one leaf, so each record is written by
+                    // one task; `hits` outlives the pass.
+                    unsafe { out.write(r as usize, hit) };
+                });
+        } else {
+            hits.par_iter_mut().enumerate().for_each(|(i, out)| {
+                *out = record(i, best[i].load(Ordering::Relaxed));
+            });
+        }
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
         let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
         report_counters(&c, self.cfg.mesh_culling && self.tree.is_none(), top, stats);

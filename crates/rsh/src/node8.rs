@@ -1,6 +1,8 @@
-//! Eight ray nodes against one object node at once: the dual traversal's node test
-//! ([`crate::dual`]) in AVX lanes, for the pairs a ray-side expansion makes (a node's children,
-//! contiguous in their level, against the object the node met).
+//! The dual traversal's node test ([`crate::dual`]) in AVX lanes, both ways round:
+//! - eight ray nodes against one object node ([`test8`]): the pairs a ray-side expansion
+//!   makes (a node's children, contiguous in their level, against the object the node met);
+//! - one ray node against eight object nodes ([`test8_objects`]): the pairs an object-side
+//!   expansion makes (the children of a collapsed node, [`crate::objects::WideNode`]).
 //!
 //! The test is the scalar one, lane by lane, with the same IEEE operations in the same order
 //! and no fused multiply-add, so every lane's answer equals the scalar test's bit for bit
@@ -12,6 +14,7 @@
 //!
 //! The exact cone test ([`crate::NodeTest::Exact`]) and CPUs without AVX take the scalar path.
 
+use crate::objects::WideNode;
 use geom::{Aabb, Vec3};
 
 /// One ray level's node records as lanes (structure of arrays, padded by 8 so a window of 8
@@ -127,9 +130,29 @@ pub(crate) fn test8(l: &NodeLanes, first: usize, p: Vec3, d: f32, b: &Aabb) -> u
     }
 }
 
+/// One ray node against the 8 children of a collapsed object node
+/// ([`crate::objects::WideNode`]): bit i set when child i passes both tests, the same tests as
+/// [`test8`] with the roles of the lanes swapped (the node broadcast, the objects in lanes).
+/// Lanes past the node's `count` are masked off. Needs [`available`].
+#[inline]
+pub(crate) fn test8_objects(n: &NodeFields, w: &WideNode) -> u8 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        debug_assert!(available());
+        // SAFETY: AVX is present (the caller checked `available`).
+        unsafe { avx::test8_objects(n, w) & ((1u32 << w.count) - 1) as u8 }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (n, w);
+        unreachable!("test8_objects without AVX")
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx {
-    use super::NodeLanes;
+    use super::{NodeFields, NodeLanes};
+    use crate::objects::WideNode;
     use geom::{Aabb, Vec3};
     use std::arch::x86_64::*;
 
@@ -139,23 +162,106 @@ mod avx {
         _mm256_loadu_ps(v.as_ptr().add(at))
     }
 
+    /// A ray node's fields as lanes (one node per lane, or one node broadcast).
+    struct Node {
+        c: [__m256; 3],
+        r: __m256,
+        axis: [__m256; 3],
+        sin: __m256,
+        cos: __m256,
+        wide: __m256,
+        max_t: __m256,
+        tmin: __m256,
+        tmax: __m256,
+        omin: [__m256; 3],
+        omax: [__m256; 3],
+        ilo: [__m256; 3],
+        ihi: [__m256; 3],
+    }
+
+    /// An object's sphere and box as lanes.
+    struct Object {
+        p: [__m256; 3],
+        d: __m256,
+        bmin: [__m256; 3],
+        bmax: [__m256; 3],
+    }
+
     #[target_feature(enable = "avx")]
     pub(super) unsafe fn test8(l: &NodeLanes, at: usize, p: Vec3, d: f32, b: &Aabb) -> u8 {
+        let n = Node {
+            c: [ld(&l.c[0], at), ld(&l.c[1], at), ld(&l.c[2], at)],
+            r: ld(&l.radius, at),
+            axis: [ld(&l.axis[0], at), ld(&l.axis[1], at), ld(&l.axis[2], at)],
+            sin: ld(&l.sin, at),
+            cos: ld(&l.cos, at),
+            wide: ld(&l.wide, at),
+            max_t: ld(&l.max_t, at),
+            tmin: ld(&l.tmin, at),
+            tmax: ld(&l.tmax, at),
+            omin: [ld(&l.omin[0], at), ld(&l.omin[1], at), ld(&l.omin[2], at)],
+            omax: [ld(&l.omax[0], at), ld(&l.omax[1], at), ld(&l.omax[2], at)],
+            ilo: [ld(&l.ilo[0], at), ld(&l.ilo[1], at), ld(&l.ilo[2], at)],
+            ihi: [ld(&l.ihi[0], at), ld(&l.ihi[1], at), ld(&l.ihi[2], at)],
+        };
+        let s = _mm256_set1_ps;
+        let o = Object {
+            p: [s(p.x), s(p.y), s(p.z)],
+            d: s(d),
+            bmin: [s(b.min.x), s(b.min.y), s(b.min.z)],
+            bmax: [s(b.max.x), s(b.max.y), s(b.max.z)],
+        };
+        test(&n, &o)
+    }
+
+    #[target_feature(enable = "avx")]
+    pub(super) unsafe fn test8_objects(x: &NodeFields, w: &WideNode) -> u8 {
+        let s = _mm256_set1_ps;
+        let s3 = |v: Vec3| [s(v.x), s(v.y), s(v.z)];
+        let n = Node {
+            c: s3(x.center),
+            r: s(x.radius),
+            axis: s3(x.axis),
+            sin: s(x.sin),
+            cos: s(x.cos),
+            wide: s(if x.wide { f32::from_bits(!0) } else { 0.0 }),
+            max_t: s(x.max_t),
+            tmin: s(x.tmin),
+            tmax: s(x.tmax),
+            omin: s3(x.omin),
+            omax: s3(x.omax),
+            ilo: s3(x.ilo),
+            ihi: s3(x.ihi),
+        };
+        // The node is 32-byte aligned and every lane array is 32 bytes.
+        let l = |v: &[f32; 8]| _mm256_load_ps(v.as_ptr());
+        let o = Object {
+            p: [l(&w.center[0]), l(&w.center[1]), l(&w.center[2])],
+            d: l(&w.radius),
+            bmin: [l(&w.min[0]), l(&w.min[1]), l(&w.min[2])],
+            bmax: [l(&w.max[0]), l(&w.max[1]), l(&w.max[2])],
+        };
+        test(&n, &o)
+    }
+
+    /// The beam test and RAH's cone test, lane by lane, with the scalar tests' operations
+    /// in their order.
+    #[inline]
+    #[target_feature(enable = "avx")]
+    unsafe fn test(n: &Node, o: &Object) -> u8 {
         let sign = _mm256_set1_ps(-0.0);
         let abs = |x: __m256| _mm256_andnot_ps(sign, x);
         let neg = |x: __m256| _mm256_xor_ps(sign, x);
         let zero = _mm256_setzero_ps();
         let inf = _mm256_set1_ps(f32::INFINITY);
-        let dv = _mm256_set1_ps(d);
-        let r = ld(&l.radius, at);
-        let max_t = ld(&l.max_t, at);
+        let (r, max_t, dv) = (n.r, n.max_t, o.d);
 
         // The beam: tn ≤ tf after every axis whose reciprocal directions are finite and of
         // one sign (dual::RayNode::beam_test).
-        let mut tn = ld(&l.tmin, at);
-        let mut tf = ld(&l.tmax, at);
+        let mut tn = n.tmin;
+        let mut tf = n.tmax;
         for k in 0..3 {
-            let (ilo, ihi) = (ld(&l.ilo[k], at), ld(&l.ihi[k], at));
+            let (ilo, ihi) = (n.ilo[k], n.ihi[k]);
             let finite = _mm256_and_ps(
                 _mm256_cmp_ps::<_CMP_LT_OQ>(abs(ilo), inf),
                 _mm256_cmp_ps::<_CMP_LT_OQ>(abs(ihi), inf),
@@ -163,8 +269,8 @@ mod avx {
             let pos = _mm256_cmp_ps::<_CMP_GT_OQ>(ilo, zero);
             let negd = _mm256_cmp_ps::<_CMP_LT_OQ>(ihi, zero);
             let active = _mm256_and_ps(finite, _mm256_or_ps(pos, negd));
-            let (bmin, bmax) = (_mm256_set1_ps(b.min[k]), _mm256_set1_ps(b.max[k]));
-            let (omin, omax) = (ld(&l.omin[k], at), ld(&l.omax[k], at));
+            let (bmin, bmax) = (o.bmin[k], o.bmax[k]);
+            let (omin, omax) = (n.omin[k], n.omax[k]);
             // blendv(a, b, m): b where m is set.
             let near = _mm256_blendv_ps(neg(bmax), bmin, pos);
             let far = _mm256_blendv_ps(neg(bmin), bmax, pos);
@@ -194,9 +300,9 @@ mod avx {
         let beam = _mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf);
 
         // RAH's cone test (geom::cone::rah_test), glam's operation order.
-        let cpx = _mm256_sub_ps(_mm256_set1_ps(p.x), ld(&l.c[0], at));
-        let cpy = _mm256_sub_ps(_mm256_set1_ps(p.y), ld(&l.c[1], at));
-        let cpz = _mm256_sub_ps(_mm256_set1_ps(p.z), ld(&l.c[2], at));
+        let cpx = _mm256_sub_ps(o.p[0], n.c[0]);
+        let cpy = _mm256_sub_ps(o.p[1], n.c[1]);
+        let cpz = _mm256_sub_ps(o.p[2], n.c[2]);
         let dot = |x: __m256, y: __m256, z: __m256, u: __m256, v: __m256, w: __m256| {
             _mm256_add_ps(
                 _mm256_add_ps(_mm256_mul_ps(x, u), _mm256_mul_ps(y, v)),
@@ -210,21 +316,18 @@ mod avx {
         );
         // Rejected only when len > reach (a NaN passes, as in the scalar `if`).
         let near_enough = _mm256_cmp_ps::<_CMP_NGT_UQ>(len, reach);
-        let (ax, ay, az) = (ld(&l.axis[0], at), ld(&l.axis[1], at), ld(&l.axis[2], at));
+        let [ax, ay, az] = n.axis;
         let along = dot(cpx, cpy, cpz, ax, ay, az);
         let rx = _mm256_sub_ps(cpx, _mm256_mul_ps(ax, along));
         let ry = _mm256_sub_ps(cpy, _mm256_mul_ps(ay, along));
         let rz = _mm256_sub_ps(cpz, _mm256_mul_ps(az, along));
         let radial = _mm256_sqrt_ps(dot(rx, ry, rz, rx, ry, rz));
         let lhs = _mm256_add_ps(
-            _mm256_add_ps(
-                _mm256_mul_ps(abs(along), ld(&l.sin, at)),
-                _mm256_add_ps(dv, r),
-            ),
+            _mm256_add_ps(_mm256_mul_ps(abs(along), n.sin), _mm256_add_ps(dv, r)),
             _mm256_mul_ps(_mm256_set1_ps(1e-5), len),
         );
-        let inside = _mm256_cmp_ps::<_CMP_GE_OQ>(lhs, _mm256_mul_ps(radial, ld(&l.cos, at)));
-        let cone = _mm256_or_ps(ld(&l.wide, at), _mm256_and_ps(near_enough, inside));
+        let inside = _mm256_cmp_ps::<_CMP_GE_OQ>(lhs, _mm256_mul_ps(radial, n.cos));
+        let cone = _mm256_or_ps(n.wide, _mm256_and_ps(near_enough, inside));
         _mm256_movemask_ps(_mm256_and_ps(cone, beam)) as u8
     }
 }

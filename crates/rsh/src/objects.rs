@@ -17,6 +17,12 @@
 //! Every node is bounded by a sphere (the node tests of eq. 3.16 and the exact cone test take
 //! spheres), padded so that it contains its triangles; the leaves are the triangles with
 //! their own bounding spheres.
+//!
+//! The depth-first dual traversal reads the tree 8 children at a time ([`WideNode`]): each
+//! binary node it expands is *collapsed* into up to 8 descendants (the frontier grown by
+//! splitting its largest-sphere inner node, as Embree and Wald et al. 2008 collapse binary
+//! BVHs into wide ones), with exactly the binary nodes' bounds, so one ray node is tested
+//! against all 8 in AVX lanes and every lane's answer is the binary node's.
 
 use geom::{Aabb, Sphere, Vec3};
 use par::{sort_pairs, SharedMut, SortScratch};
@@ -45,6 +51,127 @@ pub struct ObjectTree {
 
     /// Depth of the deepest leaf (root = 0).
     pub depth: u32,
+    /// The collapsed nodes: one per binary inner node that the traversal expands (the root
+    /// and every inner node on a collapsed node's frontier).
+    pub wide: Vec<WideNode>,
+    /// Per binary inner node, its collapsed node in `wide` (`u32::MAX` where it has none:
+    /// it lies inside some other node's frontier and is never expanded on its own).
+    pub wide_of: Vec<u32>,
+}
+
+/// Up to 8 descendants of one binary inner node, side by side as lanes (structure of arrays
+/// for the AVX node test): child references (`LEAF | triangle` or a binary inner node) and
+/// their bounds, copied bit for bit from [`ObjectTree::bounds`]. Lanes `count..8` repeat
+/// lane 0 and are masked off.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub struct WideNode {
+    /// Sphere centres (x, y, z lanes).
+    pub center: [[f32; 8]; 3],
+    /// Sphere radii.
+    pub radius: [f32; 8],
+    /// Grown boxes' minima (x, y, z lanes).
+    pub min: [[f32; 8]; 3],
+    /// Grown boxes' maxima.
+    pub max: [[f32; 8]; 3],
+    /// Child references.
+    pub child: [u32; 8],
+    /// Children in use.
+    pub count: u32,
+}
+
+/// How many children a collapsed node holds at most (the AVX width).
+pub const WIDTH: usize = 8;
+
+/// The frontier of binary inner node `h`: start with its two children and split the inner
+/// member of largest sphere (the first such on ties) until `WIDTH` members or only leaves;
+/// a split member's children take its place, so members stay in the tree's left-to-right
+/// order. Each member's radius is read once (the records are scattered over the tree).
+fn frontier(child: &[[u32; 2]], node: &[Bounds], h: u32) -> ([u32; WIDTH], usize) {
+    let radius = |x: u32| {
+        if x & LEAF != 0 {
+            f32::NEG_INFINITY
+        } else {
+            node[x as usize].sphere.radius
+        }
+    };
+    let mut f = [0u32; WIDTH];
+    let mut r = [f32::NEG_INFINITY; WIDTH];
+    f[..2].copy_from_slice(&child[h as usize]);
+    r[0] = radius(f[0]);
+    r[1] = radius(f[1]);
+    let mut n = 2;
+    while n < WIDTH {
+        let mut best: Option<usize> = None;
+        for i in 0..n {
+            if f[i] & LEAF == 0 && best.is_none_or(|b| r[i] > r[b]) {
+                best = Some(i);
+            }
+        }
+        let Some(i) = best else { break };
+        let [a, b] = child[f[i] as usize];
+        f.copy_within(i + 1..n, i + 2);
+        r.copy_within(i + 1..n, i + 2);
+        (f[i], f[i + 1]) = (a, b);
+        (r[i], r[i + 1]) = (radius(a), radius(b));
+        n += 1;
+    }
+    (f, n)
+}
+
+/// The collapsed nodes of a binary tree (root 0, at least one inner node), heads level by
+/// level from the root (each level's nodes made in parallel, in order); returns (`wide`,
+/// `wide_of`).
+fn collapse(child: &[[u32; 2]], node: &[Bounds], leaf: &[Bounds]) -> (Vec<WideNode>, Vec<u32>) {
+    let ni = child.len();
+    let mut wide_of = vec![u32::MAX; ni];
+    let mut wide: Vec<WideNode> = Vec::with_capacity(ni / 3 + 1);
+    let bounds = |x: u32| {
+        if x & LEAF != 0 {
+            &leaf[(x & !LEAF) as usize]
+        } else {
+            &node[x as usize]
+        }
+    };
+    let make = |h: u32| {
+        let (f, n) = frontier(child, node, h);
+        let mut w = WideNode {
+            center: [[0.0; 8]; 3],
+            radius: [0.0; 8],
+            min: [[0.0; 8]; 3],
+            max: [[0.0; 8]; 3],
+            child: [f[0]; 8],
+            count: n as u32,
+        };
+        for i in 0..WIDTH {
+            let x = f[if i < n { i } else { 0 }];
+            let b = bounds(x);
+            for k in 0..3 {
+                w.center[k][i] = b.sphere.center[k];
+                w.min[k][i] = b.bbox.min[k];
+                w.max[k][i] = b.bbox.max[k];
+            }
+            w.radius[i] = b.sphere.radius;
+            w.child[i] = x;
+        }
+        w
+    };
+    let mut heads = vec![0u32];
+    while !heads.is_empty() {
+        let base = wide.len();
+        // Straight into the array's spare room (no second copy: fresh memory costs a page
+        // fault per 4 KiB, on every frame).
+        wide.par_extend(heads.par_iter().with_min_len(256).map(|&h| make(h)));
+        for (i, &h) in heads.iter().enumerate() {
+            wide_of[h as usize] = (base + i) as u32;
+        }
+        heads = wide[base..]
+            .iter()
+            .flat_map(|w| w.child[..w.count as usize].iter().copied())
+            .filter(|&x| x & LEAF == 0)
+            .collect();
+    }
+    (wide, wide_of)
 }
 
 /// An object node's bounds, as the pair tests read them: the sphere (the cone test) and the
@@ -349,6 +476,7 @@ pub fn build(
             })
         })
         .collect();
+    let (wide, wide_of) = collapse(&child, &node, &leaf);
     ObjectTree {
         root: 0,
         child,
@@ -356,6 +484,8 @@ pub fn build(
         leaf,
         child_box,
         depth: depth_of[0],
+        wide,
+        wide_of,
     }
 }
 
@@ -411,6 +541,65 @@ mod tests {
         assert!(seen.iter().all(|&s| s == 1), "every triangle is one leaf");
         if !t.is_empty() {
             assert_eq!(t.depth, max_depth);
+        }
+        check_wide(t);
+    }
+
+    /// The collapsed nodes: each head's lanes are the leaves of a cut of its binary subtree
+    /// (every triangle below the head under exactly one lane), with the binary bounds bit for
+    /// bit, and every inner lane is itself a head.
+    fn check_wide(t: &ObjectTree) {
+        if t.is_empty() {
+            assert!(t.wide.is_empty());
+            return;
+        }
+        let below = |x: u32| {
+            let mut out = Vec::new();
+            let mut st = vec![x];
+            while let Some(y) = st.pop() {
+                if y & LEAF != 0 {
+                    out.push(y & !LEAF);
+                } else {
+                    st.extend(t.child[y as usize]);
+                }
+            }
+            out.sort();
+            out
+        };
+        assert_eq!(t.wide_of[0], 0, "the root heads the first collapsed node");
+        for (h, &wi) in t.wide_of.iter().enumerate() {
+            if wi == u32::MAX {
+                continue;
+            }
+            let w = &t.wide[wi as usize];
+            let n = w.count as usize;
+            assert!((2..=WIDTH).contains(&n));
+            let mut tris = Vec::new();
+            for i in 0..WIDTH {
+                let x = w.child[if i < n { i } else { 0 }];
+                assert_eq!(w.child[i], x);
+                let b = t.bounds(x);
+                for k in 0..3 {
+                    assert_eq!(w.center[k][i].to_bits(), b.sphere.center[k].to_bits());
+                    assert_eq!(w.min[k][i].to_bits(), b.bbox.min[k].to_bits());
+                    assert_eq!(w.max[k][i].to_bits(), b.bbox.max[k].to_bits());
+                }
+                assert_eq!(w.radius[i].to_bits(), b.sphere.radius.to_bits());
+                if i < n {
+                    if x & LEAF == 0 {
+                        assert_ne!(t.wide_of[x as usize], u32::MAX, "inner lanes are heads");
+                    }
+                    tris.extend(below(x));
+                }
+            }
+            tris.sort();
+            assert_eq!(
+                tris,
+                below(h as u32),
+                "head {h}: its lanes cover its subtree once"
+            );
+            // Full unless only leaves remain to split.
+            assert!(n == WIDTH || w.child[..n].iter().all(|&x| x & LEAF != 0));
         }
     }
 

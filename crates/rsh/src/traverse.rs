@@ -14,7 +14,6 @@
 
 use crate::build::{Hierarchy, Level};
 use geom::cone::{exact_test, rah_test};
-use geom::tri::RayPre;
 use geom::tri8::{intersect8, RayLanes};
 use geom::{intersect, Sphere, Vec3};
 use par::{compact_pairs, exclusive_scan, SharedMut};
@@ -84,10 +83,8 @@ pub struct Traversal<'a> {
     pub h: &'a Hierarchy,
     /// The scene's triangles and spheres.
     pub scene: SceneData<'a>,
-    /// Per-ray constants of the intersection kernel.
-    pub pre: &'a [RayPre],
-    /// The same constants in leaf order as lanes of the 8-wide kernel (lane p: ray
-    /// `h.order[p]`).
+    /// Per-ray constants of the intersection kernel in leaf order, as lanes of the 8-wide
+    /// kernel (lane p: ray `h.order[p]`; [`RayLanes::pre`] gives one ray's record).
     pub lanes: &'a RayLanes,
     /// Per ray, the closest hit so far as (t bits << 32 | triangle), by atomic minimum.
     pub best: &'a [AtomicU64],
@@ -414,7 +411,7 @@ impl Traversal<'_> {
             });
             for_lanes(r8.redo, |l| {
                 let r = order[p + l] as usize;
-                if let Some(hit) = intersect(&self.pre[r], a, b, cc) {
+                if let Some(hit) = intersect(&self.lanes.pre(p + l), a, b, cc) {
                     if self.best[r].fetch_min(pack(hit.t, t), Ordering::Relaxed) == u64::MAX {
                         first(p + l);
                     }
