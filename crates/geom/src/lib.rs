@@ -4,12 +4,13 @@
 //! mirror it 1:1: rays, the one ray–triangle kernel all engines use ([`tri::intersect`]), the
 //! ray–box slab test, spheres and cones (the two halves of a ray-space hierarchy node), the
 //! conservative node tests, and the minimal enclosing ball used to cull meshes; [`tri8`] runs the
-//! triangle kernel on 8 rays at once, with the same bits.
+//! triangle kernel on 8 rays at once and [`cone8`] grows 8 cones at once, with the same bits.
 
 #![warn(missing_docs)]
 
 pub mod aabb;
 pub mod cone;
+pub mod cone8;
 pub mod miniball;
 pub mod pmath;
 pub mod polyhedra;

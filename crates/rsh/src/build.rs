@@ -9,7 +9,7 @@
 //! and the kind), and children are a contiguous range of the level below.
 
 use geom::cone::Cone;
-use geom::{miniball, Sphere, Vec3};
+use geom::{cone8, miniball, Sphere, Vec3};
 use rayon::prelude::*;
 use render::RayBatch;
 
@@ -148,10 +148,38 @@ pub fn build(rays: &RayBatch, order: Vec<u32>, b: usize, levels: u32, union: Uni
     assert!((2..=64).contains(&b), "branching factor must be in 2..=64");
     let leaf_kind: Vec<u8> = order.iter().map(|&r| rays.kind[r as usize]).collect();
     let first = group_starts(&leaf_kind, b);
-    let nodes: Vec<(Sphere, Cone, f32, u8)> = (0..first.len() - 1)
-        .into_par_iter()
-        .map(|g| {
-            let leaves = &order[first[g] as usize..first[g + 1] as usize];
+    // Eqs. 3.8–3.11: the level-1 cone grows ray by ray (exact for each added ray), 8 nodes
+    // side by side in lanes (geom::cone8, bit for bit the scalar cones). Directions are
+    // normalised here, and lengths measured in distance, so rays from files with
+    // unnormalised directions are bounded correctly too.
+    let unit = |r: u32| rays.dir[r as usize].normalize();
+    let ng = first.len() - 1;
+    let mut nodes = vec![(Sphere::default(), Cone::WIDE, 0.0f32, 0u8); ng];
+    nodes.par_chunks_mut(8).enumerate().for_each(|(blk, out)| {
+        let g0 = blk * 8;
+        let leaves = |l: usize| &order[first[g0 + l] as usize..first[g0 + l + 1] as usize];
+        let mut cones: [Cone; 8] = std::array::from_fn(|l| {
+            if l < out.len() {
+                Cone::from_dir(unit(leaves(l)[0]))
+            } else {
+                Cone::WIDE
+            }
+        });
+        let longest = (0..out.len()).map(|l| leaves(l).len()).max().unwrap_or(0);
+        for i in 1..longest {
+            let mut mask = 0u8;
+            let dirs: [Vec3; 8] = std::array::from_fn(|l| {
+                if l < out.len() && i < leaves(l).len() {
+                    mask |= 1 << l;
+                    unit(leaves(l)[i])
+                } else {
+                    Vec3::Z
+                }
+            });
+            cone8::add_dir8(&mut cones, &dirs, mask);
+        }
+        for (l, node) in out.iter_mut().enumerate() {
+            let leaves = leaves(l);
             let r0 = leaves[0] as usize;
             let sphere = match union {
                 Union::Exact => {
@@ -168,21 +196,14 @@ pub fn build(rays: &RayBatch, order: Vec<u32>, b: usize, levels: u32, union: Uni
                         s.union_thesis(&Sphere::new(rays.org[r as usize], 0.0))
                     }),
             };
-            // Eqs. 3.8–3.11: the level-1 cone grows ray by ray (exact for each added ray).
-            // Directions are normalised here, and lengths measured in distance, so rays from
-            // files with unnormalised directions are bounded correctly too.
-            let unit = |r: u32| rays.dir[r as usize].normalize();
-            let cone = leaves[1..]
-                .iter()
-                .fold(Cone::from_dir(unit(leaves[0])), |c, &r| c.add_dir(unit(r)));
             let max_t = leaves
                 .iter()
                 .map(|&r| rays.t_max[r as usize] * rays.dir[r as usize].length())
                 .fold(0.0f32, f32::max)
                 * (1.0 + 4.0 * f32::EPSILON);
-            (sphere, cone, max_t, rays.kind[r0])
-        })
-        .collect();
+            *node = (sphere, cones[l], max_t, rays.kind[r0]);
+        }
+    });
     let mut h = Hierarchy {
         order,
         levels: vec![Level::from_nodes(first, nodes)],

@@ -161,9 +161,28 @@ fn quant(x: f32, bits: u32) -> u32 {
 /// so that the GPU backend computes the same keys.
 #[inline]
 pub fn spherical01(d: Vec3) -> (f32, f32) {
-    let theta = pmath::acos(d.z) * std::f32::consts::FRAC_1_PI;
-    let phi = (pmath::atan2(d.y, d.x) + std::f32::consts::PI) * (0.5 * std::f32::consts::FRAC_1_PI);
+    normalise01(pmath::acos(d.z), pmath::atan2(d.y, d.x))
+}
+
+/// θ and φ of [`spherical01`] from acos(z) and atan2(y, x).
+#[inline]
+fn normalise01(acos_z: f32, atan2_yx: f32) -> (f32, f32) {
+    let theta = acos_z * std::f32::consts::FRAC_1_PI;
+    let phi = (atan2_yx + std::f32::consts::PI) * (0.5 * std::f32::consts::FRAC_1_PI);
     (theta.clamp(0.0, 1.0), phi.clamp(0.0, 1.0))
+}
+
+/// [`spherical01`] of rays `first .. first + 8` (fewer at the batch's end), the elementary
+/// functions 8 lanes at a time ([`geom::cone8`]), bit for bit.
+#[inline]
+pub fn spherical01_8(rays: &RayBatch, first: usize) -> [(f32, f32); 8] {
+    let n = rays.len().saturating_sub(first).min(8);
+    let d = |l: usize| rays.dir[first + l.min(n.max(1) - 1)];
+    let z: [f32; 8] = std::array::from_fn(|l| d(l).z);
+    let y: [f32; 8] = std::array::from_fn(|l| d(l).y);
+    let x: [f32; 8] = std::array::from_fn(|l| d(l).x);
+    let (a, b) = (geom::cone8::acos8(&z), geom::cone8::atan2_8(&y, &x));
+    std::array::from_fn(|l| normalise01(a[l], b[l]))
 }
 
 #[inline]
@@ -175,8 +194,19 @@ fn unit_in_box(p: Vec3, b: &Aabb) -> Vec3 {
 /// The 32-bit thesis hash of ray `i`.
 #[inline]
 pub fn thesis_key(rays: &RayBatch, i: usize, scene: &Aabb, bits: &HashBits) -> u32 {
+    thesis_key_at(rays, i, spherical01(rays.dir[i]), scene, bits)
+}
+
+/// [`thesis_key`] with the ray's [`spherical01`] angles `(t, p)` given.
+#[inline]
+pub fn thesis_key_at(
+    rays: &RayBatch,
+    i: usize,
+    (t, p): (f32, f32),
+    scene: &Aabb,
+    bits: &HashBits,
+) -> u32 {
     let kind = rays.kind[i] as u32 & 3;
-    let (t, p) = spherical01(rays.dir[i]);
     let payload = if kind == RayKind::Shadow as u32 {
         let light = rays.light[i] & ((1u32 << bits.light) - 1);
         let dir = part1by1(quant(t, bits.shadow_dir)) << 1 | part1by1(quant(p, bits.shadow_dir));
@@ -259,5 +289,41 @@ mod tests {
         }
         .validate()
         .is_err());
+    }
+
+    /// The 8-lane angles equal the scalar ones bit for bit, up to the batch's last ray (axis
+    /// directions, poles and random ones).
+    #[test]
+    fn lane_angles_equal_the_scalar_ones() {
+        let mut rng = geom::Pcg32::new(3, 4);
+        let mut b = RayBatch::default();
+        let fixed = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        for i in 0..203 {
+            let d = if i < fixed.len() {
+                fixed[i]
+            } else {
+                rng.unit_vector()
+            };
+            b.push(
+                geom::Ray::new(Vec3::ZERO, d, 0.0, 1.0),
+                RayKind::Shadow,
+                0,
+                0,
+                Vec3::ONE,
+                0,
+            );
+        }
+        for first in (0..b.len()).step_by(8) {
+            let lanes = spherical01_8(&b, first);
+            for (l, &(t, p)) in lanes.iter().enumerate().take(b.len() - first) {
+                let (t1, p1) = spherical01(b.dir[first + l]);
+                assert_eq!(
+                    (t.to_bits(), p.to_bits()),
+                    (t1.to_bits(), p1.to_bits()),
+                    "ray {}",
+                    first + l
+                );
+            }
+        }
     }
 }
