@@ -148,11 +148,13 @@ impl RshConfig {
     }
 }
 
-/// The engine: per-triangle bounding spheres and the mesh spheres, built once per scene
-/// (per frame for dynamic scenes); the ray hierarchy is built per trace call.
+/// The engine: per-triangle bounding spheres (the thesis's traversal) or the object tree,
+/// and the mesh spheres, built once per scene (per frame for dynamic scenes); the ray
+/// hierarchy is built per trace call.
 pub struct RshEngine {
     cfg: RshConfig,
     tris: Vec<[Vec3; 3]>,
+    /// Per-triangle spheres (empty with the object tree, whose leaves hold them).
     tri_center: Vec<Vec3>,
     tri_radius: Vec<f32>,
     mesh_first: Vec<u32>,
@@ -186,11 +188,19 @@ impl RshEngine {
     /// validated first.
     pub fn new(geo: &Geometry, cfg: RshConfig) -> Result<Self, String> {
         cfg.validate()?;
-        let spheres: Vec<Sphere> = geo
-            .tris
-            .par_iter()
-            .map(|t| Sphere::of_triangle(t[0], t[1], t[2]))
-            .collect();
+        // Per-triangle spheres for the thesis's traversal; the object tree's leaves hold
+        // their own (one pass over the triangles, not two).
+        let (tri_center, tri_radius): (Vec<Vec3>, Vec<f32>) = match cfg.objects {
+            ObjectHierarchy::MeshSpheres => geo
+                .tris
+                .par_iter()
+                .map(|t| {
+                    let s = Sphere::of_triangle(t[0], t[1], t[2]);
+                    (s.center, s.radius)
+                })
+                .unzip(),
+            ObjectHierarchy::Bvh => Default::default(),
+        };
         if cfg.objects == ObjectHierarchy::Bvh && geo.tris.len() >= objects::LEAF as usize {
             return Err(format!(
                 "--object-hierarchy bvh: {} triangles exceed the object tree's 2^31",
@@ -206,8 +216,8 @@ impl RshEngine {
         Ok(RshEngine {
             cfg,
             tris: geo.tris.clone(),
-            tri_center: spheres.iter().map(|s| s.center).collect(),
-            tri_radius: spheres.iter().map(|s| s.radius).collect(),
+            tri_center,
+            tri_radius,
             mesh_first: geo.mesh_first.clone(),
             mesh_sphere: geo.mesh_sphere.clone(),
             bounds: geo.bounds,

@@ -209,11 +209,14 @@ impl ObjectTree {
 /// The low `bits` bits of `v` spread to every third bit (the Morton interleave).
 #[inline]
 fn spread(v: u32, bits: u32) -> u64 {
-    let mut out = 0u64;
-    for k in 0..bits {
-        out |= ((v >> k) as u64 & 1) << (3 * k);
-    }
-    out
+    // The classic shift-and-mask interleave of 21 bits (bits ≤ 21), not a loop per bit.
+    let mut x = (v as u64) & ((1u64 << bits) - 1);
+    x = (x | x << 32) & 0x001f_0000_0000_ffff;
+    x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x << 2) & 0x1249_2492_4924_9249;
+    x
 }
 
 /// The Morton code of `p` in `b`, `bits` per axis (clamped to the box).
@@ -321,14 +324,20 @@ pub fn build(
         .with_min_len(4096)
         .map(|t| Aabb::from_points(t.iter().copied()))
         .collect();
-    let centroid_box = boxes
+    // The centroids' box (the Morton grid) and the scene's (the boxes' growth: the root's
+    // box, which min and max make exactly whatever the order) in one reduction.
+    let (centroid_box, scene_box) = boxes
         .par_iter()
         .with_min_len(4096)
         .map(|b| {
             let c = b.center();
-            Aabb::new(c, c)
+            (Aabb::new(c, c), *b)
         })
-        .reduce(Aabb::default, |a, b| a.union(&b));
+        .reduce(
+            || (Aabb::default(), Aabb::default()),
+            |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
+        );
+    let grow = |b: &Aabb| grown(b, &scene_box);
     // Keys: mesh index above the Morton code (triangles are stored mesh by mesh).
     let nm = mesh_first.len().saturating_sub(1);
     let mesh_bits = 64 - (nm.max(1) as u64 - 1).leading_zeros().min(63);
@@ -341,12 +350,20 @@ pub fn build(
             .saturating_sub(1);
         (m as u64) << code_bits | morton(bx.center(), &centroid_box, axis_bits)
     };
-    let mut keys: Vec<u64> = boxes
+    // Keys and the leaves' bounds in one pass.
+    let (mut keys, leaf): (Vec<u64>, Vec<Bounds>) = boxes
         .par_iter()
         .enumerate()
         .with_min_len(4096)
-        .map(|(t, bx)| keys_of(t, bx))
-        .collect();
+        .map(|(t, bx)| {
+            let [a, b, c] = tris[t];
+            let leaf = Bounds {
+                sphere: Sphere::of_triangle(a, b, c),
+                bbox: grow(bx),
+            };
+            (keys_of(t, bx), leaf)
+        })
+        .unzip();
     let mut order: Vec<u32> = (0..n as u32).collect();
     sort_pairs(
         &mut keys,
@@ -429,7 +446,7 @@ pub fn build(
         });
     }
     let mesh_of_pos = |pos: u32| (keys[pos as usize] >> code_bits) as usize;
-    let spheres: Vec<Sphere> = (0..ni)
+    let node: Vec<Bounds> = (0..ni)
         .into_par_iter()
         .with_min_len(1024)
         .map(|i| {
@@ -443,24 +460,10 @@ pub fn build(
                     s = ms[m];
                 }
             }
-            s
-        })
-        .collect();
-    let grow = |b: &Aabb| grown(b, &nbox[0]);
-    let node: Vec<Bounds> = (0..ni)
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|i| Bounds {
-            sphere: spheres[i],
-            bbox: grow(&nbox[i]),
-        })
-        .collect();
-    let leaf: Vec<Bounds> = (0..n)
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|t| Bounds {
-            sphere: Sphere::of_triangle(tris[t][0], tris[t][1], tris[t][2]),
-            bbox: grow(&boxes[t]),
+            Bounds {
+                sphere: s,
+                bbox: grow(&nbox[i]),
+            }
         })
         .collect();
     let child_box = child
@@ -632,6 +635,21 @@ mod tests {
             .collect();
         let t = build(&tris, &first, Some(&spheres));
         check(&tris, &t);
+    }
+
+    #[test]
+    fn spread_puts_every_bit_in_every_third_place() {
+        let mut rng = Pcg32::new(8, 2);
+        for bits in 1..=21 {
+            for _ in 0..200 {
+                let v = rng.next_u32();
+                let mut slow = 0u64;
+                for k in 0..bits {
+                    slow |= ((v >> k) as u64 & 1) << (3 * k);
+                }
+                assert_eq!(spread(v, bits), slow, "{v:#x}, {bits} bits");
+            }
+        }
     }
 
     #[test]
