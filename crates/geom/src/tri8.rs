@@ -107,11 +107,21 @@ impl RayLanes {
     /// un-permuted by the shear's axes).
     #[inline]
     pub fn pre(&self, p: usize) -> RayPre {
-        let (kx, ky, kz) = (self.k[0][p] as u8, self.k[1][p] as u8, self.k[2][p] as u8);
-        let mut org = [0.0f32; 3];
-        org[kx as usize] = self.ok[0][p];
-        org[ky as usize] = self.ok[1][p];
-        org[kz as usize] = self.ok[2][p];
+        let k = [self.k[0][p], self.k[1][p], self.k[2][p]];
+        let ok = [self.ok[0][p], self.ok[1][p], self.ok[2][p]];
+        // The origin's component i is the permuted one whose axis is i (selects, not stores
+        // through a computed index).
+        let axis = |i: f32| {
+            if k[0] == i {
+                ok[0]
+            } else if k[1] == i {
+                ok[1]
+            } else {
+                ok[2]
+            }
+        };
+        let org = [axis(0.0), axis(1.0), axis(2.0)];
+        let (kx, ky, kz) = (k[0] as u8, k[1] as u8, k[2] as u8);
         RayPre {
             org: Vec3::from_array(org),
             kx,

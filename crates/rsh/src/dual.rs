@@ -486,6 +486,21 @@ impl Traversal<'_> {
                                 }
                                 stack[from..].reverse();
                             }
+                            RAY if li == 0 => {
+                                // Single rays: each walks the object's subtree now, first
+                                // ray first (the order their pairs would leave the stack).
+                                for x in self.h.levels[0].children(r) {
+                                    walk.clear();
+                                    walk.push(o);
+                                    let (kind, w, first) = self.walk_ray(tree, rays, x, &mut walk);
+                                    if first {
+                                        resolve(x);
+                                    }
+                                    t.finals[kind] += w[0];
+                                    t.boxes += w[1];
+                                    t.passes += w[2];
+                                }
+                            }
                             RAY => {
                                 let ch = self.h.levels[li].children(r);
                                 stack.extend(ch.rev().map(|x| Job {
@@ -777,9 +792,14 @@ impl Traversal<'_> {
     ) -> (usize, [u64; 3], bool) {
         let r = self.h.order[pos] as usize;
         let kind = rays.kind[r] as usize & 3;
+        let mut best = self.best[r].load(Ordering::Relaxed);
+        if rays.any_hit && best != u64::MAX {
+            // Any hit will do, and the ray has one.
+            stack.clear();
+            return (kind, [0; 3], false);
+        }
         let pre = &self.lanes.pre(pos);
         let inv = rays.inv_dir[r];
-        let mut best = self.best[r].load(Ordering::Relaxed);
         let (mut f, mut b, mut p) = (0u64, 0u64, 0u64);
         while let Some(o) = stack.pop() {
             if rays.any_hit && best != u64::MAX {
