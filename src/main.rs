@@ -5,7 +5,6 @@ mod cli;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    render::memory::huge_pages();
     render::memory::keep_freed_memory();
     match cli::run() {
         Ok(()) => ExitCode::SUCCESS,

@@ -87,44 +87,6 @@ fn usage_errors_are_one_line_with_status_2() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("--engine"));
 }
 
-/// The second start on huge pages (render::memory::huge_pages, where the kernel grants them
-/// on request) keeps the arguments, the output bytes and the exit status: the same render
-/// and the same usage error with and without it.
-#[test]
-fn huge_pages_restart_changes_nothing() {
-    let d = tmp("huge");
-    let mut pngs = Vec::new();
-    for off in [false, true] {
-        let png = d.join(format!("h{off}.png"));
-        let mut c = bin();
-        if off {
-            c.env(render::memory::HUGE_PAGES_ENV, "0");
-        }
-        let out = c
-            .args([
-                "render", "office", "--width", "48", "--height", "32", "--out",
-            ])
-            .arg(&png)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        pngs.push(std::fs::read(&png).unwrap());
-        let mut c = bin();
-        if off {
-            c.env(render::memory::HUGE_PAGES_ENV, "0");
-        }
-        let out = c.args(["render", "--width", "abc"]).output().unwrap();
-        assert_eq!(out.status.code(), Some(2));
-        assert_eq!(String::from_utf8_lossy(&out.stderr).lines().count(), 1);
-    }
-    assert_eq!(pngs[0], pngs[1], "same image bytes either way");
-    std::fs::remove_dir_all(&d).ok();
-}
-
 #[test]
 fn render_writes_png_and_stats() {
     let d = tmp("ok");

@@ -24,55 +24,6 @@ pub fn keep_freed_memory() {
     }
 }
 
-/// The environment variable that keeps [`huge_pages`] from running the program again
-/// (`RAYSPACE_HUGE_PAGES=0`).
-pub const HUGE_PAGES_ENV: &str = "RAYSPACE_HUGE_PAGES";
-
-/// Run this program again, once, with glibc's heap on transparent huge pages, where the
-/// kernel grants them only on request (`madvise` mode, the default of many distributions).
-///
-/// Each frame builds its structures (ray lanes and hierarchy levels, the object tree, the
-/// grid's cells and references) in tens of MiB of fresh memory, and fresh memory faults
-/// once per 4 KiB page on first touch, which on a virtual machine is a sizeable share of a
-/// frame: on the 2-core VM, a Sponza 512² shadow frame with CRSH built in 11 ms instead of
-/// 17 and traced in 55 ms instead of 62 with huge pages. glibc requests them for its heap
-/// when the tunable `glibc.malloc.hugetlb=1` is set, and tunables are read only at start,
-/// hence the second start (Embree's allocator asks for huge pages the same way for its
-/// BVHs). Nothing happens where the tunable is already given, where transparent huge pages
-/// are always on or off, off glibc, or with `RAYSPACE_HUGE_PAGES=0`; if the program cannot
-/// be started again it simply carries on. Call it first thing in `main`.
-pub fn huge_pages() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    {
-        use std::os::unix::process::CommandExt;
-        const KEY: &str = "glibc.malloc.hugetlb";
-        let tunables = std::env::var_os("GLIBC_TUNABLES");
-        if tunables
-            .as_ref()
-            .is_some_and(|t| t.to_string_lossy().contains(KEY))
-            || std::env::var_os(HUGE_PAGES_ENV).is_some_and(|v| v == "0")
-        {
-            return;
-        }
-        let mode = std::fs::read_to_string("/sys/kernel/mm/transparent_hugepage/enabled")
-            .unwrap_or_default();
-        if !mode.contains("[madvise]") {
-            return;
-        }
-        let value = match tunables {
-            Some(t) => format!("{}:{KEY}=1", t.to_string_lossy()),
-            None => format!("{KEY}=1"),
-        };
-        let mut args = std::env::args_os();
-        let mut again = std::process::Command::new("/proc/self/exe");
-        if let Some(arg0) = args.next() {
-            again.arg0(arg0);
-        }
-        // exec returns only when it failed: then this process goes on as it is.
-        let _ = again.args(args).env("GLIBC_TUNABLES", value).exec();
-    }
-}
-
 /// 80 % of min(physical memory, address-space limit), in bytes (`u64::MAX` where neither
 /// is known).
 pub fn default_limit() -> u64 {
