@@ -216,6 +216,14 @@ fn bad_options() {
         &["render", "cornell", "--engine", "grid", "--grid-alpha", "2"],
         &["--engine grid", "alpha"],
     );
+    fails(
+        &words("trace r.rays --scene cornell --repeat 0"),
+        &["--repeat"],
+    );
+    fails(
+        &words("trace r.rays --scene cornell --repeat 1001"),
+        &["--repeat"],
+    );
 }
 
 #[test]
@@ -315,13 +323,28 @@ fn ray_files_and_identical_hits_across_engines() {
                 if any {
                     a.push("--any-hit");
                 }
+                // CRSH's closest hits are traced three times over in one process (the
+                // frames of --repeat): the file must be the single run's.
+                let repeat = engine == "crsh" && !any;
+                if repeat {
+                    a.extend(["--repeat", "3"]);
+                }
                 let out = bin().args(&a).output().unwrap();
                 assert!(
                     out.status.success(),
                     "{kind} {engine}: {}",
                     String::from_utf8_lossy(&out.stderr)
                 );
-                assert!(String::from_utf8_lossy(&out.stdout).contains("MRays/s"));
+                let text = String::from_utf8_lossy(&out.stdout);
+                assert!(text.contains("MRays/s"));
+                if repeat {
+                    assert!(text.contains("(medians of 3 runs)"), "{text}");
+                    let runs = text
+                        .lines()
+                        .find(|l| l.starts_with("runs (build+trace ms): "));
+                    let listed = runs.and_then(|l| l.split(": ").nth(1));
+                    assert_eq!(listed.map(|l| l.split(", ").count()), Some(3), "{text}");
+                }
                 let (h, _) = render::rayfile::read_hits(&hits).unwrap();
                 files.push((engine, any, std::fs::read(&hits).unwrap(), h));
             }

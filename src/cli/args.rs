@@ -307,6 +307,11 @@ pub struct TraceArgs {
     /// Any-hit (occlusion) queries instead of closest hit.
     #[arg(long = "any-hit")]
     pub any_hit: bool,
+    /// Build and trace this many times in one process, as the frames of a dynamic scene
+    /// (the engine rebuilt each time, the process's memory warm after the first); the times
+    /// printed are the medians, with every run's listed (1 to 1000).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub repeat: u32,
     #[command(flatten)]
     pub load: LoadArgs,
     /// Output hit file.

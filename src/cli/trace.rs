@@ -95,34 +95,63 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         .map_err(anyhow::Error::msg)?;
     let scene = super::load_scene(&a.scene, &a.load.options(None))?;
     let geo = Geometry::from_scene(&scene);
-    let t0 = Instant::now();
-    let built = engines::build(a.engine, &opts, &geo)?;
-    if let Some(r) = &built.report {
-        say!("{r}");
-    }
-    let engine = built.tracer;
-    let build = t0.elapsed().as_secs_f64();
     let mode = if a.any_hit {
         render::TraceMode::Any
     } else {
         render::TraceMode::Closest
     };
+    // Every repetition builds the engine and traces the rays afresh; the hits and counters
+    // are the same each time (deterministic), the last repetition's are kept.
+    let mut runs: Vec<(f64, f64)> = Vec::with_capacity(a.repeat as usize);
     let mut hits = vec![render::Hit::MISS; rays.len()];
     let mut st = render::TraceStats::default();
-    let t1 = Instant::now();
-    engine.trace(&rays, mode, &mut hits, &mut st);
-    let secs = t1.elapsed().as_secs_f64();
+    let mut name = String::new();
+    for rep in 0..a.repeat {
+        let t0 = Instant::now();
+        let built = engines::build(a.engine, &opts, &geo)?;
+        if rep == 0 {
+            if let Some(r) = &built.report {
+                say!("{r}");
+            }
+        }
+        let engine = built.tracer;
+        let build = t0.elapsed().as_secs_f64();
+        st = render::TraceStats::default();
+        let t1 = Instant::now();
+        engine.trace(&rays, mode, &mut hits, &mut st);
+        runs.push((build, t1.elapsed().as_secs_f64()));
+        name = engine.name().to_string();
+    }
+    let median = |f: fn(&(f64, f64)) -> f64| {
+        let mut v: Vec<f64> = runs.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (build, secs) = (median(|r| r.0), median(|r| r.1));
     let n = rays.len().max(1) as f64;
     say!(
-        "{} rays, {} triangles, engine {} ({:?}): build {:.1} ms, trace {:.1} ms, {:.3} MRays/s",
+        "{} rays, {} triangles, engine {} ({:?}): build {:.1} ms, trace {:.1} ms, {:.3} MRays/s{}",
         rays.len(),
         geo.len(),
-        engine.name(),
+        name,
         mode,
         build * 1e3,
         secs * 1e3,
-        n / secs.max(1e-12) / 1e6
+        n / secs.max(1e-12) / 1e6,
+        if runs.len() > 1 {
+            format!(" (medians of {} runs)", runs.len())
+        } else {
+            String::new()
+        }
     );
+    if runs.len() > 1 {
+        let list = runs
+            .iter()
+            .map(|(b, t)| format!("{:.1}+{:.1}", b * 1e3, t * 1e3))
+            .collect::<Vec<_>>()
+            .join(", ");
+        say!("runs (build+trace ms): {list}");
+    }
     say!("hits {}, ray-triangle tests {} ({:.2}/ray), node-triangle tests {}, total tests {} ({:.4} % of brute force)", st.hits, st.ray_tri_tests, st.ray_tri_tests as f64 / n, st.node_tri_tests, st.total_tests(), 100.0 * st.total_tests() as f64 / (n * geo.len() as f64));
     for (k, v) in &st.counters {
         say!(
