@@ -21,8 +21,8 @@
 //! - `depth` (the default): every top ray node is one task that
 //!   pops its pairs from its own stack, so no pair array is made, a ray node stays in cache
 //!   while it walks an object subtree, and an any-hit node whose rays all hit drops out. The
-//!   children a ray-side expansion makes are tested 8 at a time in AVX lanes
-//!   ([`crate::node8`]), with the scalar test's bits;
+//!   children a ray-side expansion makes, and a collapsed object node's children, are
+//!   tested 8 at a time in AVX lanes ([`crate::node8`]), with the scalar test's bits;
 //! - `breadth`: one stack of pairs per ray level, each step a
 //!   data-parallel test → count → scan → emit over a chunk (the GPU's shape), memory bounded
 //!   by the pair budget.

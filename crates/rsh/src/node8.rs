@@ -1,7 +1,7 @@
 //! The dual traversal's node test ([`crate::dual`]) in AVX lanes, both ways round:
-//! - eight ray nodes against one object node ([`test8`]): the pairs a ray-side expansion
+//! - eight ray nodes against one object node (`test8`): the pairs a ray-side expansion
 //!   makes (a node's children, contiguous in their level, against the object the node met);
-//! - one ray node against eight object nodes ([`test8_objects`]): the pairs an object-side
+//! - one ray node against eight object nodes (`test8_objects`): the pairs an object-side
 //!   expansion makes (the children of a collapsed node, [`crate::objects::WideNode`]).
 //!
 //! The test is the scalar one, lane by lane, with the same IEEE operations in the same order
