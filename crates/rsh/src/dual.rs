@@ -75,9 +75,9 @@ pub enum Schedule {
     Breadth,
 }
 
-/// A pair waiting on a depth-first task's stack: ray level `l` (0: the single ray at leaf
-/// position `r`; L ≥ 1: node `r` of `levels[L − 1]`), object node `o`, and what it becomes
-/// when it was tested already (with its siblings, in lanes), else `DROP`.
+/// A pair waiting on a depth-first task's stack: node `r` of ray level `l ≥ 1`
+/// (`levels[l − 1]`; single rays never wait, they walk at once), object node `o`, and what it
+/// becomes when it was tested already (with its siblings, in lanes), else `DROP`.
 #[derive(Clone, Copy)]
 struct Job {
     l: u32,
@@ -426,17 +426,6 @@ impl Traversal<'_> {
                     while let Some(j) = stack.pop() {
                         t.peak = t.peak.max(stack.len() as u64 + 1);
                         let (r, o) = (j.r as usize, j.o);
-                        if j.l == 0 {
-                            walk.push(o);
-                            let (kind, w, first) = self.walk_ray(tree, rays, r, &mut walk);
-                            if first {
-                                resolve(r);
-                            }
-                            t.finals[kind] += w[0];
-                            t.boxes += w[1];
-                            t.passes += w[2];
-                            continue;
-                        }
                         let li = j.l as usize - 1;
                         let node = &ray_nodes[li][r];
                         let k = node.kind as usize;

@@ -276,14 +276,10 @@ impl Tracer for RshEngine {
             .map(|_| AtomicU64::new(u64::MAX))
             .collect();
         // The rays' constants in leaf order, 8 lanes at a time (geom::tri8).
-        let lanes = match dual {
-            Some(_) => RayLanes::build(leaf_rays.len(), |p| {
-                RayPre::new(&rays.ray(leaf_rays[p] as usize))
-            }),
-            None => RayLanes::build(h.order.len(), |p| {
-                RayPre::new(&rays.ray(h.order[p] as usize))
-            }),
-        };
+        let in_leaf_order: &[u32] = if dual.is_some() { leaf_rays } else { &h.order };
+        let lanes = RayLanes::build(in_leaf_order.len(), |p| {
+            RayPre::new(&rays.ray(in_leaf_order[p] as usize))
+        });
         let trav = Traversal {
             h: &h,
             scene: SceneData {
