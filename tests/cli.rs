@@ -344,6 +344,14 @@ fn ray_files_and_identical_hits_across_engines() {
                         .find(|l| l.starts_with("runs (build+trace ms): "));
                     let listed = runs.and_then(|l| l.split(": ").nth(1));
                     assert_eq!(listed.map(|l| l.split(", ").count()), Some(3), "{text}");
+                    // The engine's phases, medians over the runs: CRSH hashes and traverses.
+                    let phases = text
+                        .lines()
+                        .find(|l| l.starts_with("phases (ms, medians): "));
+                    assert!(
+                        phases.is_some_and(|l| l.contains("hash ") && l.contains("traversal ")),
+                        "{text}"
+                    );
                 }
                 let (h, _) = render::rayfile::read_hits(&hits).unwrap();
                 files.push((engine, any, std::fs::read(&hits).unwrap(), h));

@@ -103,6 +103,8 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
     // Every repetition builds the engine and traces the rays afresh; the hits and counters
     // are the same each time (deterministic), the last repetition's are kept.
     let mut runs: Vec<(f64, f64)> = Vec::with_capacity(a.repeat as usize);
+    // Per run: the engine's build passes and the trace's phases (seconds), by name.
+    let mut phase_runs: Vec<Vec<(String, f64)>> = Vec::with_capacity(a.repeat as usize);
     let mut hits = vec![render::Hit::MISS; rays.len()];
     let mut st = render::TraceStats::default();
     let mut name = String::new();
@@ -120,6 +122,14 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         let t1 = Instant::now();
         engine.trace(&rays, mode, &mut hits, &mut st);
         runs.push((build, t1.elapsed().as_secs_f64()));
+        phase_runs.push(
+            engine
+                .build_passes()
+                .into_iter()
+                .map(|(p, s)| (format!("build: {p}"), s))
+                .chain(st.phases.iter().map(|(p, s)| (p.to_string(), *s)))
+                .collect(),
+        );
         name = engine.name().to_string();
     }
     let median = |f: fn(&(f64, f64)) -> f64| {
@@ -151,6 +161,27 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
             .collect::<Vec<_>>()
             .join(", ");
         say!("runs (build+trace ms): {list}");
+    }
+    if let Some(first) = phase_runs.first().filter(|p| !p.is_empty()) {
+        // Every run has the same phases (one engine, one configuration); the median of each.
+        let list = first
+            .iter()
+            .enumerate()
+            .map(|(i, (p, _))| {
+                let mut v: Vec<f64> = phase_runs
+                    .iter()
+                    .filter_map(|r| r.get(i))
+                    .map(|x| x.1)
+                    .collect();
+                v.sort_by(f64::total_cmp);
+                format!("{p} {:.1}", v[v.len() / 2] * 1e3)
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        say!(
+            "phases (ms{}): {list}",
+            if runs.len() > 1 { ", medians" } else { "" }
+        );
     }
     say!("hits {}, ray-triangle tests {} ({:.2}/ray), node-triangle tests {}, total tests {} ({:.4} % of brute force)", st.hits, st.ray_tri_tests, st.ray_tri_tests as f64 / n, st.node_tri_tests, st.total_tests(), 100.0 * st.total_tests() as f64 / (n * geo.len() as f64));
     for (k, v) in &st.counters {
