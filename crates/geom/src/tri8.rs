@@ -46,7 +46,17 @@ impl RayLanes {
     /// kept besides the lanes, [`RayLanes::pre`] rebuilds one).
     pub fn build(n: usize, f: impl Fn(usize) -> RayPre + Sync) -> RayLanes {
         use rayon::prelude::*;
-        let zeros = || vec![0.0f32; n + 8];
+        // Uninitialised room, every lane written below (the rays' by the tasks, the padding
+        // here): zero-filling eleven arrays first would be one more pass over all of them,
+        // on every trace.
+        let zeros = || {
+            let mut v = Vec::<f32>::with_capacity(n + 8);
+            // SAFETY: the 8 padding lanes sit within the capacity; lanes 0..n follow.
+            unsafe {
+                std::ptr::write_bytes(v.as_mut_ptr().add(n), 0, 8);
+            }
+            v
+        };
         let mut l = RayLanes {
             ok: std::array::from_fn(|_| zeros()),
             k: std::array::from_fn(|_| zeros()),
@@ -100,6 +110,15 @@ impl RayLanes {
                 }
             }
         });
+        for v in l.ok.iter_mut().chain(&mut l.k).chain(&mut l.s) {
+            // SAFETY: every lane 0..n + 8 is written (above, and the padding in `zeros`).
+            unsafe { v.set_len(n + 8) };
+        }
+        // SAFETY: as above.
+        unsafe {
+            l.t_min.set_len(n + 8);
+            l.t_max.set_len(n + 8);
+        }
         l
     }
 

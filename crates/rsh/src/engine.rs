@@ -333,42 +333,57 @@ impl Tracer for RshEngine {
             stats.time(Phase::FinalTests, c.final_seconds);
         }
         // Records: recompute the winner with the shared kernel (bit-identical to brute force).
-        let record = |i: usize, b: u64| {
-            if b == u64::MAX {
-                Hit::MISS
-            } else {
-                let tri = b as u32;
-                let [a, bb, cc] = self.tris[tri as usize];
-                let h = intersect(&RayPre::new(&rays.ray(i)), a, bb, cc)
-                    .expect("the recorded hit repeats");
-                Hit {
-                    tri,
-                    t: h.t,
-                    u: h.u,
-                    v: h.v,
-                }
+        let record = |pre: &RayPre, tri: u32| {
+            let [a, b, c] = self.tris[tri as usize];
+            let h = intersect(pre, a, b, c).expect("the recorded hit repeats");
+            Hit {
+                tri,
+                t: h.t,
+                u: h.u,
+                v: h.v,
             }
         };
         if dual.is_some() {
-            // Best hits by leaf position: rays outside the leaves (t_min ≥ t_max) miss.
-            hits.par_iter_mut().for_each(|h| *h = Hit::MISS);
+            // Best hits by leaf position, the rays' constants read back from the lanes in
+            // that order (not regathered from the batch); rays outside the leaves
+            // (t_min ≥ t_max) miss.
+            if leaf_rays.len() < n {
+                hits.par_iter_mut().for_each(|h| *h = Hit::MISS);
+            }
             let out = SharedMut(hits.as_mut_ptr());
-            leaf_rays
+            stats.hits += leaf_rays
                 .par_iter()
                 .zip(&best)
+                .enumerate()
                 .with_min_len(1024)
-                .for_each(|(&r, b)| {
-                    let hit = record(r as usize, b.load(Ordering::Relaxed));
+                .map(|(p, (&r, b))| {
+                    let b = b.load(Ordering::Relaxed);
+                    let hit = if b == u64::MAX {
+                        Hit::MISS
+                    } else {
+                        record(&lanes.pre(p), b as u32)
+                    };
                     // SAFETY: every ray is at most one leaf, so each record is written by
                     // one task; `hits` outlives the pass.
                     unsafe { out.write(r as usize, hit) };
-                });
+                    hit.is_hit() as u64
+                })
+                .sum::<u64>();
         } else {
-            hits.par_iter_mut().enumerate().for_each(|(i, out)| {
-                *out = record(i, best[i].load(Ordering::Relaxed));
-            });
+            stats.hits += hits
+                .par_iter_mut()
+                .enumerate()
+                .map(|(i, out)| {
+                    let b = best[i].load(Ordering::Relaxed);
+                    *out = if b == u64::MAX {
+                        Hit::MISS
+                    } else {
+                        record(&RayPre::new(&rays.ray(i)), b as u32)
+                    };
+                    out.is_hit() as u64
+                })
+                .sum::<u64>();
         }
-        stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
         let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
         report_counters(&c, self.cfg.mesh_culling && self.tree.is_none(), top, stats);
         if self.tree.is_some() {
