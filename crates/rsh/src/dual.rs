@@ -155,6 +155,19 @@ fn action(descent: Descent, node: &RayNode, li: usize, o: u32, d: f32) -> u8 {
     }
 }
 
+/// A level-1 node meeting an inner object node of at most this many triangles (one collapsed
+/// node's worth) when its rays would walk the node one by one ([`Descent`] chose the ray
+/// side) tests the triangles exactly instead, 8 rays in lanes (on Sponza's shadow rays: 3 %
+/// more final tests, 9 % less traversal time than the walks). Both schedules do this.
+const SMALL_SUBTREE: u32 = 8;
+
+/// Whether inner object node `o` holds at most [`SMALL_SUBTREE`] triangles.
+#[inline]
+fn small(tree: &ObjectTree, o: u32) -> bool {
+    let [lo, hi] = tree.range[o as usize];
+    hi - lo < SMALL_SUBTREE
+}
+
 /// What a tested pair becomes (on a depth-first stack, `DROP` marks a pair not tested yet).
 const DROP: u8 = 0;
 const FINAL: u8 = 1;
@@ -475,6 +488,19 @@ impl Traversal<'_> {
                                 }
                                 stack[from..].reverse();
                             }
+                            RAY if li == 0 && small(tree, o) => {
+                                // A small subtree: its triangles' exact tests, the node's
+                                // rays 8 lanes at a time, in leaf order (each of the node's
+                                // rays walking it alone would cost more: a walk's set-up, its
+                                // slab tests and scalar triangle tests, per ray).
+                                let [lo, hi] = tree.range[o as usize];
+                                for &tri in &tree.tri_order[lo as usize..=hi as usize] {
+                                    if done(li, r) {
+                                        break;
+                                    }
+                                    t.finals[k] += self.final_test(r, tri, &mut |p| resolve(p));
+                                }
+                            }
                             RAY if li == 0 => {
                                 // Single rays: each walks the object's subtree now, first
                                 // ray first (the order their pairs would leave the stack).
@@ -734,6 +760,10 @@ impl Traversal<'_> {
             action.len(),
             |i| match action[i] {
                 FINAL => [1, 0, 0],
+                RAY if li == 0 && small(tree, on[i]) => {
+                    let [lo, hi] = tree.range[on[i] as usize];
+                    [hi - lo + 1, 0, 0]
+                }
                 RAY => [0, level.children(rn[i] as usize).len() as u32, 0],
                 OBJECT => [0, 0, tree.wide[tree.wide_of[on[i] as usize] as usize].count],
                 _ => [0; 3],
@@ -741,6 +771,12 @@ impl Traversal<'_> {
             never,
             |i, out| match action[i] {
                 FINAL => out(0, rn[i], on[i] & !LEAF),
+                RAY if li == 0 && small(tree, on[i]) => {
+                    let [lo, hi] = tree.range[on[i] as usize];
+                    for &tri in &tree.tri_order[lo as usize..=hi as usize] {
+                        out(0, rn[i], tri);
+                    }
+                }
                 RAY => {
                     for ch in level.children(rn[i] as usize) {
                         out(1, ch as u32, on[i]);

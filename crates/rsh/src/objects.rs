@@ -49,6 +49,11 @@ pub struct ObjectTree {
     /// its triangle's.
     pub child_box: Vec<[Aabb; 2]>,
 
+    /// The triangles in leaf order (left to right), …
+    pub tri_order: Vec<u32>,
+    /// … and every internal node's leaves as the range `[lo, hi]` (inclusive) of it: a small
+    /// subtree's triangles are listed without walking it.
+    pub range: Vec<[u32; 2]>,
     /// Depth of the deepest leaf (root = 0).
     pub depth: u32,
     /// The collapsed nodes: one per binary inner node that the traversal expands (the root
@@ -341,8 +346,14 @@ pub fn build(
     // Keys: mesh index above the Morton code (triangles are stored mesh by mesh).
     let nm = mesh_first.len().saturating_sub(1);
     let mesh_bits = 64 - (nm.max(1) as u64 - 1).leading_zeros().min(63);
-    // As many Morton bits per axis as the mesh index leaves room for (up to 21).
-    let axis_bits = ((64 - mesh_bits) / 3).min(21);
+    // Morton bits per axis: about 2^12 grid cells per triangle (⌈log2 n / 3⌉ + 4 bits), as
+    // many as the mesh index leaves room for and at most 21. Finer codes would only order
+    // triangles that share a cell (equal keys fall back to their index, which is file
+    // order), and each 8 bits more is one more pass of the radix sort: on Sponza, 10 bits
+    // instead of 21 give the same tree quality within 0.1 % of the tests, in 5 sort passes
+    // instead of 8.
+    let log_n = usize::BITS - (n - 1).leading_zeros();
+    let axis_bits = (log_n.div_ceil(3) + 4).min((64 - mesh_bits) / 3).min(21);
     let code_bits = 3 * axis_bits;
     let keys_of = |t: usize, bx: &Aabb| {
         let m = mesh_first
@@ -486,6 +497,8 @@ pub fn build(
         node,
         leaf,
         child_box,
+        tri_order: order,
+        range,
         depth: depth_of[0],
         wide,
         wide_of,
@@ -545,7 +558,37 @@ mod tests {
         if !t.is_empty() {
             assert_eq!(t.depth, max_depth);
         }
+        check_ranges(t);
         check_wide(t);
+    }
+
+    /// Every inner node's range of `tri_order` lists exactly its subtree's triangles, left to
+    /// right.
+    fn check_ranges(t: &ObjectTree) {
+        if t.is_empty() {
+            return;
+        }
+        let mut order = t.tri_order.clone();
+        order.sort();
+        assert!(order.iter().enumerate().all(|(i, &x)| x == i as u32));
+        for h in 0..t.len() {
+            let mut leaves = Vec::new();
+            let mut st = vec![h as u32];
+            while let Some(y) = st.pop() {
+                if y & LEAF != 0 {
+                    leaves.push(y & !LEAF);
+                } else {
+                    let [a, b] = t.child[y as usize];
+                    st.extend([b, a]);
+                }
+            }
+            let [lo, hi] = t.range[h];
+            assert_eq!(
+                &t.tri_order[lo as usize..=hi as usize],
+                &leaves[..],
+                "node {h}"
+            );
+        }
     }
 
     /// The collapsed nodes: each head's lanes are the leaves of a cut of its binary subtree
