@@ -125,18 +125,25 @@ pub struct Hierarchy {
 }
 
 /// Group boundaries: runs of equal `kind`, each cut into groups of `b`; returns `first`
-/// (group starts plus the final end).
+/// (group starts plus the final end). The runs are found and cut in parallel (sorted rays
+/// make few runs, one per ray kind, over up to millions of leaves).
 fn group_starts(kind: &[u8], b: usize) -> Vec<u32> {
     let n = kind.len();
-    let mut first = Vec::with_capacity(n / b + 2);
-    let mut run_start = 0;
-    for i in 0..n {
-        if i > 0 && kind[i] != kind[i - 1] {
-            run_start = i;
-        }
-        if (i - run_start) % b == 0 {
-            first.push(i as u32);
-        }
+    let mut runs: Vec<usize> = (0..n)
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .filter(|&i| i == 0 || kind[i] != kind[i - 1])
+        .collect();
+    runs.push(n);
+    let mut first = Vec::with_capacity(n / b + runs.len() + 1);
+    for w in runs.windows(2) {
+        let (start, end) = (w[0], w[1]);
+        first.par_extend(
+            (0..(end - start).div_ceil(b))
+                .into_par_iter()
+                .with_min_len(1 << 12)
+                .map(|g| (start + g * b) as u32),
+        );
     }
     first.push(n as u32);
     first
@@ -146,7 +153,11 @@ fn group_starts(kind: &[u8], b: usize) -> Vec<u32> {
 /// `levels == 0`, keep going until every kind has a single root.
 pub fn build(rays: &RayBatch, order: Vec<u32>, b: usize, levels: u32, union: Union) -> Hierarchy {
     assert!((2..=64).contains(&b), "branching factor must be in 2..=64");
-    let leaf_kind: Vec<u8> = order.iter().map(|&r| rays.kind[r as usize]).collect();
+    let leaf_kind: Vec<u8> = order
+        .par_iter()
+        .with_min_len(1 << 14)
+        .map(|&r| rays.kind[r as usize])
+        .collect();
     let first = group_starts(&leaf_kind, b);
     // Eqs. 3.8–3.11: the level-1 cone grows ray by ray (exact for each added ray), 8 nodes
     // side by side in lanes (geom::cone8, bit for bit the scalar cones). Directions are
@@ -290,6 +301,27 @@ mod tests {
             if levels > 0 {
                 prop_assert!(h.levels.len() as u32 <= levels);
             }
+        }
+    }
+
+    proptest! {
+        /// The parallel cut is the sequential definition: a group starts at every run start
+        /// and every `b` leaves into a run.
+        #[test]
+        fn groups_cut_runs_every_b(runs in proptest::collection::vec((0u8..3, 1usize..3000), 0..12), b in 2usize..65) {
+            let kinds: Vec<u8> = runs.iter().flat_map(|&(k, len)| std::iter::repeat_n(k, len)).collect();
+            let mut want = Vec::new();
+            let mut run_start = 0;
+            for i in 0..kinds.len() {
+                if i > 0 && kinds[i] != kinds[i - 1] {
+                    run_start = i;
+                }
+                if (i - run_start) % b == 0 {
+                    want.push(i as u32);
+                }
+            }
+            want.push(kinds.len() as u32);
+            prop_assert_eq!(group_starts(&kinds, b), want);
         }
     }
 
