@@ -9,7 +9,9 @@
 //!    children of the node's collapsed node ([`crate::objects::WideNode`]: descendants of the
 //!    binary node, tested against the ray node 8 at a time), the ray side the node's b
 //!    children one level down;
-//! 3. (level-1 node, triangle) pairs go to the exact final tests (§3.2.9).
+//! 3. (level-1 node, triangle) pairs go to the exact final tests (§3.2.9); so do a level-1
+//!    node's pairs with the triangles of a small subtree (at most 8, `SMALL_SUBTREE`) that
+//!    its rays would otherwise walk one by one.
 //!
 //! Besides the cone test, every pair's ray node is tested as a *beam* against the object
 //! node's box: interval arithmetic over its rays' origins and reciprocal directions bounds
@@ -53,7 +55,8 @@ pub enum Descent {
     Size,
     /// The object node until it is a triangle, then the ray node.
     ObjectFirst,
-    /// The ray node until single rays, then the object node (each ray walks its subtree).
+    /// The ray node until single rays, then the object node (each ray walks its subtree;
+    /// a subtree of at most 8 triangles gets the level-1 node's final tests instead).
     RayFirst,
 }
 
