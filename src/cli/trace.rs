@@ -132,12 +132,10 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         );
         name = engine.name().to_string();
     }
-    let median = |f: fn(&(f64, f64)) -> f64| {
-        let mut v: Vec<f64> = runs.iter().map(f).collect();
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let (build, secs) = (median(|r| r.0), median(|r| r.1));
+    let (build, secs) = (
+        median(runs.iter().map(|r| r.0)),
+        median(runs.iter().map(|r| r.1)),
+    );
     let n = rays.len().max(1) as f64;
     say!(
         "{} rays, {} triangles, engine {} ({:?}): build {:.1} ms, trace {:.1} ms, {:.3} MRays/s{}",
@@ -163,18 +161,14 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         say!("runs (build+trace ms): {list}");
     }
     if let Some(first) = phase_runs.first().filter(|p| !p.is_empty()) {
-        // Every run has the same phases (one engine, one configuration); the median of each.
+        // Each phase (in the first run's order) with its median over the runs that have it.
         let list = first
             .iter()
-            .enumerate()
-            .map(|(i, (p, _))| {
-                let mut v: Vec<f64> = phase_runs
+            .map(|(p, _)| {
+                let each = phase_runs
                     .iter()
-                    .filter_map(|r| r.get(i))
-                    .map(|x| x.1)
-                    .collect();
-                v.sort_by(f64::total_cmp);
-                format!("{p} {:.1}", v[v.len() / 2] * 1e3)
+                    .filter_map(|r| r.iter().find(|x| &x.0 == p).map(|x| x.1));
+                format!("{p} {:.1}", median(each) * 1e3)
             })
             .collect::<Vec<_>>()
             .join(", ");
@@ -199,4 +193,11 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         say!("wrote {}", o.display());
     }
     Ok(())
+}
+
+/// The median of some values (the upper one of an even count; at least one value).
+fn median(values: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.collect();
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
 }

@@ -165,7 +165,7 @@ impl RayLanes {
     }
 }
 
-/// The eleven lane arrays' pointers, shared by the tasks of [`RayLanes::gather`] (each writes
+/// The eleven lane arrays' pointers, shared by the tasks of [`RayLanes::build`] (each writes
 /// a disjoint range of lanes).
 struct Lanes11([*mut f32; 11]);
 // SAFETY: the tasks write disjoint lanes; the arrays outlive them.
