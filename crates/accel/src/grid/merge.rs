@@ -16,6 +16,12 @@
 //! - a cell's candidate along an axis depends only on the cell and the neighbour at its +axis
 //!   probe voxel; it is re-evaluated only when one of the two changed since the last pass
 //!   along that axis (late rounds re-evaluate a few percent of the cells);
+//! - the initial cell at a probe voxel is looked up in the voxel map once per axis and cell:
+//!   a merge along another axis leaves the probe voxel where it was, and a merge along the
+//!   axis moves it to the absorbed cell's probe voxel (the two are aligned), so the absorber
+//!   takes the absorbed cell's probe (after the first round no pass reads the voxel map);
+//! - a cell's box and reference range sit in one 32-byte record, so reading a neighbour
+//!   costs one cache line instead of four arrays' worth;
 //! - merged reference lists are appended to one pool (count → scan → emit), and the cells,
 //!   references and voxel map are compacted once at the end.
 
@@ -26,20 +32,36 @@ use std::sync::atomic::{AtomicU8, Ordering::Relaxed};
 
 const NONE: u32 = u32::MAX;
 
+/// The probe's initial cell is not known yet.
+const UNKNOWN: u32 = u32::MAX - 1;
+
+/// A live cell's box on the virtual grid ([lo, hi)) and its references
+/// `pool[begin .. end]`, together because a candidate's evaluation reads all of them.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct Cell {
+    lo: [u32; 3],
+    hi: [u32; 3],
+    begin: u32,
+    end: u32,
+}
+
 /// Per-cell merge state, indexed by initial cell.
 struct Merger {
     /// The live cell that holds cell i (i itself while i is live), and its scratch twin.
     owner: Vec<u32>,
     owner_next: Vec<u32>,
     initial_refs: usize,
-    /// References of live cell i: `pool[begin[i] .. end[i]]`, ascending.
-    begin: Vec<u32>,
-    end: Vec<u32>,
+    cells: Vec<Cell>,
+    /// The pool of ascending reference lists the cells point into.
     pool: Vec<u32>,
     /// Pass at which cell i last changed (0: initial).
     changed: Vec<u32>,
-    /// Per axis: the pass that last evaluated cell i (0: never), the cell found at its +axis
-    /// probe voxel then, and its candidate (NONE: none).
+    /// Per axis: the initial cell at live cell i's +axis probe voxel (NONE beyond the grid,
+    /// UNKNOWN until first needed) …
+    probe0: [Vec<u32>; 3],
+    /// … the pass that last evaluated cell i (0: never), the live cell found at its probe
+    /// voxel then, and its candidate (NONE: none).
     stamp: [Vec<u32>; 3],
     probe: [Vec<u32>; 3],
     cand: [Vec<u32>; 3],
@@ -50,7 +72,8 @@ struct Merger {
 impl Merger {
     #[inline]
     fn refs(&self, i: usize) -> &[u32] {
-        &self.pool[self.begin[i] as usize..self.end[i] as usize]
+        let c = &self.cells[i];
+        &self.pool[c.begin as usize..c.end as usize]
     }
 }
 
@@ -58,14 +81,24 @@ impl Merger {
 /// With `empty_only`, only two empty cells merge (Devillers's macro regions).
 pub fn merge(g: &mut Grid, alpha: f32, empty_only: bool) -> usize {
     let n = g.cells();
+    let cells: Vec<Cell> = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|i| Cell {
+            lo: g.cell_min[i],
+            hi: g.cell_max[i],
+            begin: g.ref_first[i],
+            end: g.ref_first[i + 1],
+        })
+        .collect();
     let mut m = Merger {
         owner: (0..n as u32).collect(),
         owner_next: vec![0; n],
         initial_refs: g.refs.len(),
-        begin: g.ref_first[..n].to_vec(),
-        end: g.ref_first[1..].to_vec(),
+        cells,
         pool: std::mem::take(&mut g.refs),
         changed: vec![0; n],
+        probe0: std::array::from_fn(|_| vec![UNKNOWN; n]),
         stamp: std::array::from_fn(|_| vec![0; n]),
         probe: std::array::from_fn(|_| vec![NONE; n]),
         cand: std::array::from_fn(|_| vec![NONE; n]),
@@ -93,25 +126,28 @@ pub fn merge(g: &mut Grid, alpha: f32, empty_only: bool) -> usize {
     rounds
 }
 
-/// The cell at cell i's +axis probe voxel (its min corner moved to the far face), and whether
-/// it is exactly aligned with i (same extent on the other two axes).
-fn neighbour(g: &Grid, m: &Merger, i: usize, axis: usize) -> (u32, bool) {
-    let (lo, hi) = (g.cell_min[i], g.cell_max[i]);
-    if hi[axis] >= g.dims[axis] {
-        return (NONE, false);
+/// The initial cell at cell `c`'s +axis probe voxel (its min corner moved to the far face),
+/// NONE when the face is the grid's.
+fn probe_cell(g: &Grid, c: &Cell, axis: usize) -> u32 {
+    if c.hi[axis] >= g.dims[axis] {
+        return NONE;
     }
-    let mut p = lo;
-    p[axis] = hi[axis];
-    let j = m.owner[g.lookup(p) as usize] as usize;
-    let (jl, jh) = (g.cell_min[j], g.cell_max[j]);
-    let aligned = (0..3).all(|k| {
+    let mut p = c.lo;
+    p[axis] = c.hi[axis];
+    g.lookup(p)
+}
+
+/// Is live cell `j` (found at `c`'s +axis probe voxel) exactly aligned with `c`: starting at
+/// its far face, with the same extent on the other two axes?
+#[inline]
+fn aligned(c: &Cell, j: &Cell, axis: usize) -> bool {
+    (0..3).all(|k| {
         if k == axis {
-            jl[k] == hi[k]
+            j.lo[k] == c.hi[k]
         } else {
-            jl[k] == lo[k] && jh[k] == hi[k]
+            j.lo[k] == c.lo[k] && j.hi[k] == c.hi[k]
         }
-    });
-    (j as u32, aligned)
+    })
 }
 
 /// Does merging live cell i with its aligned +axis neighbour j lower the SAH cost?
@@ -120,11 +156,12 @@ fn worth_merging(g: &Grid, m: &Merger, i: usize, j: usize, axis: usize) -> bool 
     if m.empty_only && !(ri.is_empty() && rj.is_empty()) {
         return false;
     }
-    let ai = half_area(g.voxel, g.cell_min[i], g.cell_max[i]);
-    let aj = half_area(g.voxel, g.cell_min[j], g.cell_max[j]);
-    let mut hi = g.cell_max[i];
-    hi[axis] = g.cell_max[j][axis];
-    let au = half_area(g.voxel, g.cell_min[i], hi);
+    let (ci, cj) = (&m.cells[i], &m.cells[j]);
+    let ai = half_area(g.voxel, ci.lo, ci.hi);
+    let aj = half_area(g.voxel, cj.lo, cj.hi);
+    let mut hi = ci.hi;
+    hi[axis] = cj.hi[axis];
+    let au = half_area(g.voxel, ci.lo, hi);
     let nu = union_len(ri, rj) as f32;
     au * (nu + 1.0) <= ai * (ri.len() as f32 + 1.0) + aj * (rj.len() as f32 + 1.0)
 }
@@ -140,7 +177,8 @@ fn merge_pass(
     let pass = m.pass;
     // 1. Candidates, re-evaluated where the cell or its probe neighbour changed.
     {
-        let (sp, pp, cp) = (
+        let (p0p, sp, pp, cp) = (
+            SharedMut(m.probe0[axis].as_mut_ptr()),
             SharedMut(m.stamp[axis].as_mut_ptr()),
             SharedMut(m.probe[axis].as_mut_ptr()),
             SharedMut(m.cand[axis].as_mut_ptr()),
@@ -148,21 +186,35 @@ fn merge_pass(
         let (gr, mr) = (&*g, &*m);
         live.par_iter().with_min_len(2048).for_each(|&i| {
             let i = i as usize;
+            let ci = &mr.cells[i];
+            let mut p0 = mr.probe0[axis][i];
+            if p0 == UNKNOWN {
+                p0 = probe_cell(gr, ci, axis);
+                // SAFETY: live cells are distinct, so each index is written by one task.
+                unsafe { p0p.write(i, p0) };
+            }
+            let j = if p0 == NONE {
+                NONE
+            } else {
+                mr.owner[p0 as usize]
+            };
             let s = mr.stamp[axis][i];
-            let p = mr.probe[axis][i];
             let stale = s == 0
                 || mr.changed[i] >= s
-                || (p != NONE && (mr.owner[p as usize] != p || mr.changed[p as usize] >= s));
+                || j != mr.probe[axis][i]
+                || (j != NONE && mr.changed[j as usize] >= s);
             if !stale {
                 return;
             }
-            let (j, aligned) = neighbour(gr, mr, i, axis);
-            let c = if aligned && worth_merging(gr, mr, i, j as usize, axis) {
+            let c = if j != NONE
+                && aligned(ci, &mr.cells[j as usize], axis)
+                && worth_merging(gr, mr, i, j as usize, axis)
+            {
                 j
             } else {
                 NONE
             };
-            // SAFETY: live cells are distinct, so each index is written by one task.
+            // SAFETY: as above.
             unsafe {
                 sp.write(i, pass);
                 pp.write(i, j);
@@ -235,13 +287,16 @@ fn merge_pass(
     {
         let (pool, rest) = m.pool.split_at_mut(base);
         let out = SharedMut(rest.as_mut_ptr());
-        let (begin, end) = (&m.begin, &m.end);
+        let cells = &m.cells;
         pairs
             .par_iter()
             .enumerate()
             .with_min_len(1024)
             .for_each(|(k, &(i, j))| {
-                let refs = |c: u32| &pool[begin[c as usize] as usize..end[c as usize] as usize];
+                let refs = |c: u32| {
+                    let c = &cells[c as usize];
+                    &pool[c.begin as usize..c.end as usize]
+                };
                 let mut at = offs[k] as usize;
                 union_each(refs(i), refs(j), &mut |r| {
                     // SAFETY: pair k owns [offs[k], offs[k] + counts[k]) by the scan.
@@ -251,12 +306,11 @@ fn merge_pass(
             });
     }
     {
-        let (bp, ep, xp, op, cp) = (
-            SharedMut(m.begin.as_mut_ptr()),
-            SharedMut(m.end.as_mut_ptr()),
-            SharedMut(g.cell_max.as_mut_ptr()),
+        let (xp, op, cp, p0p) = (
+            SharedMut(m.cells.as_mut_ptr()),
             SharedMut(m.owner.as_mut_ptr()),
             SharedMut(m.changed.as_mut_ptr()),
+            SharedMut(m.probe0[axis].as_mut_ptr()),
         );
         pairs
             .par_iter()
@@ -264,17 +318,19 @@ fn merge_pass(
             .with_min_len(4096)
             .for_each(|(k, &(i, j))| {
                 let (i, j) = (i as usize, j as usize);
-                // The wrapper, not its raw field, crosses threads.
-                let boxes = &xp;
+                // The wrappers, not their raw fields, cross threads.
+                let (cells, probes) = (&xp, &p0p);
                 // SAFETY: pairs are disjoint (each cell in at most one pair, absorber or
                 // residue), so every index is written by one task and no task reads an index
-                // another writes (j's box is read, only i's is written).
+                // another writes (j's record is read, only i's is written).
                 unsafe {
-                    let mut hi = boxes.0.add(i).read();
-                    hi[axis] = boxes.0.add(j).read()[axis];
-                    bp.write(i, base as u32 + offs[k]);
-                    ep.write(i, base as u32 + offs[k] + counts[k]);
-                    xp.write(i, hi);
+                    let mut c = cells.0.add(i).read();
+                    c.hi[axis] = cells.0.add(j).read().hi[axis];
+                    c.begin = base as u32 + offs[k];
+                    c.end = base as u32 + offs[k] + counts[k];
+                    xp.write(i, c);
+                    // The merged box's probe voxel along `axis` is j's (j is aligned).
+                    p0p.write(i, probes.0.add(j).read());
                     op.write(j, i as u32);
                     cp.write(i, pass);
                 }
@@ -302,7 +358,7 @@ fn gather(m: &Merger, live: &[u32]) -> (Vec<u32>, Vec<u32>) {
     let counts: Vec<u32> = live
         .par_iter()
         .with_min_len(4096)
-        .map(|&i| m.end[i as usize] - m.begin[i as usize])
+        .map(|&i| m.cells[i as usize].end - m.cells[i as usize].begin)
         .collect();
     let mut first = vec![0u32; live.len() + 1];
     let total = exclusive_scan(&counts, &mut first[..live.len()]);
@@ -327,8 +383,8 @@ fn gather(m: &Merger, live: &[u32]) -> (Vec<u32>, Vec<u32>) {
 fn compact_pool(m: &mut Merger, live: &[u32]) {
     let (first, pool) = gather(m, live);
     for (k, &i) in live.iter().enumerate() {
-        m.begin[i as usize] = first[k];
-        m.end[i as usize] = first[k + 1];
+        m.cells[i as usize].begin = first[k];
+        m.cells[i as usize].end = first[k + 1];
     }
     m.pool = pool;
 }
@@ -342,8 +398,8 @@ fn compact(g: &mut Grid, m: &Merger, live: &[u32]) {
         new_index[i as usize] = k as u32;
     }
     let (ref_first, refs) = gather(m, live);
-    g.cell_min = live.iter().map(|&i| g.cell_min[i as usize]).collect();
-    g.cell_max = live.iter().map(|&i| g.cell_max[i as usize]).collect();
+    g.cell_min = live.iter().map(|&i| m.cells[i as usize].lo).collect();
+    g.cell_max = live.iter().map(|&i| m.cells[i as usize].hi).collect();
     g.exp_min = g.cell_min.clone();
     g.exp_max = g.cell_max.clone();
     g.ref_first = ref_first;
