@@ -125,7 +125,10 @@ impl Frame<'_> {
     /// meets the parent box and lies entirely inside that child's half-spaces. The others
     /// share one prepared separating-axis test (same axes, same radii), run for the 8
     /// children at once in SIMD lanes ([`TriBoxSat::overlaps8`], the same bits as 8 tests).
-    fn child_mask(&self, c: [u32; 3], level: u32, t: usize) -> u8 {
+    /// `prep` caches the prepared test of the last triangle: a level's references come in
+    /// triangle order, so a triangle spanning many nodes is prepared once per run of them
+    /// (the prepared values are the same however often they are made).
+    fn child_mask(&self, c: [u32; 3], level: u32, t: usize, prep: &mut Prepared) -> u8 {
         let size = self.tsize / (1u32 << (level + 1)) as f32;
         let tb = &self.tri_box[t];
         let mut mask = 0xffu8;
@@ -142,8 +145,14 @@ impl Frame<'_> {
         if mask.count_ones() <= 1 {
             return mask;
         }
-        let sat = TriBoxSat::new(&self.tris[t]);
-        let radii = sat.radii(self.node_half(level + 1));
+        if prep.tri != t {
+            let sat = TriBoxSat::new(&self.tris[t]);
+            *prep = Prepared {
+                tri: t,
+                radii: sat.radii(self.node_half(level + 1)),
+                sat,
+            };
+        }
         // The children's centres as `node_centre` computes them, one lane each.
         let mut centres = [[0f32; 8]; 3];
         for (k, axis) in centres.iter_mut().enumerate() {
@@ -152,7 +161,25 @@ impl Frame<'_> {
                 *v = self.bounds.min[k] + (cc as f32 + 0.5) * size[k];
             }
         }
-        sat.overlaps8(&centres, &radii) & mask
+        prep.sat.overlaps8(&centres, &prep.radii) & mask
+    }
+}
+
+/// A triangle's prepared separating-axis test and its radii for one octree level's children
+/// (`tri == usize::MAX`: none yet).
+struct Prepared {
+    tri: usize,
+    sat: TriBoxSat,
+    radii: [f32; 13],
+}
+
+impl Prepared {
+    fn none() -> Prepared {
+        Prepared {
+            tri: usize::MAX,
+            sat: TriBoxSat::new(&[Vec3::ZERO; 3]),
+            radii: [0.0; 13],
+        }
     }
 }
 
@@ -293,16 +320,47 @@ fn top_refs(f: &Frame, top_dims: [u32; 3], lim: &Limits) -> Result<(Vec<u32>, Ve
             .filter(move |(_, (_, c))| sat.as_ref().is_none_or(|(s, radii)| s.overlaps(*c, radii)))
             .map(|(k, (i, _))| (k, i))
     };
+    // The overlap bits of a range of up to 64 cells (bit k: its k-th cell), the cells'
+    // tests 8 at a time in SIMD lanes (`TriBoxSat::overlaps8`: the same bits as one test
+    // per cell, each lane's centre computed as `node_centre` computes it).
+    let small_bits = |t: usize, (lo, hi): ([u32; 3], [u32; 3])| -> u64 {
+        let n = (0..3).map(|k| hi[k] - lo[k] + 1).product::<u32>() as usize;
+        if n == 1 {
+            return 1;
+        }
+        let sat = TriBoxSat::new(&f.tris[t]);
+        let radii = sat.radii(half);
+        let mut centres = [[0f32; 8]; 3];
+        let mut bits = 0u64;
+        for (k, (_, c)) in cells((lo, hi)).enumerate() {
+            let lane = k & 7;
+            for (axis, v) in centres.iter_mut().enumerate() {
+                v[lane] = c[axis];
+            }
+            if lane == 7 || k + 1 == n {
+                // Lanes past the range's end hold stale centres: masked off.
+                let live = if lane == 7 {
+                    0xff
+                } else {
+                    (1u8 << (lane + 1)) - 1
+                };
+                let m = sat.overlaps8(&centres, &radii) & live;
+                bits |= (m as u64) << (k & !7);
+            }
+        }
+        bits
+    };
     // Ranges of up to 64 cells keep their overlaps as bits, so the emit pass does not test
     // them again; larger ranges keep their count and are tested again when emitted.
     let bits: Vec<u64> = (0..f.tris.len())
         .into_par_iter()
         .with_min_len(1024)
         .map(|t| {
-            if big(range(t)) {
+            let r = range(t);
+            if big(r) {
                 return overlapping(t).count() as u64;
             }
-            overlapping(t).fold(0, |m, (k, _)| m | 1 << k)
+            small_bits(t, r)
         })
         .collect();
     count_scan_emit(
@@ -586,18 +644,19 @@ pub fn subdivide(
         // The children each reference of a splitting node overlaps. A node whose every
         // reference overlaps all 8 children does not split after all: its 8 children would
         // hold the same list (and merging would only put them back together).
-        let mask: Vec<u8> = (0..ref_node.len())
-            .into_par_iter()
-            .with_min_len(1024)
-            .map(|r| {
-                let p = ref_node[r] as usize;
-                if wants[p] {
-                    frame.child_mask(coords[p], level, ref_tri[r] as usize)
-                } else {
-                    0
+        // In chunks, each with its own cache of the last triangle's prepared test.
+        let mut mask = vec![0u8; ref_node.len()];
+        mask.par_chunks_mut(1024)
+            .zip(ref_node.par_chunks(1024).zip(ref_tri.par_chunks(1024)))
+            .for_each(|(out, (nodes, tris))| {
+                let mut prep = Prepared::none();
+                for ((m, &p), &t) in out.iter_mut().zip(nodes).zip(tris) {
+                    let p = p as usize;
+                    if wants[p] {
+                        *m = frame.child_mask(coords[p], level, t as usize, &mut prep);
+                    }
                 }
-            })
-            .collect();
+            });
         let separates: Vec<AtomicBool> = (0..nodes).map(|_| AtomicBool::new(false)).collect();
         // Adaptive splits (below the paper's depth) also count the children's references:
         // a split that copies most references into most children separates nothing (a fan
