@@ -364,11 +364,59 @@ impl TriBoxSat {
         self.overlaps8_lanes(c, r)
     }
 
+    /// [`TriBoxSat::overlaps8_lanes`] in AVX intrinsics: the same products and sums per lane
+    /// (no fused multiply–add), the separations kept as float compare masks and ORed in
+    /// 256-bit registers (AVX has no 256-bit integer operations, so the lanes' `u32` flags
+    /// would compile to 128-bit halves), and the answer read with one movemask.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     unsafe fn overlaps8_avx(&self, c: &[[f32; 8]; 3], r: &[f32; 13]) -> u8 {
-        // The same body, compiled with AVX enabled (8 lanes per instruction).
-        self.overlaps8_lanes(c, r)
+        use std::arch::x86_64::*;
+        let (lo, hi) = (&self.lo, &self.hi);
+        let x = _mm256_loadu_ps(c[0].as_ptr());
+        let y = _mm256_loadu_ps(c[1].as_ptr());
+        let z = _mm256_loadu_ps(c[2].as_ptr());
+        let s = |v: f32| _mm256_set1_ps(v);
+        let mut sep = _mm256_setzero_ps();
+        // Separated along axis i: lo > p + r or hi < p − r (ordered compares: a NaN never
+        // separates, as in the scalar test).
+        macro_rules! test {
+            ($i:expr, $p:expr) => {{
+                let p = $p;
+                let ra = s(r[$i]);
+                let above = _mm256_cmp_ps::<_CMP_GT_OQ>(s(lo[$i]), _mm256_add_ps(p, ra));
+                let below = _mm256_cmp_ps::<_CMP_LT_OQ>(s(hi[$i]), _mm256_sub_ps(p, ra));
+                sep = _mm256_or_ps(sep, _mm256_or_ps(above, below));
+            }};
+        }
+        test!(0, x);
+        test!(1, y);
+        test!(2, z);
+        let n = self.axis[3];
+        test!(
+            3,
+            _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(s(n.x), x), _mm256_mul_ps(s(n.y), y)),
+                _mm256_mul_ps(s(n.z), z)
+            )
+        );
+        for e in 0..3 {
+            let i = 4 + 3 * e;
+            let [a, b, d] = [self.axis[i], self.axis[i + 1], self.axis[i + 2]];
+            test!(
+                i,
+                _mm256_add_ps(_mm256_mul_ps(s(a.y), y), _mm256_mul_ps(s(a.z), z))
+            );
+            test!(
+                i + 1,
+                _mm256_add_ps(_mm256_mul_ps(s(b.x), x), _mm256_mul_ps(s(b.z), z))
+            );
+            test!(
+                i + 2,
+                _mm256_add_ps(_mm256_mul_ps(s(d.x), x), _mm256_mul_ps(s(d.y), y))
+            );
+        }
+        !(_mm256_movemask_ps(sep) as u8)
     }
 
     #[inline(always)]
