@@ -858,9 +858,21 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, String> {
         order,
         new_index,
     } = voxelmap::flatten(&entries, ntop, ncells)?;
-    let cell_coord: Vec<[u32; 3]> = order.iter().map(|&c| cell_coord[c as usize]).collect();
-    let cell_level: Vec<u8> = order.iter().map(|&c| cell_level[c as usize]).collect();
-    let cell_count: Vec<u32> = order.iter().map(|&c| cell_count[c as usize]).collect();
+    let cell_coord: Vec<[u32; 3]> = order
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&c| cell_coord[c as usize])
+        .collect();
+    let cell_level: Vec<u8> = order
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&c| cell_level[c as usize])
+        .collect();
+    let cell_count: Vec<u32> = order
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&c| cell_count[c as usize])
+        .collect();
     kept_cell
         .par_iter_mut()
         .with_min_len(4096)

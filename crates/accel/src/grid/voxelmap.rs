@@ -11,6 +11,7 @@
 //! turns it into blocks of up to [`MAX_BLOCK_LEVELS`] levels, so a lookup on Sponza reads the
 //! top entry and one block entry, as the paper's map, instead of one entry per octree level.
 
+use par::SharedMut;
 use rayon::prelude::*;
 
 /// The entry is a child block, not a cell.
@@ -160,14 +161,33 @@ pub fn flatten(sparse: &[u32], ntop: usize, ncells: usize) -> Result<Flattened, 
         .collect();
     let total: usize = ntop + parts.iter().map(|p| p.1.entries.len()).sum::<usize>();
     check_total(total as u64)?;
-    let order: Vec<u32> = parts
-        .iter()
-        .flat_map(|p| p.1.cells.iter().copied())
-        .collect();
-    debug_assert_eq!(order.len(), ncells, "every cell is one leaf of the map");
+    // The cells in map order, each top cell's at its scanned offset, and the inverse.
+    let counts: Vec<u32> = parts.iter().map(|p| p.1.cells.len() as u32).collect();
+    let mut cell_at = vec![0u32; ntop];
+    let placed = par::exclusive_scan(&counts, &mut cell_at) as usize;
+    debug_assert_eq!(placed, ncells, "every cell is one leaf of the map");
+    let mut order = vec![0u32; placed];
     let mut new_index = vec![0u32; ncells];
-    for (k, &c) in order.iter().enumerate() {
-        new_index[c as usize] = k as u32;
+    {
+        let (op, np) = (
+            SharedMut(order.as_mut_ptr()),
+            SharedMut(new_index.as_mut_ptr()),
+        );
+        parts
+            .par_iter()
+            .zip(cell_at.par_iter())
+            .with_min_len(64)
+            .for_each(|(p, &at)| {
+                for (k, &c) in p.1.cells.iter().enumerate() {
+                    let at = at as usize + k;
+                    // SAFETY: top cell t owns [cell_at[t], + its cells) by the scan, and
+                    // every cell is one leaf of the map, so each index is written once.
+                    unsafe {
+                        op.write(at, c);
+                        np.write(c as usize, at as u32);
+                    }
+                }
+            });
     }
     let mut base = Vec::with_capacity(ntop);
     let mut at = ntop as u32;
