@@ -693,13 +693,10 @@ pub fn subdivide(
             .collect();
         let mut child_base = vec![0u32; nodes];
         let nsplit = exclusive_scan(&split, &mut child_base) as usize;
-        let leaf: Vec<u32> = split
-            .par_iter()
-            .with_min_len(8192)
-            .map(|&s| 1 - s)
-            .collect();
-        let mut leaf_index = vec![0u32; nodes];
-        let nleaf = exclusive_scan(&leaf, &mut leaf_index) as usize;
+        // A leaf's slot among the level's leaves: the nodes before it that do not split
+        // (the scan of `1 − split`, read off the scan of `split`).
+        let leaf_index = |i: usize| i as u32 - child_base[i];
+        let nleaf = nodes - nsplit;
         let first_cell = cell_coord.len() as u32;
         let next_level_entry = (entries.len() + nodes) as u64;
         let need = (next_level_entry + 8 * nsplit as u64).max(first_cell as u64 + nleaf as u64);
@@ -725,16 +722,30 @@ pub fn subdivide(
                     if split[i] != 0 {
                         *e = voxelmap::node(next_level_entry as u32 + 8 * child_base[i], 1);
                     } else {
-                        *e = first_cell + leaf_index[i];
-                        // SAFETY: leaf i owns slot leaf_index[i] by the exclusive scan.
+                        let li = leaf_index(i);
+                        *e = first_cell + li;
+                        // SAFETY: leaf i owns slot leaf_index(i) by the exclusive scan.
                         unsafe {
-                            cp.write(leaf_index[i] as usize, coords[i]);
-                            np.write(leaf_index[i] as usize, count[i]);
+                            cp.write(li as usize, coords[i]);
+                            np.write(li as usize, count[i]);
                         }
                     }
                 });
         }
-        // References of leaves are final; those of split nodes go one level down.
+        // References of leaves are final; those of split nodes go one level down. Where
+        // nothing splits (the last level), every reference is kept in place.
+        let base = kept_cell.len();
+        if nsplit == 0 {
+            lim.check_refs((base + ref_node.len()) as u64)?;
+            kept_cell.par_extend(
+                ref_node
+                    .par_iter()
+                    .with_min_len(4096)
+                    .map(|&p| first_cell + leaf_index(p as usize)),
+            );
+            kept_tri.extend_from_slice(&ref_tri);
+            break;
+        }
         let kept: Vec<u32> = ref_node
             .par_iter()
             .with_min_len(4096)
@@ -742,7 +753,6 @@ pub fn subdivide(
             .collect();
         let mut kept_at = vec![0u32; ref_node.len()];
         let nkept = exclusive_scan(&kept, &mut kept_at) as usize;
-        let base = kept_cell.len();
         lim.check_refs((base + nkept) as u64)?;
         kept_cell.resize(base + nkept, 0);
         kept_tri.resize(base + nkept, 0);
@@ -759,13 +769,10 @@ pub fn subdivide(
                     let p = ref_node[r] as usize;
                     // SAFETY: kept reference r owns slot kept_at[r] by the exclusive scan.
                     unsafe {
-                        cp.write(kept_at[r] as usize, first_cell + leaf_index[p]);
+                        cp.write(kept_at[r] as usize, first_cell + leaf_index(p));
                         tp.write(kept_at[r] as usize, ref_tri[r]);
                     }
                 });
-        }
-        if nsplit == 0 {
-            break;
         }
         // Split references: one per child each overlaps (count → scan → emit).
         let (new_node, new_tri) = count_scan_emit(
