@@ -22,7 +22,9 @@
 //!   takes the absorbed cell's probe (after the first round no pass reads the voxel map);
 //! - a cell's box and reference range sit in one 32-byte record, so reading a neighbour
 //!   costs one cache line instead of four arrays' worth;
-//! - merged reference lists are appended to one pool (count → scan → emit), and the cells,
+//! - merged reference lists are appended to one pool (room for both lists by a scan of
+//!   their lengths, the union written there in the pass that updates the cells, so each list
+//!   is read once), and the cells,
 //!   references and voxel map are compacted once at the end.
 
 use super::{half_area, union_each, union_len, Grid, NODE};
@@ -266,14 +268,20 @@ fn merge_pass(
     if pairs.is_empty() {
         return 0;
     }
-    // 3. Merged reference lists, appended to the pool (count → scan → emit).
-    let counts: Vec<u32> = pairs
+    // 3. Merged reference lists, appended to the pool: each pair gets room for both lists
+    // (a scan of their lengths, which needs no reference read) and writes their union there
+    // in the same pass that updates the cells, so every list is read once. The unused tail
+    // of a pair's room is never referenced; the final compaction gathers the lists only.
+    let room: Vec<u32> = pairs
         .par_iter()
-        .with_min_len(1024)
-        .map(|&(i, j)| union_len(m.refs(i as usize), m.refs(j as usize)) as u32)
+        .with_min_len(4096)
+        .map(|&(i, j)| {
+            let (ci, cj) = (&m.cells[i as usize], &m.cells[j as usize]);
+            (ci.end - ci.begin) + (cj.end - cj.begin)
+        })
         .collect();
     let mut offs = vec![0u32; pairs.len()];
-    let total = exclusive_scan(&counts, &mut offs) as usize;
+    let total = exclusive_scan(&room, &mut offs) as usize;
     // The pool only grows while merging; rewrite it with the live lists when it would
     // outgrow its 32-bit offsets or four times the initial references.
     if m.pool.len() + total >= (u32::MAX as usize).min(4 * m.initial_refs.max(1 << 16)) {
@@ -287,25 +295,6 @@ fn merge_pass(
     {
         let (pool, rest) = m.pool.split_at_mut(base);
         let out = SharedMut(rest.as_mut_ptr());
-        let cells = &m.cells;
-        pairs
-            .par_iter()
-            .enumerate()
-            .with_min_len(1024)
-            .for_each(|(k, &(i, j))| {
-                let refs = |c: u32| {
-                    let c = &cells[c as usize];
-                    &pool[c.begin as usize..c.end as usize]
-                };
-                let mut at = offs[k] as usize;
-                union_each(refs(i), refs(j), &mut |r| {
-                    // SAFETY: pair k owns [offs[k], offs[k] + counts[k]) by the scan.
-                    unsafe { out.write(at, r) };
-                    at += 1;
-                });
-            });
-    }
-    {
         let (xp, op, cp, p0p) = (
             SharedMut(m.cells.as_mut_ptr()),
             SharedMut(m.owner.as_mut_ptr()),
@@ -315,19 +304,27 @@ fn merge_pass(
         pairs
             .par_iter()
             .enumerate()
-            .with_min_len(4096)
+            .with_min_len(1024)
             .for_each(|(k, &(i, j))| {
                 let (i, j) = (i as usize, j as usize);
                 // The wrappers, not their raw fields, cross threads.
-                let (cells, probes) = (&xp, &p0p);
+                let (cells, probes, lists) = (&xp, &p0p, &out);
                 // SAFETY: pairs are disjoint (each cell in at most one pair, absorber or
                 // residue), so every index is written by one task and no task reads an index
-                // another writes (j's record is read, only i's is written).
+                // another writes (j's record is read, only i's is written); pair k owns the
+                // pool room [offs[k], offs[k] + room[k]) by the scan.
                 unsafe {
-                    let mut c = cells.0.add(i).read();
-                    c.hi[axis] = cells.0.add(j).read().hi[axis];
-                    c.begin = base as u32 + offs[k];
-                    c.end = base as u32 + offs[k] + counts[k];
+                    let (mut c, cj) = (cells.0.add(i).read(), cells.0.add(j).read());
+                    let list = |x: &Cell| &pool[x.begin as usize..x.end as usize];
+                    let first = offs[k] as usize;
+                    let mut at = first;
+                    union_each(list(&c), list(&cj), &mut |r| {
+                        lists.write(at, r);
+                        at += 1;
+                    });
+                    c.hi[axis] = cj.hi[axis];
+                    c.begin = (base + first) as u32;
+                    c.end = (base + at) as u32;
                     xp.write(i, c);
                     // The merged box's probe voxel along `axis` is j's (j is aligned).
                     p0p.write(i, probes.0.add(j).read());
