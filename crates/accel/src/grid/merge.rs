@@ -24,8 +24,7 @@
 //!   costs one cache line instead of four arrays' worth;
 //! - merged reference lists are appended to one pool (room for both lists by a scan of
 //!   their lengths, the union written there in the pass that updates the cells, so each list
-//!   is read once), and the cells,
-//!   references and voxel map are compacted once at the end.
+//!   is read once), and the cells, references and voxel map are compacted once at the end.
 
 use super::{half_area, union_each, union_len, Grid, NODE};
 use par::{exclusive_scan, SharedMut};
