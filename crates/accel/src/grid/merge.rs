@@ -20,13 +20,13 @@
 //!   a merge along another axis leaves the probe voxel where it was, and a merge along the
 //!   axis moves it to the absorbed cell's probe voxel (the two are aligned), so the absorber
 //!   takes the absorbed cell's probe (after the first round no pass reads the voxel map);
-//! - a cell's box and reference range sit in one 32-byte record, so reading a neighbour
+//! - a cell's box and reference range sit in one 32-byte record (the traversal's [`CellRec`]), so reading a neighbour
 //!   costs one cache line instead of four arrays' worth;
 //! - merged reference lists are appended to one pool (room for both lists by a scan of
 //!   their lengths, the union written there in the pass that updates the cells, so each list
 //!   is read once), and the cells, references and voxel map are compacted once at the end.
 
-use super::{half_area, union_each, union_len, Grid, NODE};
+use super::{cell_records, half_area, union_each, union_len, CellRec, Grid, NODE};
 use par::{exclusive_scan, SharedMut};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, Ordering::Relaxed};
@@ -36,24 +36,15 @@ const NONE: u32 = u32::MAX;
 /// The probe's initial cell is not known yet.
 const UNKNOWN: u32 = u32::MAX - 1;
 
-/// A live cell's box on the virtual grid ([lo, hi)) and its references
-/// `pool[begin .. end]`, together because a candidate's evaluation reads all of them.
-#[derive(Clone, Copy)]
-#[repr(C, align(32))]
-struct Cell {
-    lo: [u32; 3],
-    hi: [u32; 3],
-    begin: u32,
-    end: u32,
-}
-
 /// Per-cell merge state, indexed by initial cell.
 struct Merger {
     /// The live cell that holds cell i (i itself while i is live), and its scratch twin.
     owner: Vec<u32>,
     owner_next: Vec<u32>,
     initial_refs: usize,
-    cells: Vec<Cell>,
+    /// Live cell i's box on the virtual grid and its references `pool[begin .. end]`,
+    /// ascending (one record: a candidate's evaluation reads all of them).
+    cells: Vec<CellRec>,
     /// The pool of ascending reference lists the cells point into.
     pool: Vec<u32>,
     /// Pass at which cell i last changed (0: initial).
@@ -82,16 +73,7 @@ impl Merger {
 /// With `empty_only`, only two empty cells merge (Devillers's macro regions).
 pub fn merge(g: &mut Grid, alpha: f32, empty_only: bool) -> usize {
     let n = g.cells();
-    let cells: Vec<Cell> = (0..n)
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|i| Cell {
-            lo: g.cell_min[i],
-            hi: g.cell_max[i],
-            begin: g.ref_first[i],
-            end: g.ref_first[i + 1],
-        })
-        .collect();
+    let cells = cell_records(&g.cell_min, &g.cell_max, &g.ref_first);
     let mut m = Merger {
         owner: (0..n as u32).collect(),
         owner_next: vec![0; n],
@@ -129,7 +111,7 @@ pub fn merge(g: &mut Grid, alpha: f32, empty_only: bool) -> usize {
 
 /// The initial cell at cell `c`'s +axis probe voxel (its min corner moved to the far face),
 /// NONE when the face is the grid's.
-fn probe_cell(g: &Grid, c: &Cell, axis: usize) -> u32 {
+fn probe_cell(g: &Grid, c: &CellRec, axis: usize) -> u32 {
     if c.hi[axis] >= g.dims[axis] {
         return NONE;
     }
@@ -141,7 +123,7 @@ fn probe_cell(g: &Grid, c: &Cell, axis: usize) -> u32 {
 /// Is live cell `j` (found at `c`'s +axis probe voxel) exactly aligned with `c`: starting at
 /// its far face, with the same extent on the other two axes?
 #[inline]
-fn aligned(c: &Cell, j: &Cell, axis: usize) -> bool {
+fn aligned(c: &CellRec, j: &CellRec, axis: usize) -> bool {
     (0..3).all(|k| {
         if k == axis {
             j.lo[k] == c.hi[k]
@@ -314,7 +296,7 @@ fn merge_pass(
                 // pool room [offs[k], offs[k] + room[k]) by the scan.
                 unsafe {
                     let (mut c, cj) = (cells.0.add(i).read(), cells.0.add(j).read());
-                    let list = |x: &Cell| &pool[x.begin as usize..x.end as usize];
+                    let list = |x: &CellRec| &pool[x.begin as usize..x.end as usize];
                     let first = offs[k] as usize;
                     let mut at = first;
                     union_each(list(&c), list(&cj), &mut |r| {

@@ -204,9 +204,10 @@ impl BuildStats {
 }
 
 /// What traversal reads of a cell, in one 32-byte record (one cache line half instead of
-/// four arrays): the expanded exit box and the cell's reference range.
+/// four arrays, aligned so that no record straddles two lines): the expanded exit box and
+/// the cell's reference range. The merge keeps its cells' own boxes in the same record.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[repr(C)]
+#[repr(C, align(32))]
 pub struct CellRec {
     /// Expanded exit box, minimum corner (virtual grid units).
     pub lo: [u32; 3],
@@ -384,15 +385,24 @@ pub fn complete(mut g: Grid, cfg: &GridConfig) -> Grid {
         expand::expand(&mut g, cfg.expansion_passes, cfg.empty_only);
         g.build.expand_seconds = t0.elapsed().as_secs_f64();
     }
-    g.trav = (0..g.cells())
-        .map(|c| CellRec {
-            lo: g.exp_min[c],
-            hi: g.exp_max[c],
-            begin: g.ref_first[c],
-            end: g.ref_first[c + 1],
-        })
-        .collect();
+    g.trav = cell_records(&g.exp_min, &g.exp_max, &g.ref_first);
     g
+}
+
+/// Every cell's record from boxes `lo`/`hi` and the reference ranges `ref_first` (traversal
+/// takes the expanded boxes, the merge the cells' own).
+pub(crate) fn cell_records(lo: &[[u32; 3]], hi: &[[u32; 3]], ref_first: &[u32]) -> Vec<CellRec> {
+    use rayon::prelude::*;
+    (0..lo.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|c| CellRec {
+            lo: lo[c],
+            hi: hi[c],
+            begin: ref_first[c],
+            end: ref_first[c + 1],
+        })
+        .collect()
 }
 
 /// The irregular grid (or two-level grid) as a tracing engine.
