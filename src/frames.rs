@@ -126,7 +126,7 @@ pub fn gpu_frame(
     opts: &RenderOptions,
 ) -> Result<(Rendered, FrameRow)> {
     let (s, geo, update_s) = update(scene, t);
-    let build_s = gf.rebuild(&geo)?;
+    let build_s = gf.rebuild(&s, &geo)?;
     let t2 = Instant::now();
     let (out, _) = gf.render(&s, &geo, opts, &(), build_s)?;
     let trace_s = t2.elapsed().as_secs_f64();

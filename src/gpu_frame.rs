@@ -1,9 +1,14 @@
-//! One Whitted frame on the wgpu backend, shared by `render --backend gpu` and the viewer:
-//! the G-buffer from the GPU's render pipeline, CRSH/RAH or the grid (built and traversed by
-//! kernels), secondary ray generation and shading as compute kernels; the Whitted loop's
-//! sequencing, the surface records between generations and the pixel accumulation on the
-//! CPU (thesis §3.1–3.3 on the GPU; see `crates/gpu`). The bytes moved between host and
-//! device during the frame are reported (`host_device_bytes`).
+//! One Whitted frame on the wgpu backend, shared by `render --backend gpu`, `bench gpu` and
+//! the viewer (thesis §3.1–3.3 on the GPU; see `crates/gpu`).
+//!
+//! The frame stays on the device ([`gpu::frame`]): the G-buffer from the GPU's render
+//! pipeline, CRSH/RAH or the grid (built and traversed by kernels), the surfaces, the ray
+//! generations, the shading and the pixel accumulation are kernels, and only the sRGB image
+//! and a few totals come back. Where a generation's buffers could exceed one binding of the
+//! device ([`gpu::frame::too_big`]), the frame is host-sequenced instead: the same kernels in
+//! parts that fit, with the surfaces and the image on the host between passes (the viewer's
+//! normal view, which needs the G-buffer, uses that path too). The bytes moved between host
+//! and device during the frame are reported (`host_device_bytes`).
 
 use crate::engines::{Engine, EngineOptions};
 use anyhow::{anyhow, Result};
@@ -14,6 +19,8 @@ use scene::{Geometry, Scene};
 /// made per frame).
 pub struct GpuFrame {
     engine: Box<dyn gpu::GpuEngine>,
+    /// The rasterizer over the current geometry, on the engine's device.
+    raster: gpu::GpuRaster,
     /// The adapter, as the backend describes it.
     pub describe: String,
     /// How the phase times are measured.
@@ -64,27 +71,42 @@ impl GpuFrame {
             }
         };
         // The rasterizer's inputs are checked now, so that a scene it cannot take fails here.
-        gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
+        let raster = gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
             .map_err(|e| anyhow!("--backend gpu: {e}"))?;
         Ok(GpuFrame {
             engine,
+            raster,
             describe,
             timer,
         })
     }
 
     /// A dynamic scene's next frame: rebuild the engine over `geo` on the same device, with
-    /// the same kernels and configuration; returns the wall-clock seconds.
-    pub fn rebuild(&mut self, geo: &Geometry) -> Result<f64> {
+    /// the same kernels and configuration, and give the rasterizer the frame's geometry;
+    /// returns the wall-clock seconds.
+    pub fn rebuild(&mut self, scene: &Scene, geo: &Geometry) -> Result<f64> {
         let t0 = std::time::Instant::now();
         self.engine
             .rebuild(geo)
             .map_err(|e| anyhow!("--backend gpu: {e}"))?;
+        self.raster = gpu::GpuRaster::new(self.engine.gpu(), geo, &scene.materials)
+            .map_err(|e| anyhow!("--backend gpu: {e}"))?;
         Ok(t0.elapsed().as_secs_f64())
     }
 
-    /// Render one frame; returns it with the GPU seconds per phase (rasterize, the
-    /// engine's, the stages').
+    /// Whether [`GpuFrame::render`] keeps a `opts`-sized frame of `scene` on the device, or
+    /// why not.
+    pub fn resident(&self, scene: &Scene, opts: &RenderOptions) -> Result<(), String> {
+        match gpu::frame::too_big(self.engine.gpu(), scene, opts) {
+            None => Ok(()),
+            Some(why) => Err(why),
+        }
+    }
+
+    /// Render one frame on the device ([`gpu::frame`]), or host-sequenced where it might
+    /// not fit ([`GpuFrame::resident`]); returns it with the GPU seconds per phase
+    /// (rasterize, the engine's, and the host-sequenced stages'). `geo` must be the geometry
+    /// the engine was built or last rebuilt over.
     pub fn render(
         &self,
         scene: &Scene,
@@ -93,9 +115,54 @@ impl GpuFrame {
         progress: &dyn Progress,
         build_seconds: f64,
     ) -> Result<(Rendered, Vec<(String, f64)>)> {
+        if let Err(why) = self.resident(scene, opts) {
+            let mut r = self.render_host(scene, geo, opts, progress, build_seconds)?;
+            r.0.stats.gpu_frame = Some(format!("host-sequenced: {why}"));
+            return Ok(r);
+        }
+        self.raster
+            .check_size(opts.width, opts.height)
+            .map_err(|e| anyhow!("--width/--height with --backend gpu: {e}"))?;
         let moved = self.engine.gpu().bytes_moved();
-        let raster = gpu::GpuRaster::new(self.engine.gpu(), geo, &scene.materials)
-            .map_err(|e| anyhow!("--backend gpu: {e}"))?;
+        let f = gpu::frame::render(
+            self.engine.as_ref(),
+            &self.raster,
+            scene,
+            geo,
+            opts,
+            progress,
+        )
+        .map_err(|e| anyhow!("--backend gpu: {e}"))?;
+        let mut stats = f.stats;
+        stats.put_build(build_seconds, self.engine.build_passes());
+        stats.host_device_bytes = Some(self.engine.gpu().bytes_moved() - moved);
+        stats.gpu_frame = Some("device-resident".into());
+        let out = Rendered {
+            pixels: Vec::new(),
+            srgb8: Some(f.srgb8),
+            gbuffer: render::raster::GBuffer::default(),
+            raster: render::raster::RasterStats {
+                triangles: geo.len() as u64,
+                ..Default::default()
+            },
+            stats,
+        };
+        Ok((out, self.phases(None)))
+    }
+
+    /// The host-sequenced frame: the GPU's G-buffer read back, the Whitted loop on the host
+    /// with every pass a kernel over parts that fit the device's bindings, the surfaces and
+    /// the pixels on the host between passes. The G-buffer and the linear pixels come back.
+    pub fn render_host(
+        &self,
+        scene: &Scene,
+        geo: &Geometry,
+        opts: &RenderOptions,
+        progress: &dyn Progress,
+        build_seconds: f64,
+    ) -> Result<(Rendered, Vec<(String, f64)>)> {
+        let moved = self.engine.gpu().bytes_moved();
+        let raster = &self.raster;
         raster
             .check_size(opts.width, opts.height)
             .map_err(|e| anyhow!("--width/--height with --backend gpu: {e}"))?;
@@ -112,8 +179,15 @@ impl GpuFrame {
         out.stats
             .put_build(build_seconds, self.engine.build_passes());
         out.stats.host_device_bytes = Some(self.engine.gpu().bytes_moved() - moved);
+        out.stats.gpu_frame = Some("host-sequenced".into());
+        Ok((out, self.phases(Some(&stages))))
+    }
+
+    /// GPU seconds per phase since the last frame: rasterize, the engine's, and the
+    /// host-sequenced `stages`' when they ran.
+    fn phases(&self, stages: Option<&gpu::GpuStages>) -> Vec<(String, f64)> {
         let mut phases: Vec<(String, f64)> = Vec::new();
-        if let Some(t) = raster.last_gpu_seconds.get() {
+        if let Some(t) = self.raster.last_gpu_seconds.get() {
             phases.push(("rasterize".into(), t));
         }
         phases.extend(
@@ -122,13 +196,9 @@ impl GpuFrame {
                 .into_iter()
                 .map(|(p, t)| (p.to_string(), t)),
         );
-        phases.extend(
-            stages
-                .times
-                .borrow()
-                .iter()
-                .map(|(p, t)| (p.to_string(), *t)),
-        );
-        Ok((out, phases))
+        if let Some(st) = stages {
+            phases.extend(st.times.borrow().iter().map(|(p, t)| (p.to_string(), *t)));
+        }
+        phases
     }
 }

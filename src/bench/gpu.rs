@@ -222,11 +222,8 @@ fn frames_section(
     };
     let eopts = EngineOptions::default();
     // The image as the PNG stores it (sRGB bytes).
-    let rgb = |p: &[geom::Vec3]| -> Vec<[u8; 3]> {
-        render::output::to_rgb8(p, spec.width, spec.height)
-            .pixels()
-            .map(|x| x.0)
-            .collect()
+    let rgb = |out: &render::whitted::Rendered| -> Vec<[u8; 3]> {
+        out.rgb8().chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
     };
     let mut md = format!(
         "\n### Whole frames ({FRAME_BOUNCES} bounces): engine build + render, the better of two after a warm-up\n\nThe CPU engines use their defaults (CRSH/RAH with the object hierarchy; on {} threads), the GPU backend its pipeline (CRSH/RAH with mesh spheres).\n\n| engine | CPU frame ms | GPU frame ms | GPU / CPU | GPU host↔device MB | image bytes MB | pixels off by > 2/255 |\n|---|---:|---:|---:|---:|---:|---:|\n",
@@ -243,7 +240,7 @@ fn frames_section(
             let tracer = engines::build(engine, &eopts, geo)?.tracer;
             let out = render(s, geo, tracer.as_ref(), &opts, &());
             let t = t0.elapsed().as_secs_f64();
-            Ok((t, rgb(&out.pixels)))
+            Ok((t, rgb(&out)))
         };
         cpu_frame()?;
         let (c1, img) = cpu_frame()?;
@@ -254,14 +251,10 @@ fn frames_section(
         })?;
         let mut gpu_frame = || -> Result<(f64, Vec<[u8; 3]>, u64)> {
             let t0 = Instant::now();
-            let b = gf.rebuild(geo)?;
+            let b = gf.rebuild(s, geo)?;
             let (out, _) = gf.render(s, geo, &opts, &(), b)?;
             let t = t0.elapsed().as_secs_f64();
-            Ok((
-                t,
-                rgb(&out.pixels),
-                out.stats.host_device_bytes.unwrap_or(0),
-            ))
+            Ok((t, rgb(&out), out.stats.host_device_bytes.unwrap_or(0)))
         };
         gpu_frame()?;
         let (g1, gimg, bytes) = gpu_frame()?;

@@ -87,11 +87,11 @@ pub fn render_frames(
             frame(scene, t, i as u32, a.engine, eopts, &opts)?
         };
         let path = frame_path(&a.out, i as u32)?;
-        render::output::write_png(&out.pixels, a.width, a.height, &path)
+        render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &path)
             .map_err(anyhow::Error::msg)
             .context("--out")?;
         if a.gif.is_some() {
-            gif_frames.push(out.pixels.clone());
+            gif_frames.push(out.rgb8());
         }
         rows.push(row);
     }

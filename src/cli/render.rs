@@ -148,7 +148,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         out.stats.put_build(build_s, engine.build_passes());
         (out, Vec::new(), "")
     };
-    render::output::write_png(&out.pixels, a.width, a.height, &a.out)
+    render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &a.out)
         .map_err(anyhow::Error::msg)
         .context("--out")?;
     say!("{}", out.stats.table());

@@ -387,8 +387,13 @@ impl Session {
                 }
                 #[cfg(feature = "gpu")]
                 Built::Gpu(g) => {
-                    let (out, phases) =
-                        g.render(&self.scene, &self.geo, &opts, &(), build_seconds)?;
+                    // The normals view needs the G-buffer on the host: the host-sequenced
+                    // frame brings it back; every other view keeps the frame on the device.
+                    let (out, phases) = if self.buffer == Buffer::Normals {
+                        g.render_host(&self.scene, &self.geo, &opts, &(), build_seconds)?
+                    } else {
+                        g.render(&self.scene, &self.geo, &opts, &(), build_seconds)?
+                    };
                     if record {
                         note = Some(
                             "ray kinds and tests per pixel are drawn from the CPU backend's rays"
@@ -411,7 +416,7 @@ impl Session {
         };
         let npix = (w * h) as usize;
         let rgb: Vec<u8> = match self.buffer {
-            Buffer::Shaded => render::output::to_rgb8(&out.pixels, w, h).into_raw(),
+            Buffer::Shaded => out.rgb8(),
             Buffer::Normals => (0..npix)
                 .flat_map(|i| {
                     if out.gbuffer.tri[i] == NO_HIT {

@@ -37,7 +37,9 @@ impl fmt::Display for GpuError {
 
 impl std::error::Error for GpuError {}
 
-/// A device, its queue, and what the backend needs to know about it.
+/// A device, its queue, and what the backend needs to know about it. A clone is another
+/// handle to the same device, queue and byte count (wgpu's handles are shared).
+#[derive(Clone)]
 pub struct Gpu {
     /// The logical device.
     pub device: wgpu::Device,
@@ -54,7 +56,7 @@ pub struct Gpu {
     pub timer: PhaseTimer,
     /// Bytes written to the device by [`Gpu::upload`] and [`Gpu::uniform`] and read back by
     /// [`Gpu::map_read`], since the device was made (every transfer goes through them).
-    moved: std::sync::atomic::AtomicU64,
+    moved: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
 
 /// How [`crate::kernels::Exec`] times phases.
@@ -138,7 +140,7 @@ impl Gpu {
             limits,
             timestamps,
             timer,
-            moved: std::sync::atomic::AtomicU64::new(0),
+            moved: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0)),
         })
     }
 

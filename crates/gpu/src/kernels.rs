@@ -55,10 +55,11 @@ enum Module {
     VoxelMap,
     Merge,
     Expand,
+    Frame,
 }
 
 impl Module {
-    const ALL: [Module; 16] = [
+    const ALL: [Module; 17] = [
         Module::Scan,
         Module::Sort,
         Module::Compact,
@@ -75,6 +76,7 @@ impl Module {
         Module::VoxelMap,
         Module::Merge,
         Module::Expand,
+        Module::Frame,
     ];
 
     /// The module's source after the prelude.
@@ -96,6 +98,7 @@ impl Module {
             Module::VoxelMap => include_str!("grid/voxelmap.wgsl").into(),
             Module::Merge => format!("{}{GRID_MAP}", include_str!("grid/merge.wgsl")),
             Module::Expand => format!("{}{GRID_MAP}", include_str!("grid/expand.wgsl")),
+            Module::Frame => include_str!("frame.wgsl").into(),
         }
     }
 }
@@ -127,6 +130,8 @@ pub enum Kernel {
     ExpandRuns,
     /// The values 0..n.
     Iota,
+    /// Every word set to one value.
+    Fill,
     /// `y[i] = x[order[i]]`.
     Gather,
     /// Where each ray kind starts among the sorted leaves.
@@ -221,11 +226,37 @@ pub enum Kernel {
     ESide,
     /// The traversal's cell records.
     ERecords,
+    /// Device frame: covered pixels and the image's start.
+    FrGbFlags,
+    /// Device frame: surfaces of the covered pixels.
+    FrGbSurfaces,
+    /// Device frame: shadow rays' kinds, lights and pixels.
+    FrShadowMeta,
+    /// Device frame: occlusion flags from hit records.
+    FrOccluded,
+    /// Device frame: colours added to their pixels in surface order.
+    FrAccumulate,
+    /// Device frame: the background behind bounce rays that hit nothing.
+    FrMisses,
+    /// Device frame: bounce slots that hold a ray.
+    FrSlotFlags,
+    /// Device frame: the filled bounce slots as a ray batch.
+    FrBounceEmit,
+    /// Device frame: rays that hit something.
+    FrHitFlags,
+    /// Device frame: surfaces of the hits.
+    FrHitSurfaces,
+    /// Device frame: the image as sRGB bytes.
+    FrEncode,
+    /// A trace's hits and counter sums per chunk of rays.
+    FrTotals,
+    /// Device frame: rays of one kind per chunk.
+    FrKindCount,
 }
 
 impl Kernel {
     /// Every kernel.
-    pub const ALL: [Kernel; 58] = [
+    pub const ALL: [Kernel; 72] = [
         Kernel::ScanReduce,
         Kernel::ScanDown,
         Kernel::KeyBits,
@@ -237,6 +268,7 @@ impl Kernel {
         Kernel::RunSizes,
         Kernel::ExpandRuns,
         Kernel::Iota,
+        Kernel::Fill,
         Kernel::Gather,
         Kernel::KindHist,
         Kernel::HashKeys,
@@ -284,6 +316,19 @@ impl Kernel {
         Kernel::EInit,
         Kernel::ESide,
         Kernel::ERecords,
+        Kernel::FrGbFlags,
+        Kernel::FrGbSurfaces,
+        Kernel::FrShadowMeta,
+        Kernel::FrOccluded,
+        Kernel::FrAccumulate,
+        Kernel::FrMisses,
+        Kernel::FrSlotFlags,
+        Kernel::FrBounceEmit,
+        Kernel::FrHitFlags,
+        Kernel::FrHitSurfaces,
+        Kernel::FrEncode,
+        Kernel::FrTotals,
+        Kernel::FrKindCount,
     ];
 
     /// The WGSL entry point and the module that holds it.
@@ -301,6 +346,7 @@ impl Kernel {
             RunSizes => ("run_sizes", Module::Runs),
             ExpandRuns => ("expand_runs", Module::Runs),
             Iota => ("iota", Module::Permute),
+            Fill => ("fill", Module::Permute),
             Gather => ("gather", Module::Permute),
             KindHist => ("kind_hist", Module::Kinds),
             HashKeys => ("hash_keys", Module::Hash),
@@ -348,6 +394,19 @@ impl Kernel {
             EInit => ("e_init", Module::Expand),
             ESide => ("e_side", Module::Expand),
             ERecords => ("e_records", Module::Expand),
+            FrGbFlags => ("fr_gb_flags", Module::Frame),
+            FrGbSurfaces => ("fr_gb_surfaces", Module::Frame),
+            FrShadowMeta => ("fr_shadow_meta", Module::Frame),
+            FrOccluded => ("fr_occluded", Module::Frame),
+            FrAccumulate => ("fr_accumulate", Module::Frame),
+            FrMisses => ("fr_misses", Module::Frame),
+            FrSlotFlags => ("fr_slot_flags", Module::Frame),
+            FrBounceEmit => ("fr_bounce_emit", Module::Frame),
+            FrHitFlags => ("fr_hit_flags", Module::Frame),
+            FrHitSurfaces => ("fr_hit_surfaces", Module::Frame),
+            FrEncode => ("fr_encode", Module::Frame),
+            FrTotals => ("fr_totals", Module::Frame),
+            FrKindCount => ("fr_kind_count", Module::Frame),
         }
     }
 

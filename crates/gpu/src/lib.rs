@@ -15,6 +15,9 @@
 //!   the G-buffer's render targets.
 //! - [`stages`]: the Whitted loop's shadow-ray generation, reflection/refraction-ray
 //!   generation and shading as kernels.
+//! - [`frame`]: a whole Whitted frame resident on the device (G-buffer, surfaces, rays,
+//!   traces, shading and the image all stay there; the host reads back the sRGB image and
+//!   a few totals), built from the kernels above.
 //!
 //! Every kernel mirrors a CPU pass over flat structure-of-arrays buffers of the same layout;
 //! the CPU engines are this backend's oracle (see `tests/`).
@@ -22,6 +25,7 @@
 #![warn(missing_docs)]
 
 pub mod device;
+pub mod frame;
 pub mod grid;
 pub mod kernels;
 pub mod prims;
@@ -48,6 +52,18 @@ pub trait GpuEngine: render::Tracer {
     /// Take a dynamic scene's next frame: rebuild over `geo` on the same device, with the
     /// same kernels and configuration (what the CPU engine rebuilds per frame).
     fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError>;
+    /// Most rays one [`GpuEngine::trace_device_part`] takes (one binding's worth).
+    fn max_rays(&self) -> usize;
+    /// Trace rays already on the device (at most [`GpuEngine::max_rays`]) and leave their
+    /// hit records there (triangle, t, u, v bits per ray; triangle `NO_HIT`: a miss), with
+    /// the counters of [`render::Tracer::trace`] in `stats` (less `stats.rays`, which
+    /// [`frame::trace_device`] counts). Only totals are read back.
+    fn trace_device_part(
+        &self,
+        rays: &rsh::DeviceRays,
+        mode: render::TraceMode,
+        stats: &mut render::TraceStats,
+    ) -> wgpu::Buffer;
 }
 
 impl GpuEngine for GpuRsh {
@@ -63,6 +79,18 @@ impl GpuEngine for GpuRsh {
     fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError> {
         GpuRsh::rebuild(self, geo)
     }
+    fn max_rays(&self) -> usize {
+        GpuRsh::max_rays(self)
+    }
+    fn trace_device_part(
+        &self,
+        rays: &rsh::DeviceRays,
+        _mode: render::TraceMode,
+        stats: &mut render::TraceStats,
+    ) -> wgpu::Buffer {
+        // The traversal finds the closest hit of every ray in either mode, as trace does.
+        GpuRsh::trace_device_part(self, rays, stats)
+    }
 }
 
 impl GpuEngine for GpuGrid {
@@ -77,6 +105,17 @@ impl GpuEngine for GpuGrid {
     }
     fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError> {
         GpuGrid::rebuild(self, geo)
+    }
+    fn max_rays(&self) -> usize {
+        self.max_rays
+    }
+    fn trace_device_part(
+        &self,
+        rays: &rsh::DeviceRays,
+        mode: render::TraceMode,
+        stats: &mut render::TraceStats,
+    ) -> wgpu::Buffer {
+        grid::traverse::trace_device_part(self, rays, mode, stats)
     }
 }
 pub use stages::GpuStages;

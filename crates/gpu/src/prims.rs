@@ -192,6 +192,19 @@ impl Exec<'_> {
         out
     }
 
+    /// A buffer of `words` u32, every one `value`, filled on the device.
+    pub fn filled(&mut self, label: &str, words: u64, value: u32) -> wgpu::Buffer {
+        let out = self.g.storage(label, words.max(1) * 4);
+        self.run(
+            Kernel::Fill,
+            Params::n(words as u32, value, 0, 0),
+            &[(5, &out)],
+            words,
+            256,
+        );
+        out
+    }
+
     /// Decompression (thesis §3.2.6, the GPU's `par::expand_runs`): the runs taken in
     /// `order` (run indices) expanded back to their `n` elements, each element's value
     /// looked up in `vals` at its position.

@@ -35,9 +35,22 @@ struct ViewU {
 }
 const _: () = assert!(std::mem::size_of::<ViewU>() == 80);
 
+/// A G-buffer left on the device by [`GpuRaster::rasterize_device`]: three render targets
+/// copied into storage buffers, pixel (x, y) at texel `y · stride + x`.
+pub struct DeviceGBuffer {
+    /// Position (xyz) and depth = near / z.
+    pub pos: wgpu::Buffer,
+    /// Interpolated shading normal (xyz).
+    pub normal: wgpu::Buffer,
+    /// Triangle id, u and v bits, and 1 where covered (0 elsewhere).
+    pub id: wgpu::Buffer,
+    /// Texels per row (rows are padded to 256 bytes).
+    pub stride: u32,
+}
+
 /// The scene's triangles, normals and materials on the device, and the pipeline.
-pub struct GpuRaster<'g> {
-    gpu: &'g Gpu,
+pub struct GpuRaster {
+    gpu: Gpu,
     pipe: wgpu::RenderPipeline,
     tris: wgpu::Buffer,
     normals: wgpu::Buffer,
@@ -49,9 +62,9 @@ pub struct GpuRaster<'g> {
     pub last_gpu_seconds: std::cell::Cell<Option<f64>>,
 }
 
-impl<'g> GpuRaster<'g> {
+impl GpuRaster {
     /// Upload the scene's triangles and materials and build the render pipeline.
-    pub fn new(gpu: &'g Gpu, geo: &Geometry, materials: &[Material]) -> Result<Self, GpuError> {
+    pub fn new(gpu: &Gpu, geo: &Geometry, materials: &[Material]) -> Result<Self, GpuError> {
         let bytes = 16 * FORMATS.len() as u32;
         if gpu.limits.max_color_attachment_bytes_per_sample < bytes {
             return Err(GpuError::Limits(format!(
@@ -110,7 +123,7 @@ impl<'g> GpuRaster<'g> {
                 cache: None,
             });
         Ok(GpuRaster {
-            gpu,
+            gpu: gpu.clone(),
             pipe,
             tris: gpu.upload("raster triangles", &tris),
             normals: gpu.upload("raster normals", &normals),
@@ -119,6 +132,12 @@ impl<'g> GpuRaster<'g> {
             ntri: geo.tris.len() as u32,
             last_gpu_seconds: std::cell::Cell::new(None),
         })
+    }
+
+    /// The scene as the device frame's kernels read it: triangles (3 × vec4 per triangle),
+    /// vertex normals (3 × vec4) and material ids.
+    pub(crate) fn scene_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer, &wgpu::Buffer) {
+        (&self.tris, &self.normals, &self.material)
     }
 
     /// Whether a `width × height` G-buffer fits the device: its texture size limit, and one
@@ -142,9 +161,17 @@ impl<'g> GpuRaster<'g> {
         Ok(())
     }
 
-    /// Rasterize into a G-buffer of `view`'s size (which [`GpuRaster::check_size`] accepts).
-    pub fn rasterize(&self, view: &View, near: f32) -> (GBuffer, RasterStats) {
-        let g = self.gpu;
+    /// Draw `view` into the render targets and copy targets `keep` into buffers of `usage`
+    /// (rows padded to 256 bytes: the row length in bytes is returned), submitted; the GPU
+    /// time is set from timestamps when the adapter has them.
+    fn draw(
+        &self,
+        view: &View,
+        near: f32,
+        keep: &[usize],
+        usage: wgpu::BufferUsages,
+    ) -> (Vec<wgpu::Buffer>, u64) {
+        let g = &self.gpu;
         let (w, h) = (view.width, view.height);
         let size = wgpu::Extent3d {
             width: w,
@@ -206,7 +233,6 @@ impl<'g> GpuRaster<'g> {
             ],
         });
         let wall = g.timer == crate::device::PhaseTimer::WallClock;
-        let t0 = std::time::Instant::now();
         let qs = (!wall).then(|| {
             g.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("raster timestamps"),
@@ -253,19 +279,19 @@ impl<'g> GpuRaster<'g> {
             pass.set_bind_group(0, &bg, &[]);
             pass.draw(0..3 * self.ntri, 0..1);
         }
-        // Read back: rows padded to 256 bytes.
+        // Rows padded to 256 bytes, as texture copies require.
         let row = (w as u64 * 16).next_multiple_of(256);
-        let bufs: Vec<wgpu::Buffer> = targets
+        let bufs: Vec<wgpu::Buffer> = keep
             .iter()
-            .map(|t| {
+            .map(|&k| {
                 let b = g.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("g-buffer read-back"),
+                    label: Some("g-buffer copy"),
                     size: row * h as u64,
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    usage: usage | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
                 enc.copy_texture_to_buffer(
-                    t.as_image_copy(),
+                    targets[k].as_image_copy(),
                     wgpu::TexelCopyBufferInfo {
                         buffer: &b,
                         layout: wgpu::TexelCopyBufferLayout {
@@ -296,6 +322,40 @@ impl<'g> GpuRaster<'g> {
                 t[1].saturating_sub(t[0]) as f64 * g.queue.get_timestamp_period() as f64 * 1e-9;
             self.last_gpu_seconds.set(Some(secs));
         }
+        (bufs, row)
+    }
+
+    /// Rasterize into a G-buffer that stays on the device (position | depth, shading
+    /// normal and triangle id | barycentrics targets, as storage buffers): the device-resident
+    /// frame's primary visibility ([`crate::frame`]). Nothing is read back.
+    pub fn rasterize_device(&self, view: &View, near: f32) -> DeviceGBuffer {
+        let t0 = std::time::Instant::now();
+        let (mut b, row) = self.draw(view, near, &[0, 1, 4], wgpu::BufferUsages::STORAGE);
+        if self.gpu.timer == crate::device::PhaseTimer::WallClock {
+            self.gpu
+                .device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .expect("GPU device lost");
+            self.last_gpu_seconds.set(Some(t0.elapsed().as_secs_f64()));
+        }
+        let id = b.pop().expect("three targets");
+        let normal = b.pop().expect("three targets");
+        let pos = b.pop().expect("three targets");
+        DeviceGBuffer {
+            pos,
+            normal,
+            id,
+            stride: (row / 16) as u32,
+        }
+    }
+
+    /// Rasterize into a G-buffer of `view`'s size (which [`GpuRaster::check_size`] accepts).
+    pub fn rasterize(&self, view: &View, near: f32) -> (GBuffer, RasterStats) {
+        let g = &self.gpu;
+        let (w, h) = (view.width, view.height);
+        let wall = g.timer == crate::device::PhaseTimer::WallClock;
+        let t0 = std::time::Instant::now();
+        let (bufs, row) = self.draw(view, near, &[0, 1, 2, 3, 4], wgpu::BufferUsages::MAP_READ);
         let data: Vec<Vec<[u32; 4]>> = bufs
             .iter()
             .map(|b| {

@@ -135,10 +135,18 @@ pub fn write_png(pixels: &[Vec3], width: u32, height: u32, path: &Path) -> Resul
     write_atomic(path, &bytes)
 }
 
-/// An animated GIF of `frames` (each `width × height` linear RGB), looping, `delay_ms` per
-/// frame, written atomically. Colours are quantised per frame (NeuQuant, speed 10).
+/// Write row-major sRGB bytes (`width × height × 3`) as a PNG, atomically; the error names
+/// the file.
+pub fn write_rgb8_png(rgb: &[u8], width: u32, height: u32, path: &Path) -> Result<(), String> {
+    let bytes = rgb8_png(rgb, width, height).map_err(|e| format!("{}: {e}", path.display()))?;
+    write_atomic(path, &bytes)
+}
+
+/// An animated GIF of `frames` (each `width × height` sRGB bytes, as [`to_rgb8`] makes
+/// them), looping, `delay_ms` per frame, written atomically. Colours are quantised per frame
+/// (NeuQuant, speed 10).
 pub fn write_gif(
-    frames: &[Vec<Vec3>],
+    frames: &[Vec<u8>],
     width: u32,
     height: u32,
     delay_ms: u32,
@@ -151,7 +159,13 @@ pub fn write_gif(
         let mut enc = GifEncoder::new_with_speed(&mut buf, 10);
         enc.set_repeat(Repeat::Infinite).map_err(err)?;
         for f in frames {
-            let rgba = image::DynamicImage::ImageRgb8(to_rgb8(f, width, height)).to_rgba8();
+            let rgb = image::RgbImage::from_raw(width, height, f.clone()).ok_or_else(|| {
+                format!(
+                    "{}: a frame is not {width} × {height} pixels",
+                    path.display()
+                )
+            })?;
+            let rgba = image::DynamicImage::ImageRgb8(rgb).to_rgba8();
             let frame = image::Frame::from_parts(
                 rgba,
                 0,

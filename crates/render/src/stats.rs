@@ -354,6 +354,10 @@ pub struct RenderStats {
     /// upload, launch parameter block and read-back; absent on the CPU).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub host_device_bytes: Option<u64>,
+    /// GPU backend: how the frame ran, `device-resident` (everything between the G-buffer
+    /// and the sRGB image stayed on the device) or `host-sequenced` with the reason.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu_frame: Option<String>,
 }
 
 impl RenderStats {
@@ -428,6 +432,9 @@ impl RenderStats {
         }
         for (k, v) in &self.trace.counters {
             s += &format!("| {k} | {v} |\n");
+        }
+        if let Some(f) = &self.gpu_frame {
+            s += &format!("| GPU frame | {f} |\n");
         }
         if let Some(b) = self.host_device_bytes {
             s += &format!("| host-device bytes (both ways) | {b} |\n");

@@ -72,16 +72,33 @@ impl Progress for () {
     fn stage(&self, _: &str) {}
 }
 
-/// The result of a render: linear RGB pixels, the G-buffer and the statistics.
+/// The result of a render: linear RGB pixels (or, from a device-resident GPU frame, only
+/// their sRGB bytes), the G-buffer and the statistics.
 pub struct Rendered {
-    /// Linear RGB, row-major.
+    /// Linear RGB, row-major; empty when the frame stayed on a device that sent back only
+    /// [`Rendered::srgb8`].
     pub pixels: Vec<Vec3>,
+    /// The image as sRGB bytes, when a device encoded it (then `pixels` and `gbuffer` are
+    /// empty: they never left the device).
+    pub srgb8: Option<Vec<u8>>,
     /// The rasterized primary visibility.
     pub gbuffer: GBuffer,
     /// The rasterizer's counters.
     pub raster: RasterStats,
     /// Counters and times of the whole render.
     pub stats: RenderStats,
+}
+
+impl Rendered {
+    /// The image as row-major sRGB bytes (r, g, b per pixel): what the PNG stores.
+    pub fn rgb8(&self) -> Vec<u8> {
+        match &self.srgb8 {
+            Some(b) => b.clone(),
+            None => {
+                crate::output::to_rgb8(&self.pixels, self.stats.width, self.stats.height).into_raw()
+            }
+        }
+    }
 }
 
 fn timed<T>(stats: &mut RenderStats, phase: &str, f: impl FnOnce() -> T) -> T {
@@ -296,6 +313,7 @@ pub fn render_with(
     stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
     Rendered {
         pixels,
+        srgb8: None,
         gbuffer: gb,
         raster,
         stats,

@@ -3,11 +3,12 @@
 //! (same slab entry, same voxel lookups, same watertight tests, same exits), so hits and
 //! per-ray counts are the CPU's bit for bit. Per trace call: upload the rays, one launch,
 //! read back the records and the per-ray counts (summed on the host in u64, so no count can
-//! wrap).
+//! wrap). The device-resident frame's calls ([`trace_device_part`]) keep rays and records on
+//! the device and read back only the counts' sums per chunk of rays (low and high words).
 
 use super::GpuGrid;
 use crate::kernels::{Exec, Kernel, Params};
-use crate::rsh::engine::{records_to_hits, sub_batch, upload_segments};
+use crate::rsh::engine::{records_to_hits, sub_batch, upload_segments, DeviceRays};
 use render::stats::counter;
 use render::{Hit, Phase, RayBatch, TraceMode, TraceStats};
 
@@ -36,19 +37,19 @@ pub fn trace(
     }
 }
 
-fn trace_part(
+/// The traversal of `n` rays (origin | t_min, direction | t_max) into hit records and
+/// per-ray (steps, tests) counts, both left on the device.
+fn records(
     grid: &GpuGrid,
-    rays: &RayBatch,
+    ex: &mut Exec,
+    org: &wgpu::Buffer,
+    dir: &wgpu::Buffer,
+    n: u64,
     mode: TraceMode,
-    hits: &mut [Hit],
-    stats: &mut TraceStats,
-) {
+) -> (wgpu::Buffer, wgpu::Buffer) {
     let g = &grid.gpu;
-    let n = rays.len();
-    let mut ex = Exec::new(g, &grid.kernels);
-    let (org, dir) = upload_segments(g, rays);
-    let rec = g.storage("grid records", n as u64 * 16);
-    let cnt = g.storage("grid counts", n as u64 * 8);
+    let rec = g.storage("grid records", n * 16);
+    let cnt = g.storage("grid counts", n * 8);
     ex.phase(Phase::Traversal);
     let mut p = Params::n(n as u32, (mode == TraceMode::Any) as u32, grid.shift, 0);
     p.u[1] = [grid.dims[0], grid.dims[1], grid.dims[2], 0];
@@ -62,14 +63,29 @@ fn trace_part(
             (3, &grid.cells),
             (4, &grid.refs),
             (5, &grid.tris),
-            (6, &org),
-            (7, &dir),
+            (6, org),
+            (7, dir),
             (8, &rec),
             (9, &cnt),
         ],
-        n as u64,
+        n,
         256,
     );
+    (rec, cnt)
+}
+
+fn trace_part(
+    grid: &GpuGrid,
+    rays: &RayBatch,
+    mode: TraceMode,
+    hits: &mut [Hit],
+    stats: &mut TraceStats,
+) {
+    let g = &grid.gpu;
+    let n = rays.len();
+    let mut ex = Exec::new(g, &grid.kernels);
+    let (org, dir) = upload_segments(g, rays);
+    let (rec, cnt) = records(grid, &mut ex, &org, &dir, n as u64, mode);
     ex.phase(Phase::ReadBack);
     records_to_hits(&ex.read(&rec, n), hits);
     let counts: Vec<[u32; 2]> = ex.read(&cnt, n);
@@ -80,4 +96,23 @@ fn trace_part(
     stats.ray_tri_tests += tests;
     stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
     stats.count(counter::TRAVERSAL_STEPS, steps);
+}
+
+/// [`crate::GpuEngine::trace_device`]: rays already on the device (at most `max_rays`);
+/// the records stay there, and the hits, steps and tests come back as per-chunk sums.
+pub(crate) fn trace_device_part(
+    grid: &GpuGrid,
+    dr: &DeviceRays,
+    mode: TraceMode,
+    stats: &mut TraceStats,
+) -> wgpu::Buffer {
+    let mut ex = Exec::new(&grid.gpu, &grid.kernels);
+    let (rec, cnt) = records(grid, &mut ex, &dr.org, &dr.dir, dr.len, mode);
+    ex.phase(Phase::ReadBack);
+    let t = crate::frame::totals(&mut ex, &rec, Some(&cnt), dr.len);
+    ex.report(stats, &grid.times);
+    stats.ray_tri_tests += t.tests;
+    stats.hits += t.hits;
+    stats.count(counter::TRAVERSAL_STEPS, t.steps);
+    rec
 }

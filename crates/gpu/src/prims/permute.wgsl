@@ -10,6 +10,15 @@ fn iota(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     }
 }
 
+// Every word of y set to u0.y (a buffer filled on the device instead of uploaded).
+@compute @workgroup_size(256)
+fn fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = lin(gid, nwg);
+    if i < P.u0.x {
+        y_a[i] = P.u0.y;
+    }
+}
+
 // Sizes of the chunks in sorted order: y[j] = size[order[j]] (order in binding 3, sizes in 4).
 @compute @workgroup_size(256)
 fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {

@@ -8,7 +8,7 @@
 //! (triangle batches, budget splits), so the pair streams, and therefore all counters, are
 //! the CPU's.
 
-use super::build::{build, Level};
+use super::build::build;
 use super::order::leaf_order;
 use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
@@ -235,17 +235,24 @@ impl GpuRsh {
         (order, rows)
     }
 
-    fn trace_part(&self, rays: &RayBatch, hits: &mut [Hit], stats: &mut TraceStats) {
-        let n = rays.len();
+    /// Order, build, traverse and make the hit records of rays `dr` on the device (thesis
+    /// §3.2.3–3.2.9); the records stay there. Returns them with the traversal's counters and
+    /// the number of top nodes.
+    fn records(
+        &self,
+        ex: &mut Exec,
+        dr: &DeviceRays,
+        stats: &mut TraceStats,
+    ) -> (wgpu::Buffer, Counters, u64) {
+        let n = dr.len;
         let g = &self.gpu;
-        let mut ex = Exec::new(g, &self.kernels);
-        let dr = DeviceRays::upload(g, rays);
-        let (leaves, m) = leaf_order(self, &mut ex, &dr, stats);
+        let (leaves, m) = leaf_order(self, ex, dr, stats);
         // Hierarchy (thesis §3.2.7).
         ex.phase(Phase::HierarchyCreation);
-        let levels = build(self, &mut ex, &dr, &leaves, m);
+        let levels = build(self, ex, dr, &leaves, m);
         // Traversal and final tests (thesis §3.2.8–3.2.9).
-        let best = g.upload("best", &vec![u64::MAX; n]);
+        // Every ray's best hit starts as none (u64::MAX), set on the device.
+        let best = ex.filled("best", 2 * n, u32::MAX);
         let mut c = Counters {
             tests: vec![[0; 4]; levels.len()],
             hits: vec![[0; 4]; levels.len()],
@@ -255,16 +262,15 @@ impl GpuRsh {
             let trav = GpuTraversal {
                 eng: self,
                 levels: &levels,
-                rays: &dr,
+                rays: dr,
                 leaves: &leaves,
                 best: &best,
             };
-            trav.run(&mut ex, &mut c);
+            trav.run(ex, &mut c);
         }
         // Records: the winner's hit recomputed with the shared kernel, as on the CPU.
         ex.phase(Phase::FinalTests);
-        let n64 = n as u64;
-        let rec = g.storage("records", n64 * 16);
+        let rec = g.storage("records", n * 16);
         ex.run(
             Kernel::Records,
             Params::n(0, 0, n as u32, 0),
@@ -276,19 +282,50 @@ impl GpuRsh {
                 (11, &best),
                 (13, &rec),
             ],
-            n64,
+            n,
             256,
         );
+        let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
+        (rec, c, top)
+    }
+
+    fn trace_part(&self, rays: &RayBatch, hits: &mut [Hit], stats: &mut TraceStats) {
+        let n = rays.len();
+        let g = &self.gpu;
+        let mut ex = Exec::new(g, &self.kernels);
+        let dr = DeviceRays::upload(g, rays);
+        let (rec, c, top) = self.records(&mut ex, &dr, stats);
         ex.phase(Phase::ReadBack);
         records_to_hits(&ex.read(&rec, n), hits);
         ex.report(stats, &self.times);
-        self.report(&c, &levels, hits, stats);
+        let nhits = hits.iter().filter(|h| h.is_hit()).count() as u64;
+        self.report(&c, top, nhits, stats);
+    }
+
+    /// [`crate::GpuEngine::trace_device`]: rays `dr` (at most the engine's part size) traced
+    /// on the device; the records stay there and only the hit count comes back.
+    pub(crate) fn trace_device_part(
+        &self,
+        dr: &DeviceRays,
+        stats: &mut TraceStats,
+    ) -> wgpu::Buffer {
+        let mut ex = Exec::new(&self.gpu, &self.kernels);
+        let (rec, c, top) = self.records(&mut ex, dr, stats);
+        ex.phase(Phase::ReadBack);
+        let t = crate::frame::totals(&mut ex, &rec, None, dr.len);
+        ex.report(stats, &self.times);
+        self.report(&c, top, t.hits, stats);
+        rec
+    }
+
+    /// Most rays one hierarchy takes (a larger batch is traced in parts).
+    pub(crate) fn max_rays(&self) -> usize {
+        self.max_rays
     }
 
     /// Counters into `stats`, as the CPU engine reports them.
-    fn report(&self, c: &Counters, levels: &[Level], hits: &[Hit], stats: &mut TraceStats) {
-        stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
-        let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
+    fn report(&self, c: &Counters, top: u64, hits: u64, stats: &mut TraceStats) {
+        stats.hits += hits;
         ::rsh::engine::report_counters(c, self.cfg.mesh_culling, top, stats);
     }
 }

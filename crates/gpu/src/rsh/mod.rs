@@ -9,4 +9,4 @@ pub mod hash;
 pub mod order;
 pub mod traverse;
 
-pub use engine::GpuRsh;
+pub use engine::{DeviceRays, GpuRsh};

@@ -57,42 +57,40 @@ impl GpuTraversal<'_> {
         let top = self.levels.last().unwrap();
         let nt = top.len() as usize;
         let nm = eng.mesh_first.len() - 1;
-        // The node × mesh pass table: tested in node ranges whose flags fit one binding,
-        // kept as a bit set (the ray-count limit of `GpuRsh::new` keeps it within one
-        // binding).
-        let pass: Vec<u8> = if eng.cfg.mesh_culling {
-            c.mesh_tests += (nt * nm) as u64;
-            let per = ((g.max_binding() / 4) as usize / nm.max(1)).max(1);
-            let mut pass = Vec::with_capacity(nt * nm);
-            for first in (0..nt).step_by(per) {
-                let k = per.min(nt - first);
-                let out = g.storage("mesh pass", (k * nm) as u64 * 4);
-                ex.run(
-                    Kernel::MeshTest,
-                    Params::n((k * nm) as u32, nm as u32, first as u32, self.exact()),
-                    &[
-                        (1, &top.sphere),
-                        (2, &top.cone),
-                        (3, &top.sc),
-                        (6, &eng.mesh_sphere),
-                        (10, &out),
-                    ],
-                    (k * nm) as u64,
-                    256,
-                );
-                let flags: Vec<u32> = ex.read(&out, k * nm);
-                pass.extend(flags.iter().map(|&f| f as u8));
-            }
-            pass
+        // The node × mesh pass table, as a bit set made on the device (the ray-count limit
+        // of `GpuRsh::new` keeps it within one binding); the host reads the bits back to cut
+        // the batches as the CPU does.
+        let entries = nt * nm;
+        let words = entries.div_ceil(32);
+        let (pass, pass_buf) = if eng.cfg.mesh_culling {
+            c.mesh_tests += entries as u64;
+            let out = g.storage("mesh pass bits", words as u64 * 4);
+            ex.run(
+                Kernel::MeshTest,
+                Params::n(entries as u32, nm as u32, 0, self.exact()),
+                &[
+                    (1, &top.sphere),
+                    (2, &top.cone),
+                    (3, &top.sc),
+                    (6, &eng.mesh_sphere),
+                    (10, &out),
+                ],
+                words as u64,
+                256,
+            );
+            let bits: Vec<u32> = ex.read(&out, words);
+            let pass: Vec<u8> = (0..entries)
+                .map(|i| ((bits[i >> 5] >> (i & 31)) & 1) as u8)
+                .collect();
+            (pass, out)
         } else {
-            vec![1; nt * nm]
+            let mut bits = vec![u32::MAX; words];
+            if !entries.is_multiple_of(32) {
+                bits[words - 1] = (1u32 << (entries % 32)) - 1;
+            }
+            (vec![1; entries], g.upload("mesh pass bits", &bits))
         };
         c.mesh_passes += pass.iter().map(|&p| p as u64).sum::<u64>();
-        let mut bits = vec![0u32; (nt * nm).div_ceil(32)];
-        for (i, &p) in pass.iter().enumerate() {
-            bits[i >> 5] |= (p as u32) << (i & 31);
-        }
-        let pass_buf = g.upload("mesh pass bits", &bits);
         let budget = eng.cfg.pair_budget;
         for (nodes, tris) in ::rsh::traverse::batches(&pass, nm, &eng.mesh_first, budget) {
             self.top_batch(ex, &pass_buf, nodes, tris, c);

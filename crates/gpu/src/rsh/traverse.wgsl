@@ -50,19 +50,30 @@ fn wcnt_flush(li: u32) {
     }
 }
 
-// Mesh culling (§3.2.1–3.2.2) for a range of top nodes: out[(node − first) · meshes + mesh].
-// Params u0 = (nodes in range · meshes, meshes, first node, exact test). Binding 6 holds the
-// mesh spheres here.
+// Mesh culling (§3.2.1–3.2.2): bit (node · meshes + mesh) of o_a says whether the node's
+// rays may reach the mesh; one thread per word of 32 bits, so the table is made as the bit
+// set the top level reads (m_pass) and read back in that size.
+// Params u0 = (nodes · meshes, meshes, -, exact test). Binding 6 holds the mesh spheres here.
 @compute @workgroup_size(256)
 fn mesh_test(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = gid.x + gid.y * nwg.x * 256u;
-    if i >= P.u0.x {
+    let w = gid.x + gid.y * nwg.x * 256u;
+    if w >= (P.u0.x + 31u) / 32u {
         return;
     }
-    let n = P.u0.z + i / P.u0.y;
-    let m = i % P.u0.y;
-    let s = vec4<f32>(bitcast<f32>(t_mesh[4u * m]), bitcast<f32>(t_mesh[4u * m + 1u]), bitcast<f32>(t_mesh[4u * m + 2u]), bitcast<f32>(t_mesh[4u * m + 3u]));
-    o_a[i] = select(0u, 1u, test_node(n, s));
+    var word = 0u;
+    for (var b = 0u; b < 32u; b++) {
+        let i = 32u * w + b;
+        if i >= P.u0.x {
+            break;
+        }
+        let n = i / P.u0.y;
+        let m = i % P.u0.y;
+        let s = vec4<f32>(bitcast<f32>(t_mesh[4u * m]), bitcast<f32>(t_mesh[4u * m + 1u]), bitcast<f32>(t_mesh[4u * m + 2u]), bitcast<f32>(t_mesh[4u * m + 3u]));
+        if test_node(n, s) {
+            word = word | (1u << b);
+        }
+    }
+    o_a[w] = word;
 }
 
 // Top level, per (node, triangle tile): candidates are the triangles of meshes whose sphere

@@ -1,0 +1,580 @@
+//! A whole Whitted frame resident on the device: the twin of
+//! [`render::whitted::render_with`] (thesis chapter 3, Figure 3.1) with every step a kernel
+//! and nothing but the image and a few totals crossing to the host.
+//!
+//! Rasterize into a G-buffer that stays on the device ([`GpuRaster::rasterize_device`]) →
+//! surfaces of the covered pixels (`frame.wgsl`, compacted by the backend's scan) → per
+//! generation: shadow rays (`stages.wgsl`) traced by the engine on the device
+//! ([`GpuEngine::trace_device_part`]) → occlusion flags → Blinn-Phong shading → colours added
+//! to their pixels; reflection/refraction rays (`stages.wgsl`, compacted) → traced → the
+//! background behind the misses → the next generation's surfaces from the hits. Finally the
+//! image is encoded to sRGB bytes on the device and read back.
+//!
+//! What the host reads back per frame: the sRGB image (3 bytes per pixel), the sizes that
+//! allocate the next buffers (4 bytes each), the engines' totals (hits, and the grid's step
+//! and test sums: 20 bytes per 1024 rays) and the launches' parameter blocks going the other
+//! way; [`crate::Gpu::bytes_moved`] counts every one of them.
+//!
+//! The pixel accumulation is order-independent of scheduling: one thread per run of equal
+//! pixels adds that pixel's colours in surface order, which is the CPU loop's order, so a
+//! frame's image bytes depend only on its inputs.
+
+use crate::device::{Gpu, GpuError};
+use crate::kernels::{Exec, Kernel, Params};
+use crate::raster::GpuRaster;
+use crate::rsh::DeviceRays;
+use crate::GpuEngine;
+use geom::Vec3;
+use render::raster::default_near;
+use render::stats::RenderStats;
+use render::whitted::{Progress, RenderOptions};
+use render::{TraceMode, TraceStats, View};
+use scene::{Geometry, Scene};
+use std::time::Instant;
+
+/// Rays per chunk of [`totals`] (`fr_totals` in `frame.wgsl`).
+const TOTALS_CHUNK: u64 = 1024;
+
+/// A trace's totals as read back by [`totals`].
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Totals {
+    pub hits: u64,
+    pub steps: u64,
+    pub tests: u64,
+}
+
+/// Hits among the `n` records `rec`, and with per-ray (steps, tests) counters `cnt` their
+/// sums: per-chunk sums (64-bit, as two words) read back and added on the host.
+pub(crate) fn totals(
+    ex: &mut Exec,
+    rec: &wgpu::Buffer,
+    cnt: Option<&wgpu::Buffer>,
+    n: u64,
+) -> Totals {
+    if n == 0 {
+        return Totals::default();
+    }
+    let chunks = n.div_ceil(TOTALS_CHUNK);
+    let out = ex.g.storage("trace totals", chunks * 20);
+    let dummy;
+    let cb = match cnt {
+        Some(c) => c,
+        None => {
+            dummy = ex.g.storage("no counters", 8);
+            &dummy
+        }
+    };
+    ex.run(
+        Kernel::FrTotals,
+        Params::n(n as u32, cnt.is_some() as u32, 0, 0),
+        &[(16, rec), (26, &out), (27, cb)],
+        chunks,
+        256,
+    );
+    let v: Vec<[u32; 5]> = ex.read(&out, chunks as usize);
+    let w = |lo: u32, hi: u32| lo as u64 | (hi as u64) << 32;
+    v.iter().fold(Totals::default(), |t, c| Totals {
+        hits: t.hits + c[0] as u64,
+        steps: t.steps + w(c[1], c[2]),
+        tests: t.tests + w(c[3], c[4]),
+    })
+}
+
+/// Trace rays `rays` on the device with `engine`, in parts of at most its
+/// [`GpuEngine::max_rays`] (each part's rays copied out on the device, its records copied
+/// back), counting into `stats` as [`render::Tracer::trace`] does; the records (triangle, t,
+/// u, v bits) stay on the device.
+pub fn trace_device(
+    engine: &dyn GpuEngine,
+    rays: &DeviceRays,
+    mode: TraceMode,
+    stats: &mut TraceStats,
+) -> wgpu::Buffer {
+    let g = engine.gpu();
+    let n = rays.len;
+    stats.rays += n;
+    let max = engine.max_rays().max(1) as u64;
+    if n <= max {
+        return engine.trace_device_part(rays, mode, stats);
+    }
+    let rec = g.storage("records", n * 16);
+    let mut lo = 0;
+    while lo < n {
+        let m = max.min(n - lo);
+        let part = {
+            let mut ex = Exec::new(g, engine.kernels());
+            let cut = |ex: &mut Exec, b: &wgpu::Buffer, size: u64, label| {
+                let p = g.storage(label, m * size);
+                ex.copy(b, lo * size, &p, m * size);
+                p
+            };
+            let p = DeviceRays {
+                org: cut(&mut ex, &rays.org, 16, "part org"),
+                dir: cut(&mut ex, &rays.dir, 16, "part dir"),
+                kl: cut(&mut ex, &rays.kl, 4, "part kind"),
+                pix: cut(&mut ex, &rays.pix, 4, "part pixel"),
+                pre: g.storage("part ray constants", m * 16),
+                len: m,
+                width: rays.width,
+            };
+            ex.finish();
+            p
+        };
+        let r = engine.trace_device_part(&part, mode, stats);
+        let mut ex = Exec::new(g, engine.kernels());
+        ex.copy_at(&r, 0, &rec, lo * 16, m * 16);
+        ex.finish();
+        lo += m;
+    }
+    rec
+}
+
+/// One generation's surfaces on the device (bindings 1–7 of `frame.wgsl`; 1–6 are
+/// `stages.wgsl`'s).
+struct DeviceSurfaces {
+    pos: wgpu::Buffer,
+    ng: wgpu::Buffer,
+    ns: wgpu::Buffer,
+    inc: wgpu::Buffer,
+    tw: wgpu::Buffer,
+    mat: wgpu::Buffer,
+    pix: wgpu::Buffer,
+    len: u64,
+}
+
+impl DeviceSurfaces {
+    fn new(g: &Gpu, n: u64) -> DeviceSurfaces {
+        DeviceSurfaces {
+            pos: g.storage("surface pos", n * 16),
+            ng: g.storage("surface ng", n * 16),
+            ns: g.storage("surface ns", n * 16),
+            inc: g.storage("surface incident", n * 16),
+            tw: g.storage("surface throughput", n * 16),
+            mat: g.storage("surface material", n * 4),
+            pix: g.storage("surface pixel", n * 4),
+            len: n,
+        }
+    }
+
+    /// Bindings 1–7 (as outputs of `frame.wgsl`).
+    fn outputs(&self) -> [(u32, &wgpu::Buffer); 7] {
+        [
+            (1, &self.pos),
+            (2, &self.ng),
+            (3, &self.ns),
+            (4, &self.inc),
+            (5, &self.tw),
+            (6, &self.mat),
+            (7, &self.pix),
+        ]
+    }
+
+    /// Bindings 1–6 (as `stages.wgsl` reads them).
+    fn stage_inputs(&self) -> [(u32, &wgpu::Buffer); 6] {
+        [
+            (1, &self.pos),
+            (2, &self.ng),
+            (3, &self.ns),
+            (4, &self.inc),
+            (5, &self.tw),
+            (6, &self.mat),
+        ]
+    }
+}
+
+/// The result of a device frame.
+pub struct FrameOut {
+    /// The image as sRGB bytes (r, g, b per pixel, row-major): what the PNG stores, encoded
+    /// on the device by `render::output::srgb_encode`'s formula (the device's `pow`, so a
+    /// byte may differ from the CPU encoding of the same linear value by one).
+    pub srgb8: Vec<u8>,
+    /// The render's counters and phase times (wall clock, waiting at each phase's end),
+    /// as [`render::whitted::render_with`] reports them.
+    pub stats: RenderStats,
+}
+
+/// Why a frame cannot stay on the device, or `None` when it can: every buffer a generation's
+/// kernels bind (its surfaces, shadow rays and bounce slots) must fit one binding and index in
+/// u32. A generation has at most `pixels · bᵍ` surfaces, b being the most bounce rays one
+/// material spawns (reflection and refraction: 2).
+pub fn too_big(gpu: &Gpu, scene: &Scene, opts: &RenderOptions) -> Option<String> {
+    let b = scene
+        .materials
+        .iter()
+        .map(|m| (m.reflectivity > 0.0) as u64 + (m.transparency > 0.0) as u64)
+        .max()
+        .unwrap_or(0);
+    let nl = scene.lights.len().max(2) as u64;
+    let cap = gpu.max_binding().min(gpu.limits.max_buffer_size);
+    let mut s = opts.width as u64 * opts.height as u64;
+    for g in 0..=opts.bounces {
+        // Shadow rays (vec4 origins) or bounce slots, whichever is larger.
+        let bytes = s.saturating_mul(nl).saturating_mul(16);
+        if bytes > cap || s.saturating_mul(nl) > u32::MAX as u64 {
+            return Some(format!(
+                "generation {g} may have {s} surfaces, whose rays need {} MiB in one binding (the device allows {} MiB)",
+                bytes >> 20,
+                cap >> 20
+            ));
+        }
+        s = s.saturating_mul(b);
+        if s == 0 {
+            break;
+        }
+    }
+    None
+}
+
+/// The scene's lights as `stages.wgsl` reads them (position + intensity, colour,
+/// attenuation).
+fn lights_rows(scene: &Scene) -> Vec<[f32; 4]> {
+    let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+    scene
+        .lights
+        .iter()
+        .flat_map(|l| {
+            let [c, li, q] = l.attenuation;
+            [
+                v4(l.position, l.intensity),
+                v4(l.color, 0.0),
+                [c, li, q, 0.0],
+            ]
+        })
+        .collect()
+}
+
+/// The materials as `stages.wgsl` reads them, the ambient term k_a ⊙ L_a multiplied with
+/// the same f32 product as `render::shade::local`.
+fn material_rows(scene: &Scene) -> Vec<[f32; 4]> {
+    let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+    scene
+        .materials
+        .iter()
+        .flat_map(|m| {
+            let a = m.ambient * scene.ambient;
+            [
+                v4(m.diffuse, m.shininess),
+                v4(m.specular, m.reflectivity),
+                v4(m.emission, m.transparency),
+                [m.ior, a.x, a.y, a.z],
+            ]
+        })
+        .collect()
+}
+
+/// Wall-clock phases of a frame: each ends by waiting for the device.
+struct Clock {
+    t0: Instant,
+}
+
+impl Clock {
+    fn start() -> Clock {
+        Clock { t0: Instant::now() }
+    }
+
+    /// Finish `ex`'s work, add the time since the last lap to `phase`.
+    fn lap(&mut self, ex: &mut Exec, stats: &mut RenderStats, phase: &str) {
+        ex.finish();
+        ex.g.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("GPU device lost");
+        let now = Instant::now();
+        stats.add_phase(phase, (now - self.t0).as_secs_f64());
+        self.t0 = now;
+    }
+}
+
+/// Render one frame of `scene` with `engine` on its device, everything between the G-buffer
+/// and the image staying there. `raster` holds `geo` (made on the engine's device);
+/// [`too_big`] must have accepted the frame's size.
+pub fn render(
+    engine: &dyn GpuEngine,
+    raster: &GpuRaster,
+    scene: &Scene,
+    geo: &Geometry,
+    opts: &RenderOptions,
+    progress: &dyn Progress,
+) -> Result<FrameOut, GpuError> {
+    let g = engine.gpu();
+    raster.check_size(opts.width, opts.height)?;
+    if let Some(why) = too_big(g, scene, opts) {
+        return Err(GpuError::Limits(why));
+    }
+    let (w, h) = (opts.width, opts.height);
+    let npix = w as u64 * h as u64;
+    let nl = scene.lights.len() as u64;
+    let view = View::new(&scene.camera, w, h);
+    let mut stats = RenderStats {
+        scene: scene.name.clone(),
+        engine: engine.name().to_string(),
+        width: w,
+        height: h,
+        triangles: geo.len() as u64,
+        meshes: geo.mesh_count() as u64,
+        lights: nl,
+        bounces: opts.bounces,
+        ..Default::default()
+    };
+    let mut clock = Clock::start();
+    let mut ex = Exec::new(g, engine.kernels());
+    progress.stage("rasterize");
+    let gb = raster.rasterize_device(&view, default_near(geo));
+    clock.lap(&mut ex, &mut stats, "rasterize");
+
+    let bg = scene.background;
+    let lights = g.upload("lights", &lights_rows(scene));
+    let mats = g.upload("materials", &material_rows(scene));
+    let (tris, normals, material) = raster.scene_buffers();
+    let img = g.storage("image", npix * 16);
+    // Surfaces of the covered pixels, in pixel order.
+    let mut surf = {
+        let flags = g.storage("covered", npix * 4);
+        let offs = g.storage("covered offsets", (npix + 1) * 4);
+        let mut p = Params::n(npix as u32, w, gb.stride, 0);
+        p.f[0] = [bg.x, bg.y, bg.z, 0.0];
+        ex.run(
+            Kernel::FrGbFlags,
+            p,
+            &[(23, &gb.id), (17, &flags), (19, &img)],
+            npix,
+            256,
+        );
+        ex.scan(&flags, &offs, npix);
+        let n = ex.read_at(&offs, npix as usize) as u64;
+        let s = DeviceSurfaces::new(g, n);
+        let mut p = Params::n(npix as u32, w, gb.stride, 0);
+        p.f[0] = [view.eye.x, view.eye.y, view.eye.z, 0.0];
+        let mut binds = vec![
+            (17, &flags),
+            (18, &offs),
+            (13, tris),
+            (15, material),
+            (21, &gb.pos),
+            (22, &gb.normal),
+            (23, &gb.id),
+        ];
+        binds.extend(s.outputs());
+        ex.run(Kernel::FrGbSurfaces, p, &binds, npix, 256);
+        s
+    };
+    stats.covered_pixels = surf.len;
+    clock.lap(&mut ex, &mut stats, "ray creation");
+
+    let mut generation = 0u32;
+    loop {
+        let n = surf.len;
+        // Shadows of this generation's surfaces, then local shading.
+        progress.stage(&format!("shadow rays, generation {generation}"));
+        let m = n * nl;
+        let occ = g.storage("occluded", m * 4);
+        if m > 0 {
+            let rays = DeviceRays {
+                org: g.storage("shadow org", m * 16),
+                dir: g.storage("shadow dir", m * 16),
+                kl: g.storage("shadow kind", m * 4),
+                pix: g.storage("shadow pixel", m * 4),
+                pre: g.storage("shadow ray constants", m * 16),
+                len: m,
+                width: 0,
+            };
+            ex.run(
+                Kernel::ShadowRays,
+                Params::n(n as u32, nl as u32, 0, 0),
+                &[
+                    (1, &surf.pos),
+                    (2, &surf.ng),
+                    (5, &surf.tw),
+                    (7, &lights),
+                    (9, &rays.org),
+                    (10, &rays.dir),
+                ],
+                m,
+                256,
+            );
+            ex.run(
+                Kernel::FrShadowMeta,
+                Params::n(m as u32, nl as u32, 0, 0),
+                &[(7, &surf.pix), (10, &rays.kl), (11, &rays.pix)],
+                m,
+                256,
+            );
+            clock.lap(&mut ex, &mut stats, "ray creation");
+            let rec = trace_device(engine, &rays, TraceMode::Any, &mut stats.trace);
+            stats.rays_shadow += m;
+            clock.lap(&mut ex, &mut stats, "trace");
+            ex.run(
+                Kernel::FrOccluded,
+                Params::n(m as u32, 0, 0, 0),
+                &[(16, &rec), (26, &occ)],
+                m,
+                256,
+            );
+        }
+        progress.stage(&format!("shading, generation {generation}"));
+        if n > 0 {
+            let colour = g.storage("colour", n * 16);
+            let mut binds = surf.stage_inputs().to_vec();
+            binds.extend([(7, &lights), (8, &mats), (11, &colour), (12, &occ)]);
+            ex.run(
+                Kernel::ShadeLocal,
+                Params::n(n as u32, nl as u32, 0, 0),
+                &binds,
+                n,
+                256,
+            );
+            ex.run(
+                Kernel::FrAccumulate,
+                Params::n(n as u32, 0, 0, 0),
+                &[(7, &surf.pix), (19, &img), (20, &colour)],
+                n,
+                256,
+            );
+        }
+        clock.lap(&mut ex, &mut stats, "shading");
+        if generation >= opts.bounces || n == 0 {
+            break;
+        }
+        progress.stage(&format!("secondary rays, generation {}", generation + 1));
+        let slots = 2 * n;
+        let (b_org, b_dir, b_w) = (
+            g.storage("slot org", slots * 16),
+            g.storage("slot dir", slots * 16),
+            g.storage("slot weight", slots * 16),
+        );
+        let mut binds = surf.stage_inputs().to_vec();
+        binds.extend([(8, &mats), (9, &b_org), (10, &b_dir), (11, &b_w)]);
+        ex.run(
+            Kernel::BounceRays,
+            Params::n(n as u32, 0, 0, 0),
+            &binds,
+            n,
+            256,
+        );
+        let flags = g.storage("slot flags", slots * 4);
+        let offs = g.storage("slot offsets", (slots + 1) * 4);
+        ex.run(
+            Kernel::FrSlotFlags,
+            Params::n(slots as u32, 0, 0, 0),
+            &[(20, &b_w), (17, &flags)],
+            slots,
+            256,
+        );
+        ex.scan(&flags, &offs, slots);
+        let r = ex.read_at(&offs, slots as usize) as u64;
+        if r == 0 {
+            clock.lap(&mut ex, &mut stats, "ray creation");
+            break;
+        }
+        let rays = DeviceRays {
+            org: g.storage("bounce org", r * 16),
+            dir: g.storage("bounce dir", r * 16),
+            kl: g.storage("bounce kind", r * 4),
+            pix: g.storage("bounce pixel", r * 4),
+            pre: g.storage("bounce ray constants", r * 16),
+            len: r,
+            width: 0,
+        };
+        let weight = g.storage("bounce weight", r * 16);
+        ex.run(
+            Kernel::FrBounceEmit,
+            Params::n(slots as u32, 0, 0, 0),
+            &[
+                (17, &flags),
+                (18, &offs),
+                (24, &b_org),
+                (25, &b_dir),
+                (20, &b_w),
+                (7, &surf.pix),
+                (8, &rays.org),
+                (9, &rays.dir),
+                (10, &rays.kl),
+                (11, &rays.pix),
+                (12, &weight),
+            ],
+            slots,
+            256,
+        );
+        let refractions = kind_count(&mut ex, &rays.kl, r);
+        stats.rays_refraction += refractions;
+        stats.rays_reflection += r - refractions;
+        clock.lap(&mut ex, &mut stats, "ray creation");
+        let rec = trace_device(engine, &rays, TraceMode::Closest, &mut stats.trace);
+        clock.lap(&mut ex, &mut stats, "trace");
+        // The background behind the misses, then the next generation's surfaces.
+        let mut p = Params::n(r as u32, 0, 0, 0);
+        p.f[0] = [bg.x, bg.y, bg.z, 0.0];
+        ex.run(
+            Kernel::FrMisses,
+            p,
+            &[(11, &rays.pix), (12, &weight), (16, &rec), (19, &img)],
+            r,
+            256,
+        );
+        let hflags = g.storage("hit flags", r * 4);
+        let hoffs = g.storage("hit offsets", (r + 1) * 4);
+        ex.run(
+            Kernel::FrHitFlags,
+            Params::n(r as u32, 0, 0, 0),
+            &[(16, &rec), (17, &hflags)],
+            r,
+            256,
+        );
+        ex.scan(&hflags, &hoffs, r);
+        let nh = ex.read_at(&hoffs, r as usize) as u64;
+        let next = DeviceSurfaces::new(g, nh);
+        let mut binds = vec![
+            (17, &hflags),
+            (18, &hoffs),
+            (16, &rec),
+            (9, &rays.dir),
+            (11, &rays.pix),
+            (12, &weight),
+            (13, tris),
+            (14, normals),
+            (15, material),
+        ];
+        binds.extend(next.outputs());
+        ex.run(
+            Kernel::FrHitSurfaces,
+            Params::n(r as u32, 0, 0, 0),
+            &binds,
+            r,
+            256,
+        );
+        surf = next;
+        clock.lap(&mut ex, &mut stats, "shading");
+        generation += 1;
+    }
+    // The image out, as sRGB bytes.
+    let words = (3 * npix).div_ceil(4);
+    let enc = g.storage("srgb", words * 4);
+    ex.run(
+        Kernel::FrEncode,
+        Params::n(words as u32, npix as u32, 0, 0),
+        &[(19, &img), (26, &enc)],
+        words,
+        256,
+    );
+    let raw: Vec<u32> = ex.read(&enc, words as usize);
+    let mut srgb8: Vec<u8> = raw.iter().flat_map(|w| w.to_le_bytes()).collect();
+    srgb8.truncate(3 * npix as usize);
+    clock.lap(&mut ex, &mut stats, "shading");
+    stats.total_tests = stats.trace.total_tests();
+    stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
+    Ok(FrameOut { srgb8, stats })
+}
+
+/// Refraction rays (kind 3) among the `n` rays of `kl`, counted per chunk on the device.
+fn kind_count(ex: &mut Exec, kl: &wgpu::Buffer, n: u64) -> u64 {
+    let chunks = n.div_ceil(TOTALS_CHUNK);
+    let out = ex.g.storage("kind counts", chunks * 4);
+    ex.run(
+        Kernel::FrKindCount,
+        Params::n(n as u32, 3, 0, 0),
+        &[(10, kl), (26, &out)],
+        chunks,
+        256,
+    );
+    let v: Vec<u32> = ex.read(&out, chunks as usize);
+    v.iter().map(|&c| c as u64).sum()
+}
