@@ -15,6 +15,22 @@ use anyhow::{anyhow, Result};
 use render::whitted::{Progress, RenderOptions, Rendered};
 use scene::{Geometry, Scene};
 
+/// The rasterizer over `geo`, drawing from the engine's triangles on the device (so a
+/// frame's triangles are uploaded once, by the engine).
+fn raster_over(
+    engine: &dyn gpu::GpuEngine,
+    scene: &Scene,
+    geo: &Geometry,
+) -> Result<gpu::GpuRaster> {
+    gpu::GpuRaster::with_triangles(
+        engine.gpu(),
+        engine.triangles().clone(),
+        geo,
+        &scene.materials,
+    )
+    .map_err(|e| anyhow!("--backend gpu: {e}"))
+}
+
 /// A GPU engine built over one geometry (the rasterizer, which borrows its device, is
 /// made per frame).
 pub struct GpuFrame {
@@ -71,8 +87,7 @@ impl GpuFrame {
             }
         };
         // The rasterizer's inputs are checked now, so that a scene it cannot take fails here.
-        let raster = gpu::GpuRaster::new(engine.gpu(), geo, &scene.materials)
-            .map_err(|e| anyhow!("--backend gpu: {e}"))?;
+        let raster = raster_over(engine.as_ref(), scene, geo)?;
         Ok(GpuFrame {
             engine,
             raster,
@@ -89,8 +104,7 @@ impl GpuFrame {
         self.engine
             .rebuild(geo)
             .map_err(|e| anyhow!("--backend gpu: {e}"))?;
-        self.raster = gpu::GpuRaster::new(self.engine.gpu(), geo, &scene.materials)
-            .map_err(|e| anyhow!("--backend gpu: {e}"))?;
+        self.raster = raster_over(self.engine.as_ref(), scene, geo)?;
         Ok(t0.elapsed().as_secs_f64())
     }
 

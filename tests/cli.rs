@@ -695,14 +695,16 @@ fn gpu_backend_renders_or_says_why() {
         3,
         "the grid's three ray kinds agree: {md}"
     );
-    // Whole frames: a row per engine, with the GPU frame's traffic and the image agreement
-    // within the GPU renders' 2 % tolerance.
-    assert!(md.contains("### Whole frames (3 bounces)"), "{md}");
-    for engine in ["crsh", "grid"] {
+    // Whole frames: a row per bounce count and engine, device-resident, within the traffic
+    // target, and the image agreement within the GPU renders' 2 % tolerance.
+    assert!(md.contains("### Whole frames"), "{md}");
+    for (bounces, engine) in [(0, "crsh"), (0, "grid"), (3, "crsh"), (3, "grid")] {
         let row = md
             .lines()
-            .find(|l| l.starts_with(&format!("| {engine} |")))
+            .find(|l| l.starts_with(&format!("| {bounces} | {engine} |")))
             .unwrap_or_else(|| panic!("a whole-frame row for {engine}: {md}"));
+        assert!(row.contains("| device-resident |"), "{row}");
+        assert!(row.contains("| yes |"), "traffic within the target: {row}");
         let off: f64 = row
             .trim_end_matches(" |")
             .rsplit("| ")

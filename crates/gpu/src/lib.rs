@@ -54,6 +54,9 @@ pub trait GpuEngine: render::Tracer {
     fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError>;
     /// Most rays one [`GpuEngine::trace_device_part`] takes (one binding's worth).
     fn max_rays(&self) -> usize;
+    /// The scene's triangles on the device, 3 × vec4 (xyz, 0) per triangle (the rasterizer
+    /// draws from them: [`GpuRaster::with_triangles`]).
+    fn triangles(&self) -> &wgpu::Buffer;
     /// Trace rays already on the device (at most [`GpuEngine::max_rays`]) and leave their
     /// hit records there (triangle, t, u, v bits per ray; triangle `NO_HIT`: a miss), with
     /// the counters of [`render::Tracer::trace`] in `stats` (less `stats.rays`, which
@@ -82,6 +85,9 @@ impl GpuEngine for GpuRsh {
     fn max_rays(&self) -> usize {
         GpuRsh::max_rays(self)
     }
+    fn triangles(&self) -> &wgpu::Buffer {
+        GpuRsh::triangles(self)
+    }
     fn trace_device_part(
         &self,
         rays: &rsh::DeviceRays,
@@ -108,6 +114,9 @@ impl GpuEngine for GpuGrid {
     }
     fn max_rays(&self) -> usize {
         self.max_rays
+    }
+    fn triangles(&self) -> &wgpu::Buffer {
+        &self.tris
     }
     fn trace_device_part(
         &self,

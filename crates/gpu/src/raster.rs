@@ -65,6 +65,22 @@ pub struct GpuRaster {
 impl GpuRaster {
     /// Upload the scene's triangles and materials and build the render pipeline.
     pub fn new(gpu: &Gpu, geo: &Geometry, materials: &[Material]) -> Result<Self, GpuError> {
+        let tris: Vec<[f32; 4]> = geo
+            .tris
+            .iter()
+            .flat_map(|t| t.map(|v| [v.x, v.y, v.z, 1.0]))
+            .collect();
+        Self::with_triangles(gpu, gpu.upload("raster triangles", &tris), geo, materials)
+    }
+
+    /// [`GpuRaster::new`] over triangles already on the device (3 × vec4 per triangle, xyz
+    /// read): an engine's, so that a dynamic scene's frame uploads its triangles once.
+    pub fn with_triangles(
+        gpu: &Gpu,
+        tris: wgpu::Buffer,
+        geo: &Geometry,
+        materials: &[Material],
+    ) -> Result<Self, GpuError> {
         let bytes = 16 * FORMATS.len() as u32;
         if gpu.limits.max_color_attachment_bytes_per_sample < bytes {
             return Err(GpuError::Limits(format!(
@@ -73,11 +89,6 @@ impl GpuRaster {
             )));
         }
         let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
-        let tris: Vec<[f32; 4]> = geo
-            .tris
-            .iter()
-            .flat_map(|t| t.map(|v| v4(v, 1.0)))
-            .collect();
         let normals: Vec<[f32; 4]> = geo
             .normals
             .iter()
@@ -125,7 +136,7 @@ impl GpuRaster {
         Ok(GpuRaster {
             gpu: gpu.clone(),
             pipe,
-            tris: gpu.upload("raster triangles", &tris),
+            tris,
             normals: gpu.upload("raster normals", &normals),
             material: gpu.upload("raster material ids", &geo.material),
             mats: gpu.upload("raster materials", &mats),

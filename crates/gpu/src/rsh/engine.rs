@@ -318,6 +318,11 @@ impl GpuRsh {
         rec
     }
 
+    /// The scene's triangles on the device (3 × vec4 per triangle).
+    pub(crate) fn triangles(&self) -> &wgpu::Buffer {
+        &self.tris
+    }
+
     /// Most rays one hierarchy takes (a larger batch is traced in parts).
     pub(crate) fn max_rays(&self) -> usize {
         self.max_rays
