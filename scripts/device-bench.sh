@@ -38,13 +38,15 @@ step 150 "bench gpu grid 512" "$R" bench gpu --scenes cornell,$S/sponza.toml,$S/
     --grid-only --width 512 --height 512 --md "$OUT/bench-gpu-grid-512.md"
 step 150 "bench gpu grid 1024" "$R" bench gpu --scenes $S/sponza.toml --grid-only \
     --width 1024 --height 1024 --md "$OUT/bench-gpu-grid-1024.md"
-# Issue 18: CRSH/RAH phases, whole 3-bounce frames and their host↔device bytes.
+# Issue 18: CRSH/RAH phases, whole device-resident frames (shadow frames and 3-bounce frames)
+# and their host↔device bytes against the image's + 1 MiB.
 step 200 "bench gpu 512 shadows" "$R" bench gpu --scenes cornell,office,$S/sponza.toml \
     --width 512 --height 512 --bounces 0 --rah --md "$OUT/bench-gpu-512-shadows.md"
 step 200 "bench gpu 1024 b3" "$R" bench gpu --scenes office,$S/sponza.toml \
     --width 1024 --height 1024 --bounces 3 --md "$OUT/bench-gpu-1024-b3.md"
-# The GPU tests (the minimal-ball fix eb34266 is checked by hierarchies_match_the_cpu_node_for_node).
-for t in "$BIN"/grid_build-* "$BIN"/grid-* "$BIN"/agreement-*; do
+# The GPU tests (the device-resident frame against the host-sequenced one; the minimal-ball
+# fix eb34266 is checked by hierarchies_match_the_cpu_node_for_node).
+for t in "$BIN"/frame-* "$BIN"/grid_build-* "$BIN"/grid-* "$BIN"/agreement-*; do
     [ -x "$t" ] && step 120 "test $(basename "$t")" "$t" --test-threads 4
 done
 echo "== done" >>"$LOG"

@@ -193,9 +193,9 @@ pub struct FrameOut {
     pub stats: RenderStats,
 }
 
-/// Why a frame cannot stay on the device, or `None` when it can: every buffer a generation's
-/// kernels bind (its surfaces, shadow rays and bounce slots) must fit one binding and index in
-/// u32. A generation has at most `pixels · bᵍ` surfaces, b being the most bounce rays one
+/// Why a frame cannot stay on the device, or `None` when it can: every buffer a kernel binds
+/// (the G-buffer, the image, a generation's surfaces, shadow rays and bounce slots) must fit
+/// one binding and index in u32. A generation has at most `pixels · bᵍ` surfaces, b being the most bounce rays one
 /// material spawns (reflection and refraction: 2).
 pub fn too_big(gpu: &Gpu, scene: &Scene, opts: &RenderOptions) -> Option<String> {
     let b = scene
@@ -206,6 +206,15 @@ pub fn too_big(gpu: &Gpu, scene: &Scene, opts: &RenderOptions) -> Option<String>
         .unwrap_or(0);
     let nl = scene.lights.len().max(2) as u64;
     let cap = gpu.max_binding().min(gpu.limits.max_buffer_size);
+    // The G-buffer's targets (rows padded to 256 bytes) and the image, 16 bytes per pixel.
+    let gbuffer = (opts.width as u64 * 16).next_multiple_of(256) * opts.height as u64;
+    if gbuffer > cap {
+        return Some(format!(
+            "the G-buffer needs {} MiB in one binding (the device allows {} MiB)",
+            gbuffer >> 20,
+            cap >> 20
+        ));
+    }
     let mut s = opts.width as u64 * opts.height as u64;
     for g in 0..=opts.bounces {
         // Shadow rays (vec4 origins) or bounce slots, whichever is larger.

@@ -169,3 +169,50 @@ fn device_traces_in_parts_equal_the_cpu() {
         assert_eq!(st.ray_tri_tests, cst.ray_tri_tests, "{mode:?}: tests");
     }
 }
+
+#[test]
+fn frames_that_might_not_fit_a_binding_are_refused_with_the_reason() {
+    // A device that binds just cornell's grid's largest array at once: a 16-pixel-wide frame
+    // whose G-buffer fills a binding exactly fits there, but its shadow rays (16 bytes × 2
+    // light slots per pixel) do not, so the frame is refused up front (the render command
+    // then sequences it on the host, in parts); a small frame runs under the same limits.
+    let Some(mut g) = gpu() else { return };
+    let s = builtin::by_name("cornell").unwrap();
+    let geo = Geometry::from_scene(&s);
+    let cpu = GridEngine::new(&geo, &GridConfig::default()).unwrap();
+    let gr = &cpu.grid;
+    let limit = [
+        gr.refs.len() * 4,
+        gr.cells() * 32,
+        gr.entries.len() * 4,
+        geo.len() * 48,
+    ]
+    .into_iter()
+    .max()
+    .unwrap()
+    .next_power_of_two() as u64;
+    g.limits.max_storage_buffer_binding_size = limit;
+    let e = GpuGrid::upload(g.clone(), gr, &geo.tris, "grid-gpu").unwrap();
+    let opts = RenderOptions {
+        width: 16,
+        height: (limit / 256) as u32,
+        bounces: 1,
+    };
+    let why = gpu::frame::too_big(&g, &s, &opts).expect("too big");
+    assert!(
+        why.contains("generation 0") && why.contains("binding"),
+        "{why}"
+    );
+    let small = RenderOptions {
+        width: 16,
+        height: 8,
+        bounces: 1,
+    };
+    assert_eq!(gpu::frame::too_big(&g, &s, &small), None);
+    let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
+    let err = gpu::frame::render(&e, &raster, &s, &geo, &opts, &())
+        .err()
+        .expect("refused");
+    assert!(err.to_string().contains("generation 0"), "{err}");
+    assert!(gpu::frame::render(&e, &raster, &s, &geo, &small, &()).is_ok());
+}
