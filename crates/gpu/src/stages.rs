@@ -8,6 +8,10 @@
 //! each pass costs a read-back; the ray generation reproduces the CPU's rays bit for bit (same
 //! operation order, unfused products), the shading uses the device's `pow` for the specular
 //! exponent and may differ from the CPU's in the last bits.
+//!
+//! This is the host-sequenced frame (and the per-pass test harness). The device-resident
+//! frame, [`crate::frame`], launches the same three kernels on buffers that never leave the
+//! device.
 
 use crate::device::Gpu;
 use crate::kernels::{Exec, Kernel, Kernels, Params};
