@@ -138,6 +138,7 @@ impl GpuFrame {
             .check_size(opts.width, opts.height)
             .map_err(|e| anyhow!("--width/--height with --backend gpu: {e}"))?;
         let moved = self.engine.gpu().bytes_moved();
+        let reads = self.engine.gpu().read_backs();
         let f = gpu::frame::render(
             self.engine.as_ref(),
             &self.raster,
@@ -151,6 +152,7 @@ impl GpuFrame {
         stats.put_build(build_seconds, self.engine.build_passes());
         stats.host_device_bytes = Some(self.engine.gpu().bytes_moved() - moved);
         stats.gpu_frame = Some("device-resident".into());
+        stats.host_read_backs = Some(self.engine.gpu().read_backs() - reads);
         let out = Rendered {
             pixels: Vec::new(),
             srgb8: Some(f.srgb8),
@@ -176,6 +178,7 @@ impl GpuFrame {
         build_seconds: f64,
     ) -> Result<(Rendered, Vec<(String, f64)>)> {
         let moved = self.engine.gpu().bytes_moved();
+        let reads = self.engine.gpu().read_backs();
         let raster = &self.raster;
         raster
             .check_size(opts.width, opts.height)
@@ -194,6 +197,7 @@ impl GpuFrame {
             .put_build(build_seconds, self.engine.build_passes());
         out.stats.host_device_bytes = Some(self.engine.gpu().bytes_moved() - moved);
         out.stats.gpu_frame = Some("host-sequenced".into());
+        out.stats.host_read_backs = Some(self.engine.gpu().read_backs() - reads);
         Ok((out, self.phases(Some(&stages))))
     }
 

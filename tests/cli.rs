@@ -650,6 +650,7 @@ fn gpu_backend_renders_or_says_why() {
     let moved = stats["host_device_bytes"].as_u64().unwrap();
     assert!(moved >= image && moved <= image + (1 << 20), "{stats}");
     assert_eq!(stats["gpu_frame"], "device-resident", "{stats}");
+    assert!(stats["host_read_backs"].as_u64().unwrap() > 0, "{stats}");
     assert!(out.contains("host-device bytes"), "{out}");
     assert!(out.contains("| GPU frame | device-resident |"), "{out}");
     // The grid: built and traversed on the GPU, its passes in the stats; the counts equal

@@ -57,6 +57,9 @@ pub struct Gpu {
     /// Bytes written to the device by [`Gpu::upload`] and [`Gpu::uniform`] and read back by
     /// [`Gpu::map_read`], since the device was made (every transfer goes through them).
     moved: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    /// Read-backs since the device was made: each one a wait for the device
+    /// ([`Gpu::map_read`]).
+    reads: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
 
 /// How [`crate::kernels::Exec`] times phases.
@@ -141,12 +144,19 @@ impl Gpu {
             timestamps,
             timer,
             moved: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0)),
+            reads: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0)),
         })
     }
 
     /// Bytes moved between host and device so far, both ways (see the field).
     pub fn bytes_moved(&self) -> u64 {
         self.moved.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Read-backs so far (each waits for the device to finish the work before it: the
+    /// host-sequencing cost a real GPU pays per read-back).
+    pub fn read_backs(&self) -> u64 {
+        self.reads.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     fn count_moved(&self, bytes: u64) {
@@ -250,6 +260,8 @@ impl Gpu {
 
     /// Map a MAP_READ buffer and copy `count` elements out.
     pub fn map_read<T: bytemuck::Pod>(&self, staging: &wgpu::Buffer, count: usize) -> Vec<T> {
+        self.reads
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let slice = staging.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {

@@ -354,6 +354,10 @@ pub struct RenderStats {
     /// upload, launch parameter block and read-back; absent on the CPU).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub host_device_bytes: Option<u64>,
+    /// GPU backend: read-backs during the frame, each a wait for the device (sizes of the
+    /// next buffers, totals, the image).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub host_read_backs: Option<u64>,
     /// GPU backend: how the frame ran, `device-resident` (everything between the G-buffer
     /// and the sRGB image stayed on the device) or `host-sequenced` with the reason.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -438,6 +442,9 @@ impl RenderStats {
         }
         if let Some(b) = self.host_device_bytes {
             s += &format!("| host-device bytes (both ways) | {b} |\n");
+        }
+        if let Some(r) = self.host_read_backs {
+            s += &format!("| host read-backs (waits for the device) | {r} |\n");
         }
         s += &format!("| total tests | {} |\n", self.total_tests);
         s += &format!(

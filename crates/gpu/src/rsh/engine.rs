@@ -259,12 +259,17 @@ impl GpuRsh {
             ..Default::default()
         };
         if self.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
+            let counters = g.storage(
+                "traversal counters",
+                GpuTraversal::counter_words(levels.len()) * 4,
+            );
             let trav = GpuTraversal {
                 eng: self,
                 levels: &levels,
                 rays: dr,
                 leaves: &leaves,
                 best: &best,
+                counters: &counters,
             };
             trav.run(ex, &mut c);
         }

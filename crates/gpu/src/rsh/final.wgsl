@@ -54,7 +54,12 @@ fn final_tests(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_inv
     if li < 4u {
         let v = atomicLoad(&fcnt[li]);
         if v > 0u {
-            atomicAdd(&f_cnt[li], v);
+            // 64-bit (low, high) counters from word P.u3.x, as traverse.wgsl's add64.
+            let at = P.u3.x + 2u * li;
+            let old = atomicAdd(&f_cnt[at], v);
+            if old + v < old {
+                atomicAdd(&f_cnt[at + 1u], 1u);
+            }
         }
     }
 }

@@ -29,6 +29,11 @@ pub struct GpuTraversal<'a> {
     pub leaves: &'a wgpu::Buffer,
     /// Per ray, the closest hit so far as (t bits << 32 | triangle), by 64-bit atomic min.
     pub best: &'a wgpu::Buffer,
+    /// The trace call's counters on the device, zeroed ([`GpuTraversal::counter_words`]
+    /// words): 64-bit (low, high) counters, per level 8 (tests and passes per ray kind)
+    /// from word 16 · level, then the final tests per kind from word 16 · levels. Read
+    /// back once, at the end of [`GpuTraversal::run`].
+    pub counters: &'a wgpu::Buffer,
 }
 
 /// (node, triangle) pairs of one level on the device.
@@ -38,13 +43,12 @@ struct Pairs {
     len: u64,
 }
 
-fn add4(a: &mut [u64; 4], c: &[u32]) {
-    for k in 0..4 {
-        a[k] += c[k] as u64;
-    }
-}
-
 impl GpuTraversal<'_> {
+    /// Words of the counter buffer for a hierarchy of `levels` levels.
+    pub fn counter_words(levels: usize) -> u64 {
+        16 * levels as u64 + 8
+    }
+
     fn exact(&self) -> u32 {
         (self.eng.cfg.node_test == NodeTest::Exact) as u32
     }
@@ -95,6 +99,19 @@ impl GpuTraversal<'_> {
         for (nodes, tris) in ::rsh::traverse::batches(&pass, nm, &eng.mesh_first, budget) {
             self.top_batch(ex, &pass_buf, nodes, tris, c);
         }
+        // Every level's and the final tests' counts, added up on the device: one read.
+        let nl = self.levels.len();
+        let w: Vec<u32> = ex.read(self.counters, Self::counter_words(nl) as usize);
+        let at = |i: usize| w[i] as u64 | (w[i + 1] as u64) << 32;
+        for li in 0..nl {
+            for k in 0..4 {
+                c.tests[li][k] += at(16 * li + 2 * k);
+                c.hits[li][k] += at(16 * li + 8 + 2 * k);
+            }
+        }
+        for k in 0..4 {
+            c.final_tests[k] += at(16 * nl + 2 * k);
+        }
     }
 
     /// One batch of the top level: its candidate pairs counted, scanned and emitted.
@@ -124,12 +141,11 @@ impl GpuTraversal<'_> {
                 [slots as u32, tiles, nodes.start as u32, self.exact()],
                 [tris.start as u32, tris.end as u32, nm, tile],
                 [0; 4],
-                [0; 4],
+                [16 * li as u32, 0, 0, 0],
             ],
             f: [[0.0; 4]; 2],
         };
         let counts = g.storage("top counts", slots * 4);
-        let cnt = g.upload("counters", &[0u32; 8]);
         let common = [
             (1, &top.sphere),
             (2, &top.cone),
@@ -142,13 +158,15 @@ impl GpuTraversal<'_> {
         // bindings too; they are never written when counting.
         let (unused_a, unused_b) = (g.storage("unused", 4), g.storage("unused", 4));
         let mut binds = common.to_vec();
-        binds.extend([(10, &counts), (11, &unused_a), (12, &cnt), (13, &unused_b)]);
+        binds.extend([
+            (10, &counts),
+            (11, &unused_a),
+            (12, self.counters),
+            (13, &unused_b),
+        ]);
         ex.run(Kernel::TopCount, prm, &binds, slots, 256);
         let offs = g.storage("top offsets", (slots + 1) * 4);
         ex.scan(&counts, &offs, slots);
-        let cv: Vec<u32> = ex.read(&cnt, 8);
-        add4(&mut c.tests[li], &cv[0..4]);
-        add4(&mut c.hits[li], &cv[4..8]);
         let total = ex.read_at(&offs, slots as usize) as u64;
         if total == 0 {
             return;
@@ -171,11 +189,12 @@ impl GpuTraversal<'_> {
             return;
         }
         ex.phase(Phase::FinalTests);
-        let cnt = self.eng.gpu.upload("counters", &[0u32; 4]);
         let l1 = &self.levels[0];
+        let mut prm = Params::n(pairs.len as u32, 0, 0, 0);
+        prm.u[3][0] = 16 * self.levels.len() as u32;
         ex.run(
             Kernel::FinalTests,
-            Params::n(pairs.len as u32, 0, 0, 0),
+            prm,
             &[
                 (1, &pairs.node),
                 (2, &pairs.tri),
@@ -187,13 +206,11 @@ impl GpuTraversal<'_> {
                 (8, &self.rays.pre),
                 (9, &self.eng.tris),
                 (10, self.best),
-                (12, &cnt),
+                (12, self.counters),
             ],
             pairs.len,
             256,
         );
-        let cv: Vec<u32> = ex.read(&cnt, 4);
-        add4(&mut c.final_tests, &cv);
         ex.phase(Phase::Traversal);
     }
 
@@ -202,10 +219,11 @@ impl GpuTraversal<'_> {
         let g = &self.eng.gpu;
         let lv = &self.levels[li];
         let flags = g.storage("flags", pairs.len * 4);
-        let cnt = g.upload("counters", &[0u32; 8]);
+        let mut prm = Params::n(pairs.len as u32, 0, 0, self.exact());
+        prm.u[3][0] = 16 * li as u32;
         ex.run(
             Kernel::PairTest,
-            Params::n(pairs.len as u32, 0, 0, self.exact()),
+            prm,
             &[
                 (1, &lv.sphere),
                 (2, &lv.cone),
@@ -214,14 +232,11 @@ impl GpuTraversal<'_> {
                 (8, &pairs.node),
                 (9, &pairs.tri),
                 (10, &flags),
-                (12, &cnt),
+                (12, self.counters),
             ],
             pairs.len,
             256,
         );
-        let cv: Vec<u32> = ex.read(&cnt, 8);
-        add4(&mut c.tests[li], &cv[0..4]);
-        add4(&mut c.hits[li], &cv[4..8]);
         let (node, tri, len) = ex.compact(&flags, &pairs.node, Some(&pairs.tri), pairs.len);
         drop((pairs, flags));
         if len > 0 {

@@ -1,7 +1,8 @@
 // Top-down traversal (thesis §3.2.8), mirroring rsh::traverse; its final tests (§3.2.9)
 // are final.wgsl.
-// Counters: cnt[kind] = node–triangle tests, cnt[4 + kind] = passes (or, for the final
-// tests, cnt[kind] = ray–triangle tests), gathered per workgroup then added once.
+// Counters: from word P.u3.x of cnt, 64-bit (low, high) counters of the level: [kind] =
+// node–triangle tests, [4 + kind] = passes (for the final tests, [kind] = ray–triangle
+// tests), gathered per workgroup, then added once per workgroup.
 //
 // Bindings (shared by every entry point, so one layout serves them all):
 //   1 node sphere, 2 node cone, 3 node sc, 4 node first (children of the tested level),
@@ -40,12 +41,22 @@ fn wcnt_reset(li: u32) {
     workgroupBarrier();
 }
 
+// A 64-bit device counter (low, high words) at word `at` of cnt: the add that wraps the low
+// word carries into the high one, so a whole trace call's counts add up on the device and
+// are read back once.
+fn add64(at: u32, v: u32) {
+    let old = atomicAdd(&cnt[at], v);
+    if old + v < old {
+        atomicAdd(&cnt[at + 1u], 1u);
+    }
+}
+
 fn wcnt_flush(li: u32) {
     workgroupBarrier();
     if li < 8u {
         let v = atomicLoad(&wcnt[li]);
         if v > 0u {
-            atomicAdd(&cnt[li], v);
+            add64(P.u3.x + 2u * li, v);
         }
     }
 }
