@@ -24,7 +24,6 @@ use crate::kernels::{Exec, Kernel, Params};
 use crate::raster::GpuRaster;
 use crate::rsh::DeviceRays;
 use crate::GpuEngine;
-use geom::Vec3;
 use render::raster::default_near;
 use render::stats::RenderStats;
 use render::whitted::{Progress, RenderOptions};
@@ -234,43 +233,6 @@ pub fn too_big(gpu: &Gpu, scene: &Scene, opts: &RenderOptions) -> Option<String>
     None
 }
 
-/// The scene's lights as `stages.wgsl` reads them (position + intensity, colour,
-/// attenuation).
-fn lights_rows(scene: &Scene) -> Vec<[f32; 4]> {
-    let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
-    scene
-        .lights
-        .iter()
-        .flat_map(|l| {
-            let [c, li, q] = l.attenuation;
-            [
-                v4(l.position, l.intensity),
-                v4(l.color, 0.0),
-                [c, li, q, 0.0],
-            ]
-        })
-        .collect()
-}
-
-/// The materials as `stages.wgsl` reads them, the ambient term k_a ⊙ L_a multiplied with
-/// the same f32 product as `render::shade::local`.
-fn material_rows(scene: &Scene) -> Vec<[f32; 4]> {
-    let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
-    scene
-        .materials
-        .iter()
-        .flat_map(|m| {
-            let a = m.ambient * scene.ambient;
-            [
-                v4(m.diffuse, m.shininess),
-                v4(m.specular, m.reflectivity),
-                v4(m.emission, m.transparency),
-                [m.ior, a.x, a.y, a.z],
-            ]
-        })
-        .collect()
-}
-
 /// Wall-clock phases of a frame: each ends by waiting for the device.
 struct Clock {
     t0: Instant,
@@ -331,8 +293,11 @@ pub fn render(
     clock.lap(&mut ex, &mut stats, "rasterize");
 
     let bg = scene.background;
-    let lights = g.upload("lights", &lights_rows(scene));
-    let mats = g.upload("materials", &material_rows(scene));
+    let lights = g.upload("lights", &crate::stages::light_rows(&scene.lights));
+    let mats = g.upload(
+        "materials",
+        &crate::stages::material_rows(&scene.materials, scene.ambient),
+    );
     let (tris, normals, material) = raster.scene_buffers();
     let img = g.storage("image", npix * 16);
     // Surfaces of the covered pixels, in pixel order.

@@ -90,36 +90,11 @@ impl<'g> GpuStages<'g> {
     }
 
     fn lights(&self, lights: &[Light]) -> wgpu::Buffer {
-        let l: Vec<[f32; 4]> = lights
-            .iter()
-            .flat_map(|l| {
-                let [c, li, q] = l.attenuation;
-                [
-                    v4(l.position, l.intensity),
-                    v4(l.color, 0.0),
-                    [c, li, q, 0.0],
-                ]
-            })
-            .collect();
-        self.gpu.upload("lights", &l)
+        self.gpu.upload("lights", &light_rows(lights))
     }
 
-    /// The materials as the kernels read them; the ambient term k_a ⊙ L_a is multiplied
-    /// here, with the same f32 product as `render::shade::local`.
     fn materials(&self, m: &[Material], ambient: Vec3) -> wgpu::Buffer {
-        let v: Vec<[f32; 4]> = m
-            .iter()
-            .flat_map(|m| {
-                let a = m.ambient * ambient;
-                [
-                    v4(m.diffuse, m.shininess),
-                    v4(m.specular, m.reflectivity),
-                    v4(m.emission, m.transparency),
-                    [m.ior, a.x, a.y, a.z],
-                ]
-            })
-            .collect();
-        self.gpu.upload("materials", &v)
+        self.gpu.upload("materials", &material_rows(m, ambient))
     }
 
     fn timed<T>(&self, name: &'static str, f: impl FnOnce() -> T) -> T {
@@ -133,6 +108,38 @@ impl<'g> GpuStages<'g> {
         }
         r
     }
+}
+
+/// The lights as `stages.wgsl` reads them: position + intensity, colour, attenuation.
+pub(crate) fn light_rows(lights: &[Light]) -> Vec<[f32; 4]> {
+    lights
+        .iter()
+        .flat_map(|l| {
+            let [c, li, q] = l.attenuation;
+            [
+                v4(l.position, l.intensity),
+                v4(l.color, 0.0),
+                [c, li, q, 0.0],
+            ]
+        })
+        .collect()
+}
+
+/// The materials as `stages.wgsl` reads them (diffuse + shininess, specular + reflectivity,
+/// emission + transparency, ior + the ambient term); the ambient term k_a ⊙ L_a is multiplied
+/// here, with the same f32 product as `render::shade::local`.
+pub(crate) fn material_rows(m: &[Material], ambient: Vec3) -> Vec<[f32; 4]> {
+    m.iter()
+        .flat_map(|m| {
+            let a = m.ambient * ambient;
+            [
+                v4(m.diffuse, m.shininess),
+                v4(m.specular, m.reflectivity),
+                v4(m.emission, m.transparency),
+                [m.ior, a.x, a.y, a.z],
+            ]
+        })
+        .collect()
 }
 
 fn ray_of(o: [f32; 4], d: [f32; 4]) -> geom::Ray {
