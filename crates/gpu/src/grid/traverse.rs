@@ -3,7 +3,7 @@
 //! (same slab entry, same voxel lookups, same watertight tests, same exits), so hits and
 //! per-ray counts are the CPU's bit for bit. Per trace call: upload the rays, one launch,
 //! read back the records and the per-ray counts (summed on the host in u64, so no count can
-//! wrap). The device-resident frame's calls ([`trace_device_part`]) keep rays and records on
+//! wrap). The device-resident frame's calls (`trace_device_part`) keep rays and records on
 //! the device and read back only the counts' sums per chunk of rays (low and high words).
 
 use super::GpuGrid;
