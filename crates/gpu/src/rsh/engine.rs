@@ -39,6 +39,10 @@ pub struct GpuRsh {
     max_rays: usize,
     /// GPU seconds per phase of the last trace calls (drained by [`GpuRsh::take_times`]).
     times: Mutex<Vec<(Phase, f64)>>,
+    /// Tests only: the value every 64-bit traversal counter starts from (its low word; 0
+    /// in every real trace), so that a test can make the low words wrap.
+    #[cfg(test)]
+    counter_bias: std::sync::atomic::AtomicU32,
 }
 
 /// The CPU's fixed minimal-ball shuffle (`geom::miniball`) for every count 1..=b, as rows of
@@ -166,6 +170,8 @@ impl GpuRsh {
             kernels,
             cfg,
             times: Mutex::new(Vec::new()),
+            #[cfg(test)]
+            counter_bias: Default::default(),
         })
     }
 
@@ -259,10 +265,16 @@ impl GpuRsh {
             ..Default::default()
         };
         if self.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
-            let counters = g.storage(
-                "traversal counters",
-                GpuTraversal::counter_words(levels.len()) * 4,
-            );
+            let words = GpuTraversal::counter_words(levels.len());
+            let counters = g.storage("traversal counters", words * 4);
+            #[cfg(test)]
+            {
+                let bias = self.counter_bias.load(std::sync::atomic::Ordering::Relaxed);
+                if bias != 0 {
+                    let start: Vec<u32> = (0..words).map(|i| bias * (i % 2 == 0) as u32).collect();
+                    ex.copy(&g.upload("counter bias", &start), 0, &counters, words * 4);
+                }
+            }
             let trav = GpuTraversal {
                 eng: self,
                 levels: &levels,
@@ -468,5 +480,58 @@ impl Tracer for GpuRsh {
             let part = sub_batch(rays, lo..lo + out.len());
             self.trace_part(&part, out, stats);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The traversal's 64-bit device counters carry: with every counter's low word started
+    /// just below 2³², the counts come back as the plain run's plus the start, high words
+    /// and all.
+    #[test]
+    fn device_counters_carry_into_their_high_words() {
+        let Some(g) = testkit::or_skip(Gpu::new(), "gpu") else {
+            return;
+        };
+        let s = scene::builtin::cornell();
+        let geo = Geometry::from_scene(&s);
+        let eng = GpuRsh::new(g, &geo, RshConfig::crsh()).unwrap();
+        let view = render::View::new(&s.camera, 48, 40);
+        let rays = view.primary_rays();
+        let run = |bias: u32| {
+            eng.counter_bias
+                .store(bias, std::sync::atomic::Ordering::Relaxed);
+            let mut ex = Exec::new(&eng.gpu, &eng.kernels);
+            let dr = DeviceRays::upload(&eng.gpu, &rays);
+            let (_, c, _) = eng.records(&mut ex, &dr, &mut TraceStats::default());
+            ex.finish();
+            c
+        };
+        let plain = run(0);
+        let bias = u32::MAX - 3;
+        let biased = run(bias);
+        let b = bias as u64;
+        let mut wrapped = 0;
+        for (p, q) in plain.tests.iter().zip(&biased.tests) {
+            for k in 0..4 {
+                assert_eq!(q[k], p[k] + b, "tests");
+                wrapped += (p[k] > 3) as u32;
+            }
+        }
+        for (p, q) in plain.hits.iter().zip(&biased.hits) {
+            for k in 0..4 {
+                assert_eq!(q[k], p[k] + b, "passes");
+            }
+        }
+        for k in 0..4 {
+            assert_eq!(
+                biased.final_tests[k],
+                plain.final_tests[k] + b,
+                "final tests"
+            );
+        }
+        assert!(wrapped > 0, "some low word wrapped");
     }
 }
