@@ -134,25 +134,22 @@ impl GpuFrame {
             r.0.stats.gpu_frame = Some(format!("host-sequenced: {why}"));
             return Ok(r);
         }
-        self.raster
-            .check_size(opts.width, opts.height)
-            .map_err(|e| anyhow!("--width/--height with --backend gpu: {e}"))?;
-        let moved = self.engine.gpu().bytes_moved();
-        let reads = self.engine.gpu().read_backs();
-        let f = gpu::frame::render(
-            self.engine.as_ref(),
-            &self.raster,
-            scene,
-            geo,
-            opts,
-            progress,
-        )
-        .map_err(|e| anyhow!("--backend gpu: {e}"))?;
+        self.check_size(opts)?;
+        let (f, moved) = self.traffic(|| {
+            gpu::frame::render(
+                self.engine.as_ref(),
+                &self.raster,
+                scene,
+                geo,
+                opts,
+                progress,
+            )
+            .map_err(|e| anyhow!("--backend gpu: {e}"))
+        })?;
         let mut stats = f.stats;
         stats.put_build(build_seconds, self.engine.build_passes());
-        stats.host_device_bytes = Some(self.engine.gpu().bytes_moved() - moved);
+        (stats.host_device_bytes, stats.host_read_backs) = (Some(moved[0]), Some(moved[1]));
         stats.gpu_frame = Some("device-resident".into());
-        stats.host_read_backs = Some(self.engine.gpu().read_backs() - reads);
         let out = Rendered {
             pixels: Vec::new(),
             srgb8: Some(f.srgb8),
@@ -177,28 +174,40 @@ impl GpuFrame {
         progress: &dyn Progress,
         build_seconds: f64,
     ) -> Result<(Rendered, Vec<(String, f64)>)> {
-        let moved = self.engine.gpu().bytes_moved();
-        let reads = self.engine.gpu().read_backs();
+        self.check_size(opts)?;
         let raster = &self.raster;
-        raster
-            .check_size(opts.width, opts.height)
-            .map_err(|e| anyhow!("--width/--height with --backend gpu: {e}"))?;
         let stages = gpu::GpuStages::new(self.engine.gpu(), self.engine.kernels());
-        let mut out = render::whitted::render_with(
-            scene,
-            geo,
-            self.engine.as_ref(),
-            opts,
-            progress,
-            &|v, n| raster.rasterize(v, n),
-            &stages,
-        );
+        let (mut out, moved) = self.traffic(|| {
+            Ok(render::whitted::render_with(
+                scene,
+                geo,
+                self.engine.as_ref(),
+                opts,
+                progress,
+                &|v, n| raster.rasterize(v, n),
+                &stages,
+            ))
+        })?;
         out.stats
             .put_build(build_seconds, self.engine.build_passes());
-        out.stats.host_device_bytes = Some(self.engine.gpu().bytes_moved() - moved);
+        (out.stats.host_device_bytes, out.stats.host_read_backs) = (Some(moved[0]), Some(moved[1]));
         out.stats.gpu_frame = Some("host-sequenced".into());
-        out.stats.host_read_backs = Some(self.engine.gpu().read_backs() - reads);
         Ok((out, self.phases(Some(&stages))))
+    }
+
+    /// Whether the device takes a G-buffer of `opts`'s size.
+    fn check_size(&self, opts: &RenderOptions) -> Result<()> {
+        self.raster
+            .check_size(opts.width, opts.height)
+            .map_err(|e| anyhow!("--width/--height with --backend gpu: {e}"))
+    }
+
+    /// `f`'s result with the host↔device bytes and the read-backs it caused.
+    fn traffic<T>(&self, f: impl FnOnce() -> Result<T>) -> Result<(T, [u64; 2])> {
+        let g = self.engine.gpu();
+        let (bytes, reads) = (g.bytes_moved(), g.read_backs());
+        let r = f()?;
+        Ok((r, [g.bytes_moved() - bytes, g.read_backs() - reads]))
     }
 
     /// GPU seconds per phase since the last frame: rasterize, the engine's, and the

@@ -23,6 +23,7 @@ use crate::device::{Gpu, GpuError};
 use crate::kernels::{Exec, Kernel, Params};
 use crate::raster::GpuRaster;
 use crate::rsh::DeviceRays;
+use crate::stages::Surf;
 use crate::GpuEngine;
 use render::raster::default_near;
 use render::stats::RenderStats;
@@ -128,15 +129,10 @@ pub fn trace_device(
     rec
 }
 
-/// One generation's surfaces on the device (bindings 1–7 of `frame.wgsl`; 1–6 are
-/// `stages.wgsl`'s).
+/// One generation's surfaces on the device: `stages.wgsl`'s six arrays (bindings 1–6) and
+/// their pixels (binding 7 of `frame.wgsl`).
 struct DeviceSurfaces {
-    pos: wgpu::Buffer,
-    ng: wgpu::Buffer,
-    ns: wgpu::Buffer,
-    inc: wgpu::Buffer,
-    tw: wgpu::Buffer,
-    mat: wgpu::Buffer,
+    s: Surf,
     pix: wgpu::Buffer,
     len: u64,
 }
@@ -144,40 +140,17 @@ struct DeviceSurfaces {
 impl DeviceSurfaces {
     fn new(g: &Gpu, n: u64) -> DeviceSurfaces {
         DeviceSurfaces {
-            pos: g.storage("surface pos", n * 16),
-            ng: g.storage("surface ng", n * 16),
-            ns: g.storage("surface ns", n * 16),
-            inc: g.storage("surface incident", n * 16),
-            tw: g.storage("surface throughput", n * 16),
-            mat: g.storage("surface material", n * 4),
+            s: Surf::new(g, n),
             pix: g.storage("surface pixel", n * 4),
             len: n,
         }
     }
 
     /// Bindings 1–7 (as outputs of `frame.wgsl`).
-    fn outputs(&self) -> [(u32, &wgpu::Buffer); 7] {
-        [
-            (1, &self.pos),
-            (2, &self.ng),
-            (3, &self.ns),
-            (4, &self.inc),
-            (5, &self.tw),
-            (6, &self.mat),
-            (7, &self.pix),
-        ]
-    }
-
-    /// Bindings 1–6 (as `stages.wgsl` reads them).
-    fn stage_inputs(&self) -> [(u32, &wgpu::Buffer); 6] {
-        [
-            (1, &self.pos),
-            (2, &self.ng),
-            (3, &self.ns),
-            (4, &self.inc),
-            (5, &self.tw),
-            (6, &self.mat),
-        ]
+    fn outputs(&self) -> Vec<(u32, &wgpu::Buffer)> {
+        let mut b = self.s.binds();
+        b.push((7, &self.pix));
+        b
     }
 }
 
@@ -351,20 +324,8 @@ pub fn render(
                 len: m,
                 width: 0,
             };
-            ex.run(
-                Kernel::ShadowRays,
-                Params::n(n as u32, nl as u32, 0, 0),
-                &[
-                    (1, &surf.pos),
-                    (2, &surf.ng),
-                    (5, &surf.tw),
-                    (7, &lights),
-                    (9, &rays.org),
-                    (10, &rays.dir),
-                ],
-                m,
-                256,
-            );
+            surf.s
+                .shadow_rays(&mut ex, &lights, &rays.org, &rays.dir, n, nl);
             ex.run(
                 Kernel::FrShadowMeta,
                 Params::n(m as u32, nl as u32, 0, 0),
@@ -387,15 +348,7 @@ pub fn render(
         progress.stage(&format!("shading, generation {generation}"));
         if n > 0 {
             let colour = g.storage("colour", n * 16);
-            let mut binds = surf.stage_inputs().to_vec();
-            binds.extend([(7, &lights), (8, &mats), (11, &colour), (12, &occ)]);
-            ex.run(
-                Kernel::ShadeLocal,
-                Params::n(n as u32, nl as u32, 0, 0),
-                &binds,
-                n,
-                256,
-            );
+            surf.s.shade(&mut ex, &lights, &mats, &occ, &colour, n, nl);
             ex.run(
                 Kernel::FrAccumulate,
                 Params::n(n as u32, 0, 0, 0),
@@ -415,15 +368,8 @@ pub fn render(
             g.storage("slot dir", slots * 16),
             g.storage("slot weight", slots * 16),
         );
-        let mut binds = surf.stage_inputs().to_vec();
-        binds.extend([(8, &mats), (9, &b_org), (10, &b_dir), (11, &b_w)]);
-        ex.run(
-            Kernel::BounceRays,
-            Params::n(n as u32, 0, 0, 0),
-            &binds,
-            n,
-            256,
-        );
+        surf.s
+            .bounce_rays(&mut ex, &mats, [&b_org, &b_dir, &b_w], n);
         let flags = g.storage("slot flags", slots * 4);
         let offs = g.storage("slot offsets", (slots + 1) * 4);
         ex.run(

@@ -35,19 +35,33 @@ fn v4(v: Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
 }
 
-/// The surfaces' buffers (bindings 1–6 of `stages.wgsl`).
-struct Surf {
-    pos: wgpu::Buffer,
-    ng: wgpu::Buffer,
-    ns: wgpu::Buffer,
-    inc: wgpu::Buffer,
-    tw: wgpu::Buffer,
-    mat: wgpu::Buffer,
+/// `n` surfaces' buffers on the device (bindings 1–6 of `stages.wgsl`), and the launches
+/// of the three passes over them, shared by the host-sequenced passes here and the
+/// device-resident frame ([`crate::frame`]).
+pub(crate) struct Surf {
+    pub pos: wgpu::Buffer,
+    pub ng: wgpu::Buffer,
+    pub ns: wgpu::Buffer,
+    pub inc: wgpu::Buffer,
+    pub tw: wgpu::Buffer,
+    pub mat: wgpu::Buffer,
 }
 
 impl Surf {
+    /// Room for `n` surfaces (filled by the device frame's kernels).
+    pub fn new(g: &Gpu, n: u64) -> Surf {
+        Surf {
+            pos: g.storage("surface pos", n * 16),
+            ng: g.storage("surface ng", n * 16),
+            ns: g.storage("surface ns", n * 16),
+            inc: g.storage("surface incident", n * 16),
+            tw: g.storage("surface throughput", n * 16),
+            mat: g.storage("surface material", n * 4),
+        }
+    }
+
     /// Bindings 1–6, for the kernels that read every surface array.
-    fn binds(&self) -> Vec<(u32, &wgpu::Buffer)> {
+    pub fn binds(&self) -> Vec<(u32, &wgpu::Buffer)> {
         vec![
             (1, &self.pos),
             (2, &self.ng),
@@ -56,6 +70,77 @@ impl Surf {
             (5, &self.tw),
             (6, &self.mat),
         ]
+    }
+
+    /// The shadow rays of `n` surfaces and `nl` lights (`lights`: [`light_rows`]) into
+    /// `org`/`dir`, ray `surface · nl + light`.
+    #[allow(clippy::too_many_arguments)] // one launch: its bindings and sizes
+    pub fn shadow_rays(
+        &self,
+        ex: &mut Exec,
+        lights: &wgpu::Buffer,
+        org: &wgpu::Buffer,
+        dir: &wgpu::Buffer,
+        n: u64,
+        nl: u64,
+    ) {
+        ex.run(
+            Kernel::ShadowRays,
+            Params::n(n as u32, nl as u32, 0, 0),
+            &[
+                (1, &self.pos),
+                (2, &self.ng),
+                (5, &self.tw),
+                (7, lights),
+                (9, org),
+                (10, dir),
+            ],
+            n * nl,
+            256,
+        );
+    }
+
+    /// Local shading of `n` surfaces under `nl` lights into `colour`, with `occluded` flags
+    /// per (surface, light) and `mats` ([`material_rows`]).
+    #[allow(clippy::too_many_arguments)] // one launch: its bindings and sizes
+    pub fn shade(
+        &self,
+        ex: &mut Exec,
+        lights: &wgpu::Buffer,
+        mats: &wgpu::Buffer,
+        occluded: &wgpu::Buffer,
+        colour: &wgpu::Buffer,
+        n: u64,
+        nl: u64,
+    ) {
+        let mut binds = self.binds();
+        binds.extend([(7, lights), (8, mats), (11, colour), (12, occluded)]);
+        ex.run(
+            Kernel::ShadeLocal,
+            Params::n(n as u32, nl as u32, 0, 0),
+            &binds,
+            n,
+            256,
+        );
+    }
+
+    /// The bounce slots of `n` surfaces (2 per surface: origin, direction, weight + kind).
+    pub fn bounce_rays(
+        &self,
+        ex: &mut Exec,
+        mats: &wgpu::Buffer,
+        slots: [&wgpu::Buffer; 3],
+        n: u64,
+    ) {
+        let mut binds = self.binds();
+        binds.extend([(8, mats), (9, slots[0]), (10, slots[1]), (11, slots[2])]);
+        ex.run(
+            Kernel::BounceRays,
+            Params::n(n as u32, 0, 0, 0),
+            &binds,
+            n,
+            256,
+        );
     }
 }
 
@@ -178,20 +263,7 @@ impl GpuStages<'_> {
             let lb = self.lights(lights);
             let m = (n * nl) as u64;
             let (org, dir) = (g.storage("org", m * 16), g.storage("dir", m * 16));
-            ex.run(
-                Kernel::ShadowRays,
-                Params::n(n as u32, nl as u32, 0, 0),
-                &[
-                    (1, &sf.pos),
-                    (2, &sf.ng),
-                    (5, &sf.tw),
-                    (7, &lb),
-                    (9, &org),
-                    (10, &dir),
-                ],
-                m,
-                256,
-            );
+            sf.shadow_rays(&mut ex, &lb, &org, &dir, n as u64, nl as u64);
             let o: Vec<[f32; 4]> = ex.read(&org, m as usize);
             let d: Vec<[f32; 4]> = ex.read(&dir, m as usize);
             let mut b = RayBatch::with_capacity(m as usize);
@@ -232,13 +304,7 @@ impl GpuStages<'_> {
             let occ: Vec<u32> = occluded.iter().map(|&o| o as u32).collect();
             let ob = g.upload("occluded", &occ);
             let out = g.storage("colour", n as u64 * 16);
-            ex.run(
-                Kernel::ShadeLocal,
-                Params::n(n as u32, lights.len() as u32, 0, 0),
-                &[sf.binds(), vec![(7, &lb), (8, &mb), (11, &out), (12, &ob)]].concat(),
-                n as u64,
-                256,
-            );
+            sf.shade(&mut ex, &lb, &mb, &ob, &out, n as u64, lights.len() as u64);
             let c: Vec<[f32; 4]> = ex.read(&out, n);
             c.iter().map(|c| Vec3::new(c[0], c[1], c[2])).collect()
         })
@@ -266,13 +332,7 @@ impl GpuStages<'_> {
                 g.storage("dir", m * 16),
                 g.storage("weight", m * 16),
             );
-            ex.run(
-                Kernel::BounceRays,
-                Params::n(n as u32, 0, 0, 0),
-                &[sf.binds(), vec![(8, &mb), (9, &org), (10, &dir), (11, &w)]].concat(),
-                n as u64,
-                256,
-            );
+            sf.bounce_rays(&mut ex, &mb, [&org, &dir, &w], n as u64);
             let o: Vec<[f32; 4]> = ex.read(&org, m as usize);
             let d: Vec<[f32; 4]> = ex.read(&dir, m as usize);
             let wt: Vec<[f32; 4]> = ex.read(&w, m as usize);

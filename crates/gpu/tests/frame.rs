@@ -33,6 +33,22 @@ fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
     ]
 }
 
+/// A binding just large enough for `cpu`'s grid over `geo`: its largest array, to the next
+/// power of two.
+fn tight_binding(cpu: &GridEngine, geo: &Geometry) -> u64 {
+    let gr = &cpu.grid;
+    [
+        gr.refs.len() * 4,
+        gr.cells() * 32,
+        gr.entries.len() * 4,
+        geo.len() * 48,
+    ]
+    .into_iter()
+    .max()
+    .unwrap()
+    .next_power_of_two() as u64
+}
+
 #[test]
 fn device_frames_equal_host_sequenced_frames() {
     let Some(g) = gpu() else { return };
@@ -112,16 +128,7 @@ fn device_traces_in_parts_equal_the_cpu() {
     let geo = Geometry::from_scene(&s);
     let cpu = GridEngine::new(&geo, &GridConfig::default()).unwrap();
     let gr = &cpu.grid;
-    let limit = [
-        gr.refs.len() * 4,
-        gr.cells() * 32,
-        gr.entries.len() * 4,
-        geo.len() * 48,
-    ]
-    .into_iter()
-    .max()
-    .unwrap()
-    .next_power_of_two() as u64;
+    let limit = tight_binding(&cpu, &geo);
     let full = g.clone();
     g.limits.max_storage_buffer_binding_size = limit;
     let dev = GpuGrid::upload(g, gr, &geo.tris, "grid-gpu").unwrap();
@@ -181,16 +188,7 @@ fn frames_that_might_not_fit_a_binding_are_refused_with_the_reason() {
     let geo = Geometry::from_scene(&s);
     let cpu = GridEngine::new(&geo, &GridConfig::default()).unwrap();
     let gr = &cpu.grid;
-    let limit = [
-        gr.refs.len() * 4,
-        gr.cells() * 32,
-        gr.entries.len() * 4,
-        geo.len() * 48,
-    ]
-    .into_iter()
-    .max()
-    .unwrap()
-    .next_power_of_two() as u64;
+    let limit = tight_binding(&cpu, &geo);
     g.limits.max_storage_buffer_binding_size = limit;
     let e = GpuGrid::upload(g.clone(), gr, &geo.tris, "grid-gpu").unwrap();
     let opts = RenderOptions {
