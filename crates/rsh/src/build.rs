@@ -94,24 +94,32 @@ impl Level {
         self.first[i] as usize..self.first[i + 1] as usize
     }
 
+    /// The level's arrays from its nodes, each array in one parallel pass (level 1 has a
+    /// node per `b` rays of the batch).
     fn from_nodes(first: Vec<u32>, nodes: Vec<(Sphere, Cone, f32, u8)>) -> Level {
-        let mut l = Level {
-            first,
-            ..Default::default()
-        };
-        for (s, c, t, k) in nodes {
-            l.center.push(s.center);
-            l.radius.push(s.radius);
-            l.axis.push(c.axis);
-            l.angle.push(c.angle);
-            // Portable sine and cosine: the GPU backend computes the same bits.
-            let (sn, cs) = geom::pmath::sin_cos(c.angle);
-            l.sin.push(sn);
-            l.cos.push(cs);
-            l.max_t.push(t);
-            l.kind.push(k);
+        fn col<T: Send>(
+            nodes: &[(Sphere, Cone, f32, u8)],
+            f: impl Fn(&(Sphere, Cone, f32, u8)) -> T + Sync + Send,
+        ) -> Vec<T> {
+            nodes.par_iter().with_min_len(1024).map(f).collect()
         }
-        l
+        // Portable sine and cosine: the GPU backend computes the same bits.
+        let (sin, cos): (Vec<f32>, Vec<f32>) = nodes
+            .par_iter()
+            .with_min_len(1024)
+            .map(|n| geom::pmath::sin_cos(n.1.angle))
+            .unzip();
+        Level {
+            center: col(&nodes, |n| n.0.center),
+            radius: col(&nodes, |n| n.0.radius),
+            axis: col(&nodes, |n| n.1.axis),
+            angle: col(&nodes, |n| n.1.angle),
+            sin,
+            cos,
+            max_t: col(&nodes, |n| n.2),
+            kind: col(&nodes, |n| n.3),
+            first,
+        }
     }
 }
 

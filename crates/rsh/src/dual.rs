@@ -183,6 +183,12 @@ pub struct RaySide<'a> {
     /// Reciprocal directions (the slab tests), by the hierarchy's ray index (what its
     /// `order` holds).
     pub inv_dir: &'a [Vec3],
+    /// Origins and t ranges by the same index (level 1's beams read them in order).
+    pub org: &'a [Vec3],
+    /// Smallest t (with `org`).
+    pub t_min: &'a [f32],
+    /// Largest t (with `org`).
+    pub t_max: &'a [f32],
     /// Ray kinds (the counters).
     pub kind: &'a [u8],
     /// Any hit will do (shadow rays): a ray that hit stops.
@@ -600,7 +606,8 @@ impl Traversal<'_> {
     }
 
     /// Per level, every node's count of rays without a hit yet, and every node's parent one
-    /// level up (level 0's parents: the leaf positions').
+    /// level up (level 0's parents: the leaf positions'). Nodes are counted in parallel
+    /// (level 1 alone has a node per `b` rays of the batch).
     #[allow(clippy::type_complexity)]
     fn open_rays(&self) -> (Vec<Vec<AtomicU32>>, Vec<Vec<u32>>) {
         let levels = &self.h.levels;
@@ -613,20 +620,31 @@ impl Traversal<'_> {
                 levels[li - 1].len()
             };
             let mut up = vec![0u32; below];
-            let mut count = Vec::with_capacity(level.len());
-            for n in 0..level.len() {
-                let mut rays = 0u32;
-                for ch in level.children(n) {
-                    up[ch] = n as u32;
-                    rays += if li == 0 {
-                        (self.best[self.h.order[ch] as usize].load(Ordering::Relaxed) == u64::MAX)
-                            as u32
-                    } else {
-                        left[li - 1][ch].load(Ordering::Relaxed)
-                    };
-                }
-                count.push(AtomicU32::new(rays));
-            }
+            let count: Vec<AtomicU32> = {
+                let out = par::SharedMut(up.as_mut_ptr());
+                let lower = left.last();
+                (0..level.len())
+                    .into_par_iter()
+                    .with_min_len(1024)
+                    .map(|n| {
+                        let out = &out;
+                        let mut rays = 0u32;
+                        for ch in level.children(n) {
+                            // SAFETY: children ranges of distinct nodes are disjoint and
+                            // within the level below.
+                            unsafe { out.write(ch, n as u32) };
+                            rays += match lower {
+                                None => {
+                                    (self.best[self.h.order[ch] as usize].load(Ordering::Relaxed)
+                                        == u64::MAX) as u32
+                                }
+                                Some(l) => l[ch].load(Ordering::Relaxed),
+                            };
+                        }
+                        AtomicU32::new(rays)
+                    })
+                    .collect()
+            };
             left.push(count);
             parent.push(up);
         }
@@ -646,9 +664,9 @@ impl Traversal<'_> {
                 .map(|n| {
                     let beam = match below {
                         None => beam_union(level.children(n).map(|pos| {
-                            let p = self.lanes.pre(pos);
-                            let i = rays.inv_dir[order[pos] as usize];
-                            (p.org, p.org, i, i, p.t_min, p.t_max)
+                            let r = order[pos] as usize;
+                            let (o, i) = (rays.org[r], rays.inv_dir[r]);
+                            (o, o, i, i, rays.t_min[r], rays.t_max[r])
                         })),
                         Some(b) => beam_union(level.children(n).map(|c| {
                             let x = &b[c];

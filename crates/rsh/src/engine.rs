@@ -183,6 +183,28 @@ pub fn report_counters(c: &Counters, mesh_culling: bool, top_nodes: u64, stats: 
     stats.count(counter::TOP_NODES, top_nodes);
 }
 
+/// The rays' geometric fields (origin, direction, t range, kind) gathered into leaf order,
+/// in parallel: all that the hierarchy's build and the dual traversal read of a ray. The
+/// shading fields (pixel, light, throughput, depth) stay empty.
+fn gather_leaves(rays: &RayBatch, order: &[u32]) -> RayBatch {
+    fn gather<T: Copy + Send + Sync>(v: &[T], order: &[u32]) -> Vec<T> {
+        order
+            .par_iter()
+            .with_min_len(4096)
+            .map(|&r| v[r as usize])
+            .collect()
+    }
+    RayBatch {
+        org: gather(&rays.org, order),
+        dir: gather(&rays.dir, order),
+        t_min: gather(&rays.t_min, order),
+        t_max: gather(&rays.t_max, order),
+        kind: gather(&rays.kind, order),
+        width: rays.width,
+        ..RayBatch::default()
+    }
+}
+
 impl RshEngine {
     /// The engine over `geo` (per-triangle and per-mesh spheres); the configuration is
     /// validated first.
@@ -252,34 +274,50 @@ impl Tracer for RshEngine {
         };
         let order = leaf_order(rays, grouping, &self.bounds, &self.cfg.hash_bits, stats);
         let t0 = Instant::now();
-        let mut h = build(
-            rays,
-            order,
-            self.cfg.branching as usize,
-            self.cfg.levels,
-            self.cfg.union,
-        );
-        stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
-        // The dual traversal reads rays in leaf order: its rays' constants and best hits are
-        // laid out in that order (the hash order scatters ray ids, and every final test
-        // would miss the cache), with the hierarchy's leaves renumbered to match. Only the
-        // arrays in use are made (fresh memory costs page faults on every trace): the
-        // constants only as the final tests' lanes, the best hits only by leaf position.
+        // The dual traversal reads rays in leaf order: the rays' fields are gathered into
+        // that order once (the hash order scatters ray ids, so the hierarchy's build, the
+        // final tests' lanes and the beams would each gather them again, missing the cache
+        // on every ray), its best hits are laid out by leaf position, and the hierarchy's
+        // leaves are numbered by position. Only the arrays in use are made (fresh memory
+        // costs page faults on every trace).
         let dual = self.tree.as_ref().filter(|_| !self.tris.is_empty());
-        let leaves = dual.map(|_| {
-            let len = h.order.len() as u32;
-            std::mem::replace(&mut h.order, (0..len).collect())
-        });
+        let (h, leaf_batch, leaves) = match dual {
+            Some(_) => {
+                let batch = gather_leaves(rays, &order);
+                let len = order.len() as u32;
+                let h = build(
+                    &batch,
+                    (0..len).collect(),
+                    self.cfg.branching as usize,
+                    self.cfg.levels,
+                    self.cfg.union,
+                );
+                (h, Some(batch), Some(order))
+            }
+            None => {
+                let h = build(
+                    rays,
+                    order,
+                    self.cfg.branching as usize,
+                    self.cfg.levels,
+                    self.cfg.union,
+                );
+                (h, None, None)
+            }
+        };
+        stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
         let leaf_rays = leaves.as_deref().unwrap_or_default();
         let best: Vec<AtomicU64> = (0..if dual.is_some() { leaf_rays.len() } else { n })
             .into_par_iter()
             .map(|_| AtomicU64::new(u64::MAX))
             .collect();
         // The rays' constants in leaf order, 8 lanes at a time (geom::tri8).
-        let in_leaf_order: &[u32] = if dual.is_some() { leaf_rays } else { &h.order };
-        let lanes = RayLanes::build(in_leaf_order.len(), |p| {
-            RayPre::new(&rays.ray(in_leaf_order[p] as usize))
-        });
+        let lanes = match &leaf_batch {
+            Some(b) => RayLanes::build(b.len(), |p| RayPre::new(&b.ray(p))),
+            None => RayLanes::build(h.order.len(), |p| {
+                RayPre::new(&rays.ray(h.order[p] as usize))
+            }),
+        };
         let trav = Traversal {
             h: &h,
             scene: SceneData {
@@ -299,17 +337,17 @@ impl Tracer for RshEngine {
         let t1 = Instant::now();
         match dual {
             Some((tree, _)) => {
-                let inv_dir: Vec<Vec3> = leaf_rays
-                    .par_iter()
-                    .map(|&r| rays.dir[r as usize].recip())
-                    .collect();
-                let kind: Vec<u8> = leaf_rays
-                    .par_iter()
-                    .map(|&r| rays.kind[r as usize])
-                    .collect();
+                let batch = leaf_batch
+                    .as_ref()
+                    .expect("gathered for the dual traversal");
+                let inv_dir: Vec<Vec3> = batch.dir.par_iter().map(|d| d.recip()).collect();
+                let kind = &batch.kind;
                 let side = RaySide {
                     inv_dir: &inv_dir,
-                    kind: &kind,
+                    org: &batch.org,
+                    t_min: &batch.t_min,
+                    t_max: &batch.t_max,
+                    kind,
                     any_hit: mode == TraceMode::Any,
                 };
                 trav.run_dual(
