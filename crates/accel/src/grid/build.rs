@@ -901,7 +901,8 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, String> {
     // Scatter by cell with one cursor per cell, then order each cell's few references (the
     // slots a cell gets are fixed, so the result does not depend on scheduling).
     let cursor: Vec<AtomicU32> = ref_first[..ncells]
-        .iter()
+        .par_iter()
+        .with_min_len(4096)
         .map(|&f| AtomicU32::new(f))
         .collect();
     let mut refs = vec![0u32; total as usize];
@@ -956,8 +957,9 @@ pub fn assemble(
         dims,
         voxel,
         inv_voxel: voxel.recip(),
-        exp_min: cell_min.clone(),
-        exp_max: cell_max.clone(),
+        // Copied in parallel: the initial cells are the build's largest arrays.
+        exp_min: cell_min.par_iter().with_min_len(4096).copied().collect(),
+        exp_max: cell_max.par_iter().with_min_len(4096).copied().collect(),
         cell_min,
         cell_max,
         trav: Vec::new(),

@@ -75,21 +75,25 @@ pub fn merge(g: &mut Grid, alpha: f32, empty_only: bool) -> usize {
     let n = g.cells();
     let cells = cell_records(&g.cell_min, &g.cell_max, &g.ref_first);
     let mut m = Merger {
-        owner: (0..n as u32).collect(),
-        owner_next: vec![0; n],
+        owner: iota(n),
+        owner_next: filled(n, 0),
         initial_refs: g.refs.len(),
         cells,
         pool: std::mem::take(&mut g.refs),
-        changed: vec![0; n],
-        probe0: std::array::from_fn(|_| vec![UNKNOWN; n]),
-        stamp: std::array::from_fn(|_| vec![0; n]),
-        probe: std::array::from_fn(|_| vec![NONE; n]),
-        cand: std::array::from_fn(|_| vec![NONE; n]),
+        changed: filled(n, 0),
+        probe0: std::array::from_fn(|_| filled(n, UNKNOWN)),
+        stamp: std::array::from_fn(|_| filled(n, 0)),
+        probe: std::array::from_fn(|_| filled(n, NONE)),
+        cand: std::array::from_fn(|_| filled(n, NONE)),
         pass: 0,
         empty_only,
     };
-    let mut live: Vec<u32> = (0..n as u32).collect();
-    let flags: Vec<AtomicU8> = (0..n).map(|_| AtomicU8::new(0)).collect();
+    let mut live: Vec<u32> = iota(n);
+    let flags: Vec<AtomicU8> = (0..n)
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .map(|_| AtomicU8::new(0))
+        .collect();
     let mut rounds = 0;
     loop {
         let before = live.len();
@@ -107,6 +111,24 @@ pub fn merge(g: &mut Grid, alpha: f32, empty_only: bool) -> usize {
     }
     compact(g, &m, &live);
     rounds
+}
+
+/// `n` copies of `v`, written in parallel: the merge's per-cell state is a dozen arrays over
+/// every initial cell (Sponza: 431 k), made on every build.
+fn filled(n: usize, v: u32) -> Vec<u32> {
+    (0..n)
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .map(|_| v)
+        .collect()
+}
+
+/// 0, 1, …, n − 1, written in parallel.
+fn iota(n: usize) -> Vec<u32> {
+    (0..n as u32)
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .collect()
 }
 
 /// The initial cell at cell `c`'s +axis probe voxel (its min corner moved to the far face),
@@ -371,15 +393,33 @@ fn compact_pool(m: &mut Merger, live: &[u32]) {
 /// voxel map at the new indices.
 fn compact(g: &mut Grid, m: &Merger, live: &[u32]) {
     let n = m.owner.len();
-    let mut new_index = vec![NONE; n];
-    for (k, &i) in live.iter().enumerate() {
-        new_index[i as usize] = k as u32;
+    let mut new_index = filled(n, NONE);
+    {
+        let out = SharedMut(new_index.as_mut_ptr());
+        live.par_iter()
+            .enumerate()
+            .with_min_len(4096)
+            .for_each(|(k, &i)| {
+                let out = &out;
+                // SAFETY: live cells are distinct.
+                unsafe { out.write(i as usize, k as u32) };
+            });
     }
     let (ref_first, refs) = gather(m, live);
-    g.cell_min = live.iter().map(|&i| m.cells[i as usize].lo).collect();
-    g.cell_max = live.iter().map(|&i| m.cells[i as usize].hi).collect();
-    g.exp_min = g.cell_min.clone();
-    g.exp_max = g.cell_max.clone();
+    let lo: Vec<[u32; 3]> = live
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&i| m.cells[i as usize].lo)
+        .collect();
+    let hi: Vec<[u32; 3]> = live
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&i| m.cells[i as usize].hi)
+        .collect();
+    g.exp_min = lo.clone();
+    g.exp_max = hi.clone();
+    g.cell_min = lo;
+    g.cell_max = hi;
     g.ref_first = ref_first;
     g.refs = refs;
     g.entries.par_iter_mut().with_min_len(4096).for_each(|e| {
