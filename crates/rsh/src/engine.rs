@@ -280,9 +280,10 @@ impl Tracer for RshEngine {
         // on every ray), its best hits are laid out by leaf position, and the hierarchy's
         // leaves are numbered by position. Only the arrays in use are made (fresh memory
         // costs page faults on every trace).
-        let dual = self.tree.as_ref().filter(|_| !self.tris.is_empty());
-        let (h, leaf_batch, leaves) = match dual {
-            Some(_) => {
+        let tree = self.tree.as_ref().filter(|_| !self.tris.is_empty());
+        // `dual`: the object tree and the rays in leaf order.
+        let (h, dual, leaves) = match tree {
+            Some((tree, _)) => {
                 let batch = gather_leaves(rays, &order);
                 let len = order.len() as u32;
                 let h = build(
@@ -292,7 +293,7 @@ impl Tracer for RshEngine {
                     self.cfg.levels,
                     self.cfg.union,
                 );
-                (h, Some(batch), Some(order))
+                (h, Some((tree, batch)), Some(order))
             }
             None => {
                 let h = build(
@@ -312,8 +313,8 @@ impl Tracer for RshEngine {
             .map(|_| AtomicU64::new(u64::MAX))
             .collect();
         // The rays' constants in leaf order, 8 lanes at a time (geom::tri8).
-        let lanes = match &leaf_batch {
-            Some(b) => RayLanes::build(b.len(), |p| RayPre::new(&b.ray(p))),
+        let lanes = match &dual {
+            Some((_, b)) => RayLanes::build(b.len(), |p| RayPre::new(&b.ray(p))),
             None => RayLanes::build(h.order.len(), |p| {
                 RayPre::new(&rays.ray(h.order[p] as usize))
             }),
@@ -335,11 +336,8 @@ impl Tracer for RshEngine {
         };
         let mut c = Counters::default();
         let t1 = Instant::now();
-        match dual {
-            Some((tree, _)) => {
-                let batch = leaf_batch
-                    .as_ref()
-                    .expect("gathered for the dual traversal");
+        match &dual {
+            Some((tree, batch)) => {
                 let inv_dir: Vec<Vec3> = batch.dir.par_iter().map(|d| d.recip()).collect();
                 let kind = &batch.kind;
                 let side = RaySide {
