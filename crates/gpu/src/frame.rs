@@ -315,15 +315,7 @@ pub fn render(
         let m = n * nl;
         let occ = g.storage("occluded", m * 4);
         if m > 0 {
-            let rays = DeviceRays {
-                org: g.storage("shadow org", m * 16),
-                dir: g.storage("shadow dir", m * 16),
-                kl: g.storage("shadow kind", m * 4),
-                pix: g.storage("shadow pixel", m * 4),
-                pre: g.storage("shadow ray constants", m * 16),
-                len: m,
-                width: 0,
-            };
+            let rays = DeviceRays::storage(g, "shadow", m);
             surf.s
                 .shadow_rays(&mut ex, &lights, &rays.org, &rays.dir, n, nl);
             ex.run(
@@ -385,15 +377,7 @@ pub fn render(
             clock.lap(&mut ex, &mut stats, "ray creation");
             break;
         }
-        let rays = DeviceRays {
-            org: g.storage("bounce org", r * 16),
-            dir: g.storage("bounce dir", r * 16),
-            kl: g.storage("bounce kind", r * 4),
-            pix: g.storage("bounce pixel", r * 4),
-            pre: g.storage("bounce ray constants", r * 16),
-            len: r,
-            width: 0,
-        };
+        let rays = DeviceRays::storage(g, "bounce", r);
         let weight = g.storage("bounce weight", r * 16);
         ex.run(
             Kernel::FrBounceEmit,

@@ -7,6 +7,8 @@
 //! The host-sequenced frame's own tolerance against the CPU renderer is checked in
 //! `raster.rs`; together they bound the device frame against the CPU.
 
+mod common;
+
 use accel::{GridConfig, GridEngine};
 use gpu::kernels::Kernels;
 use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh, GpuStages};
@@ -31,22 +33,6 @@ fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
         Box::new(GpuRsh::new(g.clone(), geo, RshConfig::rah()).unwrap()),
         Box::new(GpuGrid::new(g.clone(), geo, &GridConfig::default()).unwrap()),
     ]
-}
-
-/// A binding just large enough for `cpu`'s grid over `geo`: its largest array, to the next
-/// power of two.
-fn tight_binding(cpu: &GridEngine, geo: &Geometry) -> u64 {
-    let gr = &cpu.grid;
-    [
-        gr.refs.len() * 4,
-        gr.cells() * 32,
-        gr.entries.len() * 4,
-        geo.len() * 48,
-    ]
-    .into_iter()
-    .max()
-    .unwrap()
-    .next_power_of_two() as u64
 }
 
 #[test]
@@ -128,7 +114,7 @@ fn device_traces_in_parts_equal_the_cpu() {
     let geo = Geometry::from_scene(&s);
     let cpu = GridEngine::new(&geo, &GridConfig::default()).unwrap();
     let gr = &cpu.grid;
-    let limit = tight_binding(&cpu, &geo);
+    let limit = common::tight_binding(&cpu, &geo);
     let full = g.clone();
     g.limits.max_storage_buffer_binding_size = limit;
     let dev = GpuGrid::upload(g, gr, &geo.tris, "grid-gpu").unwrap();
@@ -188,7 +174,7 @@ fn frames_that_might_not_fit_a_binding_are_refused_with_the_reason() {
     let geo = Geometry::from_scene(&s);
     let cpu = GridEngine::new(&geo, &GridConfig::default()).unwrap();
     let gr = &cpu.grid;
-    let limit = tight_binding(&cpu, &geo);
+    let limit = common::tight_binding(&cpu, &geo);
     g.limits.max_storage_buffer_binding_size = limit;
     let e = GpuGrid::upload(g.clone(), gr, &geo.tris, "grid-gpu").unwrap();
     let opts = RenderOptions {

@@ -7,6 +7,8 @@
 //! prints why and passes locally (CI installs lavapipe and requires the GPU).
 
 use accel::grid::{build_grid, GridConfig, GridEngine, Subdivision};
+mod common;
+
 use accel::BruteForce;
 use gpu::{Gpu, GpuGrid};
 use render::raygen::{generate, Kind, Options};
@@ -144,16 +146,7 @@ fn small_bindings_split_rays_and_refuse_big_grids() {
     let geo = Geometry::from_scene(&s);
     let cpu = GridEngine::new(&geo, &GridConfig::default()).unwrap();
     let gr = &cpu.grid;
-    let limit = [
-        gr.refs.len() * 4,
-        gr.cells() * 32,
-        gr.entries.len() * 4,
-        geo.len() * 48,
-    ]
-    .into_iter()
-    .max()
-    .unwrap()
-    .next_power_of_two() as u64;
+    let limit = common::tight_binding(&cpu, &geo);
     let Some(mut g) = gpu() else { return };
     g.limits.max_storage_buffer_binding_size = limit;
     let soup = Geometry::from_scene(&builtin::soup(20_000, 1));

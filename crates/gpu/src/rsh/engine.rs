@@ -376,6 +376,21 @@ pub struct DeviceRays {
 }
 
 impl DeviceRays {
+    /// Room for `len` rays that kernels on the device will write (`what` names the buffers,
+    /// e.g. "shadow"), with no screen layout.
+    pub(crate) fn storage(g: &Gpu, what: &str, len: u64) -> DeviceRays {
+        let buf = |field: &str, size: u64| g.storage(&format!("{what} {field}"), len * size);
+        DeviceRays {
+            org: buf("org", 16),
+            dir: buf("dir", 16),
+            kl: buf("kind", 4),
+            pix: buf("pixel", 4),
+            pre: buf("ray constants", 16),
+            len,
+            width: 0,
+        }
+    }
+
     /// Upload `rays` (the ray constants are left for the hash kernel to write).
     pub(crate) fn upload(g: &Gpu, rays: &RayBatch) -> DeviceRays {
         let n = rays.len();

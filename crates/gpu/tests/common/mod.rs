@@ -1,0 +1,20 @@
+//! Helpers shared by the GPU integration tests.
+
+use accel::grid::GridEngine;
+use scene::Geometry;
+
+/// A binding just large enough for `cpu`'s grid over `geo`: its largest array (references,
+/// cell records, voxel map, triangles), to the next power of two.
+pub fn tight_binding(cpu: &GridEngine, geo: &Geometry) -> u64 {
+    let gr = &cpu.grid;
+    [
+        gr.refs.len() * 4,
+        gr.cells() * 32,
+        gr.entries.len() * 4,
+        geo.len() * 48,
+    ]
+    .into_iter()
+    .max()
+    .unwrap()
+    .next_power_of_two() as u64
+}
