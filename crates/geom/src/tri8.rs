@@ -172,7 +172,8 @@ struct Lanes11([*mut f32; 11]);
 unsafe impl Sync for Lanes11 {}
 
 /// What [`intersect8`] found for lanes `0..n`: bit l of `hit` set when lane l hits (its
-/// distance in `t[l]`), bit l of `redo` when lane l must be tested by the scalar kernel.
+/// distance in `t[l]`, its barycentrics in `u[l]`, `v[l]`), bit l of `redo` when lane l must
+/// be tested by the scalar kernel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Lanes8 {
     /// Lanes that hit (never a redo lane).
@@ -181,6 +182,10 @@ pub struct Lanes8 {
     pub redo: u8,
     /// Hit distances (meaningful where `hit` is set).
     pub t: [f32; 8],
+    /// Barycentric u (the scalar kernel's `v · (1 / det)`, the same bits; where `hit` is set).
+    pub u: [f32; 8],
+    /// Barycentric v (`w · (1 / det)`).
+    pub v: [f32; 8],
 }
 
 /// Rays `first..first + n` of `lanes` (n ≤ 8) against triangle (a, b, c).
@@ -199,7 +204,7 @@ pub fn intersect8(lanes: &RayLanes, first: usize, n: usize, a: Vec3, b: Vec3, c:
     Lanes8 {
         hit: 0,
         redo: all,
-        t: [0.0; 8],
+        ..Lanes8::default()
     }
 }
 
@@ -330,10 +335,20 @@ mod avx {
         let (edge, hit, t) = (w.edge, w.hit, w.t);
         let redo = _mm256_movemask_ps(edge) as u8 & all;
         let hit = _mm256_movemask_ps(hit) as u8 & all & !redo;
-        let mut out = [0.0f32; 8];
-        // SAFETY: `out` holds 8 floats.
-        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), t) };
-        Lanes8 { hit, redo, t: out }
+        let mut out = Lanes8 {
+            hit,
+            redo,
+            ..Lanes8::default()
+        };
+        // The barycentrics as the scalar kernel makes them: one product each, so the same
+        // bits (a caller keeps them with the hit instead of testing the triangle again).
+        // SAFETY: each array holds 8 floats.
+        unsafe {
+            _mm256_storeu_ps(out.t.as_mut_ptr(), t);
+            _mm256_storeu_ps(out.u.as_mut_ptr(), _mm256_mul_ps(w.v, w.inv));
+            _mm256_storeu_ps(out.v.as_mut_ptr(), _mm256_mul_ps(w.w, w.inv));
+        }
+        out
     }
 }
 
@@ -344,8 +359,8 @@ mod tests {
     use crate::{Pcg32, Ray};
     use proptest::prelude::*;
 
-    /// Every lane against the scalar kernel: a hit lane has the scalar hit's t bits, a lane
-    /// neither hit nor redo is a scalar miss.
+    /// Every lane against the scalar kernel: a hit lane has the scalar hit's t, u and v bits,
+    /// a lane neither hit nor redo is a scalar miss.
     fn check(pre: &[RayPre], order: &[u32], tri: [Vec3; 3]) -> Result<(u32, u32), TestCaseError> {
         let lanes = RayLanes::gather(pre, order);
         let (mut hits, mut redos) = (0, 0);
@@ -364,6 +379,8 @@ mod tests {
                     Some(h) => {
                         prop_assert!(r.hit >> l & 1 != 0, "lane {} missed a scalar hit", l);
                         prop_assert_eq!(r.t[l].to_bits(), h.t.to_bits());
+                        prop_assert_eq!(r.u[l].to_bits(), h.u.to_bits());
+                        prop_assert_eq!(r.v[l].to_bits(), h.v.to_bits());
                         hits += 1;
                     }
                     None => prop_assert!(r.hit >> l & 1 == 0, "lane {} hit a scalar miss", l),

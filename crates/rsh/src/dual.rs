@@ -848,6 +848,9 @@ impl Traversal<'_> {
         let pre = &self.lanes.pre(pos);
         let inv = rays.inv_dir[r];
         let (mut f, mut b, mut p) = (0u64, 0u64, 0u64);
+        // The barycentrics of a hit this walk found (with `best`).
+        let mut uv = (0.0, 0.0);
+        let had = best;
         while let Some(o) = stack.pop() {
             if rays.any_hit && best != u64::MAX {
                 stack.clear();
@@ -858,7 +861,10 @@ impl Traversal<'_> {
                 let [a, bb, cc] = self.scene.tris[t as usize];
                 f += 1;
                 if let Some(hit) = intersect(pre, a, bb, cc) {
-                    best = best.min(pack(hit.t, t));
+                    let key = pack(hit.t, t);
+                    if key < best {
+                        (best, uv) = (key, (hit.u, hit.v));
+                    }
                 }
                 continue;
             }
@@ -892,7 +898,14 @@ impl Traversal<'_> {
                 (None, None) => {}
             }
         }
-        let first = best != u64::MAX && self.best[r].fetch_min(best, Ordering::Relaxed) == u64::MAX;
+        let first = best < had
+            && self.offer(
+                r,
+                f32::from_bits((best >> 32) as u32),
+                best as u32,
+                uv.0,
+                uv.1,
+            );
         (kind, [f, b, p], first)
     }
 

@@ -6,7 +6,7 @@ use crate::dual::{Descent, RaySide, Schedule};
 use crate::hash::{HashBits, HashKind};
 use crate::objects::{self, ObjectTree};
 use crate::order::{leaf_order, Grouping};
-use crate::traverse::{Counters, NodeTest, SceneData, Traversal};
+use crate::traverse::{unpack_uv, Counters, NodeTest, SceneData, Traversal};
 use geom::tri::RayPre;
 use geom::tri8::RayLanes;
 use geom::{intersect, Aabb, Sphere, Vec3};
@@ -312,6 +312,13 @@ impl Tracer for RshEngine {
             .into_par_iter()
             .map(|_| AtomicU64::new(u64::MAX))
             .collect();
+        // The depth-first dual traversal does all of a ray's tests in one task, so it keeps
+        // each hit's barycentrics with it, and the records need not test again.
+        let keep_bary = dual.is_some() && self.cfg.schedule == Schedule::Depth;
+        let bary: Vec<AtomicU64> = (0..if keep_bary { leaf_rays.len() } else { 0 })
+            .into_par_iter()
+            .map(|_| AtomicU64::new(0))
+            .collect();
         // The rays' constants in leaf order, 8 lanes at a time (geom::tri8).
         let lanes = match &dual {
             Some((_, b)) => RayLanes::build(b.len(), |p| RayPre::new(&b.ray(p))),
@@ -330,6 +337,7 @@ impl Tracer for RshEngine {
             },
             lanes: &lanes,
             best: &best,
+            bary: keep_bary.then_some(&bary[..]),
             test: self.cfg.node_test,
             mesh_culling: self.cfg.mesh_culling,
             budget: self.cfg.pair_budget,
@@ -396,6 +404,14 @@ impl Tracer for RshEngine {
                     let b = b.load(Ordering::Relaxed);
                     let hit = if b == u64::MAX {
                         Hit::MISS
+                    } else if keep_bary {
+                        let (u, v) = unpack_uv(bary[p].load(Ordering::Relaxed));
+                        Hit {
+                            tri: b as u32,
+                            t: f32::from_bits((b >> 32) as u32),
+                            u,
+                            v,
+                        }
                     } else {
                         record(&lanes.pre(p), b as u32)
                     };

@@ -88,6 +88,12 @@ pub struct Traversal<'a> {
     pub lanes: &'a RayLanes,
     /// Per ray, the closest hit so far as (t bits << 32 | triangle), by atomic minimum.
     pub best: &'a [AtomicU64],
+    /// Per ray (as `best`), the barycentrics of its hit in `best` (u bits << 32 | v bits),
+    /// kept where one task does all of a ray's tests ([`crate::dual::Schedule::Depth`]), so
+    /// its `best` and these change together and the records need not test the triangle
+    /// again. `None` elsewhere: there, two tasks may improve a ray's hit at once, and the
+    /// records recompute the barycentrics.
+    pub bary: Option<&'a [AtomicU64]>,
     /// The node test.
     pub test: NodeTest,
     /// Cull top nodes by mesh spheres first.
@@ -148,6 +154,18 @@ pub fn batches(
 #[inline]
 pub fn pack(t: f32, tri: u32) -> u64 {
     (t.to_bits() as u64) << 32 | tri as u64
+}
+
+/// A hit's barycentrics in one word (u bits << 32 | v bits), as [`Traversal::bary`] keeps them.
+#[inline]
+pub fn pack_uv(u: f32, v: f32) -> u64 {
+    (u.to_bits() as u64) << 32 | v.to_bits() as u64
+}
+
+/// The barycentrics [`pack_uv`] packed.
+#[inline]
+pub fn unpack_uv(w: u64) -> (f32, f32) {
+    (f32::from_bits((w >> 32) as u32), f32::from_bits(w as u32))
 }
 
 #[inline]
@@ -389,6 +407,21 @@ impl Traversal<'_> {
         c.final_tests = add4(c.final_tests, tests);
     }
 
+    /// Offer ray `r` the hit (distance `t`, triangle `tri`, barycentrics `u`, `v`): the
+    /// closest so far wins by atomic minimum (with [`Traversal::bary`], a winner's
+    /// barycentrics are kept with it). Returns whether the ray had no hit before.
+    #[inline]
+    pub(crate) fn offer(&self, r: usize, t: f32, tri: u32, u: f32, v: f32) -> bool {
+        let key = pack(t, tri);
+        let before = self.best[r].fetch_min(key, Ordering::Relaxed);
+        if let Some(bary) = self.bary {
+            if key < before {
+                bary[r].store(pack_uv(u, v), Ordering::Relaxed);
+            }
+        }
+        before == u64::MAX
+    }
+
     /// The exact tests of level-1 node `n`'s rays against triangle `t`, closest hits by
     /// atomic minimum; `first` is told the leaf position of every ray that had no hit
     /// before. Returns the tests made (the node's rays).
@@ -405,14 +438,14 @@ impl Traversal<'_> {
             let r8 = intersect8(self.lanes, p, k, a, b, cc);
             for_lanes(r8.hit, |l| {
                 let r = order[p + l] as usize;
-                if self.best[r].fetch_min(pack(r8.t[l], t), Ordering::Relaxed) == u64::MAX {
+                if self.offer(r, r8.t[l], t, r8.u[l], r8.v[l]) {
                     first(p + l);
                 }
             });
             for_lanes(r8.redo, |l| {
                 let r = order[p + l] as usize;
                 if let Some(hit) = intersect(&self.lanes.pre(p + l), a, b, cc) {
-                    if self.best[r].fetch_min(pack(hit.t, t), Ordering::Relaxed) == u64::MAX {
+                    if self.offer(r, hit.t, t, hit.u, hit.v) {
                         first(p + l);
                     }
                 }

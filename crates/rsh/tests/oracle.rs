@@ -88,6 +88,39 @@ fn object_hierarchy_matches_brute_force() {
     }
 }
 
+/// Hit records carry the shared kernel's own (t, u, v) for the ray and the triangle they
+/// name, whichever schedule found them: the depth-first traversal keeps a hit's barycentrics
+/// from its test (the 8-lane kernel's or a walk's), the others recompute them. Closest hits
+/// are compared with brute force elsewhere; this holds any-hit records to it too.
+#[test]
+fn hit_records_are_the_kernels_own() {
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let batches = record_render(&s, &geo, 32, 24, 2);
+        let mut hits = 0;
+        for schedule in [Schedule::Depth, Schedule::Breadth] {
+            let e = RshEngine::new(&geo, bvh(Descent::Size, schedule)).unwrap();
+            for (j, (rays, _, _)) in batches.iter().enumerate() {
+                for mode in [TraceMode::Any, TraceMode::Closest] {
+                    let mut got = vec![Hit::MISS; rays.len()];
+                    e.trace(rays, mode, &mut got, &mut TraceStats::default());
+                    for (i, h) in got.iter().enumerate().filter(|(_, h)| h.is_hit()) {
+                        let [a, b, c] = geo.tris[h.tri as usize];
+                        let pre = geom::tri::RayPre::new(&rays.ray(i));
+                        let k = geom::intersect(&pre, a, b, c).expect("a recorded hit repeats");
+                        let want = (k.t.to_bits(), k.u.to_bits(), k.v.to_bits());
+                        let have = (h.t.to_bits(), h.u.to_bits(), h.v.to_bits());
+                        assert_eq!(have, want, "{name} {schedule:?} {mode:?} batch {j} ray {i}");
+                        hits += 1;
+                    }
+                }
+            }
+        }
+        assert!(hits > 0, "{name}: some records were checked");
+    }
+}
+
 /// CRSH's defaults with the object hierarchy, `descent` and `schedule`.
 fn bvh(descent: Descent, schedule: Schedule) -> RshConfig {
     RshConfig {
