@@ -561,10 +561,15 @@ impl Traversal<'_> {
                                     let pass = m >> i & 1 != 0;
                                     t.count(li, k, pass, x);
                                     if pass {
-                                        let b = tree.bounds(x);
-                                        let along =
-                                            (b.sphere.center - node.center).dot(node.cone.axis);
-                                        let a = action(descent, node, li, x, b.sphere.radius);
+                                        // The child's sphere from the collapsed node's lanes
+                                        // (not its own record, elsewhere in memory).
+                                        let c = Vec3::new(
+                                            w.center[0][i],
+                                            w.center[1][i],
+                                            w.center[2][i],
+                                        );
+                                        let along = (c - node.center).dot(node.cone.axis);
+                                        let a = action(descent, node, li, x, w.radius[i]);
                                         // Insertion by distance along the axis (ties keep
                                         // the children's order).
                                         let mut at = ns;

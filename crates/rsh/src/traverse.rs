@@ -90,9 +90,9 @@ pub struct Traversal<'a> {
     pub best: &'a [AtomicU64],
     /// Per ray (as `best`), the barycentrics of its hit in `best` (u bits << 32 | v bits),
     /// kept where one task does all of a ray's tests ([`crate::dual::Schedule::Depth`]), so
-    /// its `best` and these change together and the records need not test the triangle
-    /// again. `None` elsewhere: there, two tasks may improve a ray's hit at once, and the
-    /// records recompute the barycentrics.
+    /// its `best` and these change together (by plain loads and stores) and the records
+    /// need not test the triangle again. `None` elsewhere: there, two tasks may improve a
+    /// ray's hit at once (an atomic minimum), and the records recompute the barycentrics.
     pub bary: Option<&'a [AtomicU64]>,
     /// The node test.
     pub test: NodeTest,
@@ -413,13 +413,19 @@ impl Traversal<'_> {
     #[inline]
     pub(crate) fn offer(&self, r: usize, t: f32, tri: u32, u: f32, v: f32) -> bool {
         let key = pack(t, tri);
-        let before = self.best[r].fetch_min(key, Ordering::Relaxed);
-        if let Some(bary) = self.bary {
-            if key < before {
-                bary[r].store(pack_uv(u, v), Ordering::Relaxed);
+        match self.bary {
+            Some(bary) => {
+                // One task does all of this ray's tests: a plain load and store (no locked
+                // compare-and-swap loop, which an atomic minimum is on x86).
+                let before = self.best[r].load(Ordering::Relaxed);
+                if key < before {
+                    self.best[r].store(key, Ordering::Relaxed);
+                    bary[r].store(pack_uv(u, v), Ordering::Relaxed);
+                }
+                before == u64::MAX
             }
+            None => self.best[r].fetch_min(key, Ordering::Relaxed) == u64::MAX,
         }
-        before == u64::MAX
     }
 
     /// The exact tests of level-1 node `n`'s rays against triangle `t`, closest hits by
