@@ -222,6 +222,175 @@ pub fn thesis_key_at(
     kind << 30 | payload
 }
 
+/// [`thesis_key_at`] of rays `first .. first + out.len()` (at most 8) into `out`, from their
+/// [`spherical01_8`] angles `tp`: with AVX2, the 8 keys side by side in integer lanes (the
+/// same float operations and truncations, so the same bits); else one by one.
+#[inline]
+pub fn thesis_keys8(
+    rays: &RayBatch,
+    first: usize,
+    tp: &[(f32, f32); 8],
+    scene: &Aabb,
+    bits: &HashBits,
+    out: &mut [u32],
+) {
+    assert!(
+        !out.is_empty() && out.len() <= 8 && first + out.len() <= rays.len(),
+        "a window of at most 8 rays"
+    );
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 is present; the window is in bounds (checked above).
+            let k = unsafe { avx2::keys8(rays, first, out.len(), tp, scene, bits) };
+            out.copy_from_slice(&k[..out.len()]);
+            return;
+        }
+    }
+    for (l, k) in out.iter_mut().enumerate() {
+        *k = thesis_key_at(rays, first + l, tp[l], scene, bits);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{HashBits, RayKind};
+    use geom::{Aabb, Vec3};
+    use render::RayBatch;
+    use std::arch::x86_64::*;
+
+    /// [`super::part1by1`] per lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn part1by1(v: __m256i) -> __m256i {
+        let m = _mm256_set1_epi32;
+        let mut x = _mm256_and_si256(v, m(0xffff));
+        x = _mm256_and_si256(
+            _mm256_or_si256(x, _mm256_slli_epi32::<8>(x)),
+            m(0x00ff_00ff),
+        );
+        x = _mm256_and_si256(
+            _mm256_or_si256(x, _mm256_slli_epi32::<4>(x)),
+            m(0x0f0f_0f0f),
+        );
+        x = _mm256_and_si256(
+            _mm256_or_si256(x, _mm256_slli_epi32::<2>(x)),
+            m(0x3333_3333),
+        );
+        _mm256_and_si256(
+            _mm256_or_si256(x, _mm256_slli_epi32::<1>(x)),
+            m(0x5555_5555),
+        )
+    }
+
+    /// [`super::part1by2`] per lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn part1by2(v: __m256i) -> __m256i {
+        let m = _mm256_set1_epi32;
+        let mut x = _mm256_and_si256(v, m(0x3ff));
+        x = _mm256_and_si256(
+            _mm256_or_si256(x, _mm256_slli_epi32::<16>(x)),
+            m(0x0300_00ff),
+        );
+        x = _mm256_and_si256(
+            _mm256_or_si256(x, _mm256_slli_epi32::<8>(x)),
+            m(0x0300_f00f),
+        );
+        x = _mm256_and_si256(
+            _mm256_or_si256(x, _mm256_slli_epi32::<4>(x)),
+            m(0x030c_30c3),
+        );
+        _mm256_and_si256(
+            _mm256_or_si256(x, _mm256_slli_epi32::<2>(x)),
+            m(0x0924_9249),
+        )
+    }
+
+    /// [`super::quant`] per lane for `x` in [0, 1] or NaN: x · 2^bits (one product, as the
+    /// scalar code) is then in [0, 2^bits], so truncating to i32 is the scalar `as u32`;
+    /// a NaN product becomes 0 (`as u32` of NaN is 0) by the max with 0, which returns its
+    /// second operand for NaN.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn quant(x: __m256, bits: u32) -> __m256i {
+        let n = (1u32 << bits) as f32;
+        let q = _mm256_max_ps(_mm256_mul_ps(x, _mm256_set1_ps(n)), _mm256_setzero_ps());
+        _mm256_min_epu32(
+            _mm256_cvttps_epi32(q),
+            _mm256_set1_epi32(((1u32 << bits) - 1) as i32),
+        )
+    }
+
+    /// `v << k` per lane (k < 32: the budgets are validated to 30 bits).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn shl(v: __m256i, k: u32) -> __m256i {
+        _mm256_sll_epi32(v, _mm_cvtsi32_si128(k as i32))
+    }
+
+    /// The keys of rays `first .. first + n` (lanes past `n` repeat the last ray).
+    #[target_feature(enable = "avx2")]
+    pub(super) fn keys8(
+        rays: &RayBatch,
+        first: usize,
+        n: usize,
+        tp: &[(f32, f32); 8],
+        scene: &Aabb,
+        bits: &HashBits,
+    ) -> [u32; 8] {
+        let at = |l: usize| first + l.min(n - 1);
+        let f = |g: &dyn Fn(usize) -> f32| {
+            let a: [f32; 8] = std::array::from_fn(g);
+            // SAFETY: `a` holds 8 floats.
+            unsafe { _mm256_loadu_ps(a.as_ptr()) }
+        };
+        let i = |g: &dyn Fn(usize) -> u32| {
+            let a: [u32; 8] = std::array::from_fn(g);
+            // SAFETY: `a` holds 8 words.
+            unsafe { _mm256_loadu_si256(a.as_ptr().cast()) }
+        };
+        let t = f(&|l| tp[l].0);
+        let p = f(&|l| tp[l].1);
+        let kind = i(&|l| rays.kind[at(l)] as u32 & 3);
+        // Shadow rays: light index, then direction.
+        let s = bits.shadow_dir;
+        let sdir = _mm256_or_si256(shl(part1by1(quant(t, s)), 1), part1by1(quant(p, s)));
+        let light = i(&|l| rays.light[at(l)] & ((1u32 << bits.light) - 1));
+        let shadow = _mm256_or_si256(shl(light, 2 * s), sdir);
+        // Other rays: origin in the scene box (unit_in_box: difference, quotient, clamp),
+        // then direction.
+        let e = scene.extent().max(Vec3::splat(1e-30));
+        let unit = |k: usize| {
+            let x = f(&|l| rays.org[at(l)][k]);
+            let q = _mm256_div_ps(
+                _mm256_sub_ps(x, _mm256_set1_ps(scene.min[k])),
+                _mm256_set1_ps(e[k]),
+            );
+            // clamp(0, 1); a NaN quotient becomes 0 here, as quant makes it 0 anyway.
+            _mm256_min_ps(_mm256_max_ps(q, _mm256_setzero_ps()), _mm256_set1_ps(1.0))
+        };
+        let o = bits.origin;
+        let org = _mm256_or_si256(
+            _mm256_or_si256(
+                shl(part1by2(quant(unit(0), o)), 2),
+                shl(part1by2(quant(unit(1), o)), 1),
+            ),
+            part1by2(quant(unit(2), o)),
+        );
+        let d = bits.dir;
+        let dir = _mm256_or_si256(shl(part1by1(quant(t, d)), 1), part1by1(quant(p, d)));
+        let other = _mm256_or_si256(shl(org, 2 * d), dir);
+        let is_shadow = _mm256_cmpeq_epi32(kind, _mm256_set1_epi32(RayKind::Shadow as i32));
+        let payload = _mm256_blendv_epi8(other, shadow, is_shadow);
+        let key = _mm256_or_si256(_mm256_slli_epi32::<30>(kind), payload);
+        let mut out = [0u32; 8];
+        // SAFETY: `out` holds 8 words.
+        unsafe { _mm256_storeu_si256(out.as_mut_ptr().cast(), key) };
+        out
+    }
+}
+
 /// The 64-bit 5-D Morton hash of ray `i`.
 #[inline]
 pub fn morton64_key(rays: &RayBatch, i: usize, scene: &Aabb) -> u64 {
@@ -289,6 +458,65 @@ mod tests {
         }
         .validate()
         .is_err());
+    }
+
+    /// The 8-lane keys equal the scalar ones, for every kind, light, bit budget and window
+    /// length, origins inside and outside the scene box, and axis directions.
+    #[test]
+    fn lane_keys_equal_the_scalar_ones() {
+        let mut rng = geom::Pcg32::new(11, 5);
+        let scene = Aabb::new(Vec3::new(-3.0, 0.0, -1.0), Vec3::new(5.0, 2.0, 1e-3));
+        let budgets = [
+            HashBits::default(),
+            HashBits {
+                light: 0,
+                shadow_dir: 15,
+                origin: 6,
+                dir: 6,
+            },
+            HashBits {
+                light: 4,
+                shadow_dir: 1,
+                origin: 1,
+                dir: 1,
+            },
+        ];
+        for bits in budgets {
+            assert!(bits.validate().is_ok(), "{bits:?}");
+            for n in [1usize, 7, 8, 9, 203] {
+                let mut b = RayBatch::default();
+                for i in 0..n {
+                    let o = Vec3::new(
+                        rng.range(-6.0, 8.0),
+                        rng.range(-1.0, 3.0),
+                        rng.range(-0.01, 0.01),
+                    );
+                    let d = match i % 7 {
+                        0 => Vec3::X,
+                        1 => -Vec3::Z,
+                        _ => rng.unit_vector(),
+                    };
+                    let kind = [
+                        RayKind::Primary,
+                        RayKind::Shadow,
+                        RayKind::Reflection,
+                        RayKind::Refraction,
+                    ][i % 4];
+                    let light = rng.next_u32() % 40;
+                    b.push(geom::Ray::new(o, d, 0.0, 1.0), kind, 0, light, Vec3::ONE, 0);
+                }
+                for first in (0..n).step_by(8) {
+                    let len = (n - first).min(8);
+                    let tp = spherical01_8(&b, first);
+                    let mut got = [0u32; 8];
+                    thesis_keys8(&b, first, &tp, &scene, &bits, &mut got[..len]);
+                    for (l, &k) in got[..len].iter().enumerate() {
+                        let want = thesis_key(&b, first + l, &scene, &bits);
+                        assert_eq!(k, want, "{bits:?} ray {}", first + l);
+                    }
+                }
+            }
+        }
     }
 
     /// The 8-lane angles equal the scalar ones bit for bit, up to the batch's last ray (axis

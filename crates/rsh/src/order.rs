@@ -2,7 +2,7 @@
 //! (thesis §3.2.3–3.2.6), or RAH's screen-space order. Each step is one `par` primitive and
 //! one timed phase.
 
-use crate::hash::{morton64_key, screen_key, spherical01_8, thesis_key_at, HashBits, HashKind};
+use crate::hash::{morton64_key, screen_key, spherical01_8, thesis_keys8, HashBits, HashKind};
 use geom::Aabb;
 use par::{compact_pairs, compress_runs, expand_runs, sort_pairs, SortScratch};
 use rayon::prelude::*;
@@ -43,16 +43,14 @@ pub fn leaf_order(
     match grouping {
         Grouping::Hash(HashKind::Thesis) => {
             let keys: Vec<u32> = timed(stats, Phase::Hash, || {
-                // 8 rays' spherical angles at a time (AVX lanes, the scalar bits).
+                // 8 rays' spherical angles and keys at a time (AVX lanes, the scalar bits).
                 let mut keys = vec![0u32; n];
                 keys.par_chunks_mut(8)
                     .with_min_len(512)
                     .enumerate()
                     .for_each(|(c, out)| {
                         let tp = spherical01_8(rays, c * 8);
-                        for (l, k) in out.iter_mut().enumerate() {
-                            *k = thesis_key_at(rays, c * 8 + l, tp[l], scene, bits);
-                        }
+                        thesis_keys8(rays, c * 8, &tp, scene, bits, out);
                     });
                 keys
             });
