@@ -96,7 +96,20 @@ pub fn minimal_ball(points: &[Vec3]) -> Option<Sphere> {
     if points.is_empty() {
         return None;
     }
-    let mut p: Vec<DVec3> = points.iter().map(|v| v.as_dvec3()).collect();
+    // Small sets (a ray node's origins: b ≤ 16 in the thesis's configurations) on the stack:
+    // the hierarchy's build calls this once per level-1 node, on every trace.
+    const SMALL: usize = 16;
+    let mut small = [DVec3::ZERO; SMALL];
+    let mut large = Vec::new();
+    let p: &mut [DVec3] = if points.len() <= SMALL {
+        for (d, v) in small.iter_mut().zip(points) {
+            *d = v.as_dvec3();
+        }
+        &mut small[..points.len()]
+    } else {
+        large.extend(points.iter().map(|v| v.as_dvec3()));
+        &mut large
+    };
     // A fixed shuffle: expected linear time without giving up determinism.
     let mut rng = Pcg32::new(0x6d696e69, 0x62616c6c);
     for i in (1..p.len()).rev() {

@@ -197,13 +197,14 @@ pub fn build(rays: &RayBatch, order: Vec<u32>, b: usize, levels: u32, union: Uni
             });
             cone8::add_dir8(&mut cones, &dirs, mask);
         }
+        // At most 64 leaves (the branching factor's cap): no allocation per node, and one
+        // buffer for the block's nodes (not one cleared per node).
+        let mut pts = [Vec3::ZERO; 64];
         for (l, node) in out.iter_mut().enumerate() {
             let leaves = leaves(l);
             let r0 = leaves[0] as usize;
             let sphere = match union {
                 Union::Exact => {
-                    // At most 64 leaves (the branching factor's cap): no allocation per node.
-                    let mut pts = [Vec3::ZERO; 64];
                     for (p, &r) in pts.iter_mut().zip(leaves) {
                         *p = rays.org[r as usize];
                     }
