@@ -4,10 +4,12 @@
 //!
 //! Build (Karras 2012, "Maximizing parallelism in the construction of BVHs, octrees and k-d
 //! trees", §3–4): each triangle gets a 64-bit key, its mesh index above the Morton code
-//! of its bounding-box centre in the scene box; the keys are radix-sorted (`par`); every
-//! internal node is emitted independently from the sorted keys (Karras's Figure 4, with the
-//! index breaking ties between equal keys); boxes are filled bottom-up, the second child to
-//! finish a node computing it (the GPU's atomic-counter pass).
+//! of its bounding-box centre in the scene box; the keys are radix-sorted (`par`); the
+//! binary radix tree over the sorted keys (Karras's, the index breaking ties between equal
+//! keys) and its boxes are made in one bottom-up pass (Apetrei 2014, "Fast and simple
+//! agglomerative LBVH construction"): one task per leaf, the second child to reach a node
+//! making it (the GPU's atomic-counter pass), numbered as Karras's emission (Figure 4)
+//! numbers it, which the tests check node for node.
 //!
 //! Because the mesh index is the key's top bits, every mesh's triangles form one subtree of
 //! the binary radix tree (keys with a common prefix are one subtree), so the thesis's
@@ -248,7 +250,9 @@ fn delta(keys: &[u64], i: usize, j: i64) -> i32 {
     }
 }
 
-/// Internal node i's key range `[lo, hi]` and split γ (Karras 2012, Figure 4).
+/// Internal node i's key range `[lo, hi]` and split γ (Karras 2012, Figure 4): the
+/// reference [`radix_tree`] is tested against.
+#[cfg(test)]
 fn emit_node(keys: &[u64], i: usize) -> (usize, usize, usize) {
     let ii = i as i64;
     let d: i64 = if delta(keys, i, ii + 1) > delta(keys, i, ii - 1) {
@@ -284,6 +288,120 @@ fn emit_node(keys: &[u64], i: usize) -> (usize, usize, usize) {
     }
     let gamma = ii + s * d + d.min(0);
     (ii.min(j) as usize, ii.max(j) as usize, gamma as usize)
+}
+
+/// The binary radix tree over `n ≥ 2` sorted keys, as Karras's emission numbers it (root 0;
+/// an inner node's index is its range's right end when it is a left child, its left end
+/// when a right child), with every inner node's box and the tree's depth.
+struct RadixTree {
+    child: Vec<[u32; 2]>,
+    range: Vec<[u32; 2]>,
+    nbox: Vec<Aabb>,
+    depth: u32,
+}
+
+/// [`RadixTree`] in one bottom-up pass (Apetrei 2014, "Fast and simple agglomerative LBVH
+/// construction"): one task per leaf climbs while it is the second child to arrive at a
+/// node. A node covering sorted keys `[l, r]` is the left child of the node split at `r`
+/// when keys r and r + 1 share a longer prefix than keys l − 1 and l (Karras's δ, the index
+/// breaking ties, so no two are equal), else the right child of the node split at l − 1.
+/// The first child to arrive leaves its end of the range in the parent's split slot (an
+/// atomic swap); the second reads it and makes the node: its range, children, box (left ∪
+/// right, in that order) and depth. This is the tree Karras's emission builds (the same
+/// radix tree), with the same numbering and the same box bits, without a binary search
+/// per node and without a second pass for the boxes.
+fn radix_tree(keys: &[u64], order: &[u32], boxes: &[Aabb]) -> RadixTree {
+    let n = keys.len();
+    debug_assert!(n >= 2);
+    let ni = n - 1;
+    let mut child = vec![[0u32; 2]; ni];
+    let mut range = vec![[0u32; 2]; ni];
+    let mut nbox = vec![Aabb::default(); ni];
+    let mut depth = vec![0u32; ni];
+    // Per split s: the range end the first child to arrive left (u32::MAX: none yet), and
+    // each side's child reference.
+    let end: Vec<AtomicU32> = (0..ni)
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .map(|_| AtomicU32::new(u32::MAX))
+        .collect();
+    let kid: Vec<[AtomicU32; 2]> = (0..ni)
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .map(|_| [AtomicU32::new(0), AtomicU32::new(0)])
+        .collect();
+    // The parent of node [l, r]: (split, 0 when this is its left child, 1 when right); None
+    // for the root.
+    let parent = |l: usize, r: usize| -> Option<(usize, usize)> {
+        let left = delta(keys, l, l as i64 - 1);
+        let right = delta(keys, r, r as i64 + 1);
+        if left < 0 && right < 0 {
+            None
+        } else if right > left {
+            Some((r, 0))
+        } else {
+            Some((l - 1, 1))
+        }
+    };
+    let out = (
+        SharedMut(child.as_mut_ptr()),
+        SharedMut(range.as_mut_ptr()),
+        SharedMut(nbox.as_mut_ptr()),
+        SharedMut(depth.as_mut_ptr()),
+    );
+    (0..n).into_par_iter().with_min_len(1024).for_each(|i| {
+        let out = &out;
+        let (mut l, mut r, mut me) = (i, i, LEAF | order[i]);
+        let get = |c: u32| -> (Aabb, u32) {
+            if c & LEAF != 0 {
+                (boxes[(c & !LEAF) as usize], 0)
+            } else {
+                // SAFETY: inner node c is complete (its maker handed it up through the swap
+                // below, which orders its writes before this read), and no one writes it
+                // any more.
+                unsafe { (*out.2 .0.add(c as usize), *out.3 .0.add(c as usize)) }
+            }
+        };
+        while let Some((s, side)) = parent(l, r) {
+            kid[s][side].store(me, Ordering::Relaxed);
+            let mine = if side == 0 { l } else { r } as u32;
+            // AcqRel: the second child to arrive sees the first one's node and reference.
+            let other = end[s].swap(mine, Ordering::AcqRel);
+            if other == u32::MAX {
+                return;
+            }
+            (l, r) = if side == 0 {
+                (l, other as usize)
+            } else {
+                (other as usize, r)
+            };
+            let k = match parent(l, r) {
+                None => 0,
+                Some((_, 0)) => r,
+                Some(_) => l,
+            };
+            let ch = [
+                kid[s][0].load(Ordering::Relaxed),
+                kid[s][1].load(Ordering::Relaxed),
+            ];
+            let ((a, da), (b, db)) = (get(ch[0]), get(ch[1]));
+            // SAFETY: node k is made once, by the second child to arrive at split s (every
+            // node has one index and one split).
+            unsafe {
+                out.0.write(k, ch);
+                out.1.write(k, [l as u32, r as u32]);
+                out.2.write(k, a.union(&b));
+                out.3.write(k, 1 + da.max(db));
+            }
+            me = k as u32;
+        }
+    });
+    RadixTree {
+        child,
+        range,
+        depth: depth[0],
+        nbox,
+    }
 }
 
 /// `b` grown by 8 ulps of the largest coordinate of `scene`: more than the rounding of any
@@ -382,80 +500,14 @@ pub fn build(
         code_bits + mesh_bits,
         &mut SortScratch::new(),
     );
-    // Emission: every internal node from the keys alone; parents recorded for the boxes.
+    // The radix tree and its boxes in one bottom-up pass (Apetrei 2014).
+    let RadixTree {
+        child,
+        range,
+        nbox,
+        depth,
+    } = radix_tree(&keys, &order, &boxes);
     let ni = n - 1;
-    let mut child = vec![[0u32; 2]; ni];
-    let mut range = vec![[0u32; 2]; ni];
-    let mut parent = vec![0u32; ni + n]; // internal nodes, then leaves by sorted position
-    {
-        let (cp, rp, pp) = (
-            SharedMut(child.as_mut_ptr()),
-            SharedMut(range.as_mut_ptr()),
-            SharedMut(parent.as_mut_ptr()),
-        );
-        (0..ni).into_par_iter().with_min_len(1024).for_each(|i| {
-            let (lo, hi, g) = emit_node(&keys, i);
-            let left = if lo == g {
-                (ni + g, LEAF | order[g])
-            } else {
-                (g, g as u32)
-            };
-            let right = if hi == g + 1 {
-                (ni + g + 1, LEAF | order[g + 1])
-            } else {
-                (g + 1, (g + 1) as u32)
-            };
-            // SAFETY: node i writes its own slots and its two children's parent slots; every
-            // node but the root is the child of exactly one node.
-            unsafe {
-                cp.write(i, [left.1, right.1]);
-                rp.write(i, [lo as u32, hi as u32]);
-                pp.write(left.0, i as u32);
-                pp.write(right.0, i as u32);
-            }
-        });
-    }
-    // Boxes bottom-up: from each leaf towards the root; the second visitor of a node computes
-    // it (its children are final by then), the first stops.
-    let mut nbox = vec![Aabb::default(); ni];
-    let mut depth_of = vec![0u32; ni];
-    {
-        let visits: Vec<AtomicU32> = (0..ni).map(|_| AtomicU32::new(0)).collect();
-        let bp = SharedMut(nbox.as_mut_ptr());
-        let child = &child;
-        let boxes = &boxes;
-        let depth_p = SharedMut(depth_of.as_mut_ptr());
-        (0..n).into_par_iter().with_min_len(1024).for_each(|leaf| {
-            let whole = (&bp, &depth_p);
-            let mut p = parent[ni + leaf] as usize;
-            loop {
-                // AcqRel: the second visitor sees the first one's box.
-                if visits[p].fetch_add(1, Ordering::AcqRel) == 0 {
-                    return;
-                }
-                let get = |c: u32| -> (Aabb, u32) {
-                    if c & LEAF != 0 {
-                        (boxes[(c & !LEAF) as usize], 0)
-                    } else {
-                        // SAFETY: child c is complete (its visit counter reached 2 before
-                        // this node's), and no one writes it any more.
-                        unsafe { (*whole.0 .0.add(c as usize), *whole.1 .0.add(c as usize)) }
-                    }
-                };
-                let (a, da) = get(child[p][0]);
-                let (b, db) = get(child[p][1]);
-                // SAFETY: only the second visitor of node p writes it.
-                unsafe {
-                    whole.0.write(p, a.union(&b));
-                    whole.1.write(p, 1 + da.max(db));
-                }
-                if p == 0 {
-                    return;
-                }
-                p = parent[p] as usize;
-            }
-        });
-    }
     let mesh_of_pos = |pos: u32| (keys[pos as usize] >> code_bits) as usize;
     let node: Vec<Bounds> = (0..ni)
         .into_par_iter()
@@ -499,7 +551,7 @@ pub fn build(
         child_box,
         tri_order: order,
         range,
-        depth: depth_of[0],
+        depth,
         wide,
         wide_of,
     }
@@ -678,6 +730,89 @@ mod tests {
             .collect();
         let t = build(&tris, &first, Some(&spheres));
         check(&tris, &t);
+    }
+
+    /// Karras's construction as it was built before the fused pass: every inner node
+    /// emitted from the keys alone (Figure 4), then the boxes and depths filled from the
+    /// leaves up (here recursively).
+    fn radix_tree_karras(keys: &[u64], order: &[u32], boxes: &[Aabb]) -> RadixTree {
+        let ni = keys.len() - 1;
+        let mut child = vec![[0u32; 2]; ni];
+        let mut range = vec![[0u32; 2]; ni];
+        for i in 0..ni {
+            let (lo, hi, g) = emit_node(keys, i);
+            let left = if lo == g { LEAF | order[g] } else { g as u32 };
+            let right = if hi == g + 1 {
+                LEAF | order[g + 1]
+            } else {
+                (g + 1) as u32
+            };
+            child[i] = [left, right];
+            range[i] = [lo as u32, hi as u32];
+        }
+        fn fill(
+            x: u32,
+            child: &[[u32; 2]],
+            boxes: &[Aabb],
+            nbox: &mut [Aabb],
+            depth: &mut [u32],
+        ) -> (Aabb, u32) {
+            if x & LEAF != 0 {
+                return (boxes[(x & !LEAF) as usize], 0);
+            }
+            let [l, r] = child[x as usize];
+            let (a, da) = fill(l, child, boxes, nbox, depth);
+            let (b, db) = fill(r, child, boxes, nbox, depth);
+            nbox[x as usize] = a.union(&b);
+            depth[x as usize] = 1 + da.max(db);
+            (nbox[x as usize], depth[x as usize])
+        }
+        let mut nbox = vec![Aabb::default(); ni];
+        let mut depth = vec![0u32; ni];
+        fill(0, &child, boxes, &mut nbox, &mut depth);
+        RadixTree {
+            child,
+            range,
+            depth: depth[0],
+            nbox,
+        }
+    }
+
+    proptest::proptest! {
+        /// The fused bottom-up pass builds Karras's tree: the same children, ranges, box
+        /// bits and depth, on sorted keys with many duplicates (the index breaks the ties)
+        /// and on all-equal keys.
+        #[test]
+        fn fused_pass_builds_karras_tree(seed in 0u64..1_000_000, n in 2usize..3000, spread in 1u64..1_000_000) {
+            let mut rng = Pcg32::new(seed, 3);
+            let mut keys: Vec<u64> = (0..n)
+                .map(|_| (rng.next_u32() as u64 % spread) << (rng.below(30) % 4))
+                .collect();
+            keys.sort();
+            let mut order: Vec<u32> = (0..n as u32).collect();
+            for i in (1..n).rev() {
+                order.swap(i, rng.below(i as u32 + 1) as usize);
+            }
+            let boxes: Vec<Aabb> = (0..n)
+                .map(|_| {
+                    let c = Vec3::new(rng.range(-9.0, 9.0), rng.range(-9.0, 9.0), rng.range(-9.0, 9.0));
+                    Aabb::new(c - Vec3::splat(rng.range(0.0, 1.0)), c + Vec3::splat(rng.range(0.0, 1.0)))
+                })
+                .collect();
+            let a = radix_tree(&keys, &order, &boxes);
+            let b = radix_tree_karras(&keys, &order, &boxes);
+            proptest::prop_assert_eq!(&a.child, &b.child);
+            proptest::prop_assert_eq!(&a.range, &b.range);
+            proptest::prop_assert_eq!(a.depth, b.depth);
+            for (x, y) in a.nbox.iter().zip(&b.nbox) {
+                proptest::prop_assert_eq!((x.min.to_array(), x.max.to_array()), (y.min.to_array(), y.max.to_array()));
+            }
+            let same = vec![7u64; n];
+            let a = radix_tree(&same, &order, &boxes);
+            let b = radix_tree_karras(&same, &order, &boxes);
+            proptest::prop_assert_eq!(&a.child, &b.child);
+            proptest::prop_assert_eq!(a.depth, b.depth);
+        }
     }
 
     #[test]
