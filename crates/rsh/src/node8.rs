@@ -59,7 +59,8 @@ pub(crate) struct NodeFields {
 
 impl NodeLanes {
     /// The lanes of `n` nodes, node i's fields from `f(i)`.
-    pub fn new(n: usize, f: impl Fn(usize) -> NodeFields) -> NodeLanes {
+    pub fn new(n: usize, f: impl Fn(usize) -> NodeFields + Sync) -> NodeLanes {
+        use rayon::prelude::*;
         let z = || vec![0.0f32; n + 8];
         let z3 = || [z(), z(), z()];
         let mut l = NodeLanes {
@@ -77,23 +78,59 @@ impl NodeLanes {
             ilo: z3(),
             ihi: z3(),
         };
-        for i in 0..n {
-            let x = f(i);
-            for k in 0..3 {
-                l.c[k][i] = x.center[k];
-                l.axis[k][i] = x.axis[k];
-                l.omin[k][i] = x.omin[k];
-                l.omax[k][i] = x.omax[k];
-                l.ilo[k][i] = x.ilo[k];
-                l.ihi[k][i] = x.ihi[k];
-            }
-            l.radius[i] = x.radius;
-            l.sin[i] = x.sin;
-            l.cos[i] = x.cos;
-            l.wide[i] = if x.wide { f32::from_bits(!0) } else { 0.0 };
-            l.max_t[i] = x.max_t;
-            l.tmin[i] = x.tmin;
-            l.tmax[i] = x.tmax;
+        // Every node's 25 lanes written in parallel (level 1 has a node per `b` rays of the
+        // batch, and this runs on every trace), each task its own nodes.
+        {
+            let [c0, c1, c2] = &mut l.c;
+            let [a0, a1, a2] = &mut l.axis;
+            let [n0, n1, n2] = &mut l.omin;
+            let [x0, x1, x2] = &mut l.omax;
+            let [i0, i1, i2] = &mut l.ilo;
+            let [h0, h1, h2] = &mut l.ihi;
+            let out: [par::SharedMut<f32>; 25] = [
+                c0,
+                c1,
+                c2,
+                &mut l.radius,
+                a0,
+                a1,
+                a2,
+                &mut l.sin,
+                &mut l.cos,
+                &mut l.wide,
+                &mut l.max_t,
+                &mut l.tmin,
+                &mut l.tmax,
+                n0,
+                n1,
+                n2,
+                x0,
+                x1,
+                x2,
+                i0,
+                i1,
+                i2,
+                h0,
+                h1,
+                h2,
+            ]
+            .map(|v| par::SharedMut(v.as_mut_ptr()));
+            (0..n).into_par_iter().with_min_len(1024).for_each(|i| {
+                let x = f(i);
+                let wide = if x.wide { f32::from_bits(!0) } else { 0.0 };
+                // In the order of `out`.
+                let v = [
+                    x.center.x, x.center.y, x.center.z, x.radius, x.axis.x, x.axis.y, x.axis.z,
+                    x.sin, x.cos, wide, x.max_t, x.tmin, x.tmax, x.omin.x, x.omin.y, x.omin.z,
+                    x.omax.x, x.omax.y, x.omax.z, x.ilo.x, x.ilo.y, x.ilo.z, x.ihi.x, x.ihi.y,
+                    x.ihi.z,
+                ];
+                for (o, v) in out.iter().zip(v) {
+                    // SAFETY: lane i < n of each array (n + 8 long) is written by this task
+                    // only; the arrays outlive the pass.
+                    unsafe { o.write(i, v) };
+                }
+            });
         }
         l
     }
