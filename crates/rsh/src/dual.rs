@@ -172,6 +172,15 @@ fn small(tree: &ObjectTree, o: u32) -> bool {
     hi - lo < SMALL_SUBTREE
 }
 
+/// The order in which an object-side expansion's survivors are taken, depth first: by
+/// distance along the ray node's cone axis minus this many times their sphere's radius with
+/// any hit (shadow rays), nearest first with the closest hit (0). An any-hit ray stops at
+/// its first hit, and a large node is the likelier to hold an occluder, so large nodes go
+/// first unless they lie far beyond small ones. All tests on the bench scenes' 512² shadow
+/// rays (8/2), against nearest first: 8 gives Sponza −11.2 %, Conference −7.3 %, Kitchen
+/// +2.2 %; 4 gives −10.2 %, −7.2 %, +2.3 %; the radius alone −8.9 %, −8.0 %, +2.7 %.
+const ANY_HIT_BIAS: f32 = 8.0;
+
 /// What a tested pair becomes (on a depth-first stack, `DROP` marks a pair not tested yet).
 const DROP: u8 = 0;
 const FINAL: u8 = 1;
@@ -395,8 +404,9 @@ impl Traversal<'_> {
 
     /// [`Schedule::Depth`] over `nl ≥ 1` ray levels, the final tests among it: every top
     /// ray node is one task that pops pairs from its own stack (`peak_pairs`: the most one
-    /// task held). An object node's two children are pushed nearer first along the ray
-    /// node's cone axis, a ray node's children in leaf order.
+    /// task held). An object node's children are pushed in [`ANY_HIT_BIAS`]'s order
+    /// (nearer first along the ray node's cone axis for the closest hit), a ray node's
+    /// children in leaf order.
     fn depth_first(
         &self,
         tree: &ObjectTree,
@@ -434,6 +444,7 @@ impl Traversal<'_> {
                 .collect::<Vec<_>>()
         });
         let nt = self.h.levels[nl - 1].len();
+        let bias = if rays.any_hit { ANY_HIT_BIAS } else { 0.0 };
         let t = (0..nt)
             .into_par_iter()
             .with_min_len(4)
@@ -538,7 +549,8 @@ impl Traversal<'_> {
                             OBJECT => {
                                 // The collapsed node's children against the ray node, 8 at
                                 // a time (or one by one: the same tests); the survivors wait
-                                // with their action, the nearest along the cone's axis on top.
+                                // with their action, in `ANY_HIT_BIAS`'s order (nearest along
+                                // the cone's axis on top with the closest hit).
                                 let w = &tree.wide[tree.wide_of[o as usize] as usize];
                                 let n = w.count as usize;
                                 let m = if lanes.is_some() {
@@ -570,14 +582,14 @@ impl Traversal<'_> {
                                         );
                                         let along = (c - node.center).dot(node.cone.axis);
                                         let a = action(descent, node, li, x, w.radius[i]);
-                                        // Insertion by distance along the axis (ties keep
-                                        // the children's order).
+                                        let key = along - bias * w.radius[i];
+                                        // Insertion by key (ties keep the children's order).
                                         let mut at = ns;
-                                        while at > 0 && near[at - 1].0 > along {
+                                        while at > 0 && near[at - 1].0 > key {
                                             near[at] = near[at - 1];
                                             at -= 1;
                                         }
-                                        near[at] = (along, x, a);
+                                        near[at] = (key, x, a);
                                         ns += 1;
                                     }
                                 }
