@@ -45,21 +45,24 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
-/// [`Descent::Size`] expands the object node while its radius is at least this many times
-/// the ray node's reach.
-const SIZE_RATIO: f32 = 2.0;
+/// With any hit, [`Descent::Size`] expands the object node while its radius is at least
+/// this many times the ray node's reach (once with the closest hit): the ray nodes' `reach`
+/// is scaled by it.
+const ANY_HIT_SIZE_RATIO: f32 = 2.0;
 
 /// Which side of a surviving (ray node, inner object node) pair is expanded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Descent {
     /// The larger one (the default): the object node while its sphere's radius is at least
-    /// twice the ray node's reach (origin radius + sin α · its rays' length, capped at the
-    /// scene's diagonal; unbounded for wide cones), else the ray node. Twice
-    /// ([`SIZE_RATIO`]) was measured against once: on the bench scenes' 512²
-    /// shadow rays (8/2, any hit) 9.7 % fewer tests on Sponza, 10.1 % on Conference, 4.1 %
-    /// on Kitchen, and 6.5 % on Sponza's with the closest hit (three times: fewer tests
-    /// still, more time).
+    /// the ray node's reach (origin radius + sin α · its rays' length, capped at the
+    /// scene's diagonal; unbounded for wide cones), twice the reach with any hit
+    /// ([`ANY_HIT_SIZE_RATIO`]), else the ray node. Twice against once with any hit (and
+    /// [`ANY_HIT_BIAS`]'s order), on the bench scenes' 512² shadow rays (8/2) and BART
+    /// Kitchen's first 4 frames at 512², 3 bounces: Sponza −9.8 % tests, Conference
+    /// −10.0 %, Kitchen's shadow rays −4.1 %, Kitchen's frames −5.4 % (three times, tried
+    /// with a bias of 8: fewer tests still on Sponza, more time). Closest-hit batches keep
+    /// once: twice cost Kitchen's 3-bounce frames 9 % more tests.
     Size,
     /// The object node until it is a triangle, then the ray node.
     ObjectFirst,
@@ -157,7 +160,7 @@ fn action(descent: Descent, node: &RayNode, li: usize, o: u32, d: f32) -> u8 {
     let object = match descent {
         Descent::ObjectFirst => true,
         Descent::RayFirst => false,
-        Descent::Size => d >= node.reach * SIZE_RATIO,
+        Descent::Size => d >= node.reach,
     };
     if object {
         OBJECT
@@ -184,10 +187,11 @@ fn small(tree: &ObjectTree, o: u32) -> bool {
 /// distance along the ray node's cone axis minus this many times their sphere's radius with
 /// any hit (shadow rays), nearest first with the closest hit (0). An any-hit ray stops at
 /// its first hit, and a large node is the likelier to hold an occluder, so large nodes go
-/// first unless they lie far beyond small ones. All tests on the bench scenes' 512² shadow
-/// rays (8/2), against nearest first: 8 gives Sponza −11.2 %, Conference −7.3 %, Kitchen
-/// +2.2 %; 4 gives −10.2 %, −7.2 %, +2.3 %; the radius alone −8.9 %, −8.0 %, +2.7 %.
-const ANY_HIT_BIAS: f32 = 8.0;
+/// first unless they lie far beyond small ones. Tests against nearest first (0), both with
+/// [`ANY_HIT_SIZE_RATIO`], on the bench scenes' 512² shadow rays (8/2) and on BART Kitchen's
+/// first 4 frames at 512², 3 bounces: 2 gives Sponza −9.7 %, Conference −6.7 %, Kitchen's
+/// shadow rays +2.4 %, Kitchen's frames +4.7 %; 8 gives −11.5 %, −7.5 %, +2.2 %, +10.2 %.
+const ANY_HIT_BIAS: f32 = 2.0;
 
 /// What a tested pair becomes (on a depth-first stack, `DROP` marks a pair not tested yet).
 const DROP: u8 = 0;
@@ -677,9 +681,15 @@ impl Traversal<'_> {
     }
 
     /// Every level's node records: beams of level 1 from its rays, of each level above
-    /// from its children; `diag` caps unbounded rays' lengths in the reach.
+    /// from its children; `diag` caps unbounded rays' lengths in the reach, which any-hit
+    /// batches scale by [`ANY_HIT_SIZE_RATIO`].
     fn ray_nodes(&self, rays: &RaySide, diag: f32) -> Vec<Vec<RayNode>> {
         let order = &self.h.order;
+        let scale = if rays.any_hit {
+            ANY_HIT_SIZE_RATIO
+        } else {
+            1.0
+        };
         let mut out: Vec<Vec<RayNode>> = Vec::with_capacity(self.h.levels.len());
         for (li, level) in self.h.levels.iter().enumerate() {
             let below = out.last();
@@ -702,7 +712,7 @@ impl Traversal<'_> {
                     let reach = if cone.wide {
                         f32::INFINITY
                     } else {
-                        level.radius[n] + level.max_t[n].min(diag) * cone.sin
+                        (level.radius[n] + level.max_t[n].min(diag) * cone.sin) * scale
                     };
                     RayNode {
                         center: level.center[n],
