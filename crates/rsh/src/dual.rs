@@ -57,8 +57,8 @@ pub enum Descent {
     /// The larger one (the default): the object node while its sphere's radius is at least
     /// the ray node's reach (origin radius + sin α · its rays' length, capped at the
     /// scene's diagonal; unbounded for wide cones), twice the reach with any hit
-    /// ([`ANY_HIT_SIZE_RATIO`]), else the ray node. Twice against once with any hit (and
-    /// [`ANY_HIT_BIAS`]'s order), on the bench scenes' 512² shadow rays (8/2) and BART
+    /// (`ANY_HIT_SIZE_RATIO`), else the ray node. Twice against once with any hit (and
+    /// `ANY_HIT_BIAS`'s order), on the bench scenes' 512² shadow rays (8/2) and BART
     /// Kitchen's first 4 frames at 512², 3 bounces: Sponza −9.8 % tests, Conference
     /// −10.0 %, Kitchen's shadow rays −4.1 %, Kitchen's frames −5.4 % (three times, tried
     /// with a bias of 8: fewer tests still on Sponza, more time). Closest-hit batches keep

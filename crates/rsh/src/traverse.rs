@@ -86,7 +86,8 @@ pub struct Traversal<'a> {
     /// Per-ray constants of the intersection kernel in leaf order, as lanes of the 8-wide
     /// kernel (lane p: ray `h.order[p]`; [`RayLanes::pre`] gives one ray's record).
     pub lanes: &'a RayLanes,
-    /// Per ray, the closest hit so far as (t bits << 32 | triangle), by atomic minimum.
+    /// Per ray, the closest hit so far as (t bits << 32 | triangle), by atomic minimum
+    /// (by plain loads and stores where `bary` is kept: one task owns each ray).
     pub best: &'a [AtomicU64],
     /// Per ray (as `best`), the barycentrics of its hit in `best` (u bits << 32 | v bits),
     /// kept where one task does all of a ray's tests ([`crate::dual::Schedule::Depth`]), so
