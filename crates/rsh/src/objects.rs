@@ -362,7 +362,10 @@ fn radix_tree(keys: &[u64], order: &[u32], boxes: &[Aabb]) -> RadixTree {
                 unsafe { (*out.2 .0.add(c as usize), *out.3 .0.add(c as usize)) }
             }
         };
-        while let Some((s, side)) = parent(l, r) {
+        // The parent of the node this task holds, found once per node: it gives both the
+        // split to climb to and, once the node is made, its own index.
+        let mut up = parent(l, r);
+        while let Some((s, side)) = up {
             kid[s][side].store(me, Ordering::Relaxed);
             let mine = if side == 0 { l } else { r } as u32;
             // AcqRel: the second child to arrive sees the first one's node and reference.
@@ -375,7 +378,8 @@ fn radix_tree(keys: &[u64], order: &[u32], boxes: &[Aabb]) -> RadixTree {
             } else {
                 (other as usize, r)
             };
-            let k = match parent(l, r) {
+            up = parent(l, r);
+            let k = match up {
                 None => 0,
                 Some((_, 0)) => r,
                 Some(_) => l,
