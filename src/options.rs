@@ -4,7 +4,7 @@
 //! options' names with `_` for `-`), so both name, default and validate them alike.
 
 use crate::engines::{Engine, EngineOptions};
-use accel::grid::{GridConfig, Subdivision};
+use accel::grid::{GridConfig, MergeRule, Subdivision};
 use clap::builder::TypedValueParser as _;
 use clap::{Args, Parser};
 use rsh::{Descent, HashBits, HashKind, NodeTest, ObjectHierarchy, RshConfig, Schedule, Union};
@@ -65,6 +65,11 @@ pub struct GridArgs {
     /// Cell merging, `on` or `off` (grid only; default on).
     #[arg(long = "grid-merge", value_parser = on_off())]
     pub merge: Option<bool>,
+    /// How a merge pass cuts its chains of candidates into merges: `runs` (a cell absorbs
+    /// its successors while the SAH cost still drops; fewer rounds) or `pairs` (even
+    /// positions absorb their successor, the paper's §4.2).
+    #[arg(long = "grid-merge-rule", value_enum, default_value_t = GridConfig::default().merge_rule)]
+    pub merge_rule: MergeRule,
     /// Cell expansion passes (grid only; default 3 for a still, 1 per frame of an animation
     /// as in the paper's dynamic scenes).
     #[arg(long = "grid-expansion")]
@@ -88,6 +93,7 @@ impl GridArgs {
             leaf_density: self.leaf_density,
             alpha: self.alpha,
             merge: self.merge.unwrap_or(d.merge),
+            merge_rule: self.merge_rule,
             expansion_passes: self.expansion.unwrap_or(if dynamic {
                 1
             } else {

@@ -479,10 +479,11 @@ fn bench_grid_writes_tables_and_charts() {
     for line in t3.lines().skip(1) {
         assert_eq!(line.split(',').nth(11), Some("0"), "{line}");
     }
-    // Table 1: 3 stages, Table 2: 3 densities × 2 structures, Table 5: 5 variants (with
-    // the macro regions), each with its build passes' times.
+    // Table 1: 5 stages (initial; merge and merge + expansion by pairs and by runs), Table
+    // 2: 3 densities × 2 structures, Table 5: 5 variants (with the macro regions), each with
+    // its build passes' times.
     let g = std::fs::read_to_string(&grids).unwrap();
-    assert_eq!(g.lines().count(), 1 + 3 + 6 + 5, "{g}");
+    assert_eq!(g.lines().count(), 1 + 5 + 6 + 5, "{g}");
     assert!(g.lines().next().unwrap().ends_with(
         "top_refs_seconds,octrees_seconds,cells_seconds,merge_seconds,expansion_seconds"
     ));

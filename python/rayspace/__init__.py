@@ -93,7 +93,8 @@ class Engine:
     with ``_`` for ``-`` (``branching``, ``levels``, ``hash``, ``hash_bits``, ``union``,
     ``node_test``, ``mesh_culling``, ``pair_budget``, ``object_hierarchy``, ``descent``,
     ``grid_top_density``, ``grid_leaf_density``, ``grid_alpha``, ``grid_merge``,
-    ``grid_expansion``, ``grid_max_depth``, ``grid_subdivision``); booleans mean on/off.
+    ``grid_expansion``, ``grid_max_depth``, ``grid_subdivision``, ``grid_merge_rule``);
+    booleans mean on/off.
     """
 
     def __init__(self, scene: Scene, name: str, **options: Any) -> None:

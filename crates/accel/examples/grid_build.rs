@@ -1,7 +1,7 @@
 //! Build the irregular grid of a scene several times and print each pass's best time: the
 //! profiling loop for the build (run it under `perf record` to see inside a pass).
 //!
-//! `cargo run --release -p accel --example grid_build -- SCENE [REPEATS] [paper|adaptive]`
+//! `cargo run --release -p accel --example grid_build -- SCENE [REPEATS] [paper|adaptive] [runs|pairs]`
 //!
 //! It also prints a hash of everything the build makes (voxel map, cell boxes, expanded boxes,
 //! reference ranges and references), so a change meant to leave the grid alone can be
@@ -17,6 +17,7 @@ fn main() {
     let repeats: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
     let cfg = GridConfig {
         subdivision: common::subdivision(args.get(3)),
+        merge_rule: common::merge_rule(args.get(4)),
         ..Default::default()
     };
     let (s, geo) = common::load(spec);

@@ -2,7 +2,7 @@
 //! irregular grid of a scene and print MRays/s (best of N), N_T and N_I: the profiling loop
 //! for traversal (run it under `perf record`). Hits are checked against the first run.
 //!
-//! `cargo run --release -p accel --example grid_trace -- SCENE [REPEATS] [paper|adaptive]`
+//! `cargo run --release -p accel --example grid_trace -- SCENE [REPEATS] [paper|adaptive] [runs|pairs]`
 
 mod common;
 
@@ -38,6 +38,7 @@ fn main() {
     ];
     let cfg = GridConfig {
         subdivision: common::subdivision(args.get(3)),
+        merge_rule: common::merge_rule(args.get(4)),
         ..Default::default()
     };
     let e = GridEngine::new(&geo, &cfg).unwrap();

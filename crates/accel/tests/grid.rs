@@ -3,7 +3,7 @@
 //! for bit — same kernel, same tie rule — and any-hit booleans).
 
 use accel::grid::voxelmap::{INDEX, LOG_DIM_SHIFT};
-use accel::grid::{build_grid, Grid, GridConfig, GridEngine, Subdivision, NODE};
+use accel::grid::{build_grid, Grid, GridConfig, GridEngine, MergeRule, Subdivision, NODE};
 use accel::oracle::{assert_same_hits, record_render};
 use accel::BruteForce;
 use geom::aabb::tri_overlaps_box;
@@ -33,9 +33,16 @@ fn configs() -> Vec<(&'static str, GridConfig)> {
             },
         ),
         (
-            "paper subdivision",
+            "adaptive subdivision",
             GridConfig {
-                subdivision: Subdivision::Paper,
+                subdivision: Subdivision::Adaptive,
+                ..Default::default()
+            },
+        ),
+        (
+            "merge by pairs (paper)",
+            GridConfig {
+                merge_rule: MergeRule::Pairs,
                 ..Default::default()
             },
         ),

@@ -1,22 +1,36 @@
 //! SAH cell merging on the GPU (paper §4.2; `merge.wgsl`), the twin of
-//! `accel/src/grid/merge.rs`: passes along x, y, z (candidates → predecessors → chains →
-//! list lengths → scan → merged lists → owners compressed → live cells compacted) until a
-//! round keeps at least α of the cells, then the live cells renumbered in order with their
-//! boxes, reference ranges and the voxel map pointed at them. The host reads only the totals
-//! that size the next buffers (each pass's reference count and live count).
+//! `accel/src/grid/merge.rs`, by pairs or runs: passes along x, y, z (candidates →
+//! predecessors → chains cut into pairs or runs → list lengths → scan → merged lists →
+//! owners compressed → live cells compacted) until a round keeps at least α of the cells,
+//! then the live cells renumbered in order with their boxes, reference ranges and the voxel
+//! map pointed at them. The host reads only the totals that size the next buffers (each
+//! pass's reference count and live count).
 
 use super::DeviceGrid;
 use crate::device::Gpu;
 use crate::kernels::{Exec, Kernel, Kernels, Params};
+use accel::grid::MergeRule;
 
 /// Merge `d`'s cells as `accel::grid::merge::merge` does; returns the rounds run.
-pub fn merge(g: &Gpu, k: &Kernels, d: &mut DeviceGrid, alpha: f32, empty_only: bool) -> usize {
+pub fn merge(
+    g: &Gpu,
+    k: &Kernels,
+    d: &mut DeviceGrid,
+    alpha: f32,
+    empty_only: bool,
+    rule: MergeRule,
+) -> usize {
     let mut ex = Exec::new(g, k);
     let n = d.ncells;
     let f = &d.frame;
     let params = |count: u64, axis: u32| {
         let mut p = Params::n(count as u32, axis, f.shift, empty_only as u32);
-        p.u[1] = [f.dims[0], f.dims[1], f.dims[2], 0];
+        p.u[1] = [
+            f.dims[0],
+            f.dims[1],
+            f.dims[2],
+            (rule == MergeRule::Runs) as u32,
+        ];
         p.u[2] = [f.top_dims[0], f.top_dims[1], f.top_dims[2], 0];
         p.f[0] = [f.voxel.x, f.voxel.y, f.voxel.z, 0.0];
         p
@@ -71,7 +85,16 @@ pub fn merge(g: &Gpu, k: &Kernels, d: &mut DeviceGrid, alpha: f32, empty_only: b
             ex.run(
                 Kernel::MChains,
                 p,
-                &[(2, &live), (8, &cand), (9, &mark), (10, &partner)],
+                &[
+                    (2, &live),
+                    (4, &d.cell_min),
+                    (5, &d.cell_max),
+                    (6, &range),
+                    (7, &pool),
+                    (8, &cand),
+                    (9, &mark),
+                    (10, &partner),
+                ],
                 nlive,
                 256,
             );
@@ -83,6 +106,7 @@ pub fn merge(g: &Gpu, k: &Kernels, d: &mut DeviceGrid, alpha: f32, empty_only: b
                     (2, &live),
                     (6, &range),
                     (7, &pool),
+                    (8, &cand),
                     (9, &mark),
                     (10, &partner),
                     (11, &count),
@@ -105,6 +129,7 @@ pub fn merge(g: &Gpu, k: &Kernels, d: &mut DeviceGrid, alpha: f32, empty_only: b
                     (5, &d.cell_max),
                     (6, &range),
                     (7, &pool),
+                    (8, &cand),
                     (9, &mark),
                     (10, &partner),
                     (12, &offs),

@@ -7,9 +7,17 @@
 // rewritten compactly after each pass. Neither changes what is merged: the candidates are
 // the same function of the same cells, and list contents do not depend on where they lie.
 //
+// Chains are cut into merges by pairs (the paper: even positions absorb their successor) or
+// by runs (merge.rs `walk_chains`: a cell absorbs its successor and then each next cell of
+// the chain while the SAH test between the run so far and that cell passes). A run's list
+// is the union of its cells' lists, never stored while the chain is walked: its size comes
+// from |run ∪ L| = |run| + |L| − |L ∩ run| (binary searches of L's references in the run's
+// lists), and the emit pass writes it by repeatedly taking the smallest successor over the
+// run's lists. Same sets, same sizes, same test bits as the CPU's.
+//
 // Cells keep their initial index while merging; owner[i] is the live cell holding cell i.
-// Params: u0 = (live cells, axis, shift, empty only), u1 = virtual dims, u2 = top dims,
-// f0.xyz = voxel size. m_compress / m_final_* take u0.x = their own count.
+// Params: u0 = (live cells, axis, shift, empty only), u1 = (virtual dims, runs), u2 = top
+// dims, f0.xyz = voxel size. m_compress / m_final_* take u0.x = their own count.
 
 @group(0) @binding(1) var<storage, read> m_map: array<u32>;
 @group(0) @binding(2) var<storage, read> m_live: array<u32>;
@@ -22,6 +30,7 @@
 @group(0) @binding(8) var<storage, read_write> m_cand: array<u32>;
 // Per cell: [2i] has a predecessor, [2i + 1] absorbed in this pass.
 @group(0) @binding(9) var<storage, read_write> m_mark: array<u32>;
+// Per absorber: the last cell of its run (its successor, for a pair); NONE otherwise.
 @group(0) @binding(10) var<storage, read_write> m_partner: array<u32>;
 @group(0) @binding(11) var<storage, read_write> m_count: array<u32>;
 @group(0) @binding(12) var<storage, read> m_offs: array<u32>;
@@ -73,6 +82,106 @@ fn list_len(i: u32) -> u32 {
     return m_range[2u * i + 1u] - m_range[2u * i];
 }
 
+// merge.rs `sah_lowered`: (n_u + 1)·A_u ≤ (n_a + 1)·A_a + (n_b + 1)·A_b, in its order of
+// operations. Each count + 1 kept: a sum that a product takes must not be folded into it
+// (see common.wgsl).
+fn sah_lowered(au: f32, nu: u32, aa: f32, na: u32, ab: f32, nb: u32) -> bool {
+    let lhs = mul(au, keep(f32(nu) + 1.0));
+    let rhs = keep(mul(aa, keep(f32(na) + 1.0))) + mul(ab, keep(f32(nb) + 1.0));
+    return lhs <= rhs;
+}
+
+// The first reference ≥ x in cell c's list (NONE: none), by binary search.
+fn successor(c: u32, x: u32) -> u32 {
+    var lo = m_range[2u * c];
+    var hi = m_range[2u * c + 1u];
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2u;
+        if m_pool[mid] < x {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    if lo < m_range[2u * c + 1u] {
+        return m_pool[lo];
+    }
+    return NONE;
+}
+
+// The first reference ≥ x over the lists of the run from absorber i to its last cell
+// (the chain's cells in between, through the candidates).
+fn run_successor(i: u32, last: u32, x: u32) -> u32 {
+    var best = NONE;
+    var c = i;
+    loop {
+        best = min(best, successor(c, x));
+        if c == last {
+            break;
+        }
+        c = m_cand[c];
+    }
+    return best;
+}
+
+// How many references of cell c's list some list of the run i … last holds: each looked for
+// in the run's ascending lists in turn, a list's scan stopping at the first reference not
+// below it. (Binary searches here, through `successor`, came out wrong under lavapipe on
+// Conference's long runs, while the same calls in the counts and emit passes do not; the
+// scan gives the CPU's counts there.)
+fn run_common(i: u32, last: u32, c: u32) -> u32 {
+    var n = 0u;
+    let e = m_range[2u * c + 1u];
+    for (var a = m_range[2u * c]; a < e; a++) {
+        let x = m_pool[a];
+        var m = i;
+        loop {
+            var found = false;
+            let me = m_range[2u * m + 1u];
+            for (var b = m_range[2u * m]; b < me; b++) {
+                let y = m_pool[b];
+                if y >= x {
+                    found = y == x;
+                    break;
+                }
+            }
+            if found {
+                n++;
+                break;
+            }
+            if m == last {
+                break;
+            }
+            m = m_cand[m];
+        }
+    }
+    return n;
+}
+
+// The size of the union of the run's lists (references are below 2^27, so x + 1 never
+// wraps and NONE is never a reference) …
+fn run_union_len(i: u32, last: u32) -> u32 {
+    var n = 0u;
+    var x = run_successor(i, last, 0u);
+    while x != NONE {
+        n++;
+        x = run_successor(i, last, x + 1u);
+    }
+    return n;
+}
+
+// … and the union written from `at` (a function of its own: the counts pass binds no
+// output pool).
+fn run_union_write(i: u32, last: u32, at: u32) {
+    var n = 0u;
+    var x = run_successor(i, last, 0u);
+    while x != NONE {
+        m_pool_out[at + n] = x;
+        n++;
+        x = run_successor(i, last, x + 1u);
+    }
+}
+
 // merge.rs `neighbour` and `worth_merging`: the cell at i's +axis probe voxel, if exactly
 // aligned and if merging lowers the SAH cost.
 fn candidate(i: u32, axis: u32) -> u32 {
@@ -97,17 +206,9 @@ fn candidate(i: u32, axis: u32) -> u32 {
     if P.u0.w != 0u && !(ni == 0u && nj == 0u) {
         return NONE;
     }
-    let ai = half_area(lo, hi);
-    let aj = half_area(jl, jh);
     var uh = hi;
     uh[axis] = jh[axis];
-    let au = half_area(lo, uh);
-    let nu = f32(union_len(i, j));
-    // Each count + 1 kept: a sum that a product takes must not be folded into it (see
-    // common.wgsl).
-    let lhs = mul(au, keep(nu + 1.0));
-    let rhs = keep(mul(ai, keep(f32(ni) + 1.0))) + mul(aj, keep(f32(nj) + 1.0));
-    if lhs <= rhs {
+    if sah_lowered(half_area(lo, uh), union_len(i, j), half_area(lo, hi), ni, half_area(jl, jh), nj) {
         return j;
     }
     return NONE;
@@ -141,7 +242,9 @@ fn m_predecessors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     }
 }
 
-// 3. From each chain's head: even positions absorb their successor.
+// 3. From each chain's head: each run's absorber takes its successor (pairs: that is the
+// run) and, by runs, each next cell while the SAH test of the run so far and that cell
+// passes; the next run starts after the run's last cell.
 @compute @workgroup_size(256)
 fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let k = lin(gid, nwg);
@@ -152,15 +255,45 @@ fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     if m_cand[head] == NONE || m_mark[2u * head] != 0u {
         return;
     }
+    let axis = P.u0.y;
     var i = head;
     loop {
         let j = m_cand[i];
         if j == NONE {
             break;
         }
-        m_partner[i] = j;
         m_mark[2u * j + 1u] = 1u;
-        let n = m_cand[j];
+        var last = j;
+        if P.u1.w != 0u {
+            let lo = m_min[i].xyz;
+            var hi = m_max[i].xyz;
+            hi[axis] = m_max[j][axis];
+            var len = union_len(i, j);
+            loop {
+                let c = m_cand[last];
+                if c == NONE {
+                    break;
+                }
+                let nc = list_len(c);
+                if P.u0.w != 0u && !(len == 0u && nc == 0u) {
+                    break;
+                }
+                let cl = m_min[c].xyz;
+                let ch = m_max[c].xyz;
+                var uh = hi;
+                uh[axis] = ch[axis];
+                let nu = len + nc - run_common(i, last, c);
+                if !sah_lowered(half_area(lo, uh), nu, half_area(lo, hi), len, half_area(cl, ch), nc) {
+                    break;
+                }
+                m_mark[2u * c + 1u] = 1u;
+                len = nu;
+                hi = uh;
+                last = c;
+            }
+        }
+        m_partner[i] = last;
+        let n = m_cand[last];
         if n == NONE {
             break;
         }
@@ -176,18 +309,20 @@ fn m_counts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         return;
     }
     let i = m_live[k];
-    let j = m_partner[i];
+    let last = m_partner[i];
     var n = list_len(i);
-    if j != NONE {
-        n = union_len(i, j);
+    if last == m_cand[i] && last != NONE {
+        n = union_len(i, last);
+    } else if last != NONE {
+        n = run_union_len(i, last);
     } else if m_mark[2u * i + 1u] != 0u {
         n = 0u;
     }
     m_count[k] = n;
 }
 
-// 5. The lists rewritten (merged where a pair merges); absorbers take their residue's far
-// face and become its owner.
+// 5. The lists rewritten (a run's: the union of its cells'); absorbers take their run's far
+// face and become its cells' owner.
 @compute @workgroup_size(256)
 fn m_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let k = lin(gid, nwg);
@@ -195,7 +330,7 @@ fn m_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         return;
     }
     let i = m_live[k];
-    let j = m_partner[i];
+    let last = m_partner[i];
     var at = m_offs[k];
     m_range_out[2u * i] = at;
     m_range_out[2u * i + 1u] = m_offs[k + 1u];
@@ -204,40 +339,52 @@ fn m_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     }
     var a = m_range[2u * i];
     let ae = m_range[2u * i + 1u];
-    if j == NONE {
+    if last == NONE {
         for (; a < ae; a++) {
             m_pool_out[at] = m_pool[a];
             at++;
         }
         return;
     }
-    var b = m_range[2u * j];
-    let be = m_range[2u * j + 1u];
-    while a < ae && b < be {
-        let x = m_pool[a];
-        let y = m_pool[b];
-        m_pool_out[at] = min(x, y);
-        at++;
-        if x <= y {
-            a++;
+    let j = m_cand[i];
+    if last == j {
+        var b = m_range[2u * j];
+        let be = m_range[2u * j + 1u];
+        while a < ae && b < be {
+            let x = m_pool[a];
+            let y = m_pool[b];
+            m_pool_out[at] = min(x, y);
+            at++;
+            if x <= y {
+                a++;
+            }
+            if y <= x {
+                b++;
+            }
         }
-        if y <= x {
-            b++;
+        for (; a < ae; a++) {
+            m_pool_out[at] = m_pool[a];
+            at++;
         }
-    }
-    for (; a < ae; a++) {
-        m_pool_out[at] = m_pool[a];
-        at++;
-    }
-    for (; b < be; b++) {
-        m_pool_out[at] = m_pool[b];
-        at++;
+        for (; b < be; b++) {
+            m_pool_out[at] = m_pool[b];
+            at++;
+        }
+    } else {
+        run_union_write(i, last, at);
     }
     let axis = P.u0.y;
     var hi = m_max[i];
-    hi[axis] = m_max[j][axis];
+    hi[axis] = m_max[last][axis];
     m_max[i] = hi;
-    m_owner[j] = i;
+    var c = j;
+    loop {
+        m_owner[c] = i;
+        if c == last {
+            break;
+        }
+        c = m_cand[c];
+    }
 }
 
 // 6. Owners one step deep again (merge.rs `compress_owners`). u0.x = all cells.

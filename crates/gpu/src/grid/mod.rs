@@ -329,7 +329,14 @@ pub fn build_on_device(
     b.octree_seconds = octree_seconds;
     if cfg.merge {
         let t0 = Instant::now();
-        let rounds = merge::merge(gpu, kernels, &mut d, cfg.alpha, cfg.empty_only);
+        let rounds = merge::merge(
+            gpu,
+            kernels,
+            &mut d,
+            cfg.alpha,
+            cfg.empty_only,
+            cfg.merge_rule,
+        );
         d.frame.build.merge_rounds = rounds;
         d.frame.build.merge_seconds = t0.elapsed().as_secs_f64();
     }
