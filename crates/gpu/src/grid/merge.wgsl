@@ -9,7 +9,8 @@
 //
 // Chains are cut into merges by pairs (the paper: even positions absorb their successor) or
 // by runs (merge.rs `walk_chains`: a cell absorbs its successor and then each next cell of
-// the chain while the SAH test between the run so far and that cell passes). A run's list
+// the chain while the SAH test between the run so far and that cell passes, up to MAX_RUN
+// cells). A run's list
 // is the union of its cells' lists, never stored while the chain is walked: its size comes
 // from |run ∪ L| = |run| + |L| − |L ∩ run| (binary searches of L's references in the run's
 // lists), and the emit pass writes it by repeatedly taking the smallest successor over the
@@ -44,6 +45,8 @@ fn map_entry(i: u32) -> u32 {
     return m_map[i];
 }
 const NONE: u32 = 0xffffffffu;
+// merge.rs MAX_RUN: most cells in one run.
+const MAX_RUN: u32 = 8u;
 
 fn lin(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
@@ -269,9 +272,10 @@ fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
             var hi = m_max[i].xyz;
             hi[axis] = m_max[j][axis];
             var len = union_len(i, j);
+            var cells = 2u;
             loop {
                 let c = m_cand[last];
-                if c == NONE {
+                if c == NONE || cells >= MAX_RUN {
                     break;
                 }
                 let nc = list_len(c);
@@ -290,6 +294,7 @@ fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
                 len = nu;
                 hi = uh;
                 last = c;
+                cells++;
             }
         }
         m_partner[i] = last;
