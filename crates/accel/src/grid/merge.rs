@@ -9,10 +9,12 @@
 //!   takes log₂ of its length in rounds;
 //! - `runs`: a cell with a candidate absorbs it and then each next cell of the chain while
 //!   the same test, between the run so far (its box and list) and that cell, still says
-//!   the merge lowers the cost; the next run starts where one stops. Runs are what the
-//!   rounds of pairs converge towards (long empty stretches, same-list columns), made in one
-//!   pass: on Sponza 3 rounds instead of 6 and 0.65× the merge's time, with N_T and N_I of
-//!   primary rays within 7 % of the paper's rule (`bench/results/2026-11-29g-epyc-2core`).
+//!   the merge lowers the cost, up to [`MAX_RUN`] cells; the next run starts where one
+//!   stops. A run makes in one pass merges that pairs reach over several rounds (long empty
+//!   stretches, same-list columns): on Sponza 3 rounds instead of 6 and 0.67× the merge's
+//!   time, with N_T and N_I per primary ray within 8.5 % of the paper's rule on cornell,
+//!   office, Sponza, Conference and Kitchen (stadium's N_T rises 27 %, under its 1,098
+//!   tests per ray; `bench/results/2026-11-29g-epyc-2core`).
 //!
 //! Reference lists merge like merge sort (ascending, duplicates once). Passes alternate x,
 //! y, z; merging stops when a round keeps at least α of the cells.
