@@ -1,8 +1,8 @@
 // SAH cell merging (Pérard-Gayot et al. 2017, §4.2), the twin of accel/src/grid/merge.rs: a
 // pass along one axis makes every live cell whose +axis neighbour is exactly aligned and
 // whose merge lowers the SAH cost a candidate; chains of candidates are walked from their
-// heads, cells at even positions absorbing their successor; reference lists merge as merge
-// sort (ascending, duplicates once). The CPU caches candidates between passes and keeps a
+// heads and cut into merges; reference lists merge as merge sort (ascending, duplicates
+// once). The CPU caches candidates between passes and keeps a
 // growing reference pool; here every live cell is evaluated in every pass and the lists are
 // rewritten compactly after each pass. Neither changes what is merged: the candidates are
 // the same function of the same cells, and list contents do not depend on where they lie.
@@ -10,11 +10,11 @@
 // Chains are cut into merges by pairs (the paper: even positions absorb their successor) or
 // by runs (merge.rs `walk_chains`: a cell absorbs its successor and then each next cell of
 // the chain while the SAH test between the run so far and that cell passes, up to MAX_RUN
-// cells). A run's list
-// is the union of its cells' lists, never stored while the chain is walked: its size comes
-// from |run ∪ L| = |run| + |L| − |L ∩ run| (binary searches of L's references in the run's
-// lists), and the emit pass writes it by repeatedly taking the smallest successor over the
-// run's lists. Same sets, same sizes, same test bits as the CPU's.
+// cells). A run's list is the union of its cells' lists, never stored while the chain is
+// walked: its size comes from |run ∪ L| = |run| + |L| − |L ∩ run| (L's references looked
+// for in the run's lists, `run_common`), and the counts and emit passes take the smallest
+// successor over the run's lists again and again. Same sets, same sizes, same test bits as
+// the CPU's.
 //
 // Cells keep their initial index while merging; owner[i] is the live cell holding cell i.
 // Params: u0 = (live cells, axis, shift, empty only), u1 = (virtual dims, runs), u2 = top
