@@ -9,15 +9,15 @@
 
 mod common;
 
-use accel::grid::{build_grid, GridConfig};
+use accel::grid::{build_grid, GridConfig, MergeRule, Subdivision};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let spec = args.get(1).map(String::as_str).unwrap_or("cornell");
     let repeats: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
     let cfg = GridConfig {
-        subdivision: common::subdivision(args.get(3)),
-        merge_rule: common::merge_rule(args.get(4)),
+        subdivision: common::rule(args.get(3), Subdivision::Paper),
+        merge_rule: common::rule(args.get(4), MergeRule::Runs),
         ..Default::default()
     };
     let (s, geo) = common::load(spec);

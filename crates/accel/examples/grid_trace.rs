@@ -6,7 +6,7 @@
 
 mod common;
 
-use accel::grid::{GridConfig, GridEngine};
+use accel::grid::{GridConfig, GridEngine, MergeRule, Subdivision};
 use render::raygen::{generate, Kind, Options};
 use render::{Hit, TraceMode, TraceStats, Tracer, View};
 use std::time::Instant;
@@ -37,8 +37,8 @@ fn main() {
         ),
     ];
     let cfg = GridConfig {
-        subdivision: common::subdivision(args.get(3)),
-        merge_rule: common::merge_rule(args.get(4)),
+        subdivision: common::rule(args.get(3), Subdivision::Paper),
+        merge_rule: common::rule(args.get(4), MergeRule::Runs),
         ..Default::default()
     };
     let e = GridEngine::new(&geo, &cfg).unwrap();

@@ -386,9 +386,12 @@ fn walk_chains(g: &Grid, m: &Merger, heads: &[u32], axis: usize) -> Vec<Chunk> {
                     ch.members.push(j);
                     let mut last = j;
                     // Under `Pairs` the run is the pair; a run holds at most `MAX_RUN` cells.
-                    while let Some(k) = Some(next[last as usize]).filter(|&k| {
-                        runs && k != NONE && ch.members.len() as u32 - first + 1 < MAX_RUN
-                    }) {
+                    loop {
+                        let k = next[last as usize];
+                        let size = ch.members.len() as u32 - first + 1;
+                        if !runs || k == NONE || size >= MAX_RUN {
+                            break;
+                        }
                         let (ck, rk) = (&m.cells[k as usize], m.refs(k as usize));
                         if m.empty_only && !(acc.is_empty() && rk.is_empty()) {
                             break;

@@ -43,22 +43,30 @@ pub enum Subdivision {
 }
 
 impl Subdivision {
-    /// The rules' names, as the command line spells them.
-    pub const NAMES: [&'static str; 2] = ["paper", "adaptive"];
+    /// The rules as the command line spells them.
+    pub const NAMES: [(&'static str, Subdivision); 2] = [
+        ("paper", Subdivision::Paper),
+        ("adaptive", Subdivision::Adaptive),
+    ];
 }
 
 impl std::str::FromStr for Subdivision {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "paper" => Ok(Subdivision::Paper),
-            "adaptive" => Ok(Subdivision::Adaptive),
-            _ => Err(format!(
-                "subdivision rule {s:?} is not one of {:?}",
-                Self::NAMES
-            )),
-        }
+        by_name(s, "subdivision rule", &Self::NAMES)
     }
+}
+
+/// The value `s` names in `names`, or an error listing the names.
+fn by_name<T: Copy>(s: &str, what: &str, names: &[(&'static str, T)]) -> Result<T, String> {
+    names
+        .iter()
+        .find(|(n, _)| *n == s)
+        .map(|&(_, v)| v)
+        .ok_or_else(|| {
+            let all: Vec<&str> = names.iter().map(|(n, _)| *n).collect();
+            format!("{what} {s:?} is not one of {all:?}")
+        })
 }
 
 /// How a merge pass cuts its chains of candidates into merges (see [`merge`]).
@@ -67,32 +75,30 @@ impl std::str::FromStr for Subdivision {
 pub enum MergeRule {
     /// Cells at even positions of a chain absorb their successor (the paper's §4.2).
     Pairs,
-    /// A cell absorbs its successor and every next one while the SAH cost of the run so far
-    /// still drops: the same merges the rounds of pairs converge towards, in fewer rounds.
+    /// A cell absorbs its successor and every next one, up to [`merge::MAX_RUN`] cells,
+    /// while the SAH cost of the run so far still drops: in one pass, merges that pairs reach
+    /// over several rounds.
     Runs,
 }
 
 impl MergeRule {
-    /// The rules' names, as the command line spells them.
-    pub const NAMES: [&'static str; 2] = ["pairs", "runs"];
+    /// The rules as the command line spells them.
+    pub const NAMES: [(&'static str, MergeRule); 2] =
+        [("pairs", MergeRule::Pairs), ("runs", MergeRule::Runs)];
 }
 
 impl std::str::FromStr for MergeRule {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "pairs" => Ok(MergeRule::Pairs),
-            "runs" => Ok(MergeRule::Runs),
-            _ => Err(format!("merge rule {s:?} is not one of {:?}", Self::NAMES)),
-        }
+        by_name(s, "merge rule", &Self::NAMES)
     }
 }
 
 /// Build parameters (paper defaults: λ₁ = 0.12, λ₂ = 2.4, α = 0.995, 3 expansion passes, the
 /// paper's subdivision rule; merging by runs, not the paper's pairs, since runs build
 /// Sponza's grid in 0.83× the time for N_T and N_I within 8.5 % on the real scenes; adaptive
-/// subdivision resolves a teapot in a stadium but costs
-/// Conference twice the build time for 3 % fewer tests, so it is not the default).
+/// subdivision resolves a teapot in a stadium but costs Conference twice the build time for
+/// 3 % fewer tests, so it is not the default).
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridConfig {
     /// Top-level density λ₁ (eq. 1: top cells ≈ λ₁ · triangles, cubic in the box's shape).
