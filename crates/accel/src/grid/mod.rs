@@ -97,8 +97,8 @@ impl std::str::FromStr for MergeRule {
 /// Build parameters (paper defaults: λ₁ = 0.12, λ₂ = 2.4, α = 0.995, 3 expansion passes, the
 /// paper's subdivision rule; merging by runs, not the paper's pairs, since runs build
 /// Sponza's grid in 0.83× the time for N_T and N_I within 8.5 % on the real scenes; adaptive
-/// subdivision resolves a teapot in a stadium but costs Conference twice the build time for
-/// 3 % fewer tests, so it is not the default).
+/// subdivision resolves a teapot in a stadium but costs Conference 1.7× the references and
+/// 1.35× the build time for 2.5 % fewer tests, so it is not the default).
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridConfig {
     /// Top-level density λ₁ (eq. 1: top cells ≈ λ₁ · triangles, cubic in the box's shape).
