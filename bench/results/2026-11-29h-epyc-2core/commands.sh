@@ -30,3 +30,15 @@ for b in base new; do
       --engines grid,obvhs-cwbvh,embree,embree-stream --csv budget-512-${s%%:*}-$b.csv
   done
 done
+# 4. Run afterwards, not part of the sitting above (figures quoted in README.md):
+#    the stadium's primary rays with both subdivision rules against the peers …
+#   R=/tmp/emb-new/release/rayspace
+#   $R rays stadium --kind primary --width 512 --height 512 --out /tmp/stadium-primary.rays
+#   for e in "grid --grid-subdivision paper" "grid --grid-subdivision adaptive" obvhs-cwbvh embree; do
+#     $R trace --scene stadium /tmp/stadium-primary.rays --engine $e --repeat 5
+#   done
+#    … and adaptive's cost on the real scenes (grid_build and grid_trace examples at 58250fe):
+#   for s in dabrovic-sponza/sponza.obj conference/conference.obj bart-kitchen/kitchen.obj; do
+#     for r in paper adaptive; do target/release/examples/grid_build $S/$s 5 $r; done
+#   done
+#   for r in paper adaptive; do target/release/examples/grid_trace ../../scenes/conference.toml 3 $r; done
