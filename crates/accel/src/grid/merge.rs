@@ -403,12 +403,13 @@ fn walk_chains(g: &Grid, m: &Merger, heads: &[u32], axis: usize) -> Vec<Chunk> {
                             half_area(g.voxel, ck.lo, ck.hi),
                             half_area(g.voxel, lo, uh),
                         );
-                        let nu = union_len(&acc, rk);
-                        if !sah_lowered(au, nu, a, acc.len(), ak, rk.len()) {
-                            break;
-                        }
+                        // The union is made once: its length decides, and an accepted
+                        // cell keeps it as the run's list.
                         tmp.clear();
                         union_each(&acc, rk, &mut |r| tmp.push(r));
+                        if !sah_lowered(au, tmp.len(), a, acc.len(), ak, rk.len()) {
+                            break;
+                        }
                         std::mem::swap(&mut acc, &mut tmp);
                         hi = uh;
                         ch.members.push(k);
