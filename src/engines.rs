@@ -8,9 +8,9 @@
 
 use accel::grid::GridConfig;
 use anyhow::Result;
-use render::Tracer;
 use rsh::{Method, ObjectHierarchy, RshConfig};
 use scene::Geometry;
+use trace::Tracer;
 
 /// An engine, as the command line names it (`--engine`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

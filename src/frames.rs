@@ -8,10 +8,10 @@
 use crate::engines::{self, Engine, EngineOptions};
 use anyhow::Result;
 use render::whitted::{render, RenderOptions, Rendered};
-use render::Phase;
 use scene::Geometry;
 use serde::Serialize;
 use std::time::Instant;
+use trace::Phase;
 
 /// One frame's record for `--frame-csv`.
 #[derive(Clone, Debug, Serialize)]

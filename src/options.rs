@@ -46,7 +46,7 @@ impl LoadArgs {
             allow_outside_paths: self.allow_outside_paths,
             ..Default::default()
         }
-        .for_memory(::render::memory::limit(max_mib))
+        .for_memory(::trace::memory::limit(max_mib))
     }
 }
 

@@ -59,7 +59,7 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
     use accel::peers::{BvhKind, ObvhsEngine};
     use render::rayfile::{read_rays, write_rays};
     use render::raygen::{generate, Kind, Options};
-    use render::{Hit, RayKind, TraceMode, TraceStats, Tracer};
+    use trace::{Hit, RayKind, TraceMode, TraceStats, Tracer};
 
     let Some(dir) = testkit::scenes() else {
         return;
@@ -144,7 +144,8 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
 /// every engine's hits equal brute force's on the animated scene.
 #[test]
 fn bart_animations_load_animate_and_match_brute_force() {
-    use accel::oracle::{assert_same_hits, record_render};
+    use accel::oracle::assert_same_hits;
+    use testkit::record_render;
     let Some(dir) = testkit::scenes() else {
         return;
     };
@@ -187,16 +188,16 @@ fn bart_animations_load_animate_and_match_brute_force() {
             let mut batches = record_render(&st, &geo, 20, 16, 1);
             // The renderer rasterizes primary visibility; trace the primary rays too.
             let prim = render::View::new(&st.camera, 20, 16).primary_rays();
-            let mut ph = vec![render::Hit::MISS; prim.len()];
-            render::Tracer::trace(
+            let mut ph = vec![trace::Hit::MISS; prim.len()];
+            trace::Tracer::trace(
                 &BruteForce::new(&geo),
                 &prim,
-                render::TraceMode::Closest,
+                trace::TraceMode::Closest,
                 &mut ph,
                 &mut Default::default(),
             );
-            batches.push((prim, render::TraceMode::Closest, ph));
-            let engines: Vec<Box<dyn render::Tracer>> = vec![
+            batches.push((prim, trace::TraceMode::Closest, ph));
+            let engines: Vec<Box<dyn trace::Tracer>> = vec![
                 Box::new(
                     accel::GridEngine::new(
                         &geo,

@@ -6,8 +6,8 @@
 //! names of the files they reference rewritten to the companions the fuzzer provides.
 
 use crate::mutate::Kind;
-use render::{Hit, RayBatch, RayKind, TraceMode};
 use std::path::Path;
+use trace::{Hit, RayBatch, RayKind, TraceMode};
 
 /// What one load came to.
 pub enum Outcome {

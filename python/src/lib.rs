@@ -16,10 +16,10 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rayspace::engines;
 use rayspace::options::{engine_options, EngineArgs};
-use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
+use trace::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 
 create_exception!(
     _rayspace,
@@ -81,7 +81,7 @@ impl Scene {
             allow_outside_paths,
             ..Default::default()
         }
-        .for_memory(render::memory::limit(None));
+        .for_memory(trace::memory::limit(None));
         let spec = spec.to_string();
         py.detach(move || {
             let t0 = Instant::now();
@@ -282,7 +282,11 @@ impl Engine {
 
     #[getter]
     fn build_passes(&self) -> Vec<(String, f64)> {
-        self.tracer.build_passes()
+        self.tracer
+            .build_passes()
+            .iter()
+            .map(|p| (p.name(), p.seconds))
+            .collect()
     }
 
     #[pyo3(signature = (origins, directions, tmin = None, tmax = None, any_hit = false))]
@@ -376,12 +380,12 @@ fn batch(
     // The batch, its hit records and the hit arrays handed back, checked before they are
     // allocated.
     let need = n as u64 * (render::whitted::BYTES_PER_RAY + 2 * std::mem::size_of::<Hit>() as u64);
-    let limit = render::memory::limit(None);
+    let limit = trace::memory::limit(None);
     if n > u32::MAX as usize || need > limit {
         return Err(err(format!(
             "{n} rays need {}, more than the {} limit: trace them in parts",
-            render::memory::gib(need),
-            render::memory::gib(limit)
+            trace::memory::gib(need),
+            trace::memory::gib(limit)
         )));
     }
     let t_min = bound("tmin", tmin, 0.0)?;
@@ -681,12 +685,12 @@ fn check_image(width: u32, height: u32, bounces: u32) -> PyResult<()> {
 /// engine's structure (the grid checks its model against it).
 fn render_memory(width: u32, height: u32, lights: usize) -> PyResult<u64> {
     let need = render::whitted::render_bytes(width, height, lights);
-    let limit = render::memory::limit(None);
+    let limit = trace::memory::limit(None);
     if need > limit {
         return Err(err(format!(
             "--width/--height: the render needs {}, more than the {} limit",
-            render::memory::gib(need),
-            render::memory::gib(limit)
+            trace::memory::gib(need),
+            trace::memory::gib(limit)
         )));
     }
     Ok(limit - need)

@@ -9,10 +9,11 @@
 
 use anyhow::Result;
 use render::raygen::{generate, Kind, Options};
-use render::{Hit, TraceMode, TraceStats, Tracer, View};
+use render::View;
 use scene::{Geometry, Scene};
 use serde::Serialize;
 use std::time::Instant;
+use trace::{Hit, TraceMode, TraceStats, Tracer};
 
 #[derive(Serialize, Clone, Debug)]
 pub struct BudgetRow {

@@ -15,8 +15,9 @@
 use anyhow::Result;
 use render::raster::{default_near, rasterize};
 
-use render::stats::counter;
-use render::{Hit, Phase, TraceStats, Tracer, View};
+use render::View;
+use trace::Counter;
+use trace::{Hit, Phase, TraceStats, Tracer};
 
 use std::time::Instant;
 
@@ -185,9 +186,9 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
                 );
                 md += &format!(
                     "\nGPU kernel launches: {}; chunks {}; top nodes {}.\n",
-                    sg.counters.get(counter::GPU_KERNEL_LAUNCHES).unwrap_or(&0),
-                    sg.counters.get(counter::CHUNKS).unwrap_or(&0),
-                    sg.counters.get(counter::TOP_NODES).unwrap_or(&0)
+                    sg.counters.get(Counter::GpuKernelLaunches).unwrap_or(0),
+                    sg.counters.get(Counter::Chunks).unwrap_or(0),
+                    sg.counters.get(Counter::TopNodes).unwrap_or(0)
                 );
             }
         }
@@ -293,12 +294,12 @@ fn frames_section(
     Ok(md)
 }
 
-/// Milliseconds of the build pass `name` of `e`.
-fn pass_ms(e: &dyn Tracer, name: &str) -> f64 {
+/// Milliseconds of the build pass `pass` of `e`.
+fn pass_ms(e: &dyn Tracer, pass: trace::BuildPass) -> f64 {
     e.build_passes()
         .iter()
-        .find(|p| p.0 == name)
-        .map(|p| p.1 * 1e3)
+        .find(|p| p.pass == pass)
+        .map(|p| p.seconds * 1e3)
         .unwrap_or(0.0)
 }
 
@@ -315,7 +316,7 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
     use accel::grid::{GridConfig, GridEngine};
     use gpu::GpuEngine;
     use render::raygen::{generate, Kind, Options};
-    use render::TraceMode;
+    use trace::TraceMode;
     let cfg = GridConfig::default();
     let t0 = Instant::now();
     let cpu = GridEngine::new(geo, &cfg).map_err(anyhow::Error::msg)?;
@@ -331,8 +332,8 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
     let total = |g: &gpu::GpuGrid| {
         g.build_passes()
             .iter()
-            .filter(|p| !p.0.starts_with("kernel compilation"))
-            .map(|p| p.1)
+            .filter(|p| p.pass != trace::BuildPass::KernelCompilation)
+            .map(|p| p.seconds)
             .sum::<f64>()
     };
     let gpu = if total(&second) <= total(&first) {
@@ -357,13 +358,13 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
         .build
         .passes()
         .iter()
-        .map(|(n, t)| format!("{n} {:.1}", t * 1e3))
+        .map(|p| format!("{} {:.1}", p.name(), p.seconds * 1e3))
         .collect();
     let gpu_passes: Vec<String> = gpu
         .build_passes()
         .iter()
-        .filter(|p| !p.0.starts_with("kernel compilation"))
-        .map(|(n, t)| format!("{n} {:.1}", t * 1e3))
+        .filter(|p| p.pass != trace::BuildPass::KernelCompilation)
+        .map(|p| format!("{} {:.1}", p.name(), p.seconds * 1e3))
         .collect();
     let mut md = format!(
         "\n### Irregular grid (λ₁ = {}, λ₂ = {}): {} cells, {} references; CPU build {:.1} ms ({}); GPU build {:.1} ms ({}; kernel compilation {:.0} ms); CPU traversal on {} threads\n\n",
@@ -375,7 +376,7 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
         passes.join(", "),
         total(&gpu) * 1e3,
         gpu_passes.join(", "),
-        pass_ms(&gpu, "kernel compilation"),
+        pass_ms(&gpu, trace::BuildPass::KernelCompilation),
         rayon::current_num_threads()
     );
     md += "The GPU traces the grid it built; the agreement column compares it with the CPU-built grid's hits and counts, so a build that differs shows there.\n\n";
@@ -394,7 +395,7 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
             .into_iter()
             .find(|(p, _)| *p == Phase::Traversal)
             .map(|(_, t)| t / GRID_REPEATS as f64);
-        let steps = |st: &TraceStats| st.counters.get(counter::TRAVERSAL_STEPS).copied();
+        let steps = |st: &TraceStats| st.counters.get(Counter::TraversalSteps);
         let same = hc == hg
             && sc.ray_tri_tests == sg.ray_tri_tests
             && steps(&sc) == steps(&sg)
@@ -436,7 +437,7 @@ fn device() -> anyhow::Result<gpu::Gpu> {
 /// whose disagreement changes all counts after it), as a report line.
 fn hash_agreement(
     gpu: &gpu::GpuRsh,
-    batches: &[(render::RayBatch, render::TraceMode, Vec<Hit>)],
+    batches: &[(trace::RayBatch, trace::TraceMode, Vec<Hit>)],
     geo: &scene::Geometry,
     bits: &rsh::HashBits,
 ) -> String {
@@ -514,12 +515,12 @@ mod tests {
         };
         a.levels.tests = vec![[1, 2, 3, 4], [5, 6, 7, 8]];
         a.levels.hits = vec![[1, 1, 1, 1], [2, 2, 2, 2]];
-        a.counters.insert("chunks".into(), 3);
+        a.counters.record(trace::Counter::Chunks, 3);
         let mut b = a.clone();
         assert!(counter_differences(&a, &b).is_empty());
         b.ray_tri_tests = 11;
         b.levels.tests[1][2] = 9;
-        b.counters.insert("chunks".into(), 4);
+        b.counters.record(trace::Counter::Chunks, 1);
         assert_eq!(
             counter_differences(&a, &b),
             [

@@ -22,11 +22,12 @@ use accel::oracle::Agreement;
 use accel::peers::{BvhKind, ObvhsEngine};
 use anyhow::Result;
 use render::raygen::{generate, Kind, Options};
-use render::stats::counter;
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer, View};
+use render::View;
 use scene::{Geometry, LoadOptions};
 use serde::Serialize;
 use std::time::Instant;
+use trace::Counter;
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 pub struct Spec {
     pub scenes: Vec<String>,
@@ -146,11 +147,7 @@ pub(crate) fn time_all(
 fn per_ray(st: &TraceStats, n: usize) -> (f64, f64) {
     let n = n.max(1) as f64;
     (
-        st.counters
-            .get(counter::TRAVERSAL_STEPS)
-            .copied()
-            .unwrap_or(0) as f64
-            / n,
+        st.counters.get(Counter::TraversalSteps).unwrap_or(0) as f64 / n,
         st.ray_tri_tests as f64 / n,
     )
 }
@@ -190,7 +187,11 @@ fn grid_row(
         n_t,
         n_i,
         mrays_per_s: rays.len() as f64 / r.0 / 1e6,
-        passes: e.build_passes(),
+        passes: e
+            .build_passes()
+            .iter()
+            .map(|p| (p.name(), p.seconds))
+            .collect(),
     })
 }
 
@@ -275,10 +276,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
                     rays: rays.len() as u64,
                     seconds: *secs,
                     mrays_per_s: rays.len() as f64 / secs / 1e6,
-                    n_t: st
-                        .counters
-                        .contains_key(counter::TRAVERSAL_STEPS)
-                        .then_some(n_t),
+                    n_t: st.counters.contains(Counter::TraversalSteps).then_some(n_t),
                     n_i: counted.then_some(n_i),
                     build_seconds: *build,
                     memory_bytes: *mem,

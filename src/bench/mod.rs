@@ -19,8 +19,8 @@ pub mod rsh;
 use accel::oracle::Recorder;
 use anyhow::Result;
 use render::whitted::{render, RenderOptions};
-use render::Hit;
 use scene::{Geometry, LoadOptions};
+use trace::Hit;
 
 /// What the ray-hierarchy benchmarks ([`rsh`], [`gpu`]) run: scenes × configurations B/D.
 pub struct Spec {
@@ -63,7 +63,7 @@ pub fn parse_configs(s: &str) -> Result<Vec<(u32, u32)>, String> {
 pub type Recorded = (
     scene::Scene,
     Geometry,
-    Vec<(render::RayBatch, render::TraceMode, Vec<Hit>)>,
+    Vec<(trace::RayBatch, trace::TraceMode, Vec<Hit>)>,
 );
 
 /// Render `name` once with CRSH, recording every traced batch.

@@ -11,8 +11,8 @@
 
 use super::{record, Spec};
 use anyhow::Result;
-use render::{Hit, Phase, TraceStats, Tracer};
 use serde::Serialize;
+use trace::{Hit, Phase, TraceStats, Tracer};
 
 #[derive(Serialize, Clone)]
 pub struct Row {
@@ -214,9 +214,9 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
         levels.dedup();
         let mut series: Vec<String> = levels.iter().map(|l| format!("level {l}")).collect();
         series.push("final".into());
-        let ray_box = render::stats::counter::RAY_BOX_TESTS;
-        if rs.iter().any(|r| r.stats.counters.contains_key(ray_box)) {
-            series.push(ray_box.into());
+        let ray_box = trace::Counter::RayBoxTests;
+        if rs.iter().any(|r| r.stats.counters.contains(ray_box)) {
+            series.push(ray_box.to_string());
         }
         let values: Vec<Vec<f64>> = series
             .iter()
@@ -233,8 +233,8 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
                                 .map(|row| row.tests)
                                 .sum::<u64>() as f64
                         }
-                        None if name == ray_box => {
-                            r.stats.counters.get(ray_box).copied().unwrap_or(0) as f64
+                        None if name == ray_box.name() => {
+                            r.stats.counters.get(ray_box).unwrap_or(0) as f64
                         }
                         None => r.stats.ray_tri_tests as f64,
                     })

@@ -138,14 +138,14 @@ fn write_out(opt: &str, path: &std::path::Path, bytes: impl AsRef<[u8]>) -> Resu
 /// The memory a command may use: `--max-memory` (MiB) when given, else 80 % of the
 /// smaller of the machine's memory and the process's address-space limit.
 fn memory_limit(max_mib: Option<u64>) -> u64 {
-    ::render::memory::limit(max_mib)
+    ::trace::memory::limit(max_mib)
 }
 
 /// Refuse work whose memory model needs more than the limit, naming the options.
 fn check_memory(what: &str, opts: &str, need: u64, max_mib: Option<u64>) -> Result<()> {
     let limit = memory_limit(max_mib);
     if need > limit {
-        let gib = ::render::memory::gib;
+        let gib = ::trace::memory::gib;
         bail!(
             "{opts}: {what} needs about {}, more than the {} allowed (--max-memory, default 80 % of this machine's memory); lower {opts} or raise --max-memory",
             gib(need),

@@ -66,13 +66,13 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
                 say!(
                     "pair budget lowered from {} to {b} pairs to fit --max-memory ({} left after the render)",
                     opts.rsh.pair_budget,
-                    render::memory::gib(left)
+                    trace::memory::gib(left)
                 );
                 opts.rsh.pair_budget = b;
             }
             None => bail!(
                 "--pair-budget: even 1024 pairs need more than the {} --max-memory leaves after the render; raise --max-memory or lower --width/--height",
-                render::memory::gib(left)
+                trace::memory::gib(left)
             ),
         }
     }

@@ -91,22 +91,22 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         check_out_dir("--out", o)?;
         check_not_input("--out", o, &[&a.rays, std::path::Path::new(&a.scene)])?;
     }
-    let rays = render::rayfile::read_rays(&a.rays, render::RayKind::Primary)
-        .map_err(anyhow::Error::msg)?;
+    let rays =
+        render::rayfile::read_rays(&a.rays, trace::RayKind::Primary).map_err(anyhow::Error::msg)?;
     let scene = super::load_scene(&a.scene, &a.load.options(None))?;
     let geo = Geometry::from_scene(&scene);
     let mode = if a.any_hit {
-        render::TraceMode::Any
+        trace::TraceMode::Any
     } else {
-        render::TraceMode::Closest
+        trace::TraceMode::Closest
     };
     // Every repetition builds the engine and traces the rays afresh; the hits and counters
     // are the same each time (deterministic), the last repetition's are kept.
     let mut runs: Vec<(f64, f64)> = Vec::with_capacity(a.repeat as usize);
     // Per run: the engine's build passes and the trace's phases (seconds), by name.
     let mut phase_runs: Vec<Vec<(String, f64)>> = Vec::with_capacity(a.repeat as usize);
-    let mut hits = vec![render::Hit::MISS; rays.len()];
-    let mut st = render::TraceStats::default();
+    let mut hits = vec![trace::Hit::MISS; rays.len()];
+    let mut st = trace::TraceStats::default();
     let mut name = String::new();
     for rep in 0..a.repeat {
         let t0 = Instant::now();
@@ -118,7 +118,7 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         }
         let engine = built.tracer;
         let build = t0.elapsed().as_secs_f64();
-        st = render::TraceStats::default();
+        st = trace::TraceStats::default();
         let t1 = Instant::now();
         engine.trace(&rays, mode, &mut hits, &mut st);
         runs.push((build, t1.elapsed().as_secs_f64()));
@@ -126,7 +126,7 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
             engine
                 .build_passes()
                 .into_iter()
-                .map(|(p, s)| (format!("build: {p}"), s))
+                .map(|p| (format!("build: {}", p.name()), p.seconds))
                 .chain(st.phases.iter().map(|(p, s)| (p.to_string(), *s)))
                 .collect(),
         );
@@ -178,11 +178,11 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         );
     }
     say!("hits {}, ray-triangle tests {} ({:.2}/ray), node-triangle tests {}, total tests {} ({:.4} % of brute force)", st.hits, st.ray_tri_tests, st.ray_tri_tests as f64 / n, st.node_tri_tests, st.total_tests(), 100.0 * st.total_tests() as f64 / (n * geo.len() as f64));
-    for (k, v) in &st.counters {
+    for (k, v) in st.counters.iter() {
         say!(
             "  {k}: {v}{}",
-            if k == "traversal steps" {
-                format!(" ({:.2}/ray)", *v as f64 / n)
+            if k == trace::Counter::TraversalSteps {
+                format!(" ({:.2}/ray)", v as f64 / n)
             } else {
                 String::new()
             }

@@ -17,11 +17,11 @@ use crate::engines::{self, Engine, EngineOptions};
 use accel::oracle::Recorder;
 use anyhow::{anyhow, Context, Result};
 use render::whitted::{render, RenderOptions};
-use render::RayKind;
 use scene::{Geometry, LoadOptions, Scene};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use trace::RayKind;
 
 /// What a report covers.
 pub struct Spec {
@@ -246,14 +246,14 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
     let geo = Geometry::from_scene(&s);
     // Memory is checked before the renders allocate it, as `render` does.
     let need = render::whitted::render_bytes(spec.side, spec.side, s.lights.len());
-    let limit = render::memory::limit(None);
+    let limit = trace::memory::limit(None);
     if need > limit {
         anyhow::bail!(
             "--size {}: a render of {} needs {}, more than the {} this machine allows",
             spec.side,
             s.name,
-            render::memory::gib(need),
-            render::memory::gib(limit)
+            trace::memory::gib(need),
+            trace::memory::gib(limit)
         );
     }
     let slug = charts::slug(&s.name);
@@ -513,7 +513,7 @@ fn draw_charts(r: &Report, dir: &Path) -> Result<Vec<(String, String)>> {
     scenes.dedup();
     for sc in scenes {
         let rows: Vec<&bench::rsh::Row> = r.rsh.iter().filter(|x| x.scene == sc).take(4).collect();
-        let phases: Vec<render::Phase> = render::Phase::ALL
+        let phases: Vec<trace::Phase> = trace::Phase::ALL
             .into_iter()
             .filter(|p| rows.iter().any(|x| x.stats.phases.contains_key(p)))
             .collect();

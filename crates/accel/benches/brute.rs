@@ -3,8 +3,8 @@
 use accel::BruteForce;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use geom::{Pcg32, Ray};
-use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 use scene::{builtin, Geometry};
+use trace::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 
 fn bench(c: &mut Criterion) {
     let s = builtin::cornell();

@@ -6,8 +6,9 @@
 use accel::grid::{build_grid, lanes, traverse, GridConfig};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use render::raygen::{generate, Kind, Options};
-use render::{Hit, RayBatch, TraceMode, View};
+use render::View;
 use scene::{builtin, Geometry};
+use trace::{Hit, RayBatch, TraceMode};
 
 fn bench(c: &mut Criterion) {
     for name in ["office", "spheres"] {

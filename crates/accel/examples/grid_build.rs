@@ -21,7 +21,7 @@ fn main() {
         ..Default::default()
     };
     let (s, geo) = common::load(spec);
-    let mut best: Option<Vec<(&'static str, f64)>> = None;
+    let mut best: Option<Vec<(String, f64)>> = None;
     let mut cells = 0;
     let mut shape = (0, 0, 0);
     let mut hash = 0u64;
@@ -34,14 +34,14 @@ fn main() {
             hash = structure_hash(&g); // the same bytes every time: hashed once
         }
         let p = g.build.passes();
-        best_total = best_total.min(p.iter().map(|x| x.1).sum());
+        best_total = best_total.min(p.iter().map(|x| x.seconds).sum());
         best = Some(match best {
-            None => p.to_vec(),
+            None => p.iter().map(|x| (x.name(), x.seconds)).collect(),
             Some(b) => b
                 .iter()
                 .zip(p.iter())
-                .map(|(a, b)| (a.0, a.1.min(b.1)))
-                .collect(),
+                .map(|(a, b)| (a.0.clone(), a.1.min(b.seconds)))
+                .collect::<Vec<_>>(),
         });
     }
     println!(

@@ -9,8 +9,9 @@ mod common;
 
 use accel::grid::{build_grid, GridConfig, GridEngine};
 use accel::BruteForce;
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer, View};
+use render::View;
 use std::time::Instant;
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -53,7 +54,7 @@ fn main() {
         let n = rays.len() as f64;
         println!(
             "| {name} | {cells} | {refs} | {:.2} | {:.2} | {:.2} | {:.0} | {mc}/{mr}/{mv} |",
-            st.counters[render::stats::counter::TRAVERSAL_STEPS] as f64 / n,
+            st.counters[trace::Counter::TraversalSteps] as f64 / n,
             st.ray_tri_tests as f64 / n,
             n / best / 1e6,
             build * 1e3
@@ -69,7 +70,7 @@ fn main() {
     for &i in &idx {
         sub.push(
             rays.ray(i),
-            render::RayKind::Primary,
+            trace::RayKind::Primary,
             i as u32,
             0,
             geom::Vec3::ONE,

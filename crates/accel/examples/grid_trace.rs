@@ -8,8 +8,9 @@ mod common;
 
 use accel::grid::{GridConfig, GridEngine, MergeRule, Subdivision};
 use render::raygen::{generate, Kind, Options};
-use render::{Hit, TraceMode, TraceStats, Tracer, View};
+use render::View;
 use std::time::Instant;
+use trace::{Hit, TraceMode, TraceStats, Tracer};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -67,11 +68,7 @@ fn main() {
         println!(
             "{name:>8}: {:7.2} MRays/s  N_T {:6.2}  N_I {:6.2}",
             n / best / 1e6,
-            st.counters
-                .get(render::stats::counter::TRAVERSAL_STEPS)
-                .copied()
-                .unwrap_or(0) as f64
-                / n,
+            st.counters.get(trace::Counter::TraversalSteps).unwrap_or(0) as f64 / n,
             st.ray_tri_tests as f64 / n
         );
     }

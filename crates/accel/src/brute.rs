@@ -2,8 +2,8 @@
 
 use geom::tri::RayPre;
 use geom::{intersect, Vec3};
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::Geometry;
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// Triangles in one flat array; nothing else.
 pub struct BruteForce {
@@ -49,7 +49,7 @@ impl Tracer for BruteForce {
     }
 
     fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
-        render::trace_per_ray(rays, hits, stats, |ray| {
+        trace::trace_per_ray(rays, hits, stats, |ray| {
             Self::trace_one(&self.tris, ray, mode)
         });
     }

@@ -1,4 +1,4 @@
-//! Object-space engines behind [`render::Tracer`]: brute force and the irregular grid.
+//! Object-space engines behind [`trace::Tracer`]: brute force and the irregular grid.
 //!
 //! [`BruteForce`] tests every ray against every triangle with the shared watertight kernel.
 //! It is the oracle: every other engine must return the same closest hits (same triangle,

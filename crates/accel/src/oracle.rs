@@ -1,9 +1,11 @@
 //! The brute-force oracle as a test harness for any engine: record the batches a render
-//! traces (answered by brute force), and check another engine against them.
+//! traces ([`Recorder`]; `testkit::record_render` answers a whole render's by brute force),
+//! and check another engine against them ([`assert_same_hits`], or for peers with their own
+//! kernels [`Agreement`]).
 
 use geom::{Ray, Vec3};
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use std::sync::Mutex;
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// A tracer that forwards to `inner` and keeps every batch it was given with the answers.
 /// Wrapping brute force records the oracle's answers; wrapping another engine records the
@@ -64,31 +66,6 @@ pub fn assert_same_hits(
             }
         }
     }
-}
-
-/// Render `scene` with brute force and return every batch the Whitted loop traced, with
-/// brute force's answers: the reference other engines are checked against.
-pub fn record_render(
-    scene: &scene::Scene,
-    geo: &scene::Geometry,
-    width: u32,
-    height: u32,
-    bounces: u32,
-) -> Vec<(RayBatch, TraceMode, Vec<Hit>)> {
-    let bf = crate::BruteForce::new(geo);
-    let rec = Recorder::new(&bf);
-    render::whitted::render(
-        scene,
-        geo,
-        &rec,
-        &render::whitted::RenderOptions {
-            width,
-            height,
-            bounces,
-        },
-        &(),
-    );
-    rec.into_batches()
 }
 
 /// How a peer compares with the oracle when bit-identical records cannot be required:

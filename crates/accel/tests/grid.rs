@@ -4,15 +4,17 @@
 
 use accel::grid::voxelmap::{INDEX, LOG_DIM_SHIFT};
 use accel::grid::{build_grid, Grid, GridConfig, GridEngine, MergeRule, Subdivision, NODE};
-use accel::oracle::{assert_same_hits, record_render};
+use accel::oracle::assert_same_hits;
 use accel::BruteForce;
 use geom::aabb::tri_overlaps_box;
 use geom::Vec3;
 use proptest::prelude::*;
 use render::whitted::trace_primary;
-use render::{Hit, TraceMode, TraceStats, Tracer, View};
+use render::View;
 use scene::{builtin, Geometry};
 use testkit::grid_case as random_case;
+use testkit::record_render;
+use trace::{Hit, TraceMode, TraceStats, Tracer};
 
 fn configs() -> Vec<(&'static str, GridConfig)> {
     vec![
@@ -230,7 +232,7 @@ fn builtin_scenes_match_brute_force() {
 fn lanes_equal_scalar(
     g: &Grid,
     tris: &[[Vec3; 3]],
-    rays: &render::RayBatch,
+    rays: &trace::RayBatch,
     mode: TraceMode,
     what: &str,
 ) {
@@ -276,7 +278,7 @@ fn lanes_equal_the_scalar_traversal_on_builtin_scenes() {
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let mut batches: Vec<(render::RayBatch, TraceMode)> = record_render(&s, &geo, 40, 30, 2)
+        let mut batches: Vec<(trace::RayBatch, TraceMode)> = record_render(&s, &geo, 40, 30, 2)
             .into_iter()
             .map(|(r, m, _)| (r, m))
             .collect();
@@ -322,7 +324,7 @@ proptest! {
         let mut rng = geom::rng::Pcg32::new(seed, 77);
         let comps = [0.0f32, -0.0, 1e-40, -1e-40, 1e-30, -1e-20, 0.5, -1.0, 1.0];
         let places = [0.0f32, -0.0, 1.0, -1.0, 1e6, -1e6, 0.25, 1e-38];
-        let mut rays = render::RayBatch::default();
+        let mut rays = trace::RayBatch::default();
         for i in 0..256u32 {
             let d = Vec3::new(
                 comps[rng.below(comps.len() as u32) as usize],
@@ -338,7 +340,7 @@ proptest! {
                 places[rng.below(places.len() as u32) as usize],
             );
             let t_max = if i % 3 == 0 { rng.range(0.0, 3.0) } else { f32::INFINITY };
-            rays.push(geom::Ray::new(o, d, 0.0, t_max), render::RayKind::Reflection, i, 0, Vec3::ONE, 0);
+            rays.push(geom::Ray::new(o, d, 0.0, t_max), trace::RayKind::Reflection, i, 0, Vec3::ONE, 0);
         }
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         lanes_equal_scalar(&g, &geo.tris, &rays, mode, "edge rays");

@@ -6,10 +6,11 @@
 //! peer may lose (Embree's kernel is not watertight; obvhs's box tests are not conservative
 //! at box faces): see `accel::oracle::Agreement`. Such cases must stay rare (≤ 0.1 %).
 
-use accel::oracle::{record_render, Agreement};
+use accel::oracle::Agreement;
 use accel::peers::{BvhKind, ObvhsEngine};
-use render::{Hit, TraceMode, TraceStats, Tracer};
 use scene::{builtin, Geometry};
+use testkit::record_render;
+use trace::{Hit, TraceMode, TraceStats, Tracer};
 
 fn scenes() -> Vec<(&'static str, scene::Scene)> {
     vec![
@@ -49,7 +50,7 @@ fn obvhs_agrees_with_brute_force() {
 #[cfg(feature = "embree")]
 fn embree_records(
     e: &accel::peers::EmbreeEngine,
-    rays: &render::RayBatch,
+    rays: &trace::RayBatch,
     mode: TraceMode,
 ) -> Vec<Hit> {
     let mut got = vec![Hit::MISS; rays.len()];

@@ -22,15 +22,16 @@
 use crate::device::{Gpu, GpuError};
 use crate::kernels::{Exec, Kernel, Params};
 use crate::raster::GpuRaster;
-use crate::rsh::DeviceRays;
+use crate::rays::DeviceRays;
 use crate::stages::Surf;
 use crate::GpuEngine;
 use render::raster::default_near;
-use render::stats::RenderStats;
+use render::stats::{FramePhase, RenderStats};
 use render::whitted::{Progress, RenderOptions};
-use render::{TraceMode, TraceStats, View};
+use render::View;
 use scene::{Geometry, Scene};
 use std::time::Instant;
+use trace::{TraceMode, TraceStats};
 
 /// Rays per chunk of [`totals`] (`fr_totals` in `frame.wgsl`).
 const TOTALS_CHUNK: u64 = 1024;
@@ -82,7 +83,7 @@ pub(crate) fn totals(
 
 /// Trace rays `rays` on the device with `engine`, in parts of at most its
 /// [`GpuEngine::max_rays`] (each part's rays copied out on the device, its records copied
-/// back), counting into `stats` as [`render::Tracer::trace`] does; the records (triangle, t,
+/// back), counting into `stats` as [`trace::Tracer::trace`] does; the records (triangle, t,
 /// u, v bits) stay on the device.
 pub fn trace_device(
     engine: &dyn GpuEngine,
@@ -217,7 +218,7 @@ impl Clock {
     }
 
     /// Finish `ex`'s work, add the time since the last lap to `phase`.
-    fn lap(&mut self, ex: &mut Exec, stats: &mut RenderStats, phase: &str) {
+    fn lap(&mut self, ex: &mut Exec, stats: &mut RenderStats, phase: FramePhase) {
         ex.finish();
         ex.g.device
             .poll(wgpu::PollType::wait_indefinitely())
@@ -263,7 +264,7 @@ pub fn render(
     let mut ex = Exec::new(g, engine.kernels());
     progress.stage("rasterize");
     let gb = raster.rasterize_device(&view, default_near(geo));
-    clock.lap(&mut ex, &mut stats, "rasterize");
+    clock.lap(&mut ex, &mut stats, FramePhase::Rasterize);
 
     let bg = scene.background;
     let lights = g.upload("lights", &crate::stages::light_rows(&scene.lights));
@@ -305,7 +306,7 @@ pub fn render(
         s
     };
     stats.covered_pixels = surf.len;
-    clock.lap(&mut ex, &mut stats, "ray creation");
+    clock.lap(&mut ex, &mut stats, FramePhase::RayCreation);
 
     let mut generation = 0u32;
     loop {
@@ -325,10 +326,10 @@ pub fn render(
                 m,
                 256,
             );
-            clock.lap(&mut ex, &mut stats, "ray creation");
+            clock.lap(&mut ex, &mut stats, FramePhase::RayCreation);
             let rec = trace_device(engine, &rays, TraceMode::Any, &mut stats.trace);
             stats.rays_shadow += m;
-            clock.lap(&mut ex, &mut stats, "trace");
+            clock.lap(&mut ex, &mut stats, FramePhase::Trace);
             ex.run(
                 Kernel::FrOccluded,
                 Params::n(m as u32, 0, 0, 0),
@@ -349,7 +350,7 @@ pub fn render(
                 256,
             );
         }
-        clock.lap(&mut ex, &mut stats, "shading");
+        clock.lap(&mut ex, &mut stats, FramePhase::Shading);
         if generation >= opts.bounces || n == 0 {
             break;
         }
@@ -374,7 +375,7 @@ pub fn render(
         ex.scan(&flags, &offs, slots);
         let r = ex.read_at(&offs, slots as usize) as u64;
         if r == 0 {
-            clock.lap(&mut ex, &mut stats, "ray creation");
+            clock.lap(&mut ex, &mut stats, FramePhase::RayCreation);
             break;
         }
         let rays = DeviceRays::storage(g, "bounce", r);
@@ -401,9 +402,9 @@ pub fn render(
         let refractions = kind_count(&mut ex, &rays.kl, r);
         stats.rays_refraction += refractions;
         stats.rays_reflection += r - refractions;
-        clock.lap(&mut ex, &mut stats, "ray creation");
+        clock.lap(&mut ex, &mut stats, FramePhase::RayCreation);
         let rec = trace_device(engine, &rays, TraceMode::Closest, &mut stats.trace);
-        clock.lap(&mut ex, &mut stats, "trace");
+        clock.lap(&mut ex, &mut stats, FramePhase::Trace);
         // The background behind the misses, then the next generation's surfaces.
         let mut p = Params::n(r as u32, 0, 0, 0);
         p.f[0] = [bg.x, bg.y, bg.z, 0.0];
@@ -446,7 +447,7 @@ pub fn render(
             256,
         );
         surf = next;
-        clock.lap(&mut ex, &mut stats, "shading");
+        clock.lap(&mut ex, &mut stats, FramePhase::Shading);
         generation += 1;
     }
     // The image out, as sRGB bytes.
@@ -462,7 +463,7 @@ pub fn render(
     let raw: Vec<u32> = ex.read(&enc, words as usize);
     let mut srgb8: Vec<u8> = raw.iter().flat_map(|w| w.to_le_bytes()).collect();
     srgb8.truncate(3 * npix as usize);
-    clock.lap(&mut ex, &mut stats, "shading");
+    clock.lap(&mut ex, &mut stats, FramePhase::Shading);
     stats.total_tests = stats.trace.total_tests();
     stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
     Ok(FrameOut { srgb8, stats })

@@ -4,9 +4,9 @@
 //! primitives built on it are in [`crate::prims`].
 
 use crate::device::{Gpu, PhaseTimer};
-use render::Phase;
 use std::sync::Mutex;
 use std::time::Instant;
+use trace::Phase;
 
 /// Launch parameters, the `Params` block of `common.wgsl`. `f[1][3]` is reserved: [`Exec::run`]
 /// always sets it to 0, the zero the kernels' `mul()` hides products behind.
@@ -728,7 +728,7 @@ impl<'a> Exec<'a> {
 
     /// Finish the trace call's work and report it: every phase's time into `stats` and into
     /// `sink` (an engine's running totals, drained by its `take_times`), and the launches.
-    pub fn report(mut self, stats: &mut render::TraceStats, sink: &Mutex<Vec<(Phase, f64)>>) {
+    pub fn report(mut self, stats: &mut trace::TraceStats, sink: &Mutex<Vec<(Phase, f64)>>) {
         self.finish();
         let mut totals = sink.lock().unwrap();
         for (p, t) in self.times.drain(..) {
@@ -738,7 +738,7 @@ impl<'a> Exec<'a> {
                 None => totals.push((p, t)),
             }
         }
-        stats.count(render::stats::counter::GPU_KERNEL_LAUNCHES, self.launches);
+        stats.count(trace::Counter::GpuKernelLaunches, self.launches);
     }
 
     /// One u32 at index `i` of `buf`.

@@ -6,10 +6,10 @@
 //!   launch recorder with per-phase timestamp queries.
 //! - [`prims`]: the GPU's `par` — reduce-then-scan, compaction, runs, stable radix sort
 //!   (`src/prims/*.wgsl`).
-//! - [`rsh`]: CRSH and RAH as a [`render::Tracer`], file for file the `rsh` crate's pipeline
+//! - [`rsh`]: CRSH and RAH as a [`trace::Tracer`], file for file the `rsh` crate's pipeline
 //!   (`hash → order → build → traverse`, `src/rsh/*.rs` beside `src/rsh/*.wgsl`), with the
 //!   same counters.
-//! - [`grid`]: the irregular grid's traversal as a [`render::Tracer`] (`src/grid/*`
+//! - [`grid`]: the irregular grid's traversal as a [`trace::Tracer`] (`src/grid/*`
 //!   beside `accel/src/grid/*`), on a grid built by the CPU.
 //! - [`raster`]: primary visibility by real rasterization (render pipeline, depth test) into
 //!   the G-buffer's render targets.
@@ -30,6 +30,7 @@ pub mod grid;
 pub mod kernels;
 pub mod prims;
 pub mod raster;
+pub mod rays;
 pub mod rsh;
 pub mod stages;
 
@@ -40,15 +41,15 @@ pub use raster::GpuRaster;
 /// The wgpu this backend is built with (the viewer's window shares it).
 pub use wgpu;
 
-/// A tracing engine on the GPU: a [`render::Tracer`] whose device and compiled kernels the
+/// A tracing engine on the GPU: a [`trace::Tracer`] whose device and compiled kernels the
 /// Whitted stages share ([`GpuStages`]), and whose GPU time per phase can be drained.
-pub trait GpuEngine: render::Tracer {
+pub trait GpuEngine: trace::Tracer {
     /// The device.
     fn gpu(&self) -> &Gpu;
     /// The compiled kernels.
     fn kernels(&self) -> &kernels::Kernels;
     /// GPU seconds per phase since the last call (empty without timestamp queries).
-    fn take_times(&self) -> Vec<(render::Phase, f64)>;
+    fn take_times(&self) -> Vec<(trace::Phase, f64)>;
     /// Take a dynamic scene's next frame: rebuild over `geo` on the same device, with the
     /// same kernels and configuration (what the CPU engine rebuilds per frame).
     fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError>;
@@ -59,13 +60,13 @@ pub trait GpuEngine: render::Tracer {
     fn triangles(&self) -> &wgpu::Buffer;
     /// Trace rays already on the device (at most [`GpuEngine::max_rays`]) and leave their
     /// hit records there (triangle, t, u, v bits per ray; triangle `NO_HIT`: a miss), with
-    /// the counters of [`render::Tracer::trace`] in `stats` (less `stats.rays`, which
+    /// the counters of [`trace::Tracer::trace`] in `stats` (less `stats.rays`, which
     /// [`frame::trace_device`] counts). Only totals are read back.
     fn trace_device_part(
         &self,
-        rays: &rsh::DeviceRays,
-        mode: render::TraceMode,
-        stats: &mut render::TraceStats,
+        rays: &rays::DeviceRays,
+        mode: trace::TraceMode,
+        stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer;
 }
 
@@ -76,7 +77,7 @@ impl GpuEngine for GpuRsh {
     fn kernels(&self) -> &kernels::Kernels {
         GpuRsh::kernels(self)
     }
-    fn take_times(&self) -> Vec<(render::Phase, f64)> {
+    fn take_times(&self) -> Vec<(trace::Phase, f64)> {
         GpuRsh::take_times(self)
     }
     fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError> {
@@ -90,9 +91,9 @@ impl GpuEngine for GpuRsh {
     }
     fn trace_device_part(
         &self,
-        rays: &rsh::DeviceRays,
-        _mode: render::TraceMode,
-        stats: &mut render::TraceStats,
+        rays: &rays::DeviceRays,
+        _mode: trace::TraceMode,
+        stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer {
         // The traversal finds the closest hit of every ray in either mode, as trace does.
         GpuRsh::trace_device_part(self, rays, stats)
@@ -106,7 +107,7 @@ impl GpuEngine for GpuGrid {
     fn kernels(&self) -> &kernels::Kernels {
         &self.kernels
     }
-    fn take_times(&self) -> Vec<(render::Phase, f64)> {
+    fn take_times(&self) -> Vec<(trace::Phase, f64)> {
         std::mem::take(&mut *self.times.lock().unwrap())
     }
     fn rebuild(&mut self, geo: &scene::Geometry) -> Result<(), GpuError> {
@@ -120,9 +121,9 @@ impl GpuEngine for GpuGrid {
     }
     fn trace_device_part(
         &self,
-        rays: &rsh::DeviceRays,
-        mode: render::TraceMode,
-        stats: &mut render::TraceStats,
+        rays: &rays::DeviceRays,
+        mode: trace::TraceMode,
+        stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer {
         grid::traverse::trace_device_part(self, rays, mode, stats)
     }

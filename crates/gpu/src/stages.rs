@@ -18,9 +18,9 @@ use crate::kernels::{Exec, Kernel, Kernels, Params};
 use geom::Vec3;
 use render::secondary::Surfaces;
 use render::whitted::{Generation, Stages};
-use render::{RayBatch, RayKind};
 use scene::{Light, Material, Scene};
 use std::cell::RefCell;
+use trace::{RayBatch, RayKind};
 
 /// GPU passes of the Whitted loop, with the seconds they took (wall clock, including the
 /// transfers) per pass.

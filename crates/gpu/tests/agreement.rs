@@ -10,11 +10,11 @@
 //! NVIDIA H100 (`bench/results/`). Without any adapter every test prints why and passes
 //! locally (CI installs lavapipe and requires the GPU, so there they run).
 
-use accel::oracle::record_render;
 use gpu::{Gpu, GpuRsh};
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use rsh::{NodeTest, RshConfig, RshEngine, Union};
 use scene::{builtin, Geometry};
+use testkit::record_render;
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 fn gpu() -> Option<Gpu> {
     testkit::or_skip(Gpu::new(), "gpu")
@@ -47,9 +47,7 @@ fn compare(
         }
     }
     assert_eq!(counters(&sg), counters(&sc), "{what}: counters");
-    assert!(sg
-        .counters
-        .contains_key(render::stats::counter::GPU_KERNEL_LAUNCHES));
+    assert!(sg.counters.contains(trace::Counter::GpuKernelLaunches));
 }
 
 #[test]
@@ -110,11 +108,7 @@ fn tiny_budget_batches_and_splits_match() {
         let mut st = TraceStats::default();
         let mut h = vec![Hit::MISS; rays.len()];
         gpu.trace(rays, *mode, &mut h, &mut st);
-        splits += st
-            .counters
-            .get(render::stats::counter::BUDGET_SPLITS)
-            .copied()
-            .unwrap_or(0);
+        splits += st.counters.get(trace::Counter::BudgetSplits).unwrap_or(0);
     }
     assert!(splits > 0, "the tiny budget forced split expansions");
 }
@@ -205,10 +199,10 @@ fn hash_keys_match_the_cpu_on_random_rays() {
         let u = geom::Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         let o = b.min + u * (b.max - b.min) * 1.2 - (b.max - b.min) * 0.1;
         let kind = [
-            render::RayKind::Primary,
-            render::RayKind::Shadow,
-            render::RayKind::Reflection,
-            render::RayKind::Refraction,
+            trace::RayKind::Primary,
+            trace::RayKind::Shadow,
+            trace::RayKind::Reflection,
+            trace::RayKind::Refraction,
         ][(i % 4) as usize];
         let t_max = if i % 97 == 0 { 0.0 } else { 10.0 };
         let ray = geom::Ray::new(o, d, 1e-4, t_max);

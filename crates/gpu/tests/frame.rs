@@ -13,9 +13,9 @@ use accel::{GridConfig, GridEngine};
 use gpu::kernels::Kernels;
 use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh, GpuStages};
 use render::whitted::{render_with, RenderOptions};
-use render::{Hit, RayKind, TraceMode, TraceStats, Tracer};
 use rsh::RshConfig;
 use scene::{builtin, Geometry};
+use trace::{Hit, RayKind, TraceMode, TraceStats, Tracer};
 
 fn gpu() -> Option<Gpu> {
     testkit::or_skip(Gpu::new(), "gpu")
@@ -96,7 +96,10 @@ fn device_frames_equal_host_sequenced_frames() {
             assert_eq!(ds.trace.hits, hs.trace.hits, "{what}: hits");
             assert_eq!(ds.total_tests, hs.total_tests, "{what}: tests");
             assert_eq!(ds.brute_force_tests, hs.brute_force_tests);
-            assert!(ds.phases.iter().any(|p| p.0 == "trace"), "{what}: phases");
+            assert!(
+                ds.phases.iter().any(|p| p.0 == render::FramePhase::Trace),
+                "{what}: phases"
+            );
             // Deterministic: the same frame again gives the same bytes and counts.
             let again = gpu::frame::render(e.as_ref(), &raster, &s, &geo, &opts, &()).unwrap();
             assert_eq!(again.srgb8, b, "{what}: a second frame");
@@ -131,7 +134,7 @@ fn device_traces_in_parts_equal_the_cpu() {
         a.iter().zip(w).map(|(v, &w)| [v.x, v.y, v.z, w]).collect()
     };
     let kl: Vec<u32> = rays.kind.iter().map(|&k| k as u32).collect();
-    let dr = gpu::rsh::DeviceRays {
+    let dr = gpu::rays::DeviceRays {
         org: full.upload("org", &v4(&rays.org, &rays.t_min)),
         dir: full.upload("dir", &v4(&rays.dir, &rays.t_max)),
         kl: full.upload("kl", &kl),

@@ -12,9 +12,9 @@ mod common;
 use accel::BruteForce;
 use gpu::{Gpu, GpuGrid};
 use render::raygen::{generate, Kind, Options};
-use render::stats::counter;
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::{builtin, Geometry};
+use trace::Counter;
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 fn gpu() -> Option<Gpu> {
     testkit::or_skip(Gpu::new(), "gpu")
@@ -42,11 +42,11 @@ fn compare(cpu: &GridEngine, gpu: &GpuGrid, rays: &RayBatch, mode: TraceMode, wh
     assert_eq!(sg.hits, sc.hits, "{what}: hits");
     assert_eq!(sg.ray_tri_tests, sc.ray_tri_tests, "{what}: N_I");
     assert_eq!(
-        sg.counters.get(counter::TRAVERSAL_STEPS),
-        sc.counters.get(counter::TRAVERSAL_STEPS),
+        sg.counters.get(Counter::TraversalSteps),
+        sc.counters.get(Counter::TraversalSteps),
         "{what}: N_T"
     );
-    assert!(sg.counters.contains_key(counter::GPU_KERNEL_LAUNCHES));
+    assert!(sg.counters.contains(Counter::GpuKernelLaunches));
 }
 
 fn configs() -> [(&'static str, GridConfig); 4] {
@@ -109,7 +109,7 @@ fn builtin_scenes_match_the_cpu_grid() {
                 TraceMode::Closest,
             ),
         ];
-        for (k, (rays, mode, _)) in accel::oracle::record_render(&s, &geo, 40, 32, 2)
+        for (k, (rays, mode, _)) in testkit::record_render(&s, &geo, 40, 32, 2)
             .into_iter()
             .enumerate()
         {
@@ -178,7 +178,7 @@ fn small_bindings_split_rays_and_refuse_big_grids() {
     let mut h = vec![Hit::MISS; rays.len()];
     gpu.trace(&rays, TraceMode::Closest, &mut h, &mut st);
     assert!(
-        st.counters[counter::GPU_KERNEL_LAUNCHES] >= 2,
+        st.counters[Counter::GpuKernelLaunches] >= 2,
         "traced in parts"
     );
     compare(&cpu, &gpu, &rays, TraceMode::Closest, "cornell in parts");

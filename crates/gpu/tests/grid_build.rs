@@ -16,12 +16,13 @@
 
 use accel::grid::build::subdivide;
 use accel::grid::{GridConfig, GridEngine, MergeRule, Subdivision, PASSES};
-use gpu::grid::{build, voxelmap, Device, PASS_DEVICE};
+use gpu::grid::{build, voxelmap, PASS_DEVICE};
 use gpu::kernels::Kernels;
 use gpu::{Gpu, GpuGrid};
 use render::raygen::{generate, Kind, Options};
-use render::{Hit, TraceMode, TraceStats, Tracer};
 use scene::{builtin, Geometry};
+use trace::Device;
+use trace::{Hit, TraceMode, TraceStats, Tracer};
 
 fn gpu() -> Option<Gpu> {
     testkit::or_skip(Gpu::new(), "gpu")
@@ -233,9 +234,13 @@ fn a_grid_built_on_the_gpu_traces_as_the_cpu_grid() {
         let cpu = GridEngine::new(&geo, &cfg).unwrap();
         let gpu = GpuGrid::new(g, &geo, &cfg).unwrap();
         let passes = gpu.build_passes();
-        for (i, (name, dev)) in PASS_DEVICE.iter().enumerate() {
+        for (i, (pass, dev)) in PASS_DEVICE.iter().enumerate() {
             let on = if *dev == Device::Gpu { "GPU" } else { "CPU" };
-            assert_eq!(passes[i].0, format!("{name} ({on})"), "{cname}: pass {i}");
+            assert_eq!(
+                passes[i].name(),
+                format!("{pass} ({on})"),
+                "{cname}: pass {i}"
+            );
         }
         for kind in [Kind::Primary, Kind::Random] {
             let rays = generate(&s, &geo, kind, &opts);
@@ -252,8 +257,8 @@ fn a_grid_built_on_the_gpu_traces_as_the_cpu_grid() {
 
 #[test]
 fn the_gpu_places_every_pass_of_the_cpu_build() {
-    let names: Vec<&str> = PASS_DEVICE.iter().map(|p| p.0).collect();
-    assert_eq!(names, PASSES, "the GPU's pass list is the CPU's");
+    let passes: Vec<_> = PASS_DEVICE.iter().map(|p| p.0).collect();
+    assert_eq!(passes, PASSES, "the GPU's pass list is the CPU's");
 }
 
 #[test]

@@ -183,11 +183,11 @@ fn ray_generation_and_shading_match_the_cpu_passes() {
             // A second generation: the surfaces the first generation's bounce rays hit.
             let rays = bounce_rays(&first, &s.materials);
             let bf = accel::BruteForce::new(&geo);
-            let mut hits = vec![render::Hit::MISS; rays.len()];
-            use render::Tracer;
+            let mut hits = vec![trace::Hit::MISS; rays.len()];
+            use trace::Tracer;
             bf.trace(
                 &rays,
-                render::TraceMode::Closest,
+                trace::TraceMode::Closest,
                 &mut hits,
                 &mut Default::default(),
             );

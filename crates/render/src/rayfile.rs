@@ -23,10 +23,10 @@
 //! Closest-hit records are bit-identical across rayspace engines (one shared kernel and tie
 //! rule); any-hit records agree on hit/miss, while which occluder is recorded may differ.
 
-use crate::batch::{Hit, RayBatch, RayKind};
-use crate::tracer::TraceMode;
 use geom::{Ray, Vec3};
 use std::path::Path;
+use trace::batch::{Hit, RayBatch, RayKind};
+use trace::tracer::TraceMode;
 
 const RAY_MAGIC: &[u8; 8] = b"RSRAYS\0\0";
 const HIT_MAGIC: &[u8; 8] = b"RSHITS\0\0";
@@ -114,7 +114,7 @@ pub fn read_rays(path: &Path, kind: RayKind) -> Result<RayBatch, String> {
         }
     }
     let batch = RayBatch::from_rays(&rays, kind);
-    batch.validate().map_err(bad)?;
+    batch.validate().map_err(|e| bad(e.to_string()))?;
     Ok(batch)
 }
 

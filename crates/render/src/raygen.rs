@@ -1,13 +1,13 @@
 //! Ray sets for evaluation (the irregular-grid paper's Table 3 kinds and the renderer's
 //! secondary kinds), all deterministic for a given seed.
 
-use crate::batch::{RayBatch, RayKind};
 use crate::raster::{default_near, rasterize};
 use crate::secondary::{reflect, shadow_rays, Surfaces};
 use crate::view::View;
 use geom::ray::offset_point;
 use geom::{Pcg32, Ray, Vec3};
 use scene::{Geometry, Scene};
+use trace::batch::{RayBatch, RayKind};
 
 /// Which rays to make.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

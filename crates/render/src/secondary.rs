@@ -4,12 +4,12 @@
 //! rasterization) or from the closest hits of a reflection/refraction batch, so one set of
 //! kernels serves every Whitted generation.
 
-use crate::batch::{Hit, RayBatch, RayKind};
 use crate::raster::GBuffer;
 use geom::ray::offset_point;
 use geom::{Ray, Vec3, NO_HIT};
 use rayon::prelude::*;
 use scene::{Geometry, Light, Material};
+use trace::batch::{Hit, RayBatch, RayKind};
 
 /// Surface points to shade, structure of arrays.
 #[derive(Clone, Debug, Default)]

@@ -1,9 +1,9 @@
 //! The camera view shared by the rasterizer and primary rays, so both agree on where every
 //! pixel centre looks.
 
-use crate::batch::{RayBatch, RayKind};
 use geom::{Ray, Vec3};
 use scene::Camera;
+use trace::batch::{RayBatch, RayKind};
 
 /// A pinhole view of `width × height` pixels. Pixel (x, y) has its centre at
 /// (x + 0.5, y + 0.5); y grows downwards.

@@ -5,17 +5,17 @@
 //! generations. Every batch goes to the same [`Tracer`], so engines are compared on identical
 //! rays. Contributions are accumulated in a fixed order, so images are bit-reproducible.
 
-use crate::batch::{Hit, RayBatch};
 use crate::raster::{default_near, rasterize, GBuffer, RasterStats};
 use crate::secondary::{bounce_rays, shadow_rays, Surfaces};
 use crate::shade;
-use crate::stats::RenderStats;
-use crate::tracer::{TraceMode, Tracer};
+use crate::stats::{FramePhase, RenderStats};
 use crate::view::View;
 use geom::Vec3;
 use rayon::prelude::*;
 use scene::{Geometry, Light, Material, Scene};
 use std::time::Instant;
+use trace::batch::{Hit, RayBatch};
+use trace::tracer::{TraceMode, Tracer};
 
 /// Largest accepted image side and bounce count (the CLI validates against these).
 pub const MAX_SIDE: u32 = 16384;
@@ -101,7 +101,7 @@ impl Rendered {
     }
 }
 
-fn timed<T>(stats: &mut RenderStats, phase: &str, f: impl FnOnce() -> T) -> T {
+fn timed<T>(stats: &mut RenderStats, phase: FramePhase, f: impl FnOnce() -> T) -> T {
     let t0 = Instant::now();
     let r = f();
     stats.add_phase(phase, t0.elapsed().as_secs_f64());
@@ -117,7 +117,7 @@ fn trace(
     let mut hits = vec![Hit::MISS; rays.len()];
     let t0 = Instant::now();
     tracer.trace(rays, mode, &mut hits, &mut stats.trace);
-    stats.add_phase("trace", t0.elapsed().as_secs_f64());
+    stats.add_phase(FramePhase::Trace, t0.elapsed().as_secs_f64());
     let [p, s, rl, rf] = rays.count_by_kind();
     stats.rays_primary_traced += p;
     stats.rays_shadow += s;
@@ -247,7 +247,7 @@ pub fn render_with(
         ..Default::default()
     };
     progress.stage("rasterize");
-    let (gb, raster) = timed(&mut stats, "rasterize", || {
+    let (gb, raster) = timed(&mut stats, FramePhase::Rasterize, || {
         raster_fn(&view, default_near(geo))
     });
     let npix = (opts.width * opts.height) as usize;
@@ -262,7 +262,7 @@ pub fn render_with(
             }
         })
         .collect();
-    let mut surfaces = timed(&mut stats, "ray creation", || {
+    let mut surfaces = timed(&mut stats, FramePhase::RayCreation, || {
         Surfaces::from_gbuffer(&gb, geo, view.eye)
     });
     stats.covered_pixels = surfaces.len() as u64;
@@ -273,14 +273,16 @@ pub fn render_with(
         let gen = stages.generation(&surfaces);
         // Shadows of this generation's surfaces, then local shading.
         progress.stage(&format!("shadow rays, generation {generation}"));
-        let shadows = timed(&mut stats, "ray creation", || gen.shadow_rays(lights));
+        let shadows = timed(&mut stats, FramePhase::RayCreation, || {
+            gen.shadow_rays(lights)
+        });
         let occl = if shadows.is_empty() {
             Vec::new()
         } else {
             trace(tracer, &shadows, TraceMode::Any, &mut stats)
         };
         progress.stage(&format!("shading, generation {generation}"));
-        timed(&mut stats, "shading", || {
+        timed(&mut stats, FramePhase::Shading, || {
             let occluded: Vec<bool> = occl.iter().map(|h| h.is_hit()).collect();
             let local = gen.local_shading(scene, &occluded);
             for (i, c) in local.into_iter().enumerate() {
@@ -291,7 +293,7 @@ pub fn render_with(
             break;
         }
         progress.stage(&format!("secondary rays, generation {}", generation + 1));
-        let rays = timed(&mut stats, "ray creation", || {
+        let rays = timed(&mut stats, FramePhase::RayCreation, || {
             gen.bounce_rays(&scene.materials)
         });
         drop(gen);
@@ -299,7 +301,7 @@ pub fn render_with(
             break;
         }
         let hits = trace(tracer, &rays, TraceMode::Closest, &mut stats);
-        surfaces = timed(&mut stats, "shading", || {
+        surfaces = timed(&mut stats, FramePhase::Shading, || {
             for (i, h) in hits.iter().enumerate() {
                 if !h.is_hit() {
                     pixels[rays.pixel[i] as usize] += scene.background * rays.throughput[i];
@@ -322,10 +324,7 @@ pub fn render_with(
 
 /// Trace primary rays through every pixel centre (closest hit): the reference the
 /// rasterizer is checked against, and the `primary` ray kind of the evaluation.
-pub fn trace_primary(
-    view: &View,
-    tracer: &dyn Tracer,
-) -> (RayBatch, Vec<Hit>, crate::stats::TraceStats) {
+pub fn trace_primary(view: &View, tracer: &dyn Tracer) -> (RayBatch, Vec<Hit>, trace::TraceStats) {
     let rays = view.primary_rays();
     let mut hits = vec![Hit::MISS; rays.len()];
     let mut st = Default::default();

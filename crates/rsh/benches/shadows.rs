@@ -5,9 +5,9 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use render::raygen::{generate, Kind, Options};
-use render::{Hit, TraceMode, TraceStats, Tracer};
 use rsh::{ObjectHierarchy, RshConfig, RshEngine};
 use scene::{Geometry, LoadOptions};
+use trace::{Hit, TraceMode, TraceStats, Tracer};
 
 fn bench(c: &mut Criterion) {
     let sponza = concat!(

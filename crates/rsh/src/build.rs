@@ -11,7 +11,7 @@
 use geom::cone::Cone;
 use geom::{cone8, miniball, Sphere, Vec3};
 use rayon::prelude::*;
-use render::RayBatch;
+use trace::RayBatch;
 
 /// Which union formulas build the nodes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

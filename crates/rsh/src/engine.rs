@@ -1,4 +1,4 @@
-//! CRSH and RAH as engines of [`render::Tracer`]: one node type, one builder, one traversal;
+//! CRSH and RAH as engines of [`trace::Tracer`]: one node type, one builder, one traversal;
 //! they differ only where the papers differ (leaf order, mesh culling, defaults).
 
 use crate::build::{build, Union};
@@ -12,11 +12,11 @@ use geom::tri8::RayLanes;
 use geom::{intersect, Aabb, Sphere, Vec3};
 use par::SharedMut;
 use rayon::prelude::*;
-use render::stats::{counter, LevelCounts};
-use render::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::Geometry;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
+use trace::{Counter, LevelCounts};
+use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// Which paper's method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -175,12 +175,23 @@ pub fn report_counters(c: &Counters, mesh_culling: bool, top_nodes: u64, stats: 
     stats.node_tri_tests += c.tests.iter().flatten().sum::<u64>();
     stats.ray_tri_tests += c.final_tests.iter().sum::<u64>();
     if mesh_culling {
-        stats.count(counter::MESH_SPHERE_TESTS, c.mesh_tests);
-        stats.count(counter::MESH_SPHERE_PASSES, c.mesh_passes);
+        stats.count(Counter::MeshSphereTests, c.mesh_tests);
+        stats.count(Counter::MeshSpherePasses, c.mesh_passes);
     }
-    stats.count(counter::TRIANGLE_BATCHES, c.batches);
-    stats.count(counter::BUDGET_SPLITS, c.splits);
-    stats.count(counter::TOP_NODES, top_nodes);
+    stats.count(Counter::TriangleBatches, c.batches);
+    stats.count(Counter::BudgetSplits, c.splits);
+    stats.count(Counter::TopNodes, top_nodes);
+}
+
+/// The object tree's counters into `stats` (every ray-box test counts towards the total
+/// tests, the thesis's % of brute force).
+fn object_counters(c: &Counters, stats: &mut TraceStats) {
+    stats.count(Counter::ObjectNodeTests, c.object_tests);
+    stats.count(Counter::RayBoxTests, c.ray_box_tests);
+    stats.count(Counter::RayBoxPasses, c.ray_box_passes);
+    stats.node_tri_tests += c.ray_box_tests;
+    stats.count(Counter::PeakPairs, c.peak_pairs);
+    stats.count(Counter::PeakPairBytes, c.peak_pair_bytes);
 }
 
 /// The rays' geometric fields (origin, direction, t range, kind) gathered into leaf order,
@@ -253,6 +264,213 @@ impl RshEngine {
     }
 }
 
+impl RshEngine {
+    /// The thesis's traversal (§3.2.7–3.2.9): the hierarchy over the rays in `order`, every
+    /// triangle pushed down it behind the mesh spheres, exact final tests, and the winners'
+    /// records recomputed with the shared kernel.
+    fn trace_mesh_spheres(
+        &self,
+        rays: &RayBatch,
+        order: Vec<u32>,
+        hits: &mut [Hit],
+        stats: &mut TraceStats,
+    ) {
+        let n = rays.len();
+        let t0 = Instant::now();
+        let h = build(
+            rays,
+            order,
+            self.cfg.branching as usize,
+            self.cfg.levels,
+            self.cfg.union,
+        );
+        stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
+        let best: Vec<AtomicU64> = (0..n)
+            .into_par_iter()
+            .map(|_| AtomicU64::new(u64::MAX))
+            .collect();
+        // The rays' constants in leaf order, 8 lanes at a time (geom::tri8).
+        let lanes = RayLanes::build(h.order.len(), |p| {
+            RayPre::new(&rays.ray(h.order[p] as usize))
+        });
+        let trav = self.traversal(&h, &lanes, &best, None);
+        let mut c = Counters::default();
+        let t1 = Instant::now();
+        if !self.tris.is_empty() {
+            trav.run(&mut c);
+        }
+        let total = t1.elapsed().as_secs_f64();
+        stats.time(Phase::Traversal, total - c.final_seconds);
+        stats.time(Phase::FinalTests, c.final_seconds);
+        stats.hits += hits
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, out)| {
+                let b = best[i].load(Ordering::Relaxed);
+                *out = if b == u64::MAX {
+                    Hit::MISS
+                } else {
+                    self.record(&RayPre::new(&rays.ray(i)), b as u32)
+                };
+                out.is_hit() as u64
+            })
+            .sum::<u64>();
+        let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
+        report_counters(&c, self.cfg.mesh_culling && self.tree.is_none(), top, stats);
+        if self.tree.is_some() {
+            // An object tree over no triangles: its counters are reported, as zeros.
+            object_counters(&c, stats);
+        }
+    }
+
+    /// The dual traversal with the object tree ([`crate::dual`]): the rays gathered into
+    /// leaf order, the hierarchy over them, (ray node, object node) pairs descended by the
+    /// configured schedule, and the records laid out by leaf position.
+    fn trace_dual(
+        &self,
+        tree: &ObjectTree,
+        rays: &RayBatch,
+        order: Vec<u32>,
+        mode: TraceMode,
+        hits: &mut [Hit],
+        stats: &mut TraceStats,
+    ) {
+        let n = rays.len();
+        let t0 = Instant::now();
+        // The dual traversal reads rays in leaf order: the rays' fields are gathered into
+        // that order once (the hash order scatters ray ids, so the hierarchy's build, the
+        // final tests' lanes and the beams would each gather them again, missing the cache
+        // on every ray), its best hits are laid out by leaf position, and the hierarchy's
+        // leaves are numbered by position. Only the arrays in use are made (fresh memory
+        // costs page faults on every trace).
+        let batch = gather_leaves(rays, &order);
+        let len = order.len() as u32;
+        let h = build(
+            &batch,
+            (0..len).collect(),
+            self.cfg.branching as usize,
+            self.cfg.levels,
+            self.cfg.union,
+        );
+        stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
+        let leaf_rays = &order[..];
+        let best: Vec<AtomicU64> = (0..leaf_rays.len())
+            .into_par_iter()
+            .map(|_| AtomicU64::new(u64::MAX))
+            .collect();
+        // The depth-first dual traversal does all of a ray's tests in one task, so it keeps
+        // each hit's barycentrics with it, and the records need not test again.
+        let keep_bary = self.cfg.schedule == Schedule::Depth;
+        let bary: Vec<AtomicU64> = (0..if keep_bary { leaf_rays.len() } else { 0 })
+            .into_par_iter()
+            .map(|_| AtomicU64::new(0))
+            .collect();
+        // The rays' constants in leaf order, 8 lanes at a time (geom::tri8).
+        let lanes = RayLanes::build(batch.len(), |p| RayPre::new(&batch.ray(p)));
+        let trav = self.traversal(&h, &lanes, &best, keep_bary.then_some(&bary[..]));
+        let mut c = Counters::default();
+        let t1 = Instant::now();
+        let inv_dir: Vec<Vec3> = batch.dir.par_iter().map(|d| d.recip()).collect();
+        let side = RaySide {
+            inv_dir: &inv_dir,
+            org: &batch.org,
+            t_min: &batch.t_min,
+            t_max: &batch.t_max,
+            kind: &batch.kind,
+            any_hit: mode == TraceMode::Any,
+        };
+        trav.run_dual(
+            self.cfg.schedule,
+            tree,
+            self.cfg.descent,
+            self.bounds.diagonal(),
+            &side,
+            &mut c,
+        );
+        let total = t1.elapsed().as_secs_f64();
+        stats.time(Phase::Traversal, total - c.final_seconds);
+        // The depth-first schedule interleaves the final tests with the pair tests (timing
+        // each would cost more than many of them): its traversal phase holds both.
+        if !keep_bary {
+            stats.time(Phase::FinalTests, c.final_seconds);
+        }
+        // Best hits by leaf position, the rays' constants read back from the lanes in that
+        // order (not regathered from the batch); rays outside the leaves (t_min ≥ t_max)
+        // miss.
+        if leaf_rays.len() < n {
+            hits.par_iter_mut().for_each(|h| *h = Hit::MISS);
+        }
+        let out = SharedMut(hits.as_mut_ptr());
+        stats.hits += leaf_rays
+            .par_iter()
+            .zip(&best)
+            .enumerate()
+            .with_min_len(1024)
+            .map(|(p, (&r, b))| {
+                let b = b.load(Ordering::Relaxed);
+                let hit = if b == u64::MAX {
+                    Hit::MISS
+                } else if keep_bary {
+                    let (u, v) = unpack_uv(bary[p].load(Ordering::Relaxed));
+                    Hit {
+                        tri: b as u32,
+                        t: f32::from_bits((b >> 32) as u32),
+                        u,
+                        v,
+                    }
+                } else {
+                    self.record(&lanes.pre(p), b as u32)
+                };
+                // SAFETY: every ray is at most one leaf, so each record is written by one
+                // task; `hits` outlives the pass.
+                unsafe { out.write(r as usize, hit) };
+                hit.is_hit() as u64
+            })
+            .sum::<u64>();
+        let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
+        report_counters(&c, false, top, stats);
+        object_counters(&c, stats);
+    }
+
+    /// The traversal's view of the scene and of one trace's hierarchy, lanes and results.
+    fn traversal<'a>(
+        &'a self,
+        h: &'a crate::build::Hierarchy,
+        lanes: &'a RayLanes,
+        best: &'a [AtomicU64],
+        bary: Option<&'a [AtomicU64]>,
+    ) -> Traversal<'a> {
+        Traversal {
+            h,
+            scene: SceneData {
+                tris: &self.tris,
+                tri_center: &self.tri_center,
+                tri_radius: &self.tri_radius,
+                mesh_first: &self.mesh_first,
+                mesh_sphere: &self.mesh_sphere,
+            },
+            lanes,
+            best,
+            bary,
+            test: self.cfg.node_test,
+            mesh_culling: self.cfg.mesh_culling,
+            budget: self.cfg.pair_budget,
+        }
+    }
+
+    /// A winner's record, recomputed with the shared kernel (bit-identical to brute force).
+    fn record(&self, pre: &RayPre, tri: u32) -> Hit {
+        let [a, b, c] = self.tris[tri as usize];
+        let h = intersect(pre, a, b, c).expect("the recorded hit repeats");
+        Hit {
+            tri,
+            t: h.t,
+            u: h.u,
+            v: h.v,
+        }
+    }
+}
+
 impl Tracer for RshEngine {
     fn name(&self) -> &str {
         match self.cfg.method {
@@ -273,185 +491,18 @@ impl Tracer for RshEngine {
             Method::Rah => Grouping::Screen,
         };
         let order = leaf_order(rays, grouping, &self.bounds, &self.cfg.hash_bits, stats);
-        let t0 = Instant::now();
-        // The dual traversal reads rays in leaf order: the rays' fields are gathered into
-        // that order once (the hash order scatters ray ids, so the hierarchy's build, the
-        // final tests' lanes and the beams would each gather them again, missing the cache
-        // on every ray), its best hits are laid out by leaf position, and the hierarchy's
-        // leaves are numbered by position. Only the arrays in use are made (fresh memory
-        // costs page faults on every trace).
-        let tree = self.tree.as_ref().filter(|_| !self.tris.is_empty());
-        // `dual`: the object tree and the rays in leaf order.
-        let (h, dual, leaves) = match tree {
-            Some((tree, _)) => {
-                let batch = gather_leaves(rays, &order);
-                let len = order.len() as u32;
-                let h = build(
-                    &batch,
-                    (0..len).collect(),
-                    self.cfg.branching as usize,
-                    self.cfg.levels,
-                    self.cfg.union,
-                );
-                (h, Some((tree, batch)), Some(order))
-            }
-            None => {
-                let h = build(
-                    rays,
-                    order,
-                    self.cfg.branching as usize,
-                    self.cfg.levels,
-                    self.cfg.union,
-                );
-                (h, None, None)
-            }
-        };
-        stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
-        let leaf_rays = leaves.as_deref().unwrap_or_default();
-        let best: Vec<AtomicU64> = (0..if dual.is_some() { leaf_rays.len() } else { n })
-            .into_par_iter()
-            .map(|_| AtomicU64::new(u64::MAX))
-            .collect();
-        // The depth-first dual traversal does all of a ray's tests in one task, so it keeps
-        // each hit's barycentrics with it, and the records need not test again.
-        let keep_bary = dual.is_some() && self.cfg.schedule == Schedule::Depth;
-        let bary: Vec<AtomicU64> = (0..if keep_bary { leaf_rays.len() } else { 0 })
-            .into_par_iter()
-            .map(|_| AtomicU64::new(0))
-            .collect();
-        // The rays' constants in leaf order, 8 lanes at a time (geom::tri8).
-        let lanes = match &dual {
-            Some((_, b)) => RayLanes::build(b.len(), |p| RayPre::new(&b.ray(p))),
-            None => RayLanes::build(h.order.len(), |p| {
-                RayPre::new(&rays.ray(h.order[p] as usize))
-            }),
-        };
-        let trav = Traversal {
-            h: &h,
-            scene: SceneData {
-                tris: &self.tris,
-                tri_center: &self.tri_center,
-                tri_radius: &self.tri_radius,
-                mesh_first: &self.mesh_first,
-                mesh_sphere: &self.mesh_sphere,
-            },
-            lanes: &lanes,
-            best: &best,
-            bary: keep_bary.then_some(&bary[..]),
-            test: self.cfg.node_test,
-            mesh_culling: self.cfg.mesh_culling,
-            budget: self.cfg.pair_budget,
-        };
-        let mut c = Counters::default();
-        let t1 = Instant::now();
-        match &dual {
-            Some((tree, batch)) => {
-                let inv_dir: Vec<Vec3> = batch.dir.par_iter().map(|d| d.recip()).collect();
-                let kind = &batch.kind;
-                let side = RaySide {
-                    inv_dir: &inv_dir,
-                    org: &batch.org,
-                    t_min: &batch.t_min,
-                    t_max: &batch.t_max,
-                    kind,
-                    any_hit: mode == TraceMode::Any,
-                };
-                trav.run_dual(
-                    self.cfg.schedule,
-                    tree,
-                    self.cfg.descent,
-                    self.bounds.diagonal(),
-                    &side,
-                    &mut c,
-                );
-            }
-            None if self.tris.is_empty() => {}
-            None => trav.run(&mut c),
-        }
-        let total = t1.elapsed().as_secs_f64();
-        stats.time(Phase::Traversal, total - c.final_seconds);
-        // The depth-first schedule interleaves the final tests with the pair tests (timing
-        // each would cost more than many of them): its traversal phase holds both.
-        let interleaved = dual.is_some() && self.cfg.schedule == Schedule::Depth;
-        if !interleaved {
-            stats.time(Phase::FinalTests, c.final_seconds);
-        }
-        // Records: recompute the winner with the shared kernel (bit-identical to brute force).
-        let record = |pre: &RayPre, tri: u32| {
-            let [a, b, c] = self.tris[tri as usize];
-            let h = intersect(pre, a, b, c).expect("the recorded hit repeats");
-            Hit {
-                tri,
-                t: h.t,
-                u: h.u,
-                v: h.v,
-            }
-        };
-        if dual.is_some() {
-            // Best hits by leaf position, the rays' constants read back from the lanes in
-            // that order (not regathered from the batch); rays outside the leaves
-            // (t_min ≥ t_max) miss.
-            if leaf_rays.len() < n {
-                hits.par_iter_mut().for_each(|h| *h = Hit::MISS);
-            }
-            let out = SharedMut(hits.as_mut_ptr());
-            stats.hits += leaf_rays
-                .par_iter()
-                .zip(&best)
-                .enumerate()
-                .with_min_len(1024)
-                .map(|(p, (&r, b))| {
-                    let b = b.load(Ordering::Relaxed);
-                    let hit = if b == u64::MAX {
-                        Hit::MISS
-                    } else if keep_bary {
-                        let (u, v) = unpack_uv(bary[p].load(Ordering::Relaxed));
-                        Hit {
-                            tri: b as u32,
-                            t: f32::from_bits((b >> 32) as u32),
-                            u,
-                            v,
-                        }
-                    } else {
-                        record(&lanes.pre(p), b as u32)
-                    };
-                    // SAFETY: every ray is at most one leaf, so each record is written by
-                    // one task; `hits` outlives the pass.
-                    unsafe { out.write(r as usize, hit) };
-                    hit.is_hit() as u64
-                })
-                .sum::<u64>();
-        } else {
-            stats.hits += hits
-                .par_iter_mut()
-                .enumerate()
-                .map(|(i, out)| {
-                    let b = best[i].load(Ordering::Relaxed);
-                    *out = if b == u64::MAX {
-                        Hit::MISS
-                    } else {
-                        record(&RayPre::new(&rays.ray(i)), b as u32)
-                    };
-                    out.is_hit() as u64
-                })
-                .sum::<u64>();
-        }
-        let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
-        report_counters(&c, self.cfg.mesh_culling && self.tree.is_none(), top, stats);
-        if self.tree.is_some() {
-            stats.count(counter::OBJECT_NODE_TESTS, c.object_tests);
-            stats.count(counter::RAY_BOX_TESTS, c.ray_box_tests);
-            stats.count(counter::RAY_BOX_PASSES, c.ray_box_passes);
-            // Every test counts towards the total (the thesis's % of brute force).
-            stats.node_tri_tests += c.ray_box_tests;
-            stats.count(counter::PEAK_PAIRS, c.peak_pairs);
-            stats.count(counter::PEAK_PAIR_BYTES, c.peak_pair_bytes);
+        match self.tree.as_ref().filter(|_| !self.tris.is_empty()) {
+            Some((tree, _)) => self.trace_dual(tree, rays, order, mode, hits, stats),
+            None => self.trace_mesh_spheres(rays, order, hits, stats),
         }
     }
 
-    fn build_passes(&self) -> Vec<(String, f64)> {
+    fn build_passes(&self) -> Vec<trace::PassTime> {
         match &self.tree {
-            Some((_, secs)) => vec![("object hierarchy".into(), *secs)],
+            Some((_, secs)) => vec![trace::PassTime::new(
+                trace::BuildPass::ObjectHierarchy,
+                *secs,
+            )],
             None => Vec::new(),
         }
     }

@@ -24,7 +24,7 @@
 //! of RAH's ray textures, whose 2×2 pyramid is exactly consecutive runs of this order.
 
 use geom::{pmath, Aabb, Vec3};
-use render::{RayBatch, RayKind};
+use trace::{RayBatch, RayKind};
 
 /// Which key orders CRSH's leaves (thesis §3.2.3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -256,8 +256,8 @@ pub fn thesis_keys8(
 mod avx2 {
     use super::{HashBits, RayKind};
     use geom::{Aabb, Vec3};
-    use render::RayBatch;
     use std::arch::x86_64::*;
+    use trace::RayBatch;
 
     /// [`super::part1by1`] per lane.
     #[inline]

@@ -1,5 +1,5 @@
 //! Ray-space hierarchies: the thesis's Coherent Ray-Space Hierarchy (CRSH, Reis 2015, §3.2)
-//! and Roger et al.'s RAH (2007), as engines of [`render::Tracer`].
+//! and Roger et al.'s RAH (2007), as engines of [`trace::Tracer`].
 //!
 //! Per trace call: order the rays ([`order`]: CRSH hashes, compresses, sorts and
 //! decompresses; RAH uses screen order), build a sphere-cone hierarchy bottom-up

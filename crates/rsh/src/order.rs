@@ -6,9 +6,9 @@ use crate::hash::{morton64_key, screen_key, spherical01_8, thesis_keys8, HashBit
 use geom::Aabb;
 use par::{compact_pairs, compress_runs, expand_runs, sort_pairs, SortScratch};
 use rayon::prelude::*;
-use render::stats::counter;
-use render::{Phase, RayBatch, TraceStats};
 use std::time::Instant;
+use trace::Counter;
+use trace::{Phase, RayBatch, TraceStats};
 
 /// How leaves are ordered before they are grouped into nodes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -105,7 +105,7 @@ fn chunked_order<K: par::RadixKey + PartialEq>(
     let chunks = timed(stats, Phase::Compress, || {
         compress_runs(&tk[..m], &mut ck, &mut cb, &mut cs)
     });
-    stats.count(counter::CHUNKS, chunks as u64);
+    stats.count(Counter::Chunks, chunks as u64);
     ck.truncate(chunks);
     // Sort (§3.2.5): the chunk keys with the chunk index as value (stable radix sort).
     let mut order: Vec<u32> = (0..chunks as u32).collect();

@@ -6,14 +6,15 @@
 //! and the tie rule "smallest t, then smallest triangle id"), so the stated t tolerance is 0.
 //! Any-hit results are compared as booleans.
 
-use accel::oracle::{assert_same_hits, record_render};
+use accel::oracle::assert_same_hits;
 use accel::BruteForce;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
-use render::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 use rsh::{Descent, HashKind, NodeTest, ObjectHierarchy, RshConfig, RshEngine, Schedule, Union};
 use scene::{builtin, Geometry};
+use testkit::record_render;
 use testkit::soup_case as random_case;
+use trace::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 
 #[test]
 fn builtin_scenes_all_configs_match_brute_force() {
@@ -254,11 +255,11 @@ fn tiny_budget_forces_batches_and_keeps_every_pair() {
     e.trace(&rays, TraceMode::Closest, &mut got, &mut st);
     assert_eq!(got, expect);
     assert!(
-        st.counters[render::stats::counter::TRIANGLE_BATCHES] > 1,
+        st.counters[trace::Counter::TriangleBatches] > 1,
         "the budget forced triangle batches"
     );
     assert!(
-        st.counters[render::stats::counter::BUDGET_SPLITS] > 0,
+        st.counters[trace::Counter::BudgetSplits] > 0,
         "the budget forced split expansions"
     );
 }
@@ -299,7 +300,7 @@ fn schedules_test_the_same_pairs() {
                     let mut st = TraceStats::default();
                     let mut got = vec![Hit::MISS; rays.len()];
                     e.trace(rays, *mode, &mut got, &mut st);
-                    let object = st.counters[render::stats::counter::OBJECT_NODE_TESTS];
+                    let object = st.counters[trace::Counter::ObjectNodeTests];
                     (*mode, st.levels.clone(), object)
                 })
                 .collect::<Vec<_>>()

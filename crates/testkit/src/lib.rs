@@ -7,9 +7,9 @@
 
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
-use render::{RayBatch, RayKind};
 use scene::{builtin, Geometry};
 use std::path::PathBuf;
+use trace::{RayBatch, RayKind};
 
 /// Points uniform in the cube [−r, r)³.
 pub fn v3(r: f32) -> impl Strategy<Value = Vec3> {
@@ -228,4 +228,29 @@ pub fn clustered_batch(seed: u64, n: usize) -> RayBatch {
         );
     }
     b
+}
+
+/// Render `scene` with brute force and return every batch the Whitted loop traced, with
+/// brute force's answers: the reference other engines are checked against.
+pub fn record_render(
+    scene: &scene::Scene,
+    geo: &scene::Geometry,
+    width: u32,
+    height: u32,
+    bounces: u32,
+) -> Vec<(RayBatch, trace::TraceMode, Vec<trace::Hit>)> {
+    let bf = accel::BruteForce::new(geo);
+    let rec = accel::oracle::Recorder::new(&bf);
+    render::whitted::render(
+        scene,
+        geo,
+        &rec,
+        &render::whitted::RenderOptions {
+            width,
+            height,
+            bounces,
+        },
+        &(),
+    );
+    rec.into_batches()
 }

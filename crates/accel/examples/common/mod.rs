@@ -5,7 +5,7 @@
 /// be loaded.
 pub fn load(spec: &str) -> (scene::Scene, scene::Geometry) {
     // As the `rayspace` binary: freed scratch is reused, not faulted in again per build.
-    render::memory::keep_freed_memory();
+    trace::memory::keep_freed_memory();
     match scene::load(spec, &Default::default()) {
         Ok(s) => {
             let geo = scene::Geometry::from_scene(&s);

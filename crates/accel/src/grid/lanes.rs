@@ -37,7 +37,7 @@
 use super::traverse::RayCounts;
 use super::Grid;
 use geom::Vec3;
-use render::{Hit, RayBatch, TraceMode};
+use trace::{Hit, RayBatch, TraceMode};
 
 /// Rays traced together.
 pub const LANES: usize = 8;
@@ -99,8 +99,8 @@ mod avx2 {
     use geom::tri::{intersect, RayPre};
     use geom::tri8::watertight8;
     use geom::Vec3;
-    use render::{Hit, RayBatch, TraceMode};
     use std::arch::x86_64::*;
+    use trace::{Hit, RayBatch, TraceMode};
 
     const _: () = assert!(std::mem::size_of::<[Vec3; 3]>() == 36);
     const _: () = assert!(std::mem::size_of::<CellRec>() == 32);

@@ -123,7 +123,7 @@ pub struct GridConfig {
     pub empty_only: bool,
     /// The most bytes the build may hold, by its memory model ([`build::BYTES_PER_REF`],
     /// [`build::BYTES_PER_NODE`]), checked level by level before each allocation (default:
-    /// [`render::memory::default_limit`]; the CLI passes what `--max-memory` leaves after
+    /// [`trace::memory::default_limit`]; the CLI passes what `--max-memory` leaves after
     /// the render). It decides only whether a build is refused, never what it builds.
     pub max_bytes: u64,
 }
@@ -140,7 +140,7 @@ impl Default for GridConfig {
             max_depth: 10,
             subdivision: Subdivision::Paper,
             empty_only: false,
-            max_bytes: render::memory::default_limit(),
+            max_bytes: trace::memory::default_limit(),
         }
     }
 }
@@ -232,11 +232,11 @@ pub struct BuildStats {
 /// ([`build::subdivide`]), cells and voxel map ([`build::finish`]), [`merge`], [`expand`].
 /// The GPU build (`gpu::grid`) states where it runs each one against this list, so a pass
 /// added here and not there fails its test.
-pub const PASSES: [&str; 5] = ["top_refs", "octrees", "cells", "merge", "expansion"];
+pub const PASSES: [trace::BuildPass; 5] = trace::BuildPass::GRID;
 
 impl BuildStats {
     /// Each build pass's time in seconds, in build order ([`PASSES`]).
-    pub fn passes(&self) -> [(&'static str, f64); 5] {
+    pub fn passes(&self) -> [trace::PassTime; 5] {
         let t = [
             self.top_refs_seconds,
             self.octree_seconds,
@@ -244,7 +244,7 @@ impl BuildStats {
             self.merge_seconds,
             self.expand_seconds,
         ];
-        std::array::from_fn(|i| (PASSES[i], t[i]))
+        std::array::from_fn(|i| trace::PassTime::new(PASSES[i], t[i]))
     }
 }
 
@@ -477,26 +477,21 @@ impl GridEngine {
     }
 }
 
-impl render::Tracer for GridEngine {
+impl trace::Tracer for GridEngine {
     fn name(&self) -> &str {
         self.name
     }
 
-    fn build_passes(&self) -> Vec<(String, f64)> {
-        self.grid
-            .build
-            .passes()
-            .iter()
-            .map(|(n, t)| (n.to_string(), *t))
-            .collect()
+    fn build_passes(&self) -> Vec<trace::PassTime> {
+        self.grid.build.passes().to_vec()
     }
 
     fn trace(
         &self,
-        rays: &render::RayBatch,
-        mode: render::TraceMode,
-        hits: &mut [render::Hit],
-        stats: &mut render::TraceStats,
+        rays: &trace::RayBatch,
+        mode: trace::TraceMode,
+        hits: &mut [trace::Hit],
+        stats: &mut trace::TraceStats,
     ) {
         use rayon::prelude::*;
         assert_eq!(hits.len(), rays.len(), "one hit record per ray");
@@ -512,7 +507,7 @@ impl render::Tracer for GridEngine {
         stats.rays += rays.len() as u64;
         stats.ray_tri_tests += tests;
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
-        stats.count(render::stats::counter::TRAVERSAL_STEPS, steps);
+        stats.count(trace::Counter::TraversalSteps, steps);
     }
 }
 

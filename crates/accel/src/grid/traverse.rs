@@ -12,7 +12,7 @@
 use super::{CellRec, Grid};
 use geom::tri::RayPre;
 use geom::{intersect, Ray, Vec3};
-use render::{Hit, RayBatch, TraceMode};
+use trace::{Hit, RayBatch, TraceMode};
 
 /// Per-ray counters: traversal steps (cells visited, N_T) and triangle tests (N_I).
 #[derive(Clone, Copy, Debug, Default)]

@@ -7,9 +7,9 @@
 
 use embree::sys::*;
 use rayon::prelude::*;
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::Geometry;
 use std::time::Instant;
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// How rays are handed to Embree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

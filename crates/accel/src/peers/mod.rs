@@ -1,4 +1,4 @@
-//! Peers: other people's acceleration structures behind the same [`render::Tracer`] trait, so
+//! Peers: other people's acceleration structures behind the same [`trace::Tracer`] trait, so
 //! that benchmarks trace exactly the same rays through ours and theirs in one process.
 //!
 //! - [`ObvhsEngine`]: the pure-Rust `obvhs` crate (a PLOC-built BVH2, optionally collapsed to

@@ -7,9 +7,9 @@ use glam::Vec3A;
 use obvhs::ray::{Ray as ORay, RayHit as ORayHit};
 use obvhs::triangle::Triangle as OTri;
 use obvhs::BvhBuildParams;
-use render::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::Geometry;
 use std::time::{Duration, Instant};
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// Which obvhs hierarchy to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -159,6 +159,6 @@ impl Tracer for ObvhsEngine {
     }
 
     fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
-        render::trace_per_ray(rays, hits, stats, |ray| self.trace_one(ray, mode));
+        trace::trace_per_ray(rays, hits, stats, |ray| self.trace_one(ray, mode));
     }
 }

@@ -1,5 +1,5 @@
 //! The irregular grid (Pérard-Gayot et al. 2017) on the GPU, the twin of `accel::grid`:
-//! [`GpuGrid`] implements [`render::Tracer`] like `accel::GridEngine`, with the same
+//! [`GpuGrid`] implements [`trace::Tracer`] like `accel::GridEngine`, with the same
 //! configuration ([`accel::grid::GridConfig`]) and the same counters (N_T traversal steps,
 //! N_I triangle tests). The §5 traversal is a WGSL kernel ([`traverse`], `traverse.wgsl`
 //! beside `accel/src/grid/traverse.rs`), closest and any hit.
@@ -22,28 +22,20 @@ pub mod voxelmap;
 use crate::device::{Gpu, GpuError};
 use crate::kernels::Kernels;
 use accel::grid::{BuildStats, Grid, GridConfig};
-use render::Phase;
 use scene::Geometry;
 use std::sync::Mutex;
 use std::time::Instant;
-
-/// Where a build pass runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Device {
-    /// WGSL kernels.
-    Gpu,
-    /// The CPU pass of `accel::grid`, on read-back data.
-    Cpu,
-}
+use trace::{BuildPass, Device, PassTime, Phase};
 
 /// Where [`GpuGrid::new`] runs each pass of `accel::grid::PASSES`, in the same order (a test
-/// checks the names, so a pass added to the CPU build must be placed here).
-pub const PASS_DEVICE: [(&str, Device); 5] = [
-    ("top_refs", Device::Gpu),
-    ("octrees", Device::Gpu),
-    ("cells", Device::Gpu),
-    ("merge", Device::Gpu),
-    ("expansion", Device::Gpu),
+/// checks the passes, so a pass added to the CPU build must be placed here): as WGSL kernels
+/// ([`Device::Gpu`]) or as the CPU pass of `accel::grid` on read-back data.
+pub const PASS_DEVICE: [(BuildPass, Device); 5] = [
+    (BuildPass::TopRefs, Device::Gpu),
+    (BuildPass::Octrees, Device::Gpu),
+    (BuildPass::Cells, Device::Gpu),
+    (BuildPass::Merge, Device::Gpu),
+    (BuildPass::Expansion, Device::Gpu),
 ];
 
 /// A grid being built on the device: its cells, references and voxel map in buffers, and
@@ -355,38 +347,41 @@ fn tri4(tris: &[[geom::Vec3; 3]]) -> Vec<[f32; 4]> {
         .collect()
 }
 
-impl render::Tracer for GpuGrid {
+impl trace::Tracer for GpuGrid {
     fn name(&self) -> &str {
         self.name
     }
 
-    fn build_passes(&self) -> Vec<(String, f64)> {
-        let mut v: Vec<(String, f64)> = self
+    fn build_passes(&self) -> Vec<PassTime> {
+        let mut v: Vec<PassTime> = self
             .build
             .passes()
             .iter()
             .zip(PASS_DEVICE)
-            .map(|((n, t), (_, d))| {
+            .map(|(p, (_, d))| {
                 let on = match (self.built_on_gpu, d) {
-                    (true, Device::Gpu) => "GPU",
-                    _ => "CPU",
+                    (true, Device::Gpu) => Device::Gpu,
+                    _ => Device::Cpu,
                 };
-                (format!("{n} ({on})"), *t)
+                PassTime::on(p.pass, on, p.seconds)
             })
             .collect();
-        v.push(("kernel compilation".into(), self.compile_seconds));
+        v.push(PassTime::new(
+            BuildPass::KernelCompilation,
+            self.compile_seconds,
+        ));
         if !self.built_on_gpu {
-            v.push(("upload".into(), self.upload_seconds));
+            v.push(PassTime::new(BuildPass::Upload, self.upload_seconds));
         }
         v
     }
 
     fn trace(
         &self,
-        rays: &render::RayBatch,
-        mode: render::TraceMode,
-        hits: &mut [render::Hit],
-        stats: &mut render::TraceStats,
+        rays: &trace::RayBatch,
+        mode: trace::TraceMode,
+        hits: &mut [trace::Hit],
+        stats: &mut trace::TraceStats,
     ) {
         traverse::trace(self, rays, mode, hits, stats);
     }

@@ -8,9 +8,9 @@
 
 use super::GpuGrid;
 use crate::kernels::{Exec, Kernel, Params};
-use crate::rsh::engine::{records_to_hits, sub_batch, upload_segments, DeviceRays};
-use render::stats::counter;
-use render::{Hit, Phase, RayBatch, TraceMode, TraceStats};
+use crate::rays::{records_to_hits, upload_segments, DeviceRays};
+use trace::Counter;
+use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats};
 
 /// Trace `rays` (in parts of at most as many rays as one binding holds) into `hits`,
 /// counting into `stats` as `accel::GridEngine` does.
@@ -32,7 +32,7 @@ pub fn trace(
     }
     for (p, out) in hits.chunks_mut(grid.max_rays).enumerate() {
         let lo = p * grid.max_rays;
-        let part = sub_batch(rays, lo..lo + out.len());
+        let part = rays.slice(lo..lo + out.len());
         trace_part(grid, &part, mode, out, stats);
     }
 }
@@ -95,7 +95,7 @@ fn trace_part(
         .fold((0u64, 0u64), |(s, t), c| (s + c[0] as u64, t + c[1] as u64));
     stats.ray_tri_tests += tests;
     stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
-    stats.count(counter::TRAVERSAL_STEPS, steps);
+    stats.count(Counter::TraversalSteps, steps);
 }
 
 /// [`crate::GpuEngine::trace_device`]: rays already on the device (at most `max_rays`);
@@ -113,6 +113,6 @@ pub(crate) fn trace_device_part(
     ex.report(stats, &grid.times);
     stats.ray_tri_tests += t.tests;
     stats.hits += t.hits;
-    stats.count(counter::TRAVERSAL_STEPS, t.steps);
+    stats.count(Counter::TraversalSteps, t.steps);
     rec
 }

@@ -2,8 +2,9 @@
 //! over the sorted leaves, then unions level by level (thesis §3.2.7; `build.wgsl`), with
 //! the CPU's stop rules; the kinds' starts among the leaves come from `kinds.wgsl`.
 
-use super::engine::{DeviceRays, GpuRsh};
+use super::device_scene::DeviceScene;
 use crate::kernels::{Exec, Kernel, Params};
+use crate::rays::DeviceRays;
 use ::rsh::Union;
 
 /// One level of nodes on the device (structure of arrays, as `rsh::build::Level`).
@@ -34,7 +35,7 @@ impl Level {
 
 /// Bottom-up build: level 1 over the sorted leaves, then unions, as `rsh::build::build`.
 pub fn build(
-    eng: &GpuRsh,
+    eng: &DeviceScene,
     ex: &mut Exec,
     rays: &DeviceRays,
     leaves: &wgpu::Buffer,

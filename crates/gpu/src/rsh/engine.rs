@@ -1,5 +1,5 @@
 //! CRSH and RAH on the GPU, the twin of `crates/rsh/src/engine.rs`: [`GpuRsh`] implements
-//! [`render::Tracer`] with the same configuration ([`::rsh::RshConfig`]), the same phases and
+//! [`trace::Tracer`] with the same configuration ([`::rsh::RshConfig`]), the same phases and
 //! the same counters as [`::rsh::RshEngine`], every step a WGSL kernel. Per trace call:
 //! upload the rays, order them ([`super::order`]), build the hierarchy ([`super::build`]),
 //! traverse it with the final tests ([`super::traverse`]), then recompute the records and
@@ -9,32 +9,24 @@
 //! the CPU's.
 
 use super::build::build;
+use super::device_scene::DeviceScene;
 use super::order::leaf_order;
 use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
 use crate::kernels::{Exec, Kernel, Kernels, Params};
+use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
 use ::rsh::{HashKind, Method, ObjectHierarchy, RshConfig};
 use geom::{Pcg32, Sphere};
-use render::stats::counter;
-use render::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 use scene::Geometry;
 use std::sync::Mutex;
+use trace::Counter;
+use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// The GPU engine. Scene data is uploaded once; each trace call builds its hierarchy.
 pub struct GpuRsh {
-    pub(super) gpu: Gpu,
-    pub(super) kernels: Kernels,
-    pub(super) cfg: RshConfig,
-    pub(super) ntri: u32,
-    pub(super) tris: wgpu::Buffer,
-    pub(super) tri_sphere: wgpu::Buffer,
-    pub(super) tri_mesh: wgpu::Buffer,
-    pub(super) mesh_sphere: wgpu::Buffer,
-    pub(super) mesh_first: Vec<u32>,
-    pub(super) shuffles: wgpu::Buffer,
-    pub(super) box_min: [f32; 4],
-    pub(super) box_ext: [f32; 4],
+    /// What the passes read: the device, kernels, configuration and scene buffers.
+    s: DeviceScene,
     /// Most rays per hierarchy, from the binding limit (a larger batch is traced in parts).
     max_rays: usize,
     /// GPU seconds per phase of the last trace calls (drained by [`GpuRsh::take_times`]).
@@ -66,7 +58,7 @@ fn v4(s: &Sphere) -> [f32; 4] {
 }
 
 /// What the engine uploads of one frame's scene.
-struct SceneBuffers {
+pub(super) struct SceneBuffers {
     tris: wgpu::Buffer,
     tri_sphere: wgpu::Buffer,
     tri_mesh: wgpu::Buffer,
@@ -156,19 +148,21 @@ impl GpuRsh {
         }
         let sb = SceneBuffers::new(&gpu, geo, &cfg)?;
         Ok(GpuRsh {
-            tris: sb.tris,
-            tri_sphere: sb.tri_sphere,
-            tri_mesh: sb.tri_mesh,
-            mesh_sphere: sb.mesh_sphere,
-            shuffles: gpu.upload("miniball shuffles", &shuffle_table(cfg.branching)),
-            mesh_first: sb.mesh_first,
-            ntri: sb.ntri,
-            box_min: sb.box_min,
-            box_ext: sb.box_ext,
             max_rays: sb.max_rays,
-            gpu,
-            kernels,
-            cfg,
+            s: DeviceScene {
+                tris: sb.tris,
+                tri_sphere: sb.tri_sphere,
+                tri_mesh: sb.tri_mesh,
+                mesh_sphere: sb.mesh_sphere,
+                shuffles: gpu.upload("miniball shuffles", &shuffle_table(cfg.branching)),
+                mesh_first: sb.mesh_first,
+                ntri: sb.ntri,
+                box_min: sb.box_min,
+                box_ext: sb.box_ext,
+                gpu,
+                kernels,
+                cfg,
+            },
             times: Mutex::new(Vec::new()),
             #[cfg(test)]
             counter_bias: Default::default(),
@@ -179,27 +173,28 @@ impl GpuRsh {
     /// uploaded in place of the last frame's (the ray hierarchy is built per trace call
     /// anyway); the device, kernels and configuration stay.
     pub fn rebuild(&mut self, geo: &Geometry) -> Result<(), GpuError> {
-        let sb = SceneBuffers::new(&self.gpu, geo, &self.cfg)?;
-        self.tris = sb.tris;
-        self.tri_sphere = sb.tri_sphere;
-        self.tri_mesh = sb.tri_mesh;
-        self.mesh_sphere = sb.mesh_sphere;
-        self.mesh_first = sb.mesh_first;
-        self.ntri = sb.ntri;
-        self.box_min = sb.box_min;
-        self.box_ext = sb.box_ext;
+        let sb = SceneBuffers::new(&self.s.gpu, geo, &self.s.cfg)?;
+        let s = &mut self.s;
+        s.tris = sb.tris;
+        s.tri_sphere = sb.tri_sphere;
+        s.tri_mesh = sb.tri_mesh;
+        s.mesh_sphere = sb.mesh_sphere;
+        s.mesh_first = sb.mesh_first;
+        s.ntri = sb.ntri;
+        s.box_min = sb.box_min;
+        s.box_ext = sb.box_ext;
         self.max_rays = sb.max_rays;
         Ok(())
     }
 
     /// The device.
     pub fn gpu(&self) -> &Gpu {
-        &self.gpu
+        &self.s.gpu
     }
 
     /// The compiled kernels (shared with [`crate::GpuStages`], so nothing compiles twice).
     pub fn kernels(&self) -> &Kernels {
-        &self.kernels
+        &self.s.kernels
     }
 
     /// GPU time per phase accumulated since the last call (empty without timestamp queries).
@@ -211,9 +206,9 @@ impl GpuRsh {
     /// `rsh::hash::{thesis_key, screen_key}` compute them on the CPU. For tests that pin a
     /// disagreement to this pass; [`Tracer::trace`] keeps the keys on the device.
     pub fn hash_keys(&self, rays: &RayBatch, screen: bool) -> (Vec<u32>, Vec<u32>) {
-        let mut ex = Exec::new(&self.gpu, &self.kernels);
-        let dr = DeviceRays::upload(&self.gpu, rays);
-        let (keys, valid) = super::hash::hash_keys(self, &mut ex, &dr, screen);
+        let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
+        let dr = DeviceRays::upload(&self.s.gpu, rays);
+        let (keys, valid) = super::hash::hash_keys(&self.s, &mut ex, &dr, screen);
         let n = rays.len();
         (ex.read(&keys, n), ex.read(&valid, n))
     }
@@ -222,10 +217,10 @@ impl GpuRsh {
     /// node rows (sphere, cone, and sin α | cos α | longest ray | kind bits), bottom level
     /// first, as `rsh::build::build` makes them. For tests that pin a disagreement to a node.
     pub fn hierarchy(&self, rays: &RayBatch) -> (Vec<u32>, Vec<LevelRows>) {
-        let mut ex = Exec::new(&self.gpu, &self.kernels);
-        let dr = DeviceRays::upload(&self.gpu, rays);
-        let (leaves, m) = leaf_order(self, &mut ex, &dr, &mut TraceStats::default());
-        let levels = build(self, &mut ex, &dr, &leaves, m);
+        let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
+        let dr = DeviceRays::upload(&self.s.gpu, rays);
+        let (leaves, m) = leaf_order(&self.s, &mut ex, &dr, &mut TraceStats::default());
+        let levels = build(&self.s, &mut ex, &dr, &leaves, m);
         let order = ex.read(&leaves, m as usize);
         let rows = levels
             .iter()
@@ -251,11 +246,11 @@ impl GpuRsh {
         stats: &mut TraceStats,
     ) -> (wgpu::Buffer, Counters, u64) {
         let n = dr.len;
-        let g = &self.gpu;
-        let (leaves, m) = leaf_order(self, ex, dr, stats);
+        let g = &self.s.gpu;
+        let (leaves, m) = leaf_order(&self.s, ex, dr, stats);
         // Hierarchy (thesis §3.2.7).
         ex.phase(Phase::HierarchyCreation);
-        let levels = build(self, ex, dr, &leaves, m);
+        let levels = build(&self.s, ex, dr, &leaves, m);
         // Traversal and final tests (thesis §3.2.8–3.2.9).
         // Every ray's best hit starts as none (u64::MAX), set on the device.
         let best = ex.filled("best", 2 * n, u32::MAX);
@@ -264,7 +259,7 @@ impl GpuRsh {
             hits: vec![[0; 4]; levels.len()],
             ..Default::default()
         };
-        if self.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
+        if self.s.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
             let words = GpuTraversal::counter_words(levels.len());
             let counters = g.storage("traversal counters", words * 4);
             #[cfg(test)]
@@ -276,7 +271,7 @@ impl GpuRsh {
                 }
             }
             let trav = GpuTraversal {
-                eng: self,
+                eng: &self.s,
                 levels: &levels,
                 rays: dr,
                 leaves: &leaves,
@@ -295,7 +290,7 @@ impl GpuRsh {
                 (6, &dr.org),
                 (7, &dr.dir),
                 (8, &dr.pre),
-                (9, &self.tris),
+                (9, &self.s.tris),
                 (11, &best),
                 (13, &rec),
             ],
@@ -308,8 +303,8 @@ impl GpuRsh {
 
     fn trace_part(&self, rays: &RayBatch, hits: &mut [Hit], stats: &mut TraceStats) {
         let n = rays.len();
-        let g = &self.gpu;
-        let mut ex = Exec::new(g, &self.kernels);
+        let g = &self.s.gpu;
+        let mut ex = Exec::new(g, &self.s.kernels);
         let dr = DeviceRays::upload(g, rays);
         let (rec, c, top) = self.records(&mut ex, &dr, stats);
         ex.phase(Phase::ReadBack);
@@ -326,7 +321,7 @@ impl GpuRsh {
         dr: &DeviceRays,
         stats: &mut TraceStats,
     ) -> wgpu::Buffer {
-        let mut ex = Exec::new(&self.gpu, &self.kernels);
+        let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
         let (rec, c, top) = self.records(&mut ex, dr, stats);
         ex.phase(Phase::ReadBack);
         let t = crate::frame::totals(&mut ex, &rec, None, dr.len);
@@ -337,7 +332,7 @@ impl GpuRsh {
 
     /// The scene's triangles on the device (3 × vec4 per triangle).
     pub(crate) fn triangles(&self) -> &wgpu::Buffer {
-        &self.tris
+        &self.s.tris
     }
 
     /// Most rays one hierarchy takes (a larger batch is traced in parts).
@@ -348,7 +343,7 @@ impl GpuRsh {
     /// Counters into `stats`, as the CPU engine reports them.
     fn report(&self, c: &Counters, top: u64, hits: u64, stats: &mut TraceStats) {
         stats.hits += hits;
-        ::rsh::engine::report_counters(c, self.cfg.mesh_culling, top, stats);
+        ::rsh::engine::report_counters(c, self.s.cfg.mesh_culling, top, stats);
     }
 }
 
@@ -356,124 +351,18 @@ impl GpuRsh {
 /// (centre, radius), its cone (axis, half-angle) and sin α | cos α | longest ray | kind bits.
 pub type LevelRows = [Vec<[f32; 4]>; 3];
 
-/// A ray batch on the device: origin | t_min and direction | t_max as vec4, kind | light << 2,
-/// pixel, and the intersection kernel's per-ray constants (written by the hash kernel).
-pub struct DeviceRays {
-    /// Origin | t_min.
-    pub org: wgpu::Buffer,
-    /// Direction | t_max.
-    pub dir: wgpu::Buffer,
-    /// Kind | light << 2.
-    pub kl: wgpu::Buffer,
-    /// Pixel index.
-    pub pix: wgpu::Buffer,
-    /// Per-ray intersection constants (written by the hash kernel).
-    pub pre: wgpu::Buffer,
-    /// Number of rays.
-    pub len: u64,
-    /// The image width (RAH's screen key).
-    pub width: u32,
-}
-
-impl DeviceRays {
-    /// Room for `len` rays that kernels on the device will write (`what` names the buffers,
-    /// e.g. "shadow"), with no screen layout.
-    pub(crate) fn storage(g: &Gpu, what: &str, len: u64) -> DeviceRays {
-        let buf = |field: &str, size: u64| g.storage(&format!("{what} {field}"), len * size);
-        DeviceRays {
-            org: buf("org", 16),
-            dir: buf("dir", 16),
-            kl: buf("kind", 4),
-            pix: buf("pixel", 4),
-            pre: buf("ray constants", 16),
-            len,
-            width: 0,
-        }
-    }
-
-    /// Upload `rays` (the ray constants are left for the hash kernel to write).
-    pub(crate) fn upload(g: &Gpu, rays: &RayBatch) -> DeviceRays {
-        let n = rays.len();
-        let (org, dir) = upload_segments(g, rays);
-        let kl: Vec<u32> = (0..n)
-            .map(|i| (rays.kind[i] as u32 & 3) | (rays.light[i] & 0x3fff_ffff) << 2)
-            .collect();
-        DeviceRays {
-            org,
-            dir,
-            kl: g.upload("ray kind", &kl),
-            pix: g.upload("ray pixel", &rays.pixel),
-            pre: g.storage("ray constants", n as u64 * 16),
-            len: n as u64,
-            width: rays.width,
-        }
-    }
-}
-
-/// Only the rays' segments on the device: origin | t_min and direction | t_max (what a
-/// traversal that needs no ray kinds, pixels or hash reads, such as the grid's).
-pub(crate) fn upload_segments(g: &Gpu, rays: &RayBatch) -> (wgpu::Buffer, wgpu::Buffer) {
-    let n = rays.len();
-    let org: Vec<[f32; 4]> = (0..n)
-        .map(|i| {
-            let o = rays.org[i];
-            [o.x, o.y, o.z, rays.t_min[i]]
-        })
-        .collect();
-    let dir: Vec<[f32; 4]> = (0..n)
-        .map(|i| {
-            let d = rays.dir[i];
-            [d.x, d.y, d.z, rays.t_max[i]]
-        })
-        .collect();
-    (g.upload("ray org", &org), g.upload("ray dir", &dir))
-}
-
-/// Hit records read back from a kernel (triangle, t, u, v bits; triangle `NO_HIT`: a miss)
-/// into `hits`.
-pub(crate) fn records_to_hits(recs: &[[u32; 4]], hits: &mut [Hit]) {
-    for (h, r) in hits.iter_mut().zip(recs) {
-        *h = if r[0] == geom::NO_HIT {
-            Hit::MISS
-        } else {
-            Hit {
-                tri: r[0],
-                t: f32::from_bits(r[1]),
-                u: f32::from_bits(r[2]),
-                v: f32::from_bits(r[3]),
-            }
-        };
-    }
-}
-
 /// The counts of a trace that the GPU engine must reproduce: everything in `s` (rays, hits,
 /// test totals, per-level counts, engine counters) but the times and the GPU-only counter.
 pub fn comparable_counters(s: &TraceStats) -> TraceStats {
     let mut c = s.clone();
     c.phases.clear();
-    c.counters.remove(counter::GPU_KERNEL_LAUNCHES);
+    c.counters.remove(Counter::GpuKernelLaunches);
     c
-}
-
-/// Rays `r` of `rays` as a batch of their own.
-pub(crate) fn sub_batch(rays: &RayBatch, r: std::ops::Range<usize>) -> RayBatch {
-    RayBatch {
-        org: rays.org[r.clone()].to_vec(),
-        dir: rays.dir[r.clone()].to_vec(),
-        t_min: rays.t_min[r.clone()].to_vec(),
-        t_max: rays.t_max[r.clone()].to_vec(),
-        kind: rays.kind[r.clone()].to_vec(),
-        pixel: rays.pixel[r.clone()].to_vec(),
-        light: rays.light[r.clone()].to_vec(),
-        throughput: rays.throughput[r.clone()].to_vec(),
-        depth: rays.depth[r].to_vec(),
-        width: rays.width,
-    }
 }
 
 impl Tracer for GpuRsh {
     fn name(&self) -> &str {
-        match self.cfg.method {
+        match self.s.cfg.method {
             Method::Crsh => "crsh-gpu",
             Method::Rah => "rah-gpu",
         }
@@ -492,7 +381,7 @@ impl Tracer for GpuRsh {
         // Larger than one binding: consecutive parts, each with its own hierarchy.
         for (p, out) in hits.chunks_mut(self.max_rays).enumerate() {
             let lo = p * self.max_rays;
-            let part = sub_batch(rays, lo..lo + out.len());
+            let part = rays.slice(lo..lo + out.len());
             self.trace_part(&part, out, stats);
         }
     }
@@ -518,8 +407,8 @@ mod tests {
         let run = |bias: u32| {
             eng.counter_bias
                 .store(bias, std::sync::atomic::Ordering::Relaxed);
-            let mut ex = Exec::new(&eng.gpu, &eng.kernels);
-            let dr = DeviceRays::upload(&eng.gpu, &rays);
+            let mut ex = Exec::new(&eng.s.gpu, &eng.s.kernels);
+            let dr = DeviceRays::upload(&eng.s.gpu, &rays);
             let (_, c, _) = eng.records(&mut ex, &dr, &mut TraceStats::default());
             ex.finish();
             c

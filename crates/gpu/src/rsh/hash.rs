@@ -2,12 +2,13 @@
 //! computes every ray's key (the thesis's typed 32-bit hash, eqs. 3.3–3.11, or RAH's
 //! screen key), whether it can hit anything (t_min < t_max) and its intersection constants.
 
-use super::engine::{DeviceRays, GpuRsh};
+use super::device_scene::DeviceScene;
 use crate::kernels::{Exec, Kernel, Params};
+use crate::rays::DeviceRays;
 
 /// Keys and validity flags of every ray (`screen`: RAH's pixel Z-order key).
 pub fn hash_keys(
-    eng: &GpuRsh,
+    eng: &DeviceScene,
     ex: &mut Exec,
     rays: &DeviceRays,
     screen: bool,

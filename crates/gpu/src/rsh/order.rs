@@ -2,16 +2,17 @@
 //! compress → sort → decompress (thesis §3.2.3–3.2.6), or RAH's screen order, each step a
 //! kernel or a primitive of [`crate::prims`] and one timed phase, as on the CPU.
 
-use super::engine::{DeviceRays, GpuRsh};
+use super::device_scene::DeviceScene;
 use super::hash::hash_keys;
 use crate::kernels::Exec;
+use crate::rays::DeviceRays;
 use ::rsh::Method;
-use render::stats::counter;
-use render::{Phase, TraceStats};
+use trace::Counter;
+use trace::{Phase, TraceStats};
 
 /// The sorted leaves (ray indices of the rays that can hit anything) and their count.
 pub fn leaf_order(
-    eng: &GpuRsh,
+    eng: &DeviceScene,
     ex: &mut Exec,
     rays: &DeviceRays,
     stats: &mut TraceStats,
@@ -38,7 +39,7 @@ pub fn leaf_order(
 
 /// Trim is done; compress → sort → decompress (thesis §3.2.4–3.2.6).
 fn chunked_order(
-    eng: &GpuRsh,
+    eng: &DeviceScene,
     ex: &mut Exec,
     keys: &wgpu::Buffer,
     rays: &wgpu::Buffer,
@@ -47,11 +48,11 @@ fn chunked_order(
 ) -> wgpu::Buffer {
     ex.phase(Phase::Compress);
     if m == 0 {
-        stats.count(counter::CHUNKS, 0);
+        stats.count(Counter::Chunks, 0);
         return eng.gpu.storage("leaves", 4);
     }
     let runs = ex.compress_runs(keys, m);
-    stats.count(counter::CHUNKS, runs.len);
+    stats.count(Counter::Chunks, runs.len);
     ex.phase(Phase::Sort);
     let order = ex.iota(runs.len);
     ex.sort_pairs(&runs.keys, &order, runs.len, 32);

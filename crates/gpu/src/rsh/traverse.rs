@@ -7,11 +7,12 @@
 //! `rsh::traverse::Traversal` does on the CPU.
 
 use super::build::Level;
-use super::engine::{DeviceRays, GpuRsh};
+use super::device_scene::DeviceScene;
 use crate::kernels::{Exec, Kernel, Params};
+use crate::rays::DeviceRays;
 use ::rsh::traverse::Counters;
 use ::rsh::NodeTest;
-use render::Phase;
+use trace::Phase;
 
 /// Triangles per thread of the top-level candidate kernels (more when the per-thread count
 /// buffer would not fit one binding; the pair order, node-major then triangle, is the same).
@@ -20,7 +21,7 @@ const TILE: u32 = 256;
 /// One trace call's traversal state: the engine's scene buffers, the hierarchy and the rays.
 pub struct GpuTraversal<'a> {
     /// The engine (scene buffers, configuration).
-    pub eng: &'a GpuRsh,
+    pub eng: &'a DeviceScene,
     /// The hierarchy, level 1 first.
     pub levels: &'a [Level],
     /// The rays.
@@ -62,7 +63,7 @@ impl GpuTraversal<'_> {
         let nt = top.len() as usize;
         let nm = eng.mesh_first.len() - 1;
         // The node × mesh pass table, as a bit set made on the device (the ray-count limit
-        // of `GpuRsh::new` keeps it within one binding); the host reads the bits back to cut
+        // of `DeviceScene::new` keeps it within one binding); the host reads the bits back to cut
         // the batches as the CPU does.
         let entries = nt * nm;
         let words = entries.div_ceil(32);

@@ -1,4 +1,5 @@
-//! The ray batch every engine consumes, and per-ray hit records.
+//! The ray batch every engine consumes, and per-ray hit records (the thesis's §3.1 rays:
+//! shadow, reflection and refraction, plus primary rays when they are traced).
 
 use geom::{Ray, Vec3, NO_HIT};
 
@@ -151,6 +152,23 @@ impl RayBatch {
         b
     }
 
+    /// Rays `r` as a batch of their own (a part of a batch too large for one call of a
+    /// device).
+    pub fn slice(&self, r: std::ops::Range<usize>) -> RayBatch {
+        RayBatch {
+            org: self.org[r.clone()].to_vec(),
+            dir: self.dir[r.clone()].to_vec(),
+            t_min: self.t_min[r.clone()].to_vec(),
+            t_max: self.t_max[r.clone()].to_vec(),
+            kind: self.kind[r.clone()].to_vec(),
+            pixel: self.pixel[r.clone()].to_vec(),
+            light: self.light[r.clone()].to_vec(),
+            throughput: self.throughput[r.clone()].to_vec(),
+            depth: self.depth[r].to_vec(),
+            width: self.width,
+        }
+    }
+
     /// Ray `i` as a [`Ray`].
     #[inline]
     pub fn ray(&self, i: usize) -> Ray {
@@ -173,7 +191,7 @@ impl RayBatch {
 
     /// Check the invariants engines rely on: equal lengths, finite origins, finite non-zero
     /// directions, t_min ≤ t_max and no NaN bounds.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), BatchError> {
         let n = self.org.len();
         let lens = [
             self.dir.len(),
@@ -186,24 +204,57 @@ impl RayBatch {
             self.depth.len(),
         ];
         if lens.iter().any(|&l| l != n) {
-            return Err("ray batch arrays have different lengths".into());
+            return Err(BatchError::Lengths);
         }
         for i in 0..n {
             let (o, d) = (self.org[i], self.dir[i]);
             if !geom::finite3(o) || !geom::finite3(d) || d == Vec3::ZERO {
-                return Err(format!(
-                    "ray {i}: origin {o} / direction {d} must be finite and the direction non-zero"
-                ));
+                return Err(BatchError::Ray {
+                    index: i,
+                    org: o,
+                    dir: d,
+                });
             }
             if self.t_min[i].is_nan() || self.t_max[i].is_nan() || self.t_min[i] > self.t_max[i] {
-                return Err(format!(
-                    "ray {i}: bad t range [{}, {}]",
-                    self.t_min[i], self.t_max[i]
-                ));
+                return Err(BatchError::Range {
+                    index: i,
+                    t_min: self.t_min[i],
+                    t_max: self.t_max[i],
+                });
             }
         }
         Ok(())
     }
+}
+
+/// Why a batch breaks the invariants engines rely on ([`RayBatch::validate`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BatchError {
+    /// The arrays are not all as long as the origins.
+    #[error("ray batch arrays have different lengths")]
+    Lengths,
+    /// A ray's origin or direction is not finite, or its direction is zero.
+    #[error(
+        "ray {index}: origin {org} / direction {dir} must be finite and the direction non-zero"
+    )]
+    Ray {
+        /// The ray's index in the batch.
+        index: usize,
+        /// Its origin.
+        org: Vec3,
+        /// Its direction.
+        dir: Vec3,
+    },
+    /// A ray's t range is NaN or empty the wrong way round.
+    #[error("ray {index}: bad t range [{t_min}, {t_max}]")]
+    Range {
+        /// The ray's index in the batch.
+        index: usize,
+        /// Its t_min.
+        t_min: f32,
+        /// Its t_max.
+        t_max: f32,
+    },
 }
 
 /// The result for one ray: the triangle hit (or [`NO_HIT`]), its distance and barycentrics

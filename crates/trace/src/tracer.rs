@@ -2,7 +2,7 @@
 //! identical rays.
 
 use crate::batch::{Hit, RayBatch};
-use crate::stats::TraceStats;
+use crate::stats::{PassTime, TraceStats};
 
 /// What a trace call asks for each ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,9 +24,9 @@ pub trait Tracer: Sync {
     /// (`hits.len() == rays.len()`), and add this call's counters to `stats`.
     fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats);
 
-    /// Seconds per pass of the engine's build, for engines built once before tracing
+    /// The engine's build passes with their times, for engines built once before tracing
     /// (reported beside the "engine build" phase); empty for the others.
-    fn build_passes(&self) -> Vec<(String, f64)> {
+    fn build_passes(&self) -> Vec<PassTime> {
         Vec::new()
     }
 }

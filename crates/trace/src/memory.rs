@@ -1,5 +1,5 @@
 //! How much memory a command may use, for the memory models checked before allocating
-//! (the render's: [`crate::whitted::render_bytes`]; the irregular grid's:
+//! (the render's: `render::whitted::render_bytes`; the irregular grid's:
 //! `accel::grid::GridConfig::max_bytes`; CRSH's pair budget).
 //!
 //! The default is 80 % of the smaller of the machine's physical memory and the process's

@@ -1,0 +1,133 @@
+//! The cells pass (paper §4.1): the octrees' leaves flattened into the hierarchical voxel map
+//! in blocks, cells numbered in the map's order, their footprints on the virtual grid and
+//! their references sorted by (cell, triangle).
+
+use super::*;
+
+/// The voxel map in blocks, cells renumbered in its order; cells on the virtual grid, and
+/// their references sorted by (cell, triangle): the [`Grid`] of the initial cells.
+pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, String> {
+    let Octrees {
+        entries,
+        cell_coord,
+        cell_level,
+        cell_count,
+        mut kept_cell,
+        kept_tri,
+        levels: level,
+    } = oct;
+    let ntop = st.ntop;
+    let t2 = Instant::now();
+    let ncells = cell_coord.len();
+    let voxelmap::Flattened {
+        entries,
+        order,
+        new_index,
+    } = voxelmap::flatten(&entries, ntop, ncells)?;
+    let cell_coord: Vec<[u32; 3]> = order
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&c| cell_coord[c as usize])
+        .collect();
+    let cell_level: Vec<u8> = order
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&c| cell_level[c as usize])
+        .collect();
+    let cell_count: Vec<u32> = order
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&c| cell_count[c as usize])
+        .collect();
+    kept_cell
+        .par_iter_mut()
+        .with_min_len(4096)
+        .for_each(|c| *c = new_index[*c as usize]);
+    let shift = level;
+    let (cell_min, cell_max): (Vec<[u32; 3]>, Vec<[u32; 3]>) = (0..ncells)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|c| {
+            let s = shift - cell_level[c] as u32;
+            let lo = cell_coord[c].map(|v| v << s);
+            (lo, lo.map(|v| v + (1 << s)))
+        })
+        .unzip();
+    let mut ref_first = vec![0u32; ncells + 1];
+    let total = exclusive_scan(&cell_count, &mut ref_first[..ncells]);
+    ref_first[ncells] = total;
+    debug_assert_eq!(total as usize, kept_tri.len());
+    // Scatter by cell with one cursor per cell, then order each cell's few references (the
+    // slots a cell gets are fixed, so the result does not depend on scheduling).
+    let cursor: Vec<AtomicU32> = ref_first[..ncells]
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&f| AtomicU32::new(f))
+        .collect();
+    let mut refs = vec![0u32; total as usize];
+    {
+        let rp = SharedMut(refs.as_mut_ptr());
+        (0..kept_tri.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .for_each(|r| {
+                let at = cursor[kept_cell[r] as usize].fetch_add(1, Ordering::Relaxed);
+                // SAFETY: each cursor hands out distinct slots of its cell's range.
+                unsafe { rp.write(at as usize, kept_tri[r]) };
+            });
+    }
+    {
+        let rp = SharedMut(refs.as_mut_ptr());
+        (0..ncells)
+            .into_par_iter()
+            .with_min_len(1024)
+            .for_each(|c| {
+                let (a, b) = (ref_first[c] as usize, ref_first[c + 1] as usize);
+                // The wrapper, not its raw field, crosses threads.
+                let whole = &rp;
+                // SAFETY: cell ranges are disjoint.
+                let s = unsafe { std::slice::from_raw_parts_mut(whole.0.add(a), b - a) };
+                s.sort_unstable();
+            });
+    }
+    let mut g = assemble(st, shift, entries, (cell_min, cell_max), ref_first, refs);
+    g.build.voxel_map_seconds = t2.elapsed().as_secs_f64();
+    Ok(g)
+}
+
+/// The [`Grid`] of the initial cells from the cells pass's results: the flattened voxel map,
+/// the cells' footprints on the virtual grid ([min, max)), their reference ranges and
+/// references (the GPU's cells pass hands in the same arrays).
+pub fn assemble(
+    st: &Setup,
+    shift: u32,
+    entries: Vec<u32>,
+    (cell_min, cell_max): (Vec<[u32; 3]>, Vec<[u32; 3]>),
+    ref_first: Vec<u32>,
+    refs: Vec<u32>,
+) -> Grid {
+    let dims = st.top_dims.map(|d| d << shift);
+    let voxel = st.bounds.extent() / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+    let ncells = cell_min.len();
+    Grid {
+        bounds: st.bounds,
+        top_dims: st.top_dims,
+        shift,
+        dims,
+        voxel,
+        inv_voxel: voxel.recip(),
+        // Copied in parallel: the initial cells are the build's largest arrays.
+        exp_min: cell_min.par_iter().with_min_len(4096).copied().collect(),
+        exp_max: cell_max.par_iter().with_min_len(4096).copied().collect(),
+        cell_min,
+        cell_max,
+        trav: Vec::new(),
+        ref_first,
+        refs,
+        entries,
+        build: BuildStats {
+            initial_cells: ncells,
+            ..Default::default()
+        },
+    }
+}

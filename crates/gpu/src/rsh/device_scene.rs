@@ -1,0 +1,37 @@
+//! What every GPU CRSH/RAH pass reads (`hash`, `order`, `build`, `traverse`): the device
+//! and its compiled kernels, the configuration, and the frame's scene in buffers
+//! (triangles, their bounding spheres and meshes, the mesh spheres of thesis §3.2.2, the
+//! minimal-ball shuffles). [`super::GpuRsh`] owns one and hands it to the passes, so the
+//! passes depend on this file and not on the engine's.
+
+use crate::device::Gpu;
+use crate::kernels::Kernels;
+use ::rsh::RshConfig;
+
+/// The engine's device-side state, as the passes read it.
+pub struct DeviceScene {
+    /// The device.
+    pub gpu: Gpu,
+    /// The compiled kernels.
+    pub kernels: Kernels,
+    /// The configuration (validated).
+    pub cfg: RshConfig,
+    /// Triangles.
+    pub ntri: u32,
+    /// Triangles as 3 × vec4.
+    pub tris: wgpu::Buffer,
+    /// Per-triangle bounding spheres (centre, radius).
+    pub tri_sphere: wgpu::Buffer,
+    /// Each triangle's mesh.
+    pub tri_mesh: wgpu::Buffer,
+    /// Per-mesh bounding spheres (thesis §3.2.2).
+    pub mesh_sphere: wgpu::Buffer,
+    /// First triangle of each mesh, and one past the last.
+    pub mesh_first: Vec<u32>,
+    /// The CPU's minimal-ball shuffle rows (`geom::miniball`).
+    pub shuffles: wgpu::Buffer,
+    /// The scene box's minimum corner (the hash's origin quantisation).
+    pub box_min: [f32; 4],
+    /// The scene box's extent.
+    pub box_ext: [f32; 4],
+}

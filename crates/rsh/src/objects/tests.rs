@@ -1,0 +1,283 @@
+//! The object tree: every triangle once under bounding boxes, the fused pass against Karras's
+//! emission, the 8-wide collapse, and the Morton codes.
+
+use super::*;
+use geom::Pcg32;
+
+fn soup(n: usize, seed: u64) -> Vec<[Vec3; 3]> {
+    let mut rng = Pcg32::new(seed, 1);
+    (0..n)
+        .map(|_| {
+            let c = Vec3::new(
+                rng.range(-50.0, 50.0),
+                rng.range(-50.0, 50.0),
+                rng.range(-50.0, 50.0),
+            );
+            let mut v = || c + rng.unit_vector() * rng.range(0.0, 3.0);
+            [v(), v(), v()]
+        })
+        .collect()
+}
+
+/// Every triangle is a leaf exactly once, and every ancestor's sphere and the box of
+/// the child it lies under contain it.
+fn check(tris: &[[Vec3; 3]], t: &ObjectTree) {
+    let mut seen = vec![0u32; tris.len()];
+    // (node, its ancestors with the child slot taken below each)
+    let mut stack = vec![(t.root, Vec::<(usize, usize)>::new())];
+    let mut max_depth = 0;
+    while let Some((node, path)) = stack.pop() {
+        if node & LEAF != 0 {
+            let tri = (node & !LEAF) as usize;
+            seen[tri] += 1;
+            max_depth = max_depth.max(path.len() as u32);
+            for &(a, k) in &path {
+                let s = t.node[a].sphere;
+                for v in tris[tri] {
+                    assert!(s.contains(v), "node {a} misses a vertex of triangle {tri}");
+                    let b = &t.child_box[a][k];
+                    assert!(b.contains(v), "box {k} of {a} misses triangle {tri}");
+                    assert!(t.node[a].bbox.contains(v) && t.leaf[tri].bbox.contains(v));
+                }
+            }
+        } else {
+            for (k, c) in t.child[node as usize].into_iter().enumerate() {
+                let mut p = path.clone();
+                p.push((node as usize, k));
+                stack.push((c, p));
+            }
+        }
+    }
+    assert!(seen.iter().all(|&s| s == 1), "every triangle is one leaf");
+    if !t.is_empty() {
+        assert_eq!(t.depth, max_depth);
+    }
+    check_ranges(t);
+    check_wide(t);
+}
+
+/// Every inner node's range of `tri_order` lists exactly its subtree's triangles, left to
+/// right.
+fn check_ranges(t: &ObjectTree) {
+    if t.is_empty() {
+        return;
+    }
+    let mut order = t.tri_order.clone();
+    order.sort();
+    assert!(order.iter().enumerate().all(|(i, &x)| x == i as u32));
+    for h in 0..t.len() {
+        let mut leaves = Vec::new();
+        let mut st = vec![h as u32];
+        while let Some(y) = st.pop() {
+            if y & LEAF != 0 {
+                leaves.push(y & !LEAF);
+            } else {
+                let [a, b] = t.child[y as usize];
+                st.extend([b, a]);
+            }
+        }
+        let [lo, hi] = t.range[h];
+        assert_eq!(
+            &t.tri_order[lo as usize..=hi as usize],
+            &leaves[..],
+            "node {h}"
+        );
+    }
+}
+
+/// The collapsed nodes: each head's lanes are the leaves of a cut of its binary subtree
+/// (every triangle below the head under exactly one lane), with the binary bounds bit for
+/// bit, and every inner lane is itself a head.
+fn check_wide(t: &ObjectTree) {
+    if t.is_empty() {
+        assert!(t.wide.is_empty());
+        return;
+    }
+    let below = |x: u32| {
+        let mut out = Vec::new();
+        let mut st = vec![x];
+        while let Some(y) = st.pop() {
+            if y & LEAF != 0 {
+                out.push(y & !LEAF);
+            } else {
+                st.extend(t.child[y as usize]);
+            }
+        }
+        out.sort();
+        out
+    };
+    assert_eq!(t.wide_of[0], 0, "the root heads the first collapsed node");
+    for (h, &wi) in t.wide_of.iter().enumerate() {
+        if wi == u32::MAX {
+            continue;
+        }
+        let w = &t.wide[wi as usize];
+        let n = w.count as usize;
+        assert!((2..=WIDTH).contains(&n));
+        let mut tris = Vec::new();
+        for i in 0..WIDTH {
+            let x = w.child[if i < n { i } else { 0 }];
+            assert_eq!(w.child[i], x);
+            let b = t.bounds(x);
+            for k in 0..3 {
+                assert_eq!(w.center[k][i].to_bits(), b.sphere.center[k].to_bits());
+                assert_eq!(w.min[k][i].to_bits(), b.bbox.min[k].to_bits());
+                assert_eq!(w.max[k][i].to_bits(), b.bbox.max[k].to_bits());
+            }
+            assert_eq!(w.radius[i].to_bits(), b.sphere.radius.to_bits());
+            if i < n {
+                if x & LEAF == 0 {
+                    assert_ne!(t.wide_of[x as usize], u32::MAX, "inner lanes are heads");
+                }
+                tris.extend(below(x));
+            }
+        }
+        tris.sort();
+        assert_eq!(
+            tris,
+            below(h as u32),
+            "head {h}: its lanes cover its subtree once"
+        );
+        // Full unless only leaves remain to split.
+        assert!(n == WIDTH || w.child[..n].iter().all(|&x| x & LEAF != 0));
+    }
+}
+
+#[test]
+fn trees_cover_every_triangle_once_and_bound_them() {
+    for (n, seed) in [(1, 1), (2, 2), (3, 3), (17, 4), (1000, 5), (4097, 6)] {
+        let tris = soup(n, seed);
+        let t = build(&tris, &[0, n as u32], None);
+        check(&tris, &t);
+    }
+}
+
+#[test]
+fn duplicate_keys_and_meshes_still_make_a_tree() {
+    // All triangles at one point: every Morton key equal, ties broken by index.
+    let one = [Vec3::ONE, Vec3::ONE, Vec3::ONE];
+    let tris = vec![one; 100];
+    let t = build(&tris, &[0, 100], None);
+    check(&tris, &t);
+    // Several meshes, each a subtree: with mesh spheres the mesh roots take them.
+    let tris = soup(600, 9);
+    let first = [0u32, 10, 11, 300, 600];
+    let spheres: Vec<Sphere> = first
+        .windows(2)
+        .map(|w| {
+            let b = Aabb::from_points(tris[w[0] as usize..w[1] as usize].iter().flatten().copied());
+            Sphere::around_box(&b)
+        })
+        .collect();
+    let t = build(&tris, &first, Some(&spheres));
+    check(&tris, &t);
+}
+
+/// Karras's construction as it was built before the fused pass: every inner node
+/// emitted from the keys alone (Figure 4), then the boxes and depths filled from the
+/// leaves up (here recursively).
+fn radix_tree_karras(keys: &[u64], order: &[u32], boxes: &[Aabb]) -> RadixTree {
+    let ni = keys.len() - 1;
+    let mut child = vec![[0u32; 2]; ni];
+    let mut range = vec![[0u32; 2]; ni];
+    for i in 0..ni {
+        let (lo, hi, g) = emit_node(keys, i);
+        let left = if lo == g { LEAF | order[g] } else { g as u32 };
+        let right = if hi == g + 1 {
+            LEAF | order[g + 1]
+        } else {
+            (g + 1) as u32
+        };
+        child[i] = [left, right];
+        range[i] = [lo as u32, hi as u32];
+    }
+    fn fill(
+        x: u32,
+        child: &[[u32; 2]],
+        boxes: &[Aabb],
+        nbox: &mut [Aabb],
+        depth: &mut [u32],
+    ) -> (Aabb, u32) {
+        if x & LEAF != 0 {
+            return (boxes[(x & !LEAF) as usize], 0);
+        }
+        let [l, r] = child[x as usize];
+        let (a, da) = fill(l, child, boxes, nbox, depth);
+        let (b, db) = fill(r, child, boxes, nbox, depth);
+        nbox[x as usize] = a.union(&b);
+        depth[x as usize] = 1 + da.max(db);
+        (nbox[x as usize], depth[x as usize])
+    }
+    let mut nbox = vec![Aabb::default(); ni];
+    let mut depth = vec![0u32; ni];
+    fill(0, &child, boxes, &mut nbox, &mut depth);
+    RadixTree {
+        child,
+        range,
+        depth: depth[0],
+        nbox,
+    }
+}
+
+proptest::proptest! {
+    /// The fused bottom-up pass builds Karras's tree: the same children, ranges, box
+    /// bits and depth, on sorted keys with many duplicates (the index breaks the ties)
+    /// and on all-equal keys.
+    #[test]
+    fn fused_pass_builds_karras_tree(seed in 0u64..1_000_000, n in 2usize..3000, spread in 1u64..1_000_000) {
+        let mut rng = Pcg32::new(seed, 3);
+        let mut keys: Vec<u64> = (0..n)
+            .map(|_| (rng.next_u32() as u64 % spread) << (rng.below(30) % 4))
+            .collect();
+        keys.sort();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        for i in (1..n).rev() {
+            order.swap(i, rng.below(i as u32 + 1) as usize);
+        }
+        let boxes: Vec<Aabb> = (0..n)
+            .map(|_| {
+                let c = Vec3::new(rng.range(-9.0, 9.0), rng.range(-9.0, 9.0), rng.range(-9.0, 9.0));
+                Aabb::new(c - Vec3::splat(rng.range(0.0, 1.0)), c + Vec3::splat(rng.range(0.0, 1.0)))
+            })
+            .collect();
+        let a = radix_tree(&keys, &order, &boxes);
+        let b = radix_tree_karras(&keys, &order, &boxes);
+        proptest::prop_assert_eq!(&a.child, &b.child);
+        proptest::prop_assert_eq!(&a.range, &b.range);
+        proptest::prop_assert_eq!(a.depth, b.depth);
+        for (x, y) in a.nbox.iter().zip(&b.nbox) {
+            proptest::prop_assert_eq!((x.min.to_array(), x.max.to_array()), (y.min.to_array(), y.max.to_array()));
+        }
+        let same = vec![7u64; n];
+        let a = radix_tree(&same, &order, &boxes);
+        let b = radix_tree_karras(&same, &order, &boxes);
+        proptest::prop_assert_eq!(&a.child, &b.child);
+        proptest::prop_assert_eq!(a.depth, b.depth);
+    }
+}
+
+#[test]
+fn spread_puts_every_bit_in_every_third_place() {
+    let mut rng = Pcg32::new(8, 2);
+    for bits in 1..=21 {
+        for _ in 0..200 {
+            let v = rng.next_u32();
+            let mut slow = 0u64;
+            for k in 0..bits {
+                slow |= ((v >> k) as u64 & 1) << (3 * k);
+            }
+            assert_eq!(spread(v, bits), slow, "{v:#x}, {bits} bits");
+        }
+    }
+}
+
+#[test]
+fn morton_codes_interleave_the_axes() {
+    let b = Aabb::new(Vec3::ZERO, Vec3::splat(1024.0));
+    assert_eq!(morton(Vec3::new(1.0, 0.0, 0.0), &b, 10), 1);
+    assert_eq!(morton(Vec3::new(0.0, 1.0, 0.0), &b, 10), 2);
+    assert_eq!(morton(Vec3::new(0.0, 0.0, 1.0), &b, 10), 4);
+    assert_eq!(morton(Vec3::new(3.0, 0.0, 0.0), &b, 10), 9);
+    assert_eq!(morton(Vec3::splat(2000.0), &b, 10), (1 << 30) - 1);
+    assert_eq!(morton(Vec3::splat(2000.0), &b, 21), (1 << 63) - 1);
+}
