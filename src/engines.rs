@@ -6,14 +6,40 @@
 //! (Pérard-Gayot et al. 2017) and its two-level baseline, brute force (the oracle) and the
 //! peers from `accel`.
 
-use accel::grid::GridConfig;
-use anyhow::Result;
-use rsh::{Method, ObjectHierarchy, RshConfig};
+use accel::grid::{GridConfig, GridError};
+use rsh::{Method, ObjectHierarchy, RshConfig, RshError};
 use scene::Geometry;
-use trace::Tracer;
+use trace::{NameError, OptionError, Tracer};
+
+/// Why an engine was not built.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    /// An option out of range (CRSH/RAH's, or a grid option given to another engine).
+    #[error(transparent)]
+    Option(#[from] OptionError),
+    /// A grid engine refused its options, its input or its size.
+    #[error("`engine` {engine}: {error}")]
+    Grid {
+        /// `grid` or `grid2l`.
+        engine: &'static str,
+        /// Why.
+        error: GridError,
+    },
+    /// CRSH or RAH refused its input.
+    #[error(transparent)]
+    Rsh(#[from] RshError),
+    /// Embree refused the scene.
+    #[cfg(feature = "embree")]
+    #[error(transparent)]
+    Embree(#[from] accel::peers::EmbreeError),
+    /// An Embree engine asked of a build without the peer.
+    #[error("`engine` {0}: this build has no Embree peer; install Embree 3 (Debian: libembree-dev) and build with `cargo build --release --features embree`")]
+    NoEmbree(&'static str),
+}
 
 /// An engine, as the command line names it (`--engine`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Engine {
     /// Coherent ray-space hierarchy (hashed, sorted rays; mesh culling).
     Crsh,
@@ -36,17 +62,31 @@ pub enum Engine {
 }
 
 impl Engine {
-    /// The engine's name on the command line (`grid2l`, `obvhs-cwbvh`, ...).
-    pub fn name(self) -> String {
-        clap::ValueEnum::to_possible_value(&self)
-            .map(|v| v.get_name().to_string())
-            .unwrap_or_default()
+    /// Every engine by its name, in the order the command line lists them.
+    pub const NAMES: [(&'static str, Engine); 9] = [
+        ("crsh", Engine::Crsh),
+        ("rah", Engine::Rah),
+        ("brute", Engine::Brute),
+        ("grid", Engine::Grid),
+        ("grid2l", Engine::Grid2l),
+        ("obvhs-cwbvh", Engine::ObvhsCwbvh),
+        ("obvhs-bvh2", Engine::ObvhsBvh2),
+        ("embree", Engine::Embree),
+        ("embree-stream", Engine::EmbreeStream),
+    ];
+
+    /// The engine's name (`grid2l`, `obvhs-cwbvh`, ...).
+    pub fn name(self) -> &'static str {
+        Self::NAMES
+            .iter()
+            .find(|(_, e)| *e == self)
+            .map(|(n, _)| *n)
+            .expect("every engine is named")
     }
 
-    /// Parse a name as the command line spells it.
-    pub fn parse(name: &str) -> Result<Engine> {
-        <Engine as clap::ValueEnum>::from_str(name.trim(), true)
-            .map_err(|_| anyhow::anyhow!("unknown engine '{}'", name.trim()))
+    /// The engine named `name` (case-insensitive, surrounding spaces ignored).
+    pub fn parse(name: &str) -> Result<Engine, NameError> {
+        trace::by_name(&name.trim().to_ascii_lowercase(), "engine", &Self::NAMES)
     }
 
     /// The ray-space hierarchy method, for the engines that are one.
@@ -127,15 +167,17 @@ impl EngineOptions {
 
     /// Check every option (whichever engine uses it: a bad value is an error even where
     /// `engine` ignores it); errors name the option.
-    pub fn validate(&self, engine: Engine) -> Result<()> {
+    pub fn validate(&self, engine: Engine) -> Result<(), EngineError> {
         self.rsh_config(engine.rsh_method().unwrap_or(Method::Crsh))
-            .validate()
-            .map_err(anyhow::Error::msg)?;
+            .validate()?;
         self.grid.validate().map_err(|e| {
             if matches!(engine, Engine::Grid | Engine::Grid2l) {
-                anyhow::anyhow!("--engine {}: {e}", engine.name())
+                EngineError::Grid {
+                    engine: engine.name(),
+                    error: e.into(),
+                }
             } else {
-                anyhow::Error::msg(e)
+                e.into()
             }
         })
     }
@@ -150,14 +192,18 @@ pub struct Built {
 }
 
 /// Build `engine` over `geo`.
-pub fn build(engine: Engine, opts: &EngineOptions, geo: &Geometry) -> Result<Built> {
+pub fn build(engine: Engine, opts: &EngineOptions, geo: &Geometry) -> Result<Built, EngineError> {
     opts.validate(engine)?;
     let mut report = None;
     let tracer: Box<dyn Tracer + Send> = match engine {
         Engine::Grid | Engine::Grid2l => {
             let two_level = engine == Engine::Grid2l;
-            let g = accel::GridEngine::new(geo, &opts.grid_config(two_level))
-                .map_err(|e| anyhow::anyhow!("--engine {}: {e}", engine.name()))?;
+            let g = accel::GridEngine::new(geo, &opts.grid_config(two_level)).map_err(|e| {
+                EngineError::Grid {
+                    engine: engine.name(),
+                    error: e,
+                }
+            })?;
             let (c, r, v) = g.grid.memory();
             let b = &g.grid.build;
             report = Some(format!(
@@ -180,30 +226,25 @@ pub fn build(engine: Engine, opts: &EngineOptions, geo: &Geometry) -> Result<Bui
         Engine::Embree | Engine::EmbreeStream => embree(engine, geo)?,
         Engine::Crsh | Engine::Rah => {
             let m = engine.rsh_method().expect("a ray-space hierarchy");
-            Box::new(rsh::RshEngine::new(geo, opts.rsh_config(m)).map_err(anyhow::Error::msg)?)
+            Box::new(rsh::RshEngine::new(geo, opts.rsh_config(m))?)
         }
     };
     Ok(Built { tracer, report })
 }
 
 #[cfg(feature = "embree")]
-fn embree(engine: Engine, geo: &Geometry) -> Result<Box<dyn Tracer + Send>> {
+fn embree(engine: Engine, geo: &Geometry) -> Result<Box<dyn Tracer + Send>, EngineError> {
     let mode = if engine == Engine::Embree {
         accel::peers::EmbreeMode::Single
     } else {
         accel::peers::EmbreeMode::Stream
     };
-    Ok(Box::new(
-        accel::peers::EmbreeEngine::new(geo, mode).map_err(anyhow::Error::msg)?,
-    ))
+    Ok(Box::new(accel::peers::EmbreeEngine::new(geo, mode)?))
 }
 
 #[cfg(not(feature = "embree"))]
-fn embree(engine: Engine, _geo: &Geometry) -> Result<Box<dyn Tracer + Send>> {
-    anyhow::bail!(
-        "--engine {}: this build has no Embree peer; install Embree 3 (Debian: libembree-dev) and build with `cargo build --release --features embree`",
-        engine.name()
-    )
+fn embree(engine: Engine, _geo: &Geometry) -> Result<Box<dyn Tracer + Send>, EngineError> {
+    Err(EngineError::NoEmbree(engine.name()))
 }
 
 /// The obvhs version this binary is built with (for benchmark provenance).

@@ -5,8 +5,7 @@
 //! [`frame`], so their images and records agree by construction; `--backend gpu` renders
 //! through [`gpu_frame`] with the same record.
 
-use crate::engines::{self, Engine, EngineOptions};
-use anyhow::Result;
+use crate::engines::{self, Engine, EngineError, EngineOptions};
 use render::whitted::{render, RenderOptions, Rendered};
 use scene::Geometry;
 use serde::Serialize;
@@ -82,7 +81,7 @@ pub fn frame(
     engine: Engine,
     eopts: &EngineOptions,
     opts: &RenderOptions,
-) -> Result<(Rendered, FrameRow)> {
+) -> Result<(Rendered, FrameRow), EngineError> {
     let (s, geo, update_s) = update(scene, t);
     let t1 = Instant::now();
     let tracer = engines::build(engine, eopts, &geo)?.tracer;
@@ -124,7 +123,7 @@ pub fn gpu_frame(
     t: f32,
     index: u32,
     opts: &RenderOptions,
-) -> Result<(Rendered, FrameRow)> {
+) -> anyhow::Result<(Rendered, FrameRow)> {
     let (s, geo, update_s) = update(scene, t);
     let build_s = gf.rebuild(&s, &geo)?;
     let t2 = Instant::now();

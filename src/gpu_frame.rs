@@ -28,7 +28,7 @@ fn raster_over(
         geo,
         &scene.materials,
     )
-    .map_err(|e| anyhow!("--backend gpu: {e}"))
+    .map_err(|e| anyhow!("`backend`=gpu: {e}"))
 }
 
 /// A GPU engine built over one geometry (the rasterizer, which borrows its device, is
@@ -58,11 +58,11 @@ impl GpuFrame {
             Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l
         ) {
             anyhow::bail!(
-                "--backend gpu: only --engine crsh, rah, grid and grid2l run on the GPU (not {})",
+                "`backend`=gpu: only the engines crsh, rah, grid and grid2l run on the GPU (not `engine`={})",
                 engine.name()
             );
         }
-        let g = gpu::Gpu::new().map_err(|e| anyhow!("--backend gpu: {e}"))?;
+        let g = gpu::Gpu::new().map_err(|e| anyhow!("`backend`=gpu: {e}"))?;
         g.on_device_error(move |e| on_error(e.to_string()));
         let describe = g.describe();
         let timer = match g.timer {
@@ -74,7 +74,7 @@ impl GpuFrame {
         let engine: Box<dyn gpu::GpuEngine> = match engine.rsh_method() {
             Some(method) => Box::new(
                 gpu::GpuRsh::new(g, geo, eopts.gpu_rsh_config(method))
-                    .map_err(|e| anyhow!("--backend gpu: {e}"))?,
+                    .map_err(|e| anyhow!("`backend`=gpu: {e}"))?,
             ),
             None => {
                 // The grid is built and traversed by kernels (gpu::grid::PASS_DEVICE).
@@ -82,7 +82,7 @@ impl GpuFrame {
                 eopts.validate(engine)?;
                 Box::new(
                     gpu::GpuGrid::new(g, geo, &cfg)
-                        .map_err(|e| anyhow!("--backend gpu --engine {}: {e}", engine.name()))?,
+                        .map_err(|e| anyhow!("`backend`=gpu `engine`={}: {e}", engine.name()))?,
                 )
             }
         };
@@ -103,18 +103,15 @@ impl GpuFrame {
         let t0 = std::time::Instant::now();
         self.engine
             .rebuild(geo)
-            .map_err(|e| anyhow!("--backend gpu: {e}"))?;
+            .map_err(|e| anyhow!("`backend`=gpu: {e}"))?;
         self.raster = raster_over(self.engine.as_ref(), scene, geo)?;
         Ok(t0.elapsed().as_secs_f64())
     }
 
-    /// Whether [`GpuFrame::render`] keeps a `opts`-sized frame of `scene` on the device, or
-    /// why not.
-    pub fn resident(&self, scene: &Scene, opts: &RenderOptions) -> Result<(), String> {
-        match gpu::frame::too_big(self.engine.gpu(), scene, opts) {
-            None => Ok(()),
-            Some(why) => Err(why),
-        }
+    /// Why [`GpuFrame::render`] cannot keep an `opts`-sized frame of `scene` on the device
+    /// (`None`: it can).
+    pub fn not_resident(&self, scene: &Scene, opts: &RenderOptions) -> Option<String> {
+        gpu::frame::too_big(self.engine.gpu(), scene, opts)
     }
 
     /// Render one frame on the device ([`gpu::frame`]), or host-sequenced where it might
@@ -129,7 +126,7 @@ impl GpuFrame {
         progress: &dyn Progress,
         build_seconds: f64,
     ) -> Result<(Rendered, Vec<(String, f64)>)> {
-        if let Err(why) = self.resident(scene, opts) {
+        if let Some(why) = self.not_resident(scene, opts) {
             let mut r = self.render_host(scene, geo, opts, progress, build_seconds)?;
             r.0.stats.gpu_frame = Some(format!("host-sequenced: {why}"));
             return Ok(r);
@@ -144,7 +141,7 @@ impl GpuFrame {
                 opts,
                 progress,
             )
-            .map_err(|e| anyhow!("--backend gpu: {e}"))
+            .map_err(|e| anyhow!("`backend`=gpu: {e}"))
         })?;
         let mut stats = f.stats;
         stats.put_build(build_seconds, self.engine.build_passes());
@@ -199,7 +196,7 @@ impl GpuFrame {
     fn check_size(&self, opts: &RenderOptions) -> Result<()> {
         self.raster
             .check_size(opts.width, opts.height)
-            .map_err(|e| anyhow!("--width/--height with --backend gpu: {e}"))
+            .map_err(|e| anyhow!("`width`/`height` with `backend`=gpu: {e}"))
     }
 
     /// `f`'s result with the host↔device bytes and the read-backs it caused.

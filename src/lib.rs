@@ -1,14 +1,19 @@
-//! rayspace as a library: the engine registry ([`engines`]), the engine and load options as
-//! the command line spells them ([`options`]), one frame of a dynamic scene ([`frames`]) and
-//! the papers' evaluations ([`bench`](mod@bench)), shared by the `rayspace` command line and
-//! the Python bindings (`python/`).
+//! rayspace as a library: the engine registry ([`engines`]), engine options by keyword
+//! ([`keywords`]), one frame of a dynamic scene ([`frames`]); with the `cli` feature also the
+//! engine and load options as the command line spells them (`options`) and the papers'
+//! evaluations (`bench`, `report`). The `rayspace` command line and the Python bindings
+//! (`python/`, built without `cli`) share it.
 
+#[cfg(feature = "cli")]
 pub mod bench;
 pub mod engines;
 pub mod frames;
 #[cfg(feature = "gpu")]
 pub mod gpu_frame;
+pub mod keywords;
+#[cfg(feature = "cli")]
 pub mod options;
+#[cfg(feature = "cli")]
 pub mod report;
 #[cfg(feature = "view")]
 pub mod view;

@@ -10,7 +10,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // One line, naming the file/line/option at fault; usage errors exit with 2.
-            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            // Library messages name options by keyword; the CLI spells them as its flags.
+            let msg = cli::spell::flags_in(&format!("{e:#}"));
+            eprintln!("error: {}", msg.replace('\n', " "));
             if e.is::<cli::UsageError>() {
                 ExitCode::from(2)
             } else {

@@ -207,7 +207,7 @@ fn hit_file(mode: TraceMode) -> Vec<u8> {
 }
 
 /// The bytes a writer that takes a path makes.
-fn via_file(write: impl FnOnce(&Path) -> Result<(), String>) -> Vec<u8> {
+fn via_file(write: impl FnOnce(&Path) -> Result<(), render::rayfile::RayFileError>) -> Vec<u8> {
     let d = std::env::temp_dir().join(format!("rayspace-fuzz-seed-{}", std::process::id()));
     std::fs::create_dir_all(&d).expect("temp dir");
     let p = d.join("seed.bin");

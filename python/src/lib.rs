@@ -5,7 +5,9 @@
 //!
 //! The friendly argument checks (dtype, shape, contiguity, finiteness) and the docstrings of
 //! the public API live in the Python package (`rayspace/__init__.py`); this module checks
-//! again what it relies on, with the command line's one-line messages.
+//! again what it relies on. Messages name options by their keywords (`levels=99`), never by
+//! the command line's flags: the library writes an option between backticks, and [`err`]
+//! spells it the Python way.
 
 use numpy::{
     IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
@@ -15,7 +17,7 @@ use pyo3::create_exception;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rayspace::engines;
-use rayspace::options::{engine_options, EngineArgs};
+use rayspace::keywords::{self, KeywordError, Value};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -25,11 +27,37 @@ create_exception!(
     _rayspace,
     Error,
     pyo3::exceptions::PyValueError,
-    "A rayspace error: bad input, a bad option or a failed load or build; the message is the command line's."
+    "A rayspace error: bad input, a bad option or a failed load or build."
 );
 
+/// A library message as Python words: an option written `` `name`=value `` becomes
+/// `name=value`, and a bare `` `name` `` loses its backticks.
+fn pythonic(msg: &str) -> String {
+    let mut out = String::with_capacity(msg.len());
+    let mut rest = msg;
+    while let Some(i) = rest.find('`') {
+        out += &rest[..i];
+        let after = &rest[i + 1..];
+        match after.find('`') {
+            Some(j)
+                if after[..j]
+                    .chars()
+                    .all(|c| c.is_ascii_lowercase() || c == '_') =>
+            {
+                out += &after[..j];
+                rest = &after[j + 1..];
+            }
+            _ => {
+                out.push('`');
+                rest = after;
+            }
+        }
+    }
+    out + rest
+}
+
 fn err(e: impl std::fmt::Display) -> PyErr {
-    Error::new_err(e.to_string())
+    Error::new_err(pythonic(&e.to_string()))
 }
 
 /// A loaded scene and its triangles (the model and the flattened geometry engines build on).
@@ -64,18 +92,8 @@ impl Scene {
         meshes: &str,
         allow_outside_paths: bool,
     ) -> PyResult<Scene> {
-        let split =
-            <scene::MeshSplit as clap::ValueEnum>::from_str(meshes, true).map_err(|_| {
-                let names: Vec<String> = <scene::MeshSplit as clap::ValueEnum>::value_variants()
-                    .iter()
-                    .filter_map(clap::ValueEnum::to_possible_value)
-                    .map(|v| v.get_name().to_string())
-                    .collect();
-                err(format!(
-                    "meshes='{meshes}': expected one of {} (as --meshes)",
-                    names.join(", ")
-                ))
-            })?;
+        let split = trace::by_name(meshes, "meshes", &scene::MeshSplit::NAMES)
+            .map_err(|e| err(format!("meshes='{meshes}': {e}")))?;
         let opts = scene::LoadOptions {
             split,
             allow_outside_paths,
@@ -148,10 +166,10 @@ impl Scene {
     /// The scene at animation time `t` (as `--time`).
     fn at_time(&self, py: Python<'_>, t: f32) -> PyResult<Scene> {
         if !t.is_finite() {
-            return Err(err(format!("--time {t}: not a finite time")));
+            return Err(err(format!("t={t}: not a finite time")));
         }
         if self.scene.animation.is_none() {
-            return Err(err(format!("--time: {} is not animated", self.scene.name)));
+            return Err(err(format!("t: {} is not animated", self.scene.name)));
         }
         let s = self.scene.clone();
         Ok(py.detach(move || Scene::from_scene(s.at_time(t), 0.0)))
@@ -161,9 +179,9 @@ impl Scene {
     fn frame_times(&self, n: u32) -> PyResult<Vec<f32>> {
         match &self.scene.animation {
             Some(a) if n > 0 => Ok(a.frame_times(n)),
-            Some(_) => Err(err("--frames 0: expected at least one frame")),
+            Some(_) => Err(err("frames=0: expected at least one frame")),
             None => Err(err(format!(
-                "--frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
+                "frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
                 self.scene.name
             ))),
         }
@@ -200,36 +218,50 @@ impl Scene {
     }
 }
 
-/// `--name value` words from Python keyword arguments (`object_hierarchy="bvh"` →
-/// `--object-hierarchy bvh`; booleans as the command line's `on`/`off`).
-fn option_words(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
-    let mut words = Vec::new();
+/// Python keyword arguments as the library's keyword values (`bool` before `int`: a Python
+/// bool is an int).
+fn keyword_values(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<(String, Value)>> {
+    let mut out = Vec::new();
     if let Some(d) = options {
         for (k, v) in d.iter() {
             let k: String = k.extract()?;
-            words.push(format!("--{}", k.replace('_', "-")));
-            words.push(if let Ok(b) = v.extract::<bool>() {
-                if b { "on" } else { "off" }.to_string()
+            let value = if let Ok(b) = v.cast::<pyo3::types::PyBool>() {
+                Value::Bool(b.is_true())
+            } else if let Ok(i) = v.extract::<i64>() {
+                Value::Int(i)
+            } else if let Ok(x) = v.extract::<f64>() {
+                Value::Float(x)
+            } else if let Ok(s) = v.extract::<String>() {
+                Value::Str(s)
             } else {
-                v.str()?.to_string()
-            });
+                return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                    "{k}: expected a bool, a number or a string, got {}",
+                    v.get_type().name()?
+                )));
+            };
+            out.push((k, value));
         }
     }
-    Ok(words)
+    Ok(out)
 }
 
-/// The engine options of `engine` with `options`, as the command line parses them.
+/// The engine named `engine` and its options from keyword arguments (the command line's
+/// defaults for the rest), validated.
 fn parse_engine(
     engine: &str,
     options: Option<&Bound<'_, PyDict>>,
     dynamic: bool,
 ) -> PyResult<(engines::Engine, engines::EngineOptions)> {
-    let mut words = vec!["--engine".to_string(), engine.to_string()];
-    words.extend(option_words(options)?);
-    let a = EngineArgs::parse_words(words).map_err(err)?;
-    let opts = engine_options(&a.rsh, &a.grid, dynamic);
-    opts.validate(a.engine).map_err(err)?;
-    Ok((a.engine, opts))
+    let e = engines::Engine::parse(engine).map_err(err)?;
+    let opts =
+        keywords::engine_options(&keyword_values(options)?, dynamic).map_err(|k| match k {
+            KeywordError::Unknown { .. } => {
+                pyo3::exceptions::PyTypeError::new_err(pythonic(&k.to_string()))
+            }
+            _ => err(k),
+        })?;
+    opts.validate(e).map_err(err)?;
+    Ok((e, opts))
 }
 
 /// An engine built over a scene.
@@ -453,26 +485,21 @@ fn rays<'py>(
     seed: u64,
     ao_distance: Option<f32>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let k = <render::raygen::Kind as clap::ValueEnum>::from_str(kind, true).map_err(|_| {
-        err(format!(
-            "--kind {kind}: expected primary, shadow, ao or random"
-        ))
-    })?;
+    let k = trace::by_name(kind, "ray kind", &render::raygen::Kind::NAMES)
+        .map_err(|e| err(format!("kind='{kind}': {e}")))?;
     check_image(width, height, 0)?;
     if !(1..=1024).contains(&spp) {
-        return Err(err(format!("--spp {spp}: expected 1..=1024")));
+        return Err(err(format!("spp={spp}: expected 1..=1024")));
     }
     let n = width as u64 * height as u64 * spp as u64;
     if n > 1 << 28 {
         return Err(err(format!(
-            "--width × --height × --spp = {n} rays is more than 2^28"
+            "width × height × spp = {n} rays is more than 2^28"
         )));
     }
     if let Some(d) = ao_distance {
         if !(d.is_finite() && d > 0.0) {
-            return Err(err(format!(
-                "--ao-distance {d}: must be positive and finite"
-            )));
+            return Err(err(format!("ao_distance={d}: must be positive and finite")));
         }
     }
     let (s, geo) = (scene.scene.clone(), scene.geo.clone());
@@ -505,7 +532,7 @@ fn write_rays(
     tmin: Option<PyReadonlyArray1<'_, f32>>,
     tmax: Option<PyReadonlyArray1<'_, f32>>,
 ) -> PyResult<()> {
-    render::output::check_output(&path).map_err(|e| err(format!("--out {e}")))?;
+    render::output::check_output(&path).map_err(|e| err(format!("path: {e}")))?;
     let r = batch(&origins, &directions, tmin.as_ref(), tmax.as_ref())?;
     py.detach(|| render::rayfile::write_rays(&path, &r))
         .map_err(err)
@@ -531,7 +558,7 @@ fn write_hits(
     v: PyReadonlyArray1<'_, f32>,
     any_hit: bool,
 ) -> PyResult<()> {
-    render::output::check_output(&path).map_err(|e| err(format!("--out {e}")))?;
+    render::output::check_output(&path).map_err(|e| err(format!("path: {e}")))?;
     let contiguous = |name: &str, s: Result<&[f32], _>| -> PyResult<Vec<f32>> {
         s.map(|s: &[f32]| s.to_vec())
             .map_err(|_: numpy::AsSliceError| err(format!("{name}: expected a C-contiguous array")))
@@ -634,11 +661,11 @@ fn frame<'py>(
     let (engine, mut opts) = parse_engine(engine, options, true)?;
     check_image(width, height, bounces)?;
     if !t.is_finite() {
-        return Err(err(format!("--time {t}: not a finite time")));
+        return Err(err(format!("t={t}: not a finite time")));
     }
     if scene.scene.animation.is_none() {
         return Err(err(format!(
-            "--frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
+            "frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
             scene.scene.name
         )));
     }
@@ -667,14 +694,14 @@ fn frame_csv_header() -> String {
 /// `--width`, `--height` and `--bounces` checked as the command line checks them.
 fn check_image(width: u32, height: u32, bounces: u32) -> PyResult<()> {
     let max = render::whitted::MAX_SIDE;
-    for (opt, v) in [("--width", width), ("--height", height)] {
+    for (opt, v) in [("width", width), ("height", height)] {
         if !(1..=max).contains(&v) {
-            return Err(err(format!("{opt} {v}: expected 1..={max}")));
+            return Err(err(format!("{opt}={v}: expected 1..={max}")));
         }
     }
     if bounces > render::whitted::MAX_BOUNCES {
         return Err(err(format!(
-            "--bounces {bounces}: expected 0..={}",
+            "bounces={bounces}: expected 0..={}",
             render::whitted::MAX_BOUNCES
         )));
     }
@@ -688,7 +715,7 @@ fn render_memory(width: u32, height: u32, lights: usize) -> PyResult<u64> {
     let limit = trace::memory::limit(None);
     if need > limit {
         return Err(err(format!(
-            "--width/--height: the render needs {}, more than the {} limit",
+            "width/height: the render needs {}, more than the {} limit",
             trace::memory::gib(need),
             trace::memory::gib(limit)
         )));
@@ -720,16 +747,16 @@ fn png_bytes<'py>(
 /// Write bytes to `path` atomically (temp file + rename), as every rayspace output.
 #[pyfunction]
 fn write_atomic(path: PathBuf, data: &[u8]) -> PyResult<()> {
-    render::output::check_output(&path).map_err(|e| err(format!("--out {e}")))?;
+    render::output::check_output(&path).map_err(|e| err(format!("path: {e}")))?;
     render::output::write_atomic(&path, data).map_err(err)
 }
 
 /// The engines this build can name (`--engine`'s values).
 #[pyfunction]
 fn engine_names() -> Vec<String> {
-    <engines::Engine as clap::ValueEnum>::value_variants()
+    engines::Engine::NAMES
         .iter()
-        .map(|e| e.name())
+        .map(|(n, _)| n.to_string())
         .collect()
 }
 

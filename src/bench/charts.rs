@@ -20,9 +20,20 @@ const FONT_PATHS: &[&str] = &[
     "C:\\Windows\\Fonts\\arial.ttf",
 ];
 
+/// Why no font could be registered for the charts.
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum FontError {
+    /// The file is not a TrueType font plotters can use.
+    #[error("{0} is not a usable TrueType font")]
+    Unusable(String),
+    /// No candidate file exists.
+    #[error("no TrueType font found (set RAYSPACE_FONT to a .ttf file; looked in {0})")]
+    None(String),
+}
+
 /// Register a font for plotters once; the error says where fonts were looked for.
 pub fn font() -> Result<()> {
-    static FONT: OnceLock<Result<(), String>> = OnceLock::new();
+    static FONT: OnceLock<Result<(), FontError>> = OnceLock::new();
     FONT.get_or_init(|| {
         let env = std::env::var("RAYSPACE_FONT").ok();
         let candidates: Vec<String> = env
@@ -34,13 +45,10 @@ pub fn font() -> Result<()> {
             if let Ok(bytes) = std::fs::read(p) {
                 let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
                 return plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
-                    .map_err(|_| format!("{p} is not a usable TrueType font"));
+                    .map_err(|_| FontError::Unusable(p.clone()));
             }
         }
-        Err(format!(
-            "no TrueType font found (set RAYSPACE_FONT to a .ttf file; looked in {})",
-            candidates.join(", ")
-        ))
+        Err(FontError::None(candidates.join(", ")))
     })
     .clone()
     .map_err(|e| anyhow!(e))

@@ -78,7 +78,7 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
             .map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
         raster
             .check_size(spec.width, spec.height)
-            .map_err(|e| anyhow::anyhow!("bench gpu: --width/--height: {e}"))?;
+            .map_err(|e| anyhow::anyhow!("bench gpu: `width`/`height`: {e}"))?;
         raster.rasterize(&view, near); // warm-up (pipeline compilation)
         let (gpu_gb, _) = raster.rasterize(&view, near);
         let gpu_raster = raster.last_gpu_seconds.get().unwrap_or(f64::NAN);
@@ -251,7 +251,7 @@ fn frames_section(
             let (c1, img) = cpu_frame()?;
             let c2 = cpu_frame()?.0;
             let mut gf = crate::gpu_frame::GpuFrame::new(engine, &eopts, s, geo, |e| {
-                eprintln!("error: bench gpu: the device failed ({e}); lower --width/--height");
+                eprintln!("error: bench gpu: the device failed ({e}); a smaller image may fit");
                 std::process::exit(1);
             })?;
             let mut gpu_frame = || -> Result<(f64, Vec<[u8; 3]>, u64, String)> {
@@ -427,7 +427,7 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
 fn device() -> anyhow::Result<gpu::Gpu> {
     let g = gpu::Gpu::new().map_err(|e| anyhow::anyhow!("bench gpu: {e}"))?;
     g.on_device_error(|e| {
-        eprintln!("error: bench gpu: the device failed ({e}); lower --width/--height");
+        eprintln!("error: bench gpu: the device failed ({e}); a smaller image may fit");
         std::process::exit(1);
     });
     Ok(g)

@@ -32,27 +32,40 @@ pub struct Spec {
     pub bounces: u32,
 }
 
+/// Why a `B/D,...` list of configurations was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigsError {
+    /// A pair is not `B/D` with two numbers.
+    #[error("'{0}' is not B/D (branching/levels)")]
+    Syntax(String),
+    /// A pair's branching or levels is out of range.
+    #[error("'{pair}': {error}")]
+    Option {
+        /// The pair as written.
+        pair: String,
+        /// Why.
+        error: trace::OptionError,
+    },
+}
+
 /// Parse `B/D,B/D,...`; each pair is checked by [`::rsh::RshConfig::validate`].
-pub fn parse_configs(s: &str) -> Result<Vec<(u32, u32)>, String> {
+pub fn parse_configs(s: &str) -> Result<Vec<(u32, u32)>, ConfigsError> {
     s.split(',')
         .map(|c| {
-            let (b, d) = c
-                .trim()
-                .split_once('/')
-                .ok_or_else(|| format!("'{c}' is not B/D"))?;
-            let b: u32 = b
-                .parse()
-                .map_err(|_| format!("'{c}': branching is not a number"))?;
-            let d: u32 = d
-                .parse()
-                .map_err(|_| format!("'{c}': levels is not a number"))?;
+            let syntax = || ConfigsError::Syntax(c.to_string());
+            let (b, d) = c.trim().split_once('/').ok_or_else(syntax)?;
+            let b: u32 = b.parse().map_err(|_| syntax())?;
+            let d: u32 = d.parse().map_err(|_| syntax())?;
             ::rsh::RshConfig {
                 branching: b,
                 levels: d,
                 ..::rsh::RshConfig::crsh()
             }
             .validate()
-            .map_err(|e| format!("'{c}': {e}"))?;
+            .map_err(|error| ConfigsError::Option {
+                pair: c.to_string(),
+                error,
+            })?;
             Ok((b, d))
         })
         .collect()
@@ -94,7 +107,7 @@ pub fn scenes(arg: Option<&str>, builtins: &[&str], real: &[&str]) -> Result<Vec
                 .filter(|x| !x.is_empty())
                 .collect();
             if v.is_empty() {
-                anyhow::bail!("--scenes '{s}': no scene named");
+                anyhow::bail!("`scenes`='{s}': no scene named");
             }
             v
         }

@@ -184,7 +184,7 @@ pub fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
             let o = opts.clone();
             let f: Box<bench::budget::BuildFn> =
                 Box::new(move |geo: &Geometry| Ok(engines::build(e, &o, geo)?.tracer));
-            (e.name(), f)
+            (e.name().to_string(), f)
         })
         .collect();
     let builders: Vec<bench::budget::Builder> = closures

@@ -17,6 +17,7 @@ mod frames;
 mod progress;
 mod render;
 mod report;
+pub mod spell;
 mod trace;
 mod view;
 
@@ -89,7 +90,7 @@ pub fn run() -> Result<()> {
 fn load_scene(spec: &str, opts: &scene::LoadOptions) -> Result<scene::Scene> {
     let s = scene::load(spec, opts)?;
     for w in &s.report.warnings {
-        eprintln!("warning: {w}");
+        eprintln!("warning: {}", spell::flags_in(&w.to_string()));
     }
     Ok(s)
 }

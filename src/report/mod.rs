@@ -249,7 +249,7 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
     let limit = trace::memory::limit(None);
     if need > limit {
         anyhow::bail!(
-            "--size {}: a render of {} needs {}, more than the {} this machine allows",
+            "`size`={}: a render of {} needs {}, more than the {} this machine allows",
             spec.side,
             s.name,
             trace::memory::gib(need),
@@ -350,7 +350,7 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
             )?);
         }
         renders.push(RenderRow {
-            engine: e.name(),
+            engine: e.name().to_string(),
             exact: !matches!(
                 e,
                 Engine::ObvhsCwbvh | Engine::ObvhsBvh2 | Engine::Embree | Engine::EmbreeStream
@@ -372,7 +372,7 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
         width: spec.side,
         height: spec.side,
         bounces: spec.bounces,
-        reference: reference.name(),
+        reference: reference.name().to_string(),
         renders,
         ray_kinds,
         skipped,
@@ -397,7 +397,7 @@ fn frame_point(s: &Scene, geo: &Geometry, e: Engine, side: u32) -> Result<ScaleP
     );
     let frame_seconds = t0.elapsed().as_secs_f64();
     Ok(ScalePoint {
-        engine: e.name(),
+        engine: e.name().to_string(),
         scene: s.name.clone(),
         triangles: geo.len() as u64,
         pixels: side as u64 * side as u64,
@@ -444,12 +444,12 @@ fn scaling(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Scaling> {
         let mut slopes = Vec::new();
         for (e, measure) in engine_list()
             .into_iter()
-            .map(|e| (e.name(), "seconds"))
+            .map(|e| (e.name().to_string(), "seconds"))
             .chain(
                 engine_list()
                     .into_iter()
                     .filter(|e| counts_tests(*e))
-                    .map(|e| (e.name(), "tests")),
+                    .map(|e| (e.name().to_string(), "tests")),
             )
             .chain([("brute (counted)".to_string(), "tests")])
         {
@@ -562,7 +562,7 @@ fn draw_charts(r: &Report, dir: &Path) -> Result<Vec<(String, String)>> {
             let mut names: Vec<String> = engine_list()
                 .into_iter()
                 .filter(|e| measure == "seconds" || counts_tests(*e))
-                .map(|e| e.name())
+                .map(|e| e.name().to_string())
                 .collect();
             if measure == "tests" {
                 names.push("brute (counted)".into());
@@ -612,7 +612,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
     let t0 = Instant::now();
     for sub in ["img", "charts"] {
         let d = spec.out.join(sub);
-        std::fs::create_dir_all(&d).with_context(|| format!("--out {}", d.display()))?;
+        std::fs::create_dir_all(&d).with_context(|| format!("`out`={}", d.display()))?;
     }
     let mut scenes = Vec::new();
     for name in &spec.scenes {

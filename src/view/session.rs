@@ -183,7 +183,7 @@ impl Session {
     ) -> Result<Session> {
         if backend == Backend::Gpu && !gpu_capable(engine) {
             anyhow::bail!(
-                "--backend gpu: only --engine crsh, rah, grid and grid2l run on the GPU (not {})",
+                "`backend`=gpu: only the engines crsh, rah, grid and grid2l run on the GPU (not `engine`={})",
                 engine.name()
             );
         }
@@ -357,12 +357,12 @@ impl Session {
                 &self.scene,
                 &self.geo,
                 |e| {
-                    eprintln!("error: --backend gpu: the device failed ({e})");
+                    eprintln!("error: the GPU device failed ({e})");
                     std::process::exit(1);
                 },
             )?)),
             #[cfg(not(feature = "gpu"))]
-            Backend::Gpu => anyhow::bail!("--backend gpu: this build has no GPU backend"),
+            Backend::Gpu => anyhow::bail!("`backend`=gpu: this build has no GPU backend"),
         };
         self.built = Some((self.engine, self.backend, built));
         Ok(t0.elapsed().as_secs_f64())

@@ -438,7 +438,7 @@ impl App {
                 let shot = g.read_back(w, h)?;
                 let png = render::output::rgb8_png(&shot, w, h).map_err(|e| anyhow!(e))?;
                 render::output::write_atomic(path, &png)
-                    .map_err(|e| anyhow!("--screenshot {e}"))?;
+                    .map_err(|e| anyhow!("`screenshot` {e}"))?;
                 let secs = self.started.elapsed().as_secs_f64();
                 println!(
                     "{} frames in {:.2} s ({:.1} frames/s; last frame {:.1} ms) on {}; wrote {}",

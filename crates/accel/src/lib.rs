@@ -13,4 +13,4 @@ pub mod oracle;
 pub mod peers;
 
 pub use brute::BruteForce;
-pub use grid::{GridConfig, GridEngine};
+pub use grid::{GridConfig, GridEngine, GridError};

@@ -404,7 +404,7 @@ fn absurd_densities_are_refused() {
                 top_density: 1e4,
                 ..Default::default()
             },
-            "--grid-top-density",
+            "`grid_top_density`",
         ),
         (
             &small,
@@ -413,10 +413,12 @@ fn absurd_densities_are_refused() {
                 leaf_density: 1e4,
                 ..Default::default()
             },
-            "--grid-leaf-density",
+            "`grid_leaf_density`",
         ),
     ] {
-        let err = build_grid(&geo.tris, &cfg).expect_err("refused");
+        let err = build_grid(&geo.tris, &cfg)
+            .expect_err("refused")
+            .to_string();
         assert!(err.contains(option), "{err}");
     }
 }

@@ -16,8 +16,25 @@ pub enum GpuError {
     Device(String),
     /// The work does not fit the device (a buffer above its binding limit, say).
     Limits(String),
-    /// A configuration the GPU pipeline does not implement.
-    Config(String),
+    /// An option value the GPU pipeline does not implement or cannot hold.
+    Option(trace::OptionError),
+    /// The grid's build refused its input or its size.
+    Grid(accel::GridError),
+    /// What was asked cannot be done by this engine (a grid uploaded from the CPU has no
+    /// configuration to rebuild with).
+    Unsupported(&'static str),
+}
+
+impl From<trace::OptionError> for GpuError {
+    fn from(e: trace::OptionError) -> Self {
+        GpuError::Option(e)
+    }
+}
+
+impl From<accel::GridError> for GpuError {
+    fn from(e: accel::GridError) -> Self {
+        GpuError::Grid(e)
+    }
 }
 
 impl fmt::Display for GpuError {
@@ -30,7 +47,9 @@ impl fmt::Display for GpuError {
             ),
             GpuError::Device(e) => write!(f, "the GPU adapter refused a device: {e}"),
             GpuError::Limits(e) => write!(f, "the GPU device's limits are too small: {e}"),
-            GpuError::Config(e) => write!(f, "GPU backend: {e}"),
+            GpuError::Option(e) => write!(f, "GPU backend: {e}"),
+            GpuError::Grid(e) => write!(f, "GPU backend: {e}"),
+            GpuError::Unsupported(e) => write!(f, "GPU backend: {e}"),
         }
     }
 }

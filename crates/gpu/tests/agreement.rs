@@ -149,7 +149,7 @@ fn small_bindings_split_the_work_and_keep_the_hits() {
     let err = GpuRsh::new(Gpu::new().unwrap(), &geo, too_big.clone());
     assert!(err.is_ok(), "a real device allows 4 MiB bindings");
     let err = GpuRsh::new(g, &geo, too_big).err().expect("refused");
-    assert!(err.to_string().contains("--pair-budget"), "{err}");
+    assert!(err.to_string().contains("`pair_budget`=1048576"), "{err}");
     let Some(mut g) = gpu() else { return };
     g.limits.max_storage_buffer_binding_size = 1 << 17;
     let cfg = RshConfig {

@@ -264,7 +264,7 @@ fn the_gpu_places_every_pass_of_the_cpu_build() {
 #[test]
 fn caps_and_binding_limits_refuse_with_clear_lines() {
     let geo = Geometry::from_scene(&builtin::soup(20_000, 1));
-    // The build's reference cap from --max-memory: the CPU's line, on the GPU too.
+    // The build's reference cap from the memory limit: the CPU's error, on the GPU too.
     let cfg = GridConfig {
         max_bytes: 200_000,
         ..GridConfig::default()
@@ -272,8 +272,11 @@ fn caps_and_binding_limits_refuse_with_clear_lines() {
     let cpu_err = subdivide(&geo.tris, &cfg).expect_err("the CPU refuses");
     let Some(g) = gpu() else { return };
     let err = GpuGrid::new(g, &geo, &cfg).err().expect("the GPU refuses");
-    assert!(err.to_string().contains(&cpu_err), "{err} / {cpu_err}");
-    assert!(cpu_err.contains("--max-memory"), "{cpu_err}");
+    assert!(
+        matches!(&err, gpu::GpuError::Grid(e) if *e == cpu_err),
+        "{err} / {cpu_err}"
+    );
+    assert!(cpu_err.to_string().contains("`max_memory`"), "{cpu_err}");
     // A binding too small for the references: refused, naming them.
     let Some(mut g) = gpu() else { return };
     g.limits.max_storage_buffer_binding_size = geo.tris.len() as u64 * 48;

@@ -7,26 +7,107 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
+/// Why an output file was not written. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The path has no file name (`dir/`).
+    #[error("{}: not a file name", .0.display())]
+    NotAFileName(PathBuf),
+    /// The file's directory does not exist.
+    #[error("{}: directory {} does not exist", .path.display(), .dir.display())]
+    NoDirectory {
+        /// The file.
+        path: PathBuf,
+        /// Its directory.
+        dir: PathBuf,
+    },
+    /// The path is a directory.
+    #[error("{}: is a directory", .0.display())]
+    IsDirectory(PathBuf),
+    /// The path is a device, FIFO or socket.
+    #[error("{}: not a regular file (a device, FIFO or socket is never written)", .0.display())]
+    NotRegular(PathBuf),
+    /// Writing failed (disk full, no permission); the old file is left as it was.
+    #[error("{}: {error}", .path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The system's error.
+        error: std::io::Error,
+    },
+    /// The image encoder failed.
+    #[error("{}PNG/GIF encoding: {msg}", at(.path))]
+    Encode {
+        /// The file, when there is one.
+        path: Option<PathBuf>,
+        /// The encoder's message.
+        msg: String,
+    },
+    /// The pixels are not `width × height` of them.
+    #[error("{}an image of {width} × {height} pixels needs {need} bytes, not {got}", at(.path))]
+    Size {
+        /// The file, when there is one.
+        path: Option<PathBuf>,
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// Bytes such an image has.
+        need: u64,
+        /// Bytes given.
+        got: u64,
+    },
+}
+
+fn at(path: &Option<PathBuf>) -> String {
+    path.as_ref()
+        .map(|p| format!("{}: ", p.display()))
+        .unwrap_or_default()
+}
+
+impl OutputError {
+    /// The same error, naming `path` where it named no file.
+    fn at(self, path: &Path) -> OutputError {
+        match self {
+            OutputError::Encode { path: None, msg } => OutputError::Encode {
+                path: Some(path.to_path_buf()),
+                msg,
+            },
+            OutputError::Size {
+                path: None,
+                width,
+                height,
+                need,
+                got,
+            } => OutputError::Size {
+                path: Some(path.to_path_buf()),
+                width,
+                height,
+                need,
+                got,
+            },
+            e => e,
+        }
+    }
+}
+
 /// Check that `path` can be an output before any work is done: its directory exists, and
 /// it is not a directory or a special file (device, FIFO, socket: only regular files are
 /// replaced). The error names the path.
-pub fn check_output(path: &Path) -> Result<(), String> {
-    let name = path.display();
+pub fn check_output(path: &Path) -> Result<(), OutputError> {
     if path.file_name().is_none() {
-        return Err(format!("{name}: not a file name"));
+        return Err(OutputError::NotAFileName(path.to_path_buf()));
     }
     let dir = parent_dir(path);
     if !dir.is_dir() {
-        return Err(format!(
-            "{name}: directory {} does not exist",
-            dir.display()
-        ));
+        return Err(OutputError::NoDirectory {
+            path: path.to_path_buf(),
+            dir,
+        });
     }
     match std::fs::metadata(path) {
-        Ok(m) if m.is_dir() => Err(format!("{name}: is a directory")),
-        Ok(m) if !m.is_file() => Err(format!(
-            "{name}: not a regular file (a device, FIFO or socket is never written)"
-        )),
+        Ok(m) if m.is_dir() => Err(OutputError::IsDirectory(path.to_path_buf())),
+        Ok(m) if !m.is_file() => Err(OutputError::NotRegular(path.to_path_buf())),
         _ => Ok(()),
     }
 }
@@ -42,7 +123,7 @@ fn parent_dir(path: &Path) -> PathBuf {
 /// flushed to the disk, then renamed over `path`. On any failure (disk full, no permission)
 /// the temporary is removed, an existing `path` is left as it was, and the error names the
 /// path.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     static SEQ: AtomicU64 = AtomicU64::new(0);
     check_output(path)?;
     let name = path.file_name().expect("checked").to_string_lossy();
@@ -57,9 +138,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
         f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
-    result.map_err(|e| {
+    result.map_err(|error| {
         let _ = std::fs::remove_file(&tmp);
-        format!("{}: {e}", path.display())
+        OutputError::Io {
+            path: path.to_path_buf(),
+            error,
+        }
     })
 }
 
@@ -86,27 +170,30 @@ pub fn to_rgb8(pixels: &[Vec3], width: u32, height: u32) -> image::RgbImage {
 }
 
 /// The pixels as the bytes of an sRGB PNG.
-pub fn png_bytes(pixels: &[Vec3], width: u32, height: u32) -> Result<Vec<u8>, String> {
+pub fn png_bytes(pixels: &[Vec3], width: u32, height: u32) -> Result<Vec<u8>, OutputError> {
     encode_png(&to_rgb8(pixels, width, height))
 }
 
 /// An 8-bit RGB image as PNG bytes: the one encoder (and its settings) behind every PNG
 /// rayspace writes, so an image written by the bindings has the command line's bytes.
-pub fn encode_png(img: &image::RgbImage) -> Result<Vec<u8>, String> {
+pub fn encode_png(img: &image::RgbImage) -> Result<Vec<u8>, OutputError> {
     let mut buf = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut buf), image::ImageFormat::Png)
-        .map_err(|e| format!("PNG encoding: {e}"))?;
+        .map_err(|e| OutputError::Encode {
+            path: None,
+            msg: e.to_string(),
+        })?;
     Ok(buf)
 }
 
 /// Row-major 8-bit RGB bytes (`width × height × 3`) as PNG bytes ([`encode_png`]).
-pub fn rgb8_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
-    let img = image::RgbImage::from_raw(width, height, rgb.to_vec()).ok_or_else(|| {
-        format!(
-            "an image of {width} × {height} pixels needs {} bytes, not {}",
-            width as u64 * height as u64 * 3,
-            rgb.len()
-        )
+pub fn rgb8_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, OutputError> {
+    let img = image::RgbImage::from_raw(width, height, rgb.to_vec()).ok_or(OutputError::Size {
+        path: None,
+        width,
+        height,
+        need: width as u64 * height as u64 * 3,
+        got: rgb.len() as u64,
     })?;
     encode_png(&img)
 }
@@ -130,15 +217,15 @@ pub fn heat_rgb8(counts: &[u32]) -> Vec<u8> {
 }
 
 /// Write the pixels as an sRGB PNG, atomically ([`write_atomic`]); the error names the file.
-pub fn write_png(pixels: &[Vec3], width: u32, height: u32, path: &Path) -> Result<(), String> {
-    let bytes = png_bytes(pixels, width, height).map_err(|e| format!("{}: {e}", path.display()))?;
+pub fn write_png(pixels: &[Vec3], width: u32, height: u32, path: &Path) -> Result<(), OutputError> {
+    let bytes = png_bytes(pixels, width, height).map_err(|e| e.at(path))?;
     write_atomic(path, &bytes)
 }
 
 /// Write row-major sRGB bytes (`width × height × 3`) as a PNG, atomically; the error names
 /// the file.
-pub fn write_rgb8_png(rgb: &[u8], width: u32, height: u32, path: &Path) -> Result<(), String> {
-    let bytes = rgb8_png(rgb, width, height).map_err(|e| format!("{}: {e}", path.display()))?;
+pub fn write_rgb8_png(rgb: &[u8], width: u32, height: u32, path: &Path) -> Result<(), OutputError> {
+    let bytes = rgb8_png(rgb, width, height).map_err(|e| e.at(path))?;
     write_atomic(path, &bytes)
 }
 
@@ -151,20 +238,25 @@ pub fn write_gif(
     height: u32,
     delay_ms: u32,
     path: &Path,
-) -> Result<(), String> {
+) -> Result<(), OutputError> {
     use image::codecs::gif::{GifEncoder, Repeat};
-    let err = |e: image::ImageError| format!("{}: {e}", path.display());
+    let err = |e: image::ImageError| OutputError::Encode {
+        path: Some(path.to_path_buf()),
+        msg: e.to_string(),
+    };
     let mut buf = Vec::new();
     {
         let mut enc = GifEncoder::new_with_speed(&mut buf, 10);
         enc.set_repeat(Repeat::Infinite).map_err(err)?;
         for f in frames {
-            let rgb = image::RgbImage::from_raw(width, height, f.clone()).ok_or_else(|| {
-                format!(
-                    "{}: a frame is not {width} × {height} pixels",
-                    path.display()
-                )
-            })?;
+            let rgb =
+                image::RgbImage::from_raw(width, height, f.clone()).ok_or(OutputError::Size {
+                    path: Some(path.to_path_buf()),
+                    width,
+                    height,
+                    need: width as u64 * height as u64 * 3,
+                    got: f.len() as u64,
+                })?;
             let rgba = image::DynamicImage::ImageRgb8(rgb).to_rgba8();
             let frame = image::Frame::from_parts(
                 rgba,
@@ -194,10 +286,17 @@ mod tests {
         let left: Vec<_> = std::fs::read_dir(&d).unwrap().collect();
         assert_eq!(left.len(), 1);
         // Special files and directories are refused, naming the path.
-        let e = write_atomic(Path::new("/dev/null"), b"x").unwrap_err();
+        let e = write_atomic(Path::new("/dev/null"), b"x")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("/dev/null") && e.contains("regular file"), "{e}");
-        assert!(write_atomic(&d, b"x").unwrap_err().contains("directory"));
-        let e = write_atomic(&d.join("no/such/dir/f.png"), b"x").unwrap_err();
+        assert!(write_atomic(&d, b"x")
+            .unwrap_err()
+            .to_string()
+            .contains("directory"));
+        let e = write_atomic(&d.join("no/such/dir/f.png"), b"x")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("does not exist"), "{e}");
         // The refused writes left the earlier file as it was.
         assert_eq!(std::fs::read(&p).unwrap(), b"new contents");

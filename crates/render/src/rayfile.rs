@@ -28,6 +28,25 @@ use std::path::Path;
 use trace::batch::{Hit, RayBatch, RayKind};
 use trace::tracer::TraceMode;
 
+/// Why a ray or hit file could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum RayFileError {
+    /// The file could not be read.
+    #[error(transparent)]
+    Read(#[from] scene::SceneError),
+    /// The file is not a ray (hit) file, or a damaged one.
+    #[error("{}: {msg}", .path.display())]
+    Format {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What is wrong with it.
+        msg: String,
+    },
+    /// The file could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::output::OutputError),
+}
+
 const RAY_MAGIC: &[u8; 8] = b"RSRAYS\0\0";
 const HIT_MAGIC: &[u8; 8] = b"RSHITS\0\0";
 const HEADER: usize = 24;
@@ -38,7 +57,7 @@ fn f32s(b: &[u8]) -> impl Iterator<Item = f32> + '_ {
 }
 
 /// Write `rays` (origin, direction, t range) as a version-1 ray file.
-pub fn write_rays(path: &Path, rays: &RayBatch) -> Result<(), String> {
+pub fn write_rays(path: &Path, rays: &RayBatch) -> Result<(), RayFileError> {
     let mut out = Vec::with_capacity(HEADER + 32 * rays.len());
     out.extend_from_slice(RAY_MAGIC);
     out.extend_from_slice(&1u32.to_le_bytes());
@@ -52,14 +71,17 @@ pub fn write_rays(path: &Path, rays: &RayBatch) -> Result<(), String> {
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
-    crate::output::write_atomic(path, &out)
+    Ok(crate::output::write_atomic(path, &out)?)
 }
 
 /// Read a version-1 ray file or a headerless hagrid file. Rays are checked (finite origin,
 /// finite non-zero direction, t_min ≤ t_max).
-pub fn read_rays(path: &Path, kind: RayKind) -> Result<RayBatch, String> {
-    let bytes = scene::io::read_file(path).map_err(|e| e.to_string())?;
-    let bad = |msg: String| format!("{}: {msg}", path.display());
+pub fn read_rays(path: &Path, kind: RayKind) -> Result<RayBatch, RayFileError> {
+    let bytes = scene::io::read_file(path)?;
+    let bad = |msg: String| RayFileError::Format {
+        path: path.to_path_buf(),
+        msg,
+    };
     let mut rays = Vec::new();
     if bytes.len() >= 8 && &bytes[..8] == RAY_MAGIC {
         if bytes.len() < HEADER {
@@ -119,7 +141,7 @@ pub fn read_rays(path: &Path, kind: RayKind) -> Result<RayBatch, String> {
 }
 
 /// Write one record per ray.
-pub fn write_hits(path: &Path, hits: &[Hit], mode: TraceMode) -> Result<(), String> {
+pub fn write_hits(path: &Path, hits: &[Hit], mode: TraceMode) -> Result<(), RayFileError> {
     let mut out = Vec::with_capacity(HEADER + 16 * hits.len());
     out.extend_from_slice(HIT_MAGIC);
     out.extend_from_slice(&1u32.to_le_bytes());
@@ -131,13 +153,16 @@ pub fn write_hits(path: &Path, hits: &[Hit], mode: TraceMode) -> Result<(), Stri
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
-    crate::output::write_atomic(path, &out)
+    Ok(crate::output::write_atomic(path, &out)?)
 }
 
 /// Read a hit file.
-pub fn read_hits(path: &Path) -> Result<(Vec<Hit>, TraceMode), String> {
-    let bytes = scene::io::read_file(path).map_err(|e| e.to_string())?;
-    let bad = |msg: &str| format!("{}: {msg}", path.display());
+pub fn read_hits(path: &Path) -> Result<(Vec<Hit>, TraceMode), RayFileError> {
+    let bytes = scene::io::read_file(path)?;
+    let bad = |msg: &str| RayFileError::Format {
+        path: path.to_path_buf(),
+        msg: msg.to_string(),
+    };
     if bytes.len() < HEADER || &bytes[..8] != HIT_MAGIC {
         return Err(bad("not a rayspace hit file"));
     }
@@ -204,12 +229,14 @@ mod tests {
         std::fs::write(&h, &bytes[..20]).unwrap();
         assert!(read_rays(&h, RayKind::Primary)
             .unwrap_err()
+            .to_string()
             .contains("h.bin"));
         let mut bad = std::fs::read(&p).unwrap();
         bad.truncate(40);
         std::fs::write(&p, &bad).unwrap();
         assert!(read_rays(&p, RayKind::Primary)
             .unwrap_err()
+            .to_string()
             .contains("header says"));
         // A wrong magic is not read as hagrid rays, even when the size would fit.
         write_rays(&d.join("w.rays"), &b).unwrap();
@@ -217,7 +244,9 @@ mod tests {
         wrong[..8].copy_from_slice(b"RSRAYX\0\0");
         wrong.truncate(72);
         std::fs::write(d.join("w.rays"), &wrong).unwrap();
-        let e = read_rays(&d.join("w.rays"), RayKind::Primary).unwrap_err();
+        let e = read_rays(&d.join("w.rays"), RayKind::Primary)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("w.rays") && e.contains("magic"), "{e}");
         let mut nan = bytes.clone();
         nan[12..16].copy_from_slice(&f32::NAN.to_le_bytes());

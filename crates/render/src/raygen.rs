@@ -26,6 +26,17 @@ pub enum Kind {
     Random,
 }
 
+impl Kind {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, Kind); 5] = [
+        ("primary", Kind::Primary),
+        ("shadow", Kind::Shadow),
+        ("reflection", Kind::Reflection),
+        ("ao", Kind::Ao),
+        ("random", Kind::Random),
+    ];
+}
+
 /// What [`generate`] makes: the image (for primary, shadow, reflection and AO rays), samples, seed and AO length.
 pub struct Options {
     /// Image width in pixels.

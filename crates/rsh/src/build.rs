@@ -23,6 +23,12 @@ pub enum Union {
     Thesis,
 }
 
+impl Union {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, Union); 2] =
+        [("exact", Union::Exact), ("thesis", Union::Thesis)];
+}
+
 /// One level of nodes (structure of arrays).
 #[derive(Clone, Debug, Default)]
 pub struct Level {

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use scene::Geometry;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
-use trace::{Counter, LevelCounts};
+use trace::{Counter, LevelCounts, OptionError};
 use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// Which paper's method.
@@ -38,6 +38,14 @@ pub enum ObjectHierarchy {
     /// together with the ray hierarchy ([`crate::dual`]); the mesh spheres bound the meshes'
     /// subtrees when mesh culling is on.
     Bvh,
+}
+
+impl ObjectHierarchy {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, ObjectHierarchy); 2] = [
+        ("mesh-spheres", ObjectHierarchy::MeshSpheres),
+        ("bvh", ObjectHierarchy::Bvh),
+    ];
 }
 
 /// Configuration of CRSH or RAH (the thesis's parameters and ours).
@@ -121,31 +129,45 @@ impl RshConfig {
         }
     }
 
-    /// The one check of a configuration (the CLI, the benchmarks, the CPU and GPU engines all
-    /// call it). Errors name the option as the command line spells it.
-    pub fn validate(&self) -> Result<(), String> {
+    /// The one check of a configuration (the CLI, the bindings, the benchmarks, the CPU and
+    /// GPU engines all call it).
+    pub fn validate(&self) -> Result<(), OptionError> {
         if !(2..=64).contains(&self.branching) {
-            return Err(format!(
-                "--branching {}: the branching factor must be in 2..=64",
-                self.branching
+            return Err(OptionError::new(
+                "branching",
+                self.branching,
+                "the branching factor must be in 2..=64",
             ));
         }
         if self.levels > 16 {
-            return Err(format!(
-                "--levels {}: at most 16 levels above the leaves",
-                self.levels
+            return Err(OptionError::new(
+                "levels",
+                self.levels,
+                "at most 16 levels above the leaves",
             ));
         }
         if self.pair_budget < 1024 || self.pair_budget > 1 << 31 {
-            return Err(format!(
-                "--pair-budget {}: must be in 1024..=2^31",
-                self.pair_budget
+            return Err(OptionError::new(
+                "pair_budget",
+                self.pair_budget,
+                "must be in 1024..=2^31",
             ));
         }
         self.hash_bits
             .validate()
-            .map_err(|e| format!("--hash-bits {}: {e}", self.hash_bits))
+            .map_err(|e| OptionError::new("hash_bits", self.hash_bits, e.to_string()))
     }
+}
+
+/// Why a CRSH/RAH engine cannot be built.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum RshError {
+    /// A configuration value out of range.
+    #[error(transparent)]
+    Option(#[from] OptionError),
+    /// More triangles than the object tree's 31-bit node ids hold.
+    #[error("{0} triangles exceed the object tree's 2^31")]
+    ObjectTreeSize(usize),
 }
 
 /// The engine: per-triangle bounding spheres (the thesis's traversal) or the object tree,
@@ -219,7 +241,7 @@ fn gather_leaves(rays: &RayBatch, order: &[u32]) -> RayBatch {
 impl RshEngine {
     /// The engine over `geo` (per-triangle and per-mesh spheres); the configuration is
     /// validated first.
-    pub fn new(geo: &Geometry, cfg: RshConfig) -> Result<Self, String> {
+    pub fn new(geo: &Geometry, cfg: RshConfig) -> Result<Self, RshError> {
         cfg.validate()?;
         // Per-triangle spheres for the thesis's traversal; the object tree's leaves hold
         // their own (one pass over the triangles, not two).
@@ -235,10 +257,7 @@ impl RshEngine {
             ObjectHierarchy::Bvh => Default::default(),
         };
         if cfg.objects == ObjectHierarchy::Bvh && geo.tris.len() >= objects::LEAF as usize {
-            return Err(format!(
-                "--object-hierarchy bvh: {} triangles exceed the object tree's 2^31",
-                geo.tris.len()
-            ));
+            return Err(RshError::ObjectTreeSize(geo.tris.len()));
         }
         let tree = (cfg.objects == ObjectHierarchy::Bvh).then(|| {
             let t0 = Instant::now();

@@ -36,6 +36,14 @@ pub enum HashKind {
     Morton64,
 }
 
+impl HashKind {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, HashKind); 2] = [
+        ("thesis", HashKind::Thesis),
+        ("morton64", HashKind::Morton64),
+    ];
+}
+
 /// Bit budgets of the 32-bit hash (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct HashBits {
@@ -71,23 +79,42 @@ impl std::fmt::Display for HashBits {
     }
 }
 
+/// Why a hash bit budget is refused.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum HashBitsError {
+    /// A budget is not a number.
+    #[error("'{0}' is not a number")]
+    NotANumber(String),
+    /// Not four budgets.
+    #[error("expected 4 comma-separated numbers, got {0}")]
+    Count(usize),
+    /// The budgets leave no room in 30 bits below the kind.
+    #[error("hash bit budgets exceed 30 bits (shadow uses {shadow}, other rays {other})")]
+    Over30 {
+        /// Bits the shadow rays' fields take.
+        shadow: u32,
+        /// Bits the other rays' fields take.
+        other: u32,
+    },
+    /// A direction budget of 0.
+    #[error("hash direction bits must be at least 1")]
+    NoDirectionBits,
+}
+
 impl std::str::FromStr for HashBits {
-    type Err = String;
+    type Err = HashBitsError;
     /// Parse `LIGHT,SHADOW_DIR,ORIGIN,DIR` (the budgets are checked by `validate`).
-    fn from_str(s: &str) -> Result<Self, String> {
+    fn from_str(s: &str) -> Result<Self, HashBitsError> {
         let v: Vec<u32> = s
             .split(',')
             .map(|x| {
                 x.trim()
                     .parse::<u32>()
-                    .map_err(|_| format!("'{x}' is not a number"))
+                    .map_err(|_| HashBitsError::NotANumber(x.to_string()))
             })
             .collect::<Result<_, _>>()?;
         let [light, shadow_dir, origin, dir] = v[..] else {
-            return Err(format!(
-                "expected 4 comma-separated numbers, got {}",
-                v.len()
-            ));
+            return Err(HashBitsError::Count(v.len()));
         };
         Ok(HashBits {
             light,
@@ -100,16 +127,17 @@ impl std::str::FromStr for HashBits {
 
 impl HashBits {
     /// Check the budgets fit 30 bits below the kind.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), HashBitsError> {
         let s = self.light + 2 * self.shadow_dir;
         let o = 3 * self.origin + 2 * self.dir;
         if s > 30 || o > 30 {
-            return Err(format!(
-                "hash bit budgets exceed 30 bits (shadow uses {s}, other rays {o})"
-            ));
+            return Err(HashBitsError::Over30 {
+                shadow: s,
+                other: o,
+            });
         }
         if self.shadow_dir == 0 || self.dir == 0 {
-            return Err("hash direction bits must be at least 1".into());
+            return Err(HashBitsError::NoDirectionBits);
         }
         Ok(())
     }

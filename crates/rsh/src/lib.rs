@@ -20,6 +20,6 @@ pub mod traverse;
 
 pub use build::Union;
 pub use dual::{Descent, Schedule};
-pub use engine::{Method, ObjectHierarchy, RshConfig, RshEngine};
-pub use hash::{HashBits, HashKind};
+pub use engine::{Method, ObjectHierarchy, RshConfig, RshEngine, RshError};
+pub use hash::{HashBits, HashBitsError, HashKind};
 pub use traverse::NodeTest;

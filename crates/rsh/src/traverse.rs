@@ -31,6 +31,12 @@ pub enum NodeTest {
     Exact,
 }
 
+impl NodeTest {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, NodeTest); 2] =
+        [("rah", NodeTest::Rah), ("exact", NodeTest::Exact)];
+}
+
 /// Scene data the traversal reads.
 pub struct SceneData<'a> {
     /// World-space triangles.

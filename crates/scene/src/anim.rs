@@ -9,6 +9,7 @@
 //! tangents: the curve runs from key 1 to key n−2 and is clamped outside. Tracks with fewer
 //! than four keys, and tracks from TOML scene files, interpolate linearly (rotations by slerp).
 
+use crate::error::Invalid;
 use geom::{Mat4, Quat, Sphere, Vec3};
 
 /// One key of a vector track (translation or scale).
@@ -314,22 +315,22 @@ impl Animation {
     /// rotation key in a TOML file loaded and made every frame after it NaN, found by
     /// fuzzing). Scale keys may be zero: a mesh scaled to nothing has no area and is hit
     /// by no ray.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         if !(self.start.is_finite() && self.end.is_finite() && (self.end - self.start).is_finite())
         {
-            return Err(format!(
+            return Err(Invalid::from(format!(
                 "animation interval [{}, {}] must be finite (and so must its length)",
                 self.start, self.end
-            ));
+            )));
         }
         let fin = |x: &[f32]| x.iter().all(|v| v.is_finite());
         for tr in &self.tracks {
             let bad = |what: &str, k: usize| {
-                Err(format!(
+                Err(Invalid::from(format!(
                     "animation track '{}': {what} key {} is not finite",
                     tr.name,
                     k + 1
-                ))
+                )))
             };
             for (what, keys) in [("translation", &tr.translation), ("scale", &tr.scale)] {
                 if let Some(k) = keys
@@ -348,7 +349,9 @@ impl Animation {
         for (m, keys) in self.vertex_keys.iter().enumerate() {
             if let Some(k) = keys {
                 if !fin(&k.times) || k.positions.iter().any(|p| p.iter().any(|v| !v.is_finite())) {
-                    return Err(format!("vertex animation of mesh {m}: a key is not finite"));
+                    return Err(Invalid::from(format!(
+                        "vertex animation of mesh {m}: a key is not finite"
+                    )));
                 }
             }
         }

@@ -66,3 +66,21 @@ impl SceneError {
         }
     }
 }
+
+/// What is wrong with a value of a scene (a material, an animation, a shape), before the
+/// loader attaches the file and line to it as a [`SceneError`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct Invalid(pub String);
+
+impl From<String> for Invalid {
+    fn from(s: String) -> Self {
+        Invalid(s)
+    }
+}
+
+impl From<&str> for Invalid {
+    fn from(s: &str) -> Self {
+        Invalid(s.to_string())
+    }
+}

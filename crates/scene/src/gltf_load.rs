@@ -7,6 +7,7 @@
 //! reflectivity = metallic·(1 − roughness); blended alpha becomes transparency.
 //! A perspective camera in the file is used; otherwise the camera frames the bounds.
 
+use crate::error::Invalid;
 use crate::error::SceneError;
 use crate::model::{smooth_normals, LoadReport, Material, Mesh, Scene};
 use crate::obj::auto_camera_and_light;
@@ -51,7 +52,7 @@ pub fn load_gltf_scene(path: &Path) -> Result<Scene, SceneError> {
 /// POSITION accessor exists (its validation hook indexes the accessor list directly and
 /// panicked on a missing one, found by fuzzing). A file that is not JSON is left to the
 /// crate's own error.
-fn precheck(bytes: &[u8]) -> Result<(), String> {
+fn precheck(bytes: &[u8]) -> Result<(), Invalid> {
     let json: std::borrow::Cow<[u8]> = if bytes.starts_with(b"glTF") {
         match gltf::Glb::from_slice(bytes) {
             Ok(g) => g.json,
@@ -73,10 +74,10 @@ fn precheck(bytes: &[u8]) -> Result<(), String> {
                         gltf::json::validation::Checked::Valid(s) => s.to_string(),
                         gltf::json::validation::Checked::Invalid => "an invalid".into(),
                     };
-                    return Err(format!(
+                    return Err(Invalid::from(format!(
                         "mesh {m} primitive {p}: {name} accessor {} does not exist ({accessors} accessors)",
                         a.value()
-                    ));
+                    )));
                 }
             }
         }

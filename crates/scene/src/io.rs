@@ -75,7 +75,7 @@ pub fn read_text(path: &Path) -> Result<String, SceneError> {
 
 /// Where the files a scene references may live: under the top-level scene file's directory
 /// or the shared scenes directory ([`crate::scenes_dir`]), after `..` and symbolic links are
-/// resolved, unless the user allowed reading outside (`--allow-outside-paths`).
+/// resolved, unless the user allowed reading outside (`allow_outside_paths`).
 ///
 /// It also carries the load's triangle budget ([`Sandbox::with_max_triangles`]): loaders call
 /// [`Sandbox::admit_triangles`] as their triangles accumulate, so that a small file that
@@ -127,7 +127,7 @@ impl Sandbox {
         }
         let msg = format!(
             "the scene grows past {} triangles, its load budget (about {} bytes each; \
-             rayspace derives the budget from --max-memory)",
+             the budget comes from `max_memory`)",
             self.max_triangles,
             crate::BYTES_PER_TRIANGLE
         );
@@ -171,7 +171,7 @@ impl Sandbox {
                 path: referrer.to_path_buf(),
                 msg: format!(
                     "{what} '{name}' resolves outside the scene's directory{} \
-                     (pass --allow-outside-paths to read it)",
+                     (`allow_outside_paths` reads it)",
                     if self.roots.len() > 1 {
                         " and the scenes directory"
                     } else {
@@ -201,7 +201,7 @@ mod tests {
         for bad in ["../secret.txt", "sub/../../secret.txt", "/etc/passwd"] {
             let e = sb.resolve(&top, "mtllib", bad).unwrap_err().to_string();
             assert!(
-                e.contains("outside the scene's directory") && e.contains("--allow-outside-paths"),
+                e.contains("outside the scene's directory") && e.contains("`allow_outside_paths`"),
                 "{bad}: {e}"
             );
         }

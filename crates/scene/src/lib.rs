@@ -20,7 +20,7 @@ pub mod obj;
 pub mod scenefile;
 pub mod shapes;
 
-pub use error::SceneError;
+pub use error::{Invalid, SceneError};
 pub use geometry::Geometry;
 pub use model::{Camera, Light, LoadReport, Material, Mesh, Scene};
 
@@ -39,16 +39,25 @@ pub enum MeshSplit {
     Single,
 }
 
+impl MeshSplit {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, MeshSplit); 3] = [
+        ("groups", MeshSplit::Groups),
+        ("materials", MeshSplit::Materials),
+        ("single", MeshSplit::Single),
+    ];
+}
+
 impl std::str::FromStr for MeshSplit {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = Invalid;
+    fn from_str(s: &str) -> Result<Self, Invalid> {
         match s {
             "groups" => Ok(MeshSplit::Groups),
             "materials" => Ok(MeshSplit::Materials),
             "single" => Ok(MeshSplit::Single),
-            _ => Err(format!(
+            _ => Err(Invalid(format!(
                 "unknown mesh split '{s}' (expected groups, materials or single)"
-            )),
+            ))),
         }
     }
 }

@@ -1,6 +1,7 @@
 //! Scene model types.
 
 use crate::anim::VertexKeys;
+use crate::error::Invalid;
 use crate::error::SceneError;
 use geom::{finite3, miniball, tri, Mat4, Sphere, Vec3};
 use std::path::PathBuf;
@@ -49,7 +50,7 @@ impl Material {
     /// Check the values shading relies on: colours finite and non-negative, shininess finite
     /// and non-negative, reflectivity and transparency in [0, 1], and for a transparent
     /// material an index of refraction in [0.01, 100].
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Invalid> {
         for (what, c) in [
             ("diffuse", self.diffuse),
             ("specular", self.specular),
@@ -57,28 +58,30 @@ impl Material {
             ("ambient", self.ambient),
         ] {
             if !(c.is_finite() && c.min_element() >= 0.0) {
-                return Err(format!("{what} colour {c} must be finite and non-negative"));
+                return Err(Invalid::from(format!(
+                    "{what} colour {c} must be finite and non-negative"
+                )));
             }
         }
         if !(self.shininess.is_finite() && self.shininess >= 0.0) {
-            return Err(format!(
+            return Err(Invalid::from(format!(
                 "shininess {} must be finite and non-negative",
                 self.shininess
-            ));
+            )));
         }
         for (what, v) in [
             ("reflectivity", self.reflectivity),
             ("transparency", self.transparency),
         ] {
             if !(0.0..=1.0).contains(&v) {
-                return Err(format!("{what} {v} must be in [0, 1]"));
+                return Err(Invalid::from(format!("{what} {v} must be in [0, 1]")));
             }
         }
         if self.transparency > 0.0 && !(0.01..=100.0).contains(&self.ior) {
-            return Err(format!(
+            return Err(Invalid::from(format!(
                 "index of refraction {} of a transparent material must be in [0.01, 100]",
                 self.ior
-            ));
+            )));
         }
         Ok(())
     }
@@ -391,7 +394,7 @@ impl Scene {
                 .map_err(|e| SceneError::invalid(&path, format!("material '{}': {e}", m.name)))?;
         }
         if let Some(a) = &self.animation {
-            a.validate().map_err(|e| SceneError::invalid(&path, e))?;
+            a.validate().map_err(|e| SceneError::invalid(&path, e.0))?;
         }
         if !(self.ambient.is_finite() && self.ambient.min_element() >= 0.0) {
             return Err(SceneError::invalid(

@@ -5,6 +5,7 @@
 //! ([`validate_obj`]) reads the file once more to report `file:line: what` for malformed
 //! vertices, non-finite coordinates and out-of-range face indices.
 
+use crate::error::Invalid;
 use crate::error::SceneError;
 use crate::model::{smooth_normals, Camera, Light, LoadReport, Material, Mesh, Scene};
 use crate::MeshSplit;
@@ -86,7 +87,7 @@ pub fn validate_obj(text: &str, path: &Path, sb: &crate::io::Sandbox) -> Result<
 
 /// Map an MTL material to ours. `illum` 3/5 → mirror; 4/6/7 → refractive with `Ni`
 /// (`Ni 0`, BART's convention for opaque, stays opaque).
-pub fn convert_material(m: &tobj::Material) -> Result<Material, String> {
+pub fn convert_material(m: &tobj::Material) -> Result<Material, Invalid> {
     check_mtl(m)?;
     let v = |a: Option<[f32; 3]>, d: f32| a.map(Vec3::from_array).unwrap_or(Vec3::splat(d));
     let diffuse = v(m.diffuse, 0.7);
@@ -150,8 +151,9 @@ fn check_mtl_colours(text: &str, path: &Path) -> Result<(), SceneError> {
 
 /// The MTL values as written, before conversion clamps or defaults them: a NaN `Tf` would
 /// otherwise become transparency 0.9, a negative `Ns` shininess 1.
-fn check_mtl(m: &tobj::Material) -> Result<(), String> {
-    let bad = |what: &str, v: String| Err(format!("material '{}': {what} {v}", m.name));
+fn check_mtl(m: &tobj::Material) -> Result<(), Invalid> {
+    let bad =
+        |what: &str, v: String| Err(Invalid::from(format!("material '{}': {what} {v}", m.name)));
     for (what, c) in [
         ("Ka", m.ambient),
         ("Kd", m.diffuse),
@@ -260,7 +262,7 @@ pub fn load_obj_meshes(
         .iter()
         .map(convert_material)
         .collect::<Result<_, _>>()
-        .map_err(|e| SceneError::invalid(path, e))?;
+        .map_err(|e| SceneError::invalid(path, e.0))?;
     let default_id = materials.len() as u32;
     materials.push(Material::default());
 

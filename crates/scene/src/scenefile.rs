@@ -37,6 +37,7 @@
 //! ```
 
 use crate::anim::{Animation, Interp, RotKey, Track, VecKey, VertexKeys, Xform};
+use crate::error::Invalid;
 use crate::error::SceneError;
 use crate::model::{Camera, Light, LoadReport, Material, Scene};
 use crate::{builtin, gltf_load, obj, shapes, MeshSplit};
@@ -281,7 +282,7 @@ fn parse_scene_file(
             }
         }
         let xf = placement(def.translate, def.rotate, def.scale.as_ref())
-            .map_err(|e| ctx.bad(&what, e))?;
+            .map_err(|e| ctx.bad(&what, e.0))?;
         for m in &mut meshes {
             m.transform = xf * m.transform;
             if let Some(n) = &def.name {
@@ -297,7 +298,7 @@ fn parse_scene_file(
             None => None,
             Some(a) => {
                 let name = def.name.clone().unwrap_or_else(|| what.clone());
-                Some(keyframe_track(a, name).map_err(|e| ctx.bad(&what, e))?)
+                Some(keyframe_track(a, name).map_err(|e| ctx.bad(&what, e.0))?)
             }
         };
         for m in first_mesh..first_mesh + count {
@@ -354,7 +355,7 @@ fn mesh_entry(ctx: &mut Ctx, what: &str, def: &MeshDef) -> Result<Entry, SceneEr
     }
     // A bad `split` is an error whatever the source (it only applies to OBJ files).
     let split: MeshSplit = match &def.split {
-        Some(s) => s.parse().map_err(|e| ctx.bad(what, e))?,
+        Some(s) => s.parse().map_err(|e: Invalid| ctx.bad(what, e.0))?,
         None => MeshSplit::Groups,
     };
     if let Some(pat) = &def.sequence {
@@ -370,7 +371,7 @@ fn mesh_entry(ctx: &mut Ctx, what: &str, def: &MeshDef) -> Result<Entry, SceneEr
         return Ok((s.meshes, s.materials, None));
     }
     let shape = def.shape.as_deref().unwrap_or("");
-    let m = shape_mesh(shape, def.detail).map_err(|e| ctx.bad(what, e))?;
+    let m = shape_mesh(shape, def.detail).map_err(|e| ctx.bad(what, e.0))?;
     Ok((vec![m], vec![Material::default()], None))
 }
 
@@ -402,7 +403,7 @@ fn file_meshes(
 }
 
 /// `shape = ...`: a tessellated primitive of `scene::shapes`.
-fn shape_mesh(shape: &str, detail: Option<u32>) -> Result<crate::Mesh, String> {
+fn shape_mesh(shape: &str, detail: Option<u32>) -> Result<crate::Mesh, Invalid> {
     Ok(match shape {
         "sphere" => shapes::icosphere("sphere", Vec3::ZERO, 1.0, detail.unwrap_or(3).min(7), 0),
         "box" => shapes::cuboid("box", Vec3::splat(-1.0), Vec3::ONE, false, 0),
@@ -416,9 +417,9 @@ fn shape_mesh(shape: &str, detail: Option<u32>) -> Result<crate::Mesh, String> {
         ),
         "torus" => shapes::torus("torus", Vec3::ZERO, 1.0, 0.35, 48, 16, 0),
         _ => {
-            return Err(format!(
+            return Err(Invalid::from(format!(
                 "unknown shape '{shape}' (expected sphere, box, plane or torus)"
-            ))
+            )))
         }
     })
 }
@@ -497,24 +498,28 @@ fn placement(
     translate: Option<[f32; 3]>,
     rotate: Option<[f32; 3]>,
     scale: Option<&Scale>,
-) -> Result<Mat4, String> {
+) -> Result<Mat4, Invalid> {
     let t = translate.map(Vec3::from_array).unwrap_or(Vec3::ZERO);
     let r = rotate.map(euler).unwrap_or(Quat::IDENTITY);
     let s = scale_vec(scale);
     if !(s.cmpgt(Vec3::ZERO).all() && s.is_finite()) {
-        return Err(format!("scale {s} must be positive and finite"));
+        return Err(Invalid::from(format!(
+            "scale {s} must be positive and finite"
+        )));
     }
     Ok(Mat4::from_scale_rotation_translation(s, r, t))
 }
 
 /// `[meshes.animation]`: linear translation and scale, slerp rotation, keyed at increasing t.
-fn keyframe_track(a: &AnimDef, name: String) -> Result<Track, String> {
+fn keyframe_track(a: &AnimDef, name: String) -> Result<Track, Invalid> {
     if a.keys.is_empty()
         || a.keys
             .windows(2)
             .any(|w| w[1].t.partial_cmp(&w[0].t) != Some(std::cmp::Ordering::Greater))
     {
-        return Err("animation keys must be given with increasing t".into());
+        return Err(Invalid::from(
+            "animation keys must be given with increasing t",
+        ));
     }
     let mut tr = Track {
         name,
@@ -526,7 +531,10 @@ fn keyframe_track(a: &AnimDef, name: String) -> Result<Track, String> {
     };
     for k in &a.keys {
         if !k.t.is_finite() {
-            return Err(format!("animation key time {} is not finite", k.t));
+            return Err(Invalid::from(format!(
+                "animation key time {} is not finite",
+                k.t
+            )));
         }
         let tcb = [0.0; 3];
         let v = Vec3::from_array(k.translate.unwrap_or([0.0; 3]));
@@ -535,10 +543,10 @@ fn keyframe_track(a: &AnimDef, name: String) -> Result<Track, String> {
         tr.rotation.push(RotKey { t: k.t, q, tcb });
         let sc = scale_vec(k.scale.as_ref());
         if !(sc.cmpgt(Vec3::ZERO).all() && sc.is_finite() && v.is_finite()) {
-            return Err(format!(
+            return Err(Invalid::from(format!(
                 "animation key at t = {}: scale must be positive, values finite",
                 k.t
-            ));
+            )));
         }
         tr.scale.push(VecKey { t: k.t, v: sc, tcb });
     }

@@ -248,7 +248,7 @@ fn references_outside_the_scene_directory_are_refused() {
         let p = write(&inner, name, text);
         let e = err_of(&p);
         assert!(
-            e.contains("outside the scene's directory") && e.contains("--allow-outside-paths")
+            e.contains("outside the scene's directory") && e.contains("`allow_outside_paths`")
                 || (*name == "t3.toml" && scene::scenes_dir().is_none()),
             "{name}: {e}"
         );
@@ -507,7 +507,7 @@ fn scenes_that_outgrow_the_triangle_budget_stop_while_loading() {
     assert!(
         e.contains(&format!(
             "spheres.aff:{line}: the scene grows past 100000 triangles"
-        )) && e.contains("--max-memory"),
+        )) && e.contains("`max_memory`"),
         "{e}"
     );
     // OBJ: counted as the faces are validated, before the parser allocates anything; a

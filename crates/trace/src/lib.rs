@@ -7,16 +7,18 @@
 //! the peers, the GPU backend's) answers the same trait, so engines are swapped and compared
 //! on identical rays; brute force's records are the oracle (same triangle, same t bits).
 //! [`memory`] holds the limits that every structure's memory model is checked against
-//! before it allocates.
+//! before it allocates; [`OptionError`] is how every configuration refuses a value.
 
 #![warn(missing_docs)]
 
 pub mod batch;
+pub mod error;
 pub mod memory;
 pub mod stats;
 pub mod tracer;
 
 pub use batch::{BatchError, Hit, RayBatch, RayKind};
+pub use error::{by_name, NameError, OptionError};
 pub use stats::{
     BuildPass, Counter, CounterKind, Counters, Device, LevelCounts, LevelRow, PassTime, Phase,
     TraceStats,

@@ -20,7 +20,7 @@ pub fn load(spec: &str) -> (scene::Scene, scene::Geometry) {
 
 /// The rule named by `arg` (`default` without one); exits on an unknown name.
 #[allow(dead_code)] // grid_stages uses only `load`
-pub fn rule<T: std::str::FromStr<Err = String>>(arg: Option<&String>, default: T) -> T {
+pub fn rule<T: std::str::FromStr<Err = trace::NameError>>(arg: Option<&String>, default: T) -> T {
     arg.map_or(Ok(default), |a| a.parse()).unwrap_or_else(|e| {
         eprintln!("error: {e}");
         std::process::exit(2);

@@ -28,6 +28,7 @@ pub mod traverse;
 pub mod voxelmap;
 
 use geom::{Aabb, Vec3};
+use trace::{by_name, NameError, OptionError};
 
 pub use voxelmap::NODE;
 
@@ -43,7 +44,7 @@ pub enum Subdivision {
 }
 
 impl Subdivision {
-    /// The rules as the command line spells them.
+    /// The rules by name (as options spell them).
     pub const NAMES: [(&'static str, Subdivision); 2] = [
         ("paper", Subdivision::Paper),
         ("adaptive", Subdivision::Adaptive),
@@ -51,22 +52,10 @@ impl Subdivision {
 }
 
 impl std::str::FromStr for Subdivision {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = NameError;
+    fn from_str(s: &str) -> Result<Self, NameError> {
         by_name(s, "subdivision rule", &Self::NAMES)
     }
-}
-
-/// The value `s` names in `names`, or an error listing the names.
-fn by_name<T: Copy>(s: &str, what: &str, names: &[(&'static str, T)]) -> Result<T, String> {
-    names
-        .iter()
-        .find(|(n, _)| *n == s)
-        .map(|&(_, v)| v)
-        .ok_or_else(|| {
-            let all: Vec<&str> = names.iter().map(|(n, _)| *n).collect();
-            format!("{what} {s:?} is not one of {all:?}")
-        })
 }
 
 /// How a merge pass cuts its chains of candidates into merges (see [`merge`]).
@@ -82,14 +71,14 @@ pub enum MergeRule {
 }
 
 impl MergeRule {
-    /// The rules as the command line spells them.
+    /// The rules by name (as options spell them).
     pub const NAMES: [(&'static str, MergeRule); 2] =
         [("pairs", MergeRule::Pairs), ("runs", MergeRule::Runs)];
 }
 
 impl std::str::FromStr for MergeRule {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = NameError;
+    fn from_str(s: &str) -> Result<Self, NameError> {
         by_name(s, "merge rule", &Self::NAMES)
     }
 }
@@ -177,35 +166,113 @@ impl GridConfig {
         ]
     }
 
-    /// The one check of a configuration (the CLI, the benchmarks and the engine call it).
-    /// Errors name the option as the command line spells it.
-    pub fn validate(&self) -> Result<(), String> {
+    /// The one check of a configuration (the CLI, the bindings, the benchmarks and the
+    /// engine call it).
+    pub fn validate(&self) -> Result<(), OptionError> {
         let ok = |x: f32| x.is_finite() && x > 0.0 && x <= 1e4;
-        if !ok(self.top_density) || !ok(self.leaf_density) {
-            return Err(format!(
-                "--grid-top-density {} / --grid-leaf-density {}: grid densities must be in (0, 10^4]",
-                self.top_density, self.leaf_density
+        let density = "grid densities must be in (0, 10^4]";
+        if !ok(self.top_density) {
+            return Err(OptionError::new(
+                "grid_top_density",
+                self.top_density,
+                density,
+            ));
+        }
+        if !ok(self.leaf_density) {
+            return Err(OptionError::new(
+                "grid_leaf_density",
+                self.leaf_density,
+                density,
             ));
         }
         if !(0.0..=1.0).contains(&self.alpha) {
-            return Err(format!(
-                "--grid-alpha {}: the merge alpha must be in [0, 1]",
-                self.alpha
+            return Err(OptionError::new(
+                "grid_alpha",
+                self.alpha,
+                "the merge alpha must be in [0, 1]",
             ));
         }
         if self.expansion_passes > 16 {
-            return Err(format!(
-                "--grid-expansion {}: at most 16 expansion passes",
-                self.expansion_passes
+            return Err(OptionError::new(
+                "grid_expansion",
+                self.expansion_passes,
+                "at most 16 expansion passes",
             ));
         }
         if self.max_depth > 12 {
-            return Err(format!(
-                "--grid-max-depth {}: octree depth at most 12",
-                self.max_depth
+            return Err(OptionError::new(
+                "grid_max_depth",
+                self.max_depth,
+                "octree depth at most 12",
             ));
         }
         Ok(())
+    }
+}
+
+/// Why an irregular grid cannot be built.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum GridError {
+    /// A configuration value out of range.
+    #[error(transparent)]
+    Option(#[from] OptionError),
+    /// No triangles to build over.
+    #[error("the grid needs at least one triangle")]
+    NoTriangles,
+    /// More triangles than the references' 27-bit triangle ids hold.
+    #[error("{0} triangles exceed the grid's 27-bit references")]
+    TooManyTriangles(usize),
+    /// The top grid's resolution (from `grid_top_density`) is beyond its cap.
+    #[error("a top grid of {}×{}×{} cells is more than {cap}; lower `grid_top_density`", .dims[0], .dims[1], .dims[2])]
+    TopGrid {
+        /// Its cells per axis.
+        dims: [u32; 3],
+        /// The most top cells.
+        cap: u64,
+    },
+    /// The build would hold more of something than its cap: a fixed index limit, or what
+    /// the memory limit (`max_bytes`) holds at `unit` bytes each. Lower densities or depth
+    /// shrink it; raising the memory limit helps too when `by_memory`.
+    #[error("{}", size_message(self))]
+    TooBig {
+        /// What ("triangle references", "octree nodes at level 3", "top cells", "voxel
+        /// map entries").
+        what: String,
+        /// How many it would need, at least.
+        need: u64,
+        /// The cap.
+        cap: u64,
+        /// Bytes each in the memory model.
+        unit: u64,
+        /// The memory limit, when it set the cap (else the index limit did).
+        by_memory: Option<u64>,
+    },
+    /// A device cannot hold the grid (the GPU build's binding limits).
+    #[error("{0}")]
+    Device(String),
+}
+
+fn size_message(e: &GridError) -> String {
+    let GridError::TooBig {
+        what,
+        need,
+        cap,
+        unit,
+        by_memory,
+    } = e
+    else {
+        return String::new();
+    };
+    let shrink = "lower `grid_top_density`, `grid_leaf_density` or `grid_max_depth`";
+    match by_memory {
+        Some(max) => format!(
+            "the grid would hold {need} {what} or more (about {} at {unit} B each), more than the {} allowed (`max_memory`); {shrink}, or raise `max_memory`",
+            trace::memory::gib(need.saturating_mul(*unit)),
+            trace::memory::gib(*max)
+        ),
+        None => format!(
+            "the grid would hold {need} {what} or more, beyond its limit of {cap}; {shrink}"
+        ),
     }
 }
 
@@ -413,7 +480,7 @@ pub(crate) fn is_subset(a: &[u32], b: &[u32]) -> bool {
 }
 
 /// Build an irregular grid (or, with `merge: false, expansion_passes: 0`, the two-level grid).
-pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
+pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridError> {
     Ok(complete(build::initial(tris, cfg)?, cfg))
 }
 
@@ -462,7 +529,7 @@ pub struct GridEngine {
 
 impl GridEngine {
     /// Build the grid of `cfg` over `geo` (errors name the limit or option at fault).
-    pub fn new(geo: &scene::Geometry, cfg: &GridConfig) -> Result<Self, String> {
+    pub fn new(geo: &scene::Geometry, cfg: &GridConfig) -> Result<Self, GridError> {
         let grid = build_grid(&geo.tris, cfg)?;
         let name = if cfg.merge || cfg.expansion_passes > 0 {
             "grid"

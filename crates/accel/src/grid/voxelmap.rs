@@ -11,6 +11,7 @@
 //! turns it into blocks of up to [`MAX_BLOCK_LEVELS`] levels, so a lookup on Sponza reads the
 //! top entry and one block entry, as the paper's map, instead of one entry per octree level.
 
+use super::GridError;
 use par::SharedMut;
 use rayon::prelude::*;
 
@@ -115,11 +116,15 @@ fn paint(sparse: &[u32], e: u32, lo: [u32; 3], lk: [u32; 2], start: usize, out: 
 
 /// A flattened map of `total` entries fits the entries' index bits, or the error naming the
 /// options that shrink it (the GPU's cells pass checks its total with the same line).
-pub fn check_total(total: u64) -> Result<(), String> {
+pub fn check_total(total: u64) -> Result<(), GridError> {
     if total > INDEX as u64 {
-        return Err(format!(
-            "the grid's voxel map would need {total} entries, more than 2^27; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
-        ));
+        return Err(GridError::TooBig {
+            what: "voxel map entries".into(),
+            need: total,
+            cap: INDEX as u64,
+            unit: 4,
+            by_memory: None,
+        });
     }
     Ok(())
 }
@@ -140,7 +145,7 @@ pub struct Flattened {
 /// close in space are close in memory for the merge, the expansion and traversal. Returns
 /// the map and the renumbering both ways: new cell k is old cell `order[k]`, and old cell c
 /// is new cell `new_index[c]`.
-pub fn flatten(sparse: &[u32], ntop: usize, ncells: usize) -> Result<Flattened, String> {
+pub fn flatten(sparse: &[u32], ntop: usize, ncells: usize) -> Result<Flattened, GridError> {
     // Each top cell's blocks are made independently (relative indices), then placed after
     // the top entries by an exclusive scan of their sizes.
     let parts: Vec<(u32, Out)> = sparse[..ntop]

@@ -42,27 +42,32 @@ pub struct EmbreeEngine {
 unsafe impl Send for EmbreeEngine {}
 unsafe impl Sync for EmbreeEngine {}
 
-fn check(device: RTCDevice, what: &str) -> Result<(), String> {
+/// Why Embree could not build its scene.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("embree: {0}")]
+pub struct EmbreeError(pub String);
+
+fn check(device: RTCDevice, what: &str) -> Result<(), EmbreeError> {
     // SAFETY: `device` is a live handle (or null, which Embree accepts for the thread-local
     // error of device creation).
     let e = unsafe { rtcGetDeviceError(device) };
     if e == RTCError::NONE {
         Ok(())
     } else {
-        Err(format!("embree: {what} failed: {e:?}"))
+        Err(EmbreeError(format!("{what} failed: {e:?}")))
     }
 }
 
 impl EmbreeEngine {
     /// Upload the triangles and build Embree's BVH (default build quality, default scene
     /// flags: Embree's standard configuration for a static scene).
-    pub fn new(geo: &Geometry, mode: EmbreeMode) -> Result<Self, String> {
+    pub fn new(geo: &Geometry, mode: EmbreeMode) -> Result<Self, EmbreeError> {
         let start = Instant::now();
         let n = geo.tris.len();
         if n as u64 * 3 > u32::MAX as u64 {
-            return Err(format!(
-                "embree: {n} triangles exceed 32-bit vertex indices"
-            ));
+            return Err(EmbreeError(format!(
+                "{n} triangles exceed 32-bit vertex indices"
+            )));
         }
         // SAFETY: plain FFI calls on handles created here; buffers are written within the
         // item counts they were allocated with.
@@ -70,7 +75,7 @@ impl EmbreeEngine {
             let device = rtcNewDevice(std::ptr::null());
             if device.is_null() {
                 check(std::ptr::null_mut(), "rtcNewDevice")?;
-                return Err("embree: rtcNewDevice returned no device".into());
+                return Err(EmbreeError("rtcNewDevice returned no device".into()));
             }
             let scene = rtcNewScene(device);
             let engine = EmbreeEngine {
@@ -97,7 +102,7 @@ impl EmbreeEngine {
                 if vb.is_null() || ib.is_null() {
                     rtcReleaseGeometry(g);
                     check(device, "rtcSetNewGeometryBuffer")?;
-                    return Err("embree: buffer allocation failed".into());
+                    return Err(EmbreeError("buffer allocation failed".into()));
                 }
                 let verts = std::slice::from_raw_parts_mut(vb, 3 * n);
                 let idx = std::slice::from_raw_parts_mut(ib, n);

@@ -15,7 +15,7 @@ pub use obvhs::{BvhKind, ObvhsEngine};
 #[cfg(feature = "embree")]
 pub mod embree;
 #[cfg(feature = "embree")]
-pub use self::embree::{EmbreeEngine, EmbreeMode};
+pub use self::embree::{EmbreeEngine, EmbreeError, EmbreeMode};
 
 /// Whether this build has the Embree peer (the cargo feature `embree`).
 pub const HAS_EMBREE: bool = cfg!(feature = "embree");

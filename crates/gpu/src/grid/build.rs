@@ -44,12 +44,12 @@ pub fn subdivide_on_device(
     ntris: usize,
     cfg: &GridConfig,
 ) -> Result<(Setup, DeviceOctrees, [f64; 2]), GpuError> {
-    build::check_input(ntris, cfg).map_err(GpuError::Config)?;
+    build::check_input(ntris, cfg)?;
     let limit = g.max_binding();
     let check = |what: &str, bytes: u64| {
         if bytes > limit {
             Err(GpuError::Limits(format!(
-                "the grid build's {what} need {} MiB in one binding; this device allows {} MiB (raise --grid-top-density or lower --grid-leaf-density for fewer references)",
+                "the grid build's {what} need {} MiB in one binding; this device allows {} MiB (raise `grid_top_density` or lower `grid_leaf_density` for fewer references)",
                 bytes.div_ceil(1 << 20),
                 limit >> 20
             )))
@@ -81,7 +81,7 @@ pub fn subdivide_on_device(
         })
     };
     let v = |o: usize| Vec3::new(unkey(key[o]), unkey(key[o + 1]), unkey(key[o + 2]));
-    let st = build::setup(Aabb::new(v(0), v(3)), ntris, cfg).map_err(GpuError::Config)?;
+    let st = build::setup(Aabb::new(v(0), v(3)), ntris, cfg)?;
     let lim = st.limits;
     let v4 = |a: Vec3, w: f32| [a.x, a.y, a.z, w];
     let frame = |size: Vec3, small: f32, half: Vec3| {
@@ -117,7 +117,7 @@ pub fn subdivide_on_device(
     );
     ex.scan(&cnt, &offs, ntris as u64);
     let nref = ex.read_at(&offs, ntris) as u64;
-    lim.check_refs(nref).map_err(GpuError::Config)?;
+    lim.check_refs(nref)?;
     check("references", nref * 4)?;
     let mut ref_node = g.storage("references' nodes", nref * 4);
     let mut ref_tri = g.storage("references' triangles", nref * 4);
@@ -260,7 +260,7 @@ pub fn subdivide_on_device(
         let nleaf = ex.read_at(&leaf_index, nodes) as u64;
         let next_level_entry = entries_at + nn;
         let need = (next_level_entry + 8 * nsplit).max(ncells + nleaf);
-        lim.check_nodes(need, level).map_err(GpuError::Config)?;
+        lim.check_nodes(need, level)?;
         check("octree nodes", 8 * nsplit * 16)?;
         let entries = g.storage("voxel-map entries", nn * 4);
         let cells = g.storage("leaf cells", (nleaf * 16).max(16));
@@ -308,9 +308,8 @@ pub fn subdivide_on_device(
         ex.scan(&ccnt, &child_at, nref);
         let nkept = ex.read_at(&kept_at, nref as usize) as u64;
         let nnew = ex.read_at(&child_at, nref as usize) as u64;
-        lim.check_refs(nkept_all + nkept)
-            .map_err(GpuError::Config)?;
-        lim.check_refs(nnew).map_err(GpuError::Config)?;
+        lim.check_refs(nkept_all + nkept)?;
+        lim.check_refs(nnew)?;
         check("references", nnew * 4)?;
         let kept_cell = g.storage("kept references' cells", nkept * 4);
         let kept_tri = g.storage("kept references' triangles", nkept * 4);

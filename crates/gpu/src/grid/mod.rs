@@ -122,7 +122,7 @@ impl GpuGrid {
     /// Build the grid of `cfg` over `geo` with kernels ([`build_on_device`]) and trace the
     /// buffers it built (`grid`, or `grid2l` when `cfg` neither merges nor expands).
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: &GridConfig) -> Result<GpuGrid, GpuError> {
-        cfg.validate().map_err(GpuError::Config)?;
+        cfg.validate()?;
         let name = if cfg.merge || cfg.expansion_passes > 0 {
             "grid-gpu"
         } else {
@@ -159,8 +159,8 @@ impl GpuGrid {
     /// device. A grid made by [`GpuGrid::upload`] has no configuration to rebuild with.
     pub fn rebuild(&mut self, geo: &Geometry) -> Result<(), GpuError> {
         let Some(cfg) = self.cfg.clone() else {
-            return Err(GpuError::Config(
-                "a grid uploaded from the CPU cannot be rebuilt on the GPU".into(),
+            return Err(GpuError::Unsupported(
+                "a grid uploaded from the CPU cannot be rebuilt on the GPU",
             ));
         };
         let b = Built::new(&self.gpu, &self.kernels, geo, &cfg)?;
@@ -290,7 +290,7 @@ fn binding_check(gpu: &Gpu) -> impl Fn(&str, u64) -> Result<(), GpuError> {
     move |what: &str, bytes: u64| {
         if bytes > limit {
             Err(GpuError::Limits(format!(
-                "the grid's {what} need {} MiB in one binding; this device allows {} MiB (raise --grid-top-density or lower --grid-leaf-density for fewer references)",
+                "the grid's {what} need {} MiB in one binding; this device allows {} MiB (raise `grid_top_density` or lower `grid_leaf_density` for fewer references)",
                 bytes.div_ceil(1 << 20),
                 limit >> 20
             )))

@@ -71,11 +71,11 @@ pub fn finish(g: &Gpu, k: &Kernels, st: &Setup, d: &DeviceOctrees) -> Result<Dev
     ex.scan(&bsum, &top_b, d.ntop);
     ex.scan(&leaves, &top_l, d.ntop);
     let total = d.ntop + ex.read_at(&top_b, d.ntop as usize) as u64;
-    accel::grid::voxelmap::check_total(total).map_err(GpuError::Config)?;
+    accel::grid::voxelmap::check_total(total)?;
     let limit = g.max_binding();
     if total * 4 > limit {
         return Err(GpuError::Limits(format!(
-            "the grid's voxel map needs {} MiB in one binding; this device allows {} MiB (raise --grid-top-density or lower --grid-leaf-density)",
+            "the grid's voxel map needs {} MiB in one binding; this device allows {} MiB (raise `grid_top_density` or lower `grid_leaf_density`)",
             (total * 4).div_ceil(1 << 20),
             limit >> 20
         )));

@@ -20,7 +20,7 @@ use ::rsh::{HashKind, Method, ObjectHierarchy, RshConfig};
 use geom::{Pcg32, Sphere};
 use scene::Geometry;
 use std::sync::Mutex;
-use trace::Counter;
+use trace::{Counter, OptionError};
 use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// The GPU engine. Scene data is uploaded once; each trace call builds its hierarchy.
@@ -123,28 +123,38 @@ impl GpuRsh {
     /// Upload the scene; fails when no adapter is found or the configuration is one the GPU
     /// pipeline does not implement (the 64-bit Morton hash).
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: RshConfig) -> Result<GpuRsh, GpuError> {
-        cfg.validate().map_err(GpuError::Config)?;
+        cfg.validate()?;
         if cfg.objects != ObjectHierarchy::MeshSpheres {
-            return Err(GpuError::Config(
-                "--object-hierarchy bvh: the GPU backend implements mesh-spheres only".into(),
-            ));
+            return Err(OptionError::new(
+                "object_hierarchy",
+                "bvh",
+                "the GPU backend implements mesh-spheres only",
+            )
+            .into());
         }
         if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
-            return Err(GpuError::Config(
-                "the GPU backend implements the thesis's 32-bit hash only".into(),
-            ));
+            return Err(OptionError::new(
+                "hash",
+                "morton64",
+                "the GPU backend implements the thesis's 32-bit hash only",
+            )
+            .into());
         }
         let kernels = Kernels::new(&gpu);
         // Pair buffers hold at most `pair_budget` u32s each (as on the CPU, where the budget
         // bounds the same buffers); they must fit one binding.
         if cfg.pair_budget as u64 * 4 > gpu.max_binding() {
-            return Err(GpuError::Limits(format!(
-                "--pair-budget {} needs {} MiB per binding; this device allows {} MiB (use at most {})",
+            return Err(OptionError::new(
+                "pair_budget",
                 cfg.pair_budget,
-                (cfg.pair_budget as u64 * 4) >> 20,
-                gpu.max_binding() >> 20,
-                gpu.max_binding() / 4
-            )));
+                format!(
+                    "needs {} MiB per binding; this device allows {} MiB (use at most {})",
+                    (cfg.pair_budget as u64 * 4) >> 20,
+                    gpu.max_binding() >> 20,
+                    gpu.max_binding() / 4
+                ),
+            )
+            .into());
         }
         let sb = SceneBuffers::new(&gpu, geo, &cfg)?;
         Ok(GpuRsh {

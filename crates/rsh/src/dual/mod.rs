@@ -71,6 +71,15 @@ pub enum Descent {
     RayFirst,
 }
 
+impl Descent {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, Descent); 3] = [
+        ("ray-first", Descent::RayFirst),
+        ("size", Descent::Size),
+        ("object-first", Descent::ObjectFirst),
+    ];
+}
+
 /// In which order the pairs are taken (the same pairs are tested either way, except those an
 /// any-hit ray that already hit no longer needs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -87,6 +96,12 @@ pub enum Schedule {
     /// chunk of one stack data-parallel and emits the survivors' expansions (count → scan
     /// → emit), memory bounded by the pair budget.
     Breadth,
+}
+
+impl Schedule {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, Schedule); 2] =
+        [("depth", Schedule::Depth), ("breadth", Schedule::Breadth)];
 }
 
 /// A pair waiting on a depth-first task's stack: node `r` of ray level `l ≥ 1`

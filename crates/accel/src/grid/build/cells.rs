@@ -6,7 +6,7 @@ use super::*;
 
 /// The voxel map in blocks, cells renumbered in its order; cells on the virtual grid, and
 /// their references sorted by (cell, triangle): the [`Grid`] of the initial cells.
-pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, String> {
+pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, GridError> {
     let Octrees {
         entries,
         cell_coord,

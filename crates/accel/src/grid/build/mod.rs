@@ -28,7 +28,7 @@
 //! within rounding distance of a boundary is referenced on both sides.
 
 use super::voxelmap::{self, INDEX};
-use super::{BuildStats, Grid, GridConfig, Subdivision};
+use super::{BuildStats, Grid, GridConfig, GridError, Subdivision};
 use geom::aabb::TriBoxSat;
 use geom::{Aabb, Vec3};
 use par::{emit_pairs, exclusive_scan, SharedMut};
@@ -195,7 +195,7 @@ fn count_scan_emit(
     n: usize,
     count: impl Fn(usize) -> u32 + Sync,
     emit: impl Fn(usize, &mut dyn FnMut(u32, u32)) + Sync,
-) -> Result<(Vec<u32>, Vec<u32>), String> {
+) -> Result<(Vec<u32>, Vec<u32>), GridError> {
     emit_pairs(n, count, |total| lim.check_refs(total), emit)
 }
 
@@ -233,28 +233,24 @@ impl Limits {
         }
     }
 
-    /// The error for a level that would pass a cap: which, and the options that lower it.
-    fn error(&self, what: &str, need: u64, cap: u64, unit: u64) -> String {
+    /// The error for a level that would pass a cap: which, and whether memory set it.
+    fn error(&self, what: &str, need: u64, cap: u64, unit: u64) -> GridError {
         let by_memory = cap * unit >= self.max_bytes.saturating_sub(unit);
-        if by_memory {
-            format!(
-                "the grid would hold {need} {what} or more (about {} at {unit} B each), more than the {} allowed (--max-memory); lower --grid-top-density, --grid-leaf-density or --grid-max-depth, or raise --max-memory",
-                trace::memory::gib(need.saturating_mul(unit)),
-                trace::memory::gib(self.max_bytes)
-            )
-        } else {
-            format!(
-                "the grid would hold {need} {what} or more, beyond its limit of {cap}; lower --grid-top-density, --grid-leaf-density or --grid-max-depth"
-            )
+        GridError::TooBig {
+            what: what.to_string(),
+            need,
+            cap,
+            unit,
+            by_memory: by_memory.then_some(self.max_bytes),
         }
     }
 
-    fn refs_error(&self, need: u64) -> String {
+    fn refs_error(&self, need: u64) -> GridError {
         self.error("triangle references", need, self.refs, BYTES_PER_REF)
     }
 
     /// `total` references in a level or in all: within the cap, or the error naming it.
-    pub fn check_refs(&self, total: u64) -> Result<(), String> {
+    pub fn check_refs(&self, total: u64) -> Result<(), GridError> {
         if total > self.refs {
             Err(self.refs_error(total))
         } else {
@@ -263,7 +259,7 @@ impl Limits {
     }
 
     /// `need` nodes or cells after octree level `level`: within the cap, or the error.
-    pub fn check_nodes(&self, need: u64, level: u32) -> Result<(), String> {
+    pub fn check_nodes(&self, need: u64, level: u32) -> Result<(), GridError> {
         if need >= self.nodes {
             Err(self.error(
                 &format!("octree nodes at level {level}"),
@@ -283,7 +279,11 @@ const MAX_TOP: u64 = 1 << 24;
 /// References to the top cells: (top cell, triangle), in triangle order, by exact tests.
 /// A triangle whose padded box lies in one top cell needs no test; the count pass keeps the
 /// overlap bits of ranges up to 64 cells so the emit pass does not test them again.
-fn top_refs(f: &Frame, top_dims: [u32; 3], lim: &Limits) -> Result<(Vec<u32>, Vec<u32>), String> {
+fn top_refs(
+    f: &Frame,
+    top_dims: [u32; 3],
+    lim: &Limits,
+) -> Result<(Vec<u32>, Vec<u32>), GridError> {
     let range = |t: usize| {
         let b = &f.tri_box[t];
         let lo = ((b.min - Vec3::splat(f.pad) - f.bounds.min) / f.tsize).floor();
@@ -447,32 +447,30 @@ pub struct Setup {
 
 /// The checks of a build's input before anything is computed: the configuration, and a
 /// triangle count the references can index.
-pub fn check_input(ntris: usize, cfg: &GridConfig) -> Result<(), String> {
+pub fn check_input(ntris: usize, cfg: &GridConfig) -> Result<(), GridError> {
     cfg.validate()?;
     if ntris == 0 {
-        return Err("the grid needs at least one triangle".into());
+        return Err(GridError::NoTriangles);
     }
     if ntris >= (INDEX as usize) {
-        return Err(format!(
-            "{ntris} triangles exceed the grid's 27-bit references"
-        ));
+        return Err(GridError::TooManyTriangles(ntris));
     }
     Ok(())
 }
 
 /// The build's [`Setup`] for `ntris` triangles whose box is `tri_bounds`, with every check
 /// that precedes the first pass.
-pub fn setup(tri_bounds: Aabb, ntris: usize, cfg: &GridConfig) -> Result<Setup, String> {
+pub fn setup(tri_bounds: Aabb, ntris: usize, cfg: &GridConfig) -> Result<Setup, GridError> {
     check_input(ntris, cfg)?;
     let bounds = pad_bounds(tri_bounds);
     let ext = bounds.extent();
     let top_dims = resolution(ext, ntris, cfg.top_density);
     let ntop = top_dims.iter().map(|&d| d as u64).product::<u64>();
     if ntop > MAX_TOP {
-        return Err(format!(
-            "a top grid of {}×{}×{} cells is more than {MAX_TOP}; lower --grid-top-density",
-            top_dims[0], top_dims[1], top_dims[2]
-        ));
+        return Err(GridError::TopGrid {
+            dims: top_dims,
+            cap: MAX_TOP,
+        });
     }
     let limits = Limits::of(cfg);
     if ntop >= limits.nodes {
@@ -545,7 +543,7 @@ pub struct Octrees {
 }
 
 /// The initial structure: top grid, octrees, voxel map, sorted references.
-pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, String> {
+pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridError> {
     let (setup, oct, [top_refs_seconds, octree_seconds]) = subdivide(tris, cfg)?;
     let mut g = finish(&setup, oct)?;
     g.build.top_refs_seconds = top_refs_seconds;

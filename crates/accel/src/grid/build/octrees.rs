@@ -8,7 +8,7 @@ use super::*;
 pub fn subdivide(
     tris: &[[Vec3; 3]],
     cfg: &GridConfig,
-) -> Result<(Setup, Octrees, [f64; 2]), String> {
+) -> Result<(Setup, Octrees, [f64; 2]), GridError> {
     let t0 = Instant::now();
     let tri_box: Vec<Aabb> = tris
         .par_iter()
