@@ -115,7 +115,7 @@ impl GpuFrame {
     }
 
     /// Render one frame on the device ([`gpu::frame`]), or host-sequenced where it might
-    /// not fit ([`GpuFrame::resident`]); returns it with the GPU seconds per phase
+    /// not fit ([`GpuFrame::not_resident`]); returns it with the GPU seconds per phase
     /// (rasterize, the engine's, and the host-sequenced stages'). `geo` must be the geometry
     /// the engine was built or last rebuilt over.
     pub fn render(

@@ -178,10 +178,9 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
 /// The rendered image (engine build phases first), GPU seconds per phase and how they were timed.
 type GpuRender = (render::whitted::Rendered, Vec<(String, f64)>, &'static str);
 
-/// `render --backend gpu`: the G-buffer from the GPU's render pipeline, CRSH/RAH or the grid's
-/// traversal (on a grid built by the CPU), secondary ray generation and shading as compute
-/// kernels; the Whitted loop's sequencing, the surface
-/// records between generations and the pixel accumulation on the CPU.
+/// `render --backend gpu`: one frame on the wgpu backend (`rayspace::gpu_frame`): the
+/// G-buffer from the GPU's render pipeline, CRSH/RAH or the grid (built and traversed by
+/// kernels), the ray generations, the shading and the pixel accumulation on the device.
 #[cfg(feature = "gpu")]
 fn render_on_gpu(
     a: &RenderArgs,

@@ -4,7 +4,7 @@
 //! Why not `f32::atan2`: its result depends on the platform's libm, and a GPU's built-ins are
 //! different again. Every quantity that decides a ray-space hierarchy's shape (the hash's
 //! spherical angles, the cones' angles and their sines and cosines) is computed here, and the
-//! WGSL kernels (`gpu` crate, `pmath.wgsl`) evaluate the very same operations in the same
+//! WGSL kernels (`gpu` crate, `shaders/common.wgsl`) evaluate the very same operations in the same
 //! order. On a device whose f32 +, −, ×, ÷ and sqrt are IEEE round-to-nearest and not fused
 //! into FMAs (lavapipe is one; checked by the `gpu` crate's tests), the GPU's nodes, and so
 //! its counters, are bit-identical to the CPU's.

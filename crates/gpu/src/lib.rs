@@ -10,7 +10,7 @@
 //!   (`hash → order → build → traverse`, `src/rsh/*.rs` beside `src/rsh/*.wgsl`), with the
 //!   same counters.
 //! - [`grid`]: the irregular grid's traversal as a [`trace::Tracer`] (`src/grid/*`
-//!   beside `accel/src/grid/*`), on a grid built by the CPU.
+//!   beside `accel/src/grid/*`): every build pass and the traversal as kernels.
 //! - [`raster`]: primary visibility by real rasterization (render pipeline, depth test) into
 //!   the G-buffer's render targets.
 //! - [`stages`]: the Whitted loop's shadow-ray generation, reflection/refraction-ray

@@ -67,7 +67,7 @@ fn fits(g: &Grid, tris: &[[Vec3; 3]]) -> bool {
         && g.refs.len() < lim
 }
 
-/// Whether [`trace`] takes the 8-lane kernel for `g` on this CPU.
+/// Whether [`trace()`] takes the 8-lane kernel for `g` on this CPU.
 pub fn used(g: &Grid, tris: &[[Vec3; 3]]) -> bool {
     available() && fits(g, tris)
 }
