@@ -79,6 +79,9 @@ pub struct Gpu {
     /// Read-backs since the device was made: each one a wait for the device
     /// ([`Gpu::map_read`]).
     reads: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    /// The device's compiled kernels, made on first use and shared by every engine and
+    /// handle of the device ([`Gpu::kernels`]).
+    kernels: std::sync::Arc<std::sync::OnceLock<std::sync::Arc<crate::kernels::Kernels>>>,
 }
 
 /// How [`crate::kernels::Exec`] times phases.
@@ -93,6 +96,15 @@ pub enum PhaseTimer {
 }
 
 impl Gpu {
+    /// Every kernel compiled for this device: compiled by the first call (17 WGSL modules,
+    /// seconds on a software device), then shared by every engine, rebuild and handle of
+    /// the device, so a device compiles its kernels once.
+    pub fn kernels(&self) -> std::sync::Arc<crate::kernels::Kernels> {
+        self.kernels
+            .get_or_init(|| std::sync::Arc::new(crate::kernels::Kernels::new(self)))
+            .clone()
+    }
+
     /// The first adapter wgpu offers (high performance preferred), with timestamp queries when
     /// the adapter has them. Never blocks indefinitely: wgpu's adapter request returns an error
     /// when no driver is installed.
@@ -163,6 +175,7 @@ impl Gpu {
             timestamps,
             timer,
             moved: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0)),
+            kernels: Default::default(),
             reads: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0)),
         })
     }

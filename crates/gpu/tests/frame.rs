@@ -10,7 +10,6 @@
 mod common;
 
 use accel::{GridConfig, GridEngine};
-use gpu::kernels::Kernels;
 use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh, GpuStages};
 use render::whitted::{render_with, RenderOptions};
 use rsh::RshConfig;
@@ -38,7 +37,7 @@ fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
 #[test]
 fn device_frames_equal_host_sequenced_frames() {
     let Some(g) = gpu() else { return };
-    let kernels = Kernels::new(&g);
+    let kernels = g.kernels();
     for (name, w, h, bounces) in [
         ("cornell", 96, 72, 3),
         ("spheres", 80, 64, 3),

@@ -196,7 +196,7 @@ fn same<T: PartialEq + std::fmt::Debug>(gpu: &[T], cpu: &[T], what: &str) {
 #[test]
 fn builtin_builds_match_the_cpu() {
     let Some(g) = gpu() else { return };
-    let k = Kernels::new(&g);
+    let k = g.kernels();
     let mut nested = 0;
     for name in builtin::NAMES {
         let geo = Geometry::from_scene(&builtin::by_name(name).unwrap());
@@ -210,7 +210,7 @@ fn builtin_builds_match_the_cpu() {
 #[test]
 fn random_soup_builds_match_the_cpu() {
     let Some(g) = gpu() else { return };
-    let k = Kernels::new(&g);
+    let k = g.kernels();
     for seed in 0..9u64 {
         let (geo, _) = testkit::grid_case(seed, 40 + 170 * seed as usize, 0);
         let (cname, cfg) = &configs()[seed as usize % 6];
@@ -290,7 +290,7 @@ fn caps_and_binding_limits_refuse_with_clear_lines() {
 fn real_scene_builds_match_the_cpu() {
     let Some(dir) = testkit::scenes() else { return };
     let Some(g) = gpu() else { return };
-    let k = Kernels::new(&g);
+    let k = g.kernels();
     for rel in [
         "dabrovic-sponza/sponza.obj",
         "bart-kitchen/aff/kitchen.aff",

@@ -3,7 +3,7 @@
 //! (ties keep their input order), at sizes around the block and tile boundaries.
 
 use geom::Pcg32;
-use gpu::kernels::{Exec, Kernels};
+use gpu::kernels::Exec;
 use gpu::Gpu;
 
 fn gpu() -> Option<Gpu> {
@@ -15,7 +15,7 @@ const SIZES: [usize; 9] = [1, 2, 1023, 1024, 1025, 4096, 4097, 70_001, 1_100_000
 #[test]
 fn scan_compact_and_sort_match_their_definitions() {
     let Some(g) = gpu() else { return };
-    let k = Kernels::new(&g);
+    let k = g.kernels();
     let mut rng = Pcg32::new(7, 1);
     for n in SIZES {
         let mut ex = Exec::new(&g, &k);

@@ -11,7 +11,6 @@
 //! GPU's ray generation reproduces the CPU's rays bit for bit, and its shading the CPU's
 //! colours within 1e-4 (relative: the device's `pow` for the specular exponent).
 
-use gpu::kernels::Kernels;
 use gpu::{Gpu, GpuRaster, GpuRsh, GpuStages};
 use render::raster::{default_near, rasterize};
 use render::whitted::{render, render_with, RenderOptions};
@@ -126,7 +125,7 @@ fn renders_match_cpu_renders() {
         );
         // GPU raster + GPU ray generation and shading + GPU tracer: within the tolerance.
         let r = GpuRaster::new(&g, &geo, &s.materials).unwrap();
-        let kernels = Kernels::new(&g);
+        let kernels = g.kernels();
         let stages = GpuStages::new(&g, &kernels);
         let full = render_with(
             &s,
@@ -166,7 +165,7 @@ fn ray_generation_and_shading_match_the_cpu_passes() {
         if small {
             g.limits.max_storage_buffer_binding_size = 4096;
         }
-        let kernels = Kernels::new(&g);
+        let kernels = g.kernels();
         let stages = GpuStages::new(&g, &kernels);
         for name in builtin::NAMES {
             let mut s = builtin::by_name(name).unwrap();

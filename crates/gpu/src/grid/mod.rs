@@ -94,7 +94,7 @@ impl DeviceGrid {
 /// The grid on the device: what the traversal kernel reads.
 pub struct GpuGrid {
     pub(crate) gpu: Gpu,
-    pub(crate) kernels: Kernels,
+    pub(crate) kernels: std::sync::Arc<Kernels>,
     /// Box min, box max, voxel size, 1 / voxel size (vec4 each).
     pub(crate) consts: wgpu::Buffer,
     pub(crate) map: wgpu::Buffer,
@@ -129,7 +129,7 @@ impl GpuGrid {
             "grid2l-gpu"
         };
         let t0 = Instant::now();
-        let kernels = Kernels::new(&gpu);
+        let kernels = gpu.kernels();
         let compile_seconds = t0.elapsed().as_secs_f64();
         let b = Built::new(&gpu, &kernels, geo, cfg)?;
         Ok(GpuGrid {
@@ -192,7 +192,7 @@ impl GpuGrid {
         check("voxel map entries", grid.entries.len() as u64 * 4)?;
         check("triangles", tris.len() as u64 * 48)?;
         let t0 = Instant::now();
-        let kernels = Kernels::new(&gpu);
+        let kernels = gpu.kernels();
         let compile_seconds = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let cells: Vec<[u32; 8]> = grid

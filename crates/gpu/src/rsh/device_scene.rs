@@ -12,8 +12,8 @@ use ::rsh::RshConfig;
 pub struct DeviceScene {
     /// The device.
     pub gpu: Gpu,
-    /// The compiled kernels.
-    pub kernels: Kernels,
+    /// The device's compiled kernels ([`crate::Gpu::kernels`]).
+    pub kernels: std::sync::Arc<Kernels>,
     /// The configuration (validated).
     pub cfg: RshConfig,
     /// Triangles.

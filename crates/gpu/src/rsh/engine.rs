@@ -140,7 +140,7 @@ impl GpuRsh {
             )
             .into());
         }
-        let kernels = Kernels::new(&gpu);
+        let kernels = gpu.kernels();
         // Pair buffers hold at most `pair_budget` u32s each (as on the CPU, where the budget
         // bounds the same buffers); they must fit one binding.
         if cfg.pair_budget as u64 * 4 > gpu.max_binding() {
