@@ -46,7 +46,9 @@ step 200 "bench gpu 1024 b3" "$R" bench gpu --scenes office,$S/sponza.toml \
     --width 1024 --height 1024 --bounces 3 --md "$OUT/bench-gpu-1024-b3.md"
 # The GPU tests (the device-resident frame against the host-sequenced one; the minimal-ball
 # fix eb34266 is checked by hierarchies_match_the_cpu_node_for_node).
-for t in "$BIN"/frame-* "$BIN"/grid_build-* "$BIN"/grid-* "$BIN"/agreement-*; do
-    [ -x "$t" ] && step 120 "test $(basename "$t")" "$t" --test-threads 4
+for m in frame grid_build grid agreement; do
+    for t in "$BIN"/device-*; do
+        [ -x "$t" ] && step 120 "test $m" "$t" "$m::" --test-threads 4
+    done
 done
 echo "== done" >>"$LOG"

@@ -6,8 +6,8 @@
 //! brute force's closest hits, and the CPU's N_T and N_I. Without an adapter every test
 //! prints why and passes locally (CI installs lavapipe and requires the GPU).
 
+use crate::common;
 use accel::grid::{build_grid, GridConfig, GridEngine, Subdivision};
-mod common;
 
 use accel::BruteForce;
 use gpu::{Gpu, GpuGrid};

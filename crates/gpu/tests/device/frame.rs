@@ -7,7 +7,7 @@
 //! The host-sequenced frame's own tolerance against the CPU renderer is checked in
 //! `raster.rs`; together they bound the device frame against the CPU.
 
-mod common;
+use crate::common;
 
 use accel::{GridConfig, GridEngine};
 use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh, GpuStages};

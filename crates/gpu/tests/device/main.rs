@@ -1,0 +1,11 @@
+//! The GPU backend against the CPU, on lavapipe or a real device: one test binary, a module per
+//! pass family (CRSH/RAH agreement, whole frames, the grid's traversal and build, the
+//! primitives, the rasterizer and stages).
+
+mod agreement;
+mod common;
+mod frame;
+mod grid;
+mod grid_build;
+mod primitives;
+mod raster;

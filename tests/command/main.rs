@@ -1,0 +1,6 @@
+//! The `rayspace` command line as a user runs it (the binary, its report and its viewer): one
+//! test binary.
+
+mod cli;
+mod report;
+mod view;
