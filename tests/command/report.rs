@@ -82,7 +82,11 @@ fn quick_report_is_complete_and_its_renders_agree() {
             slug(r["engine"].as_str().unwrap())
         );
         assert_eq!(cell(&html, &id), r["total_tests"].to_string());
-        assert!(r["total_tests"].as_u64().unwrap() > 0);
+        // Embree's kernel is a black box: its renders count no tests (a build with the
+        // `embree` feature puts them in the report); every other engine counts its own.
+        if !r["engine"].as_str().unwrap().starts_with("embree") {
+            assert!(r["total_tests"].as_u64().unwrap() > 0, "{r}");
+        }
     }
     let kinds: Vec<&str> = s["ray_kinds"]
         .as_array()
