@@ -233,7 +233,7 @@ pub enum GridError {
     /// The build would hold more of something than its cap: a fixed index limit, or what
     /// the memory limit (`max_bytes`) holds at `unit` bytes each. Lower densities or depth
     /// shrink it; raising the memory limit helps too when `by_memory`.
-    #[error("{}", size_message(self))]
+    #[error("{}", size_message(what, *need, *cap, *unit, *by_memory))]
     TooBig {
         /// What ("triangle references", "octree nodes at level 3", "top cells", "voxel
         /// map entries").
@@ -252,23 +252,14 @@ pub enum GridError {
     Device(String),
 }
 
-fn size_message(e: &GridError) -> String {
-    let GridError::TooBig {
-        what,
-        need,
-        cap,
-        unit,
-        by_memory,
-    } = e
-    else {
-        return String::new();
-    };
+/// The message of [`GridError::TooBig`]: the cap, what set it, and the options that lower it.
+fn size_message(what: &str, need: u64, cap: u64, unit: u64, by_memory: Option<u64>) -> String {
     let shrink = "lower `grid_top_density`, `grid_leaf_density` or `grid_max_depth`";
     match by_memory {
         Some(max) => format!(
             "the grid would hold {need} {what} or more (about {} at {unit} B each), more than the {} allowed (`max_memory`); {shrink}, or raise `max_memory`",
-            trace::memory::gib(need.saturating_mul(*unit)),
-            trace::memory::gib(*max)
+            trace::memory::gib(need.saturating_mul(unit)),
+            trace::memory::gib(max)
         ),
         None => format!(
             "the grid would hold {need} {what} or more, beyond its limit of {cap}; {shrink}"
