@@ -20,7 +20,11 @@
 //! frame's image bytes depend only on its inputs.
 
 use crate::device::{Gpu, GpuError};
-use crate::kernels::{Exec, Kernel, Params};
+use crate::kernels::params::{
+    EncodeParams, FrameCountParams, GbFlagsParams, GbSurfacesParams, KindCountParams, MissesParams,
+    ShadowMetaParams, TotalsParams,
+};
+use crate::kernels::{launch, Exec};
 use crate::raster::GpuRaster;
 use crate::rays::DeviceRays;
 use crate::stages::Surf;
@@ -66,9 +70,15 @@ pub(crate) fn totals(
         }
     };
     ex.run(
-        Kernel::FrTotals,
-        Params::n(n as u32, cnt.is_some() as u32, 0, 0),
-        &[(16, rec), (26, &out), (27, cb)],
+        launch::FrTotals {
+            rec,
+            out_u: &out,
+            cnt: cb,
+        },
+        TotalsParams {
+            rays: n as u32,
+            counters: cnt.is_some() as u32,
+        },
         chunks,
         256,
     );
@@ -145,13 +155,6 @@ impl DeviceSurfaces {
             pix: g.storage("surface pixel", n * 4),
             len: n,
         }
-    }
-
-    /// Bindings 1–7 (as outputs of `frame.wgsl`).
-    fn outputs(&self) -> Vec<(u32, &wgpu::Buffer)> {
-        let mut b = self.s.binds();
-        b.push((7, &self.pix));
-        b
     }
 }
 
@@ -278,31 +281,48 @@ pub fn render(
     let mut surf = {
         let flags = g.storage("covered", npix * 4);
         let offs = g.storage("covered offsets", (npix + 1) * 4);
-        let mut p = Params::n(npix as u32, w, gb.stride, 0);
-        p.f[0] = [bg.x, bg.y, bg.z, 0.0];
+        let p = GbFlagsParams {
+            pixels: npix as u32,
+            width: w,
+            stride: gb.stride,
+            background: bg.to_array(),
+        };
         ex.run(
-            Kernel::FrGbFlags,
+            launch::FrGbFlags {
+                gb_id: &gb.id,
+                flags: &flags,
+                img: &img,
+            },
             p,
-            &[(23, &gb.id), (17, &flags), (19, &img)],
             npix,
             256,
         );
         ex.scan(&flags, &offs, npix);
         let n = ex.read_at(&offs, npix as usize) as u64;
         let s = DeviceSurfaces::new(g, n);
-        let mut p = Params::n(npix as u32, w, gb.stride, 0);
-        p.f[0] = [view.eye.x, view.eye.y, view.eye.z, 0.0];
-        let mut binds = vec![
-            (17, &flags),
-            (18, &offs),
-            (13, tris),
-            (15, material),
-            (21, &gb.pos),
-            (22, &gb.normal),
-            (23, &gb.id),
-        ];
-        binds.extend(s.outputs());
-        ex.run(Kernel::FrGbSurfaces, p, &binds, npix, 256);
+        let p = GbSurfacesParams {
+            pixels: npix as u32,
+            width: w,
+            stride: gb.stride,
+            eye: view.eye.to_array(),
+        };
+        let l = launch::FrGbSurfaces {
+            flags: &flags,
+            offs: &offs,
+            g_tris: tris,
+            g_material: material,
+            gb_pos: &gb.pos,
+            gb_nrm: &gb.normal,
+            gb_id: &gb.id,
+            s_pos: &s.s.pos,
+            s_ng: &s.s.ng,
+            s_ns: &s.s.ns,
+            s_inc: &s.s.inc,
+            s_tw: &s.s.tw,
+            s_mat: &s.s.mat,
+            s_pix: &s.pix,
+        };
+        ex.run(l, p, npix, 256);
         s
     };
     stats.covered_pixels = surf.len;
@@ -320,9 +340,15 @@ pub fn render(
             surf.s
                 .shadow_rays(&mut ex, &lights, &rays.org, &rays.dir, n, nl);
             ex.run(
-                Kernel::FrShadowMeta,
-                Params::n(m as u32, nl as u32, 0, 0),
-                &[(7, &surf.pix), (10, &rays.kl), (11, &rays.pix)],
+                launch::FrShadowMeta {
+                    s_pix: &surf.pix,
+                    r_kl: &rays.kl,
+                    r_pix: &rays.pix,
+                },
+                ShadowMetaParams {
+                    rays: m as u32,
+                    lights: nl as u32,
+                },
                 m,
                 256,
             );
@@ -331,9 +357,11 @@ pub fn render(
             stats.rays_shadow += m;
             clock.lap(&mut ex, &mut stats, FramePhase::Trace);
             ex.run(
-                Kernel::FrOccluded,
-                Params::n(m as u32, 0, 0, 0),
-                &[(16, &rec), (26, &occ)],
+                launch::FrOccluded {
+                    rec: &rec,
+                    out_u: &occ,
+                },
+                FrameCountParams { n: m as u32 },
                 m,
                 256,
             );
@@ -343,9 +371,12 @@ pub fn render(
             let colour = g.storage("colour", n * 16);
             surf.s.shade(&mut ex, &lights, &mats, &occ, &colour, n, nl);
             ex.run(
-                Kernel::FrAccumulate,
-                Params::n(n as u32, 0, 0, 0),
-                &[(7, &surf.pix), (19, &img), (20, &colour)],
+                launch::FrAccumulate {
+                    s_pix: &surf.pix,
+                    img: &img,
+                    col: &colour,
+                },
+                FrameCountParams { n: n as u32 },
                 n,
                 256,
             );
@@ -366,9 +397,11 @@ pub fn render(
         let flags = g.storage("slot flags", slots * 4);
         let offs = g.storage("slot offsets", (slots + 1) * 4);
         ex.run(
-            Kernel::FrSlotFlags,
-            Params::n(slots as u32, 0, 0, 0),
-            &[(20, &b_w), (17, &flags)],
+            launch::FrSlotFlags {
+                col: &b_w,
+                flags: &flags,
+            },
+            FrameCountParams { n: slots as u32 },
             slots,
             256,
         );
@@ -381,21 +414,20 @@ pub fn render(
         let rays = DeviceRays::storage(g, "bounce", r);
         let weight = g.storage("bounce weight", r * 16);
         ex.run(
-            Kernel::FrBounceEmit,
-            Params::n(slots as u32, 0, 0, 0),
-            &[
-                (17, &flags),
-                (18, &offs),
-                (24, &b_org),
-                (25, &b_dir),
-                (20, &b_w),
-                (7, &surf.pix),
-                (8, &rays.org),
-                (9, &rays.dir),
-                (10, &rays.kl),
-                (11, &rays.pix),
-                (12, &weight),
-            ],
+            launch::FrBounceEmit {
+                flags: &flags,
+                offs: &offs,
+                b_org: &b_org,
+                b_dir: &b_dir,
+                col: &b_w,
+                s_pix: &surf.pix,
+                r_org: &rays.org,
+                r_dir: &rays.dir,
+                r_kl: &rays.kl,
+                r_pix: &rays.pix,
+                r_w: &weight,
+            },
+            FrameCountParams { n: slots as u32 },
             slots,
             256,
         );
@@ -406,46 +438,54 @@ pub fn render(
         let rec = trace_device(engine, &rays, TraceMode::Closest, &mut stats.trace);
         clock.lap(&mut ex, &mut stats, FramePhase::Trace);
         // The background behind the misses, then the next generation's surfaces.
-        let mut p = Params::n(r as u32, 0, 0, 0);
-        p.f[0] = [bg.x, bg.y, bg.z, 0.0];
+        let p = MissesParams {
+            rays: r as u32,
+            background: bg.to_array(),
+        };
         ex.run(
-            Kernel::FrMisses,
+            launch::FrMisses {
+                r_pix: &rays.pix,
+                r_w: &weight,
+                rec: &rec,
+                img: &img,
+            },
             p,
-            &[(11, &rays.pix), (12, &weight), (16, &rec), (19, &img)],
             r,
             256,
         );
         let hflags = g.storage("hit flags", r * 4);
         let hoffs = g.storage("hit offsets", (r + 1) * 4);
         ex.run(
-            Kernel::FrHitFlags,
-            Params::n(r as u32, 0, 0, 0),
-            &[(16, &rec), (17, &hflags)],
+            launch::FrHitFlags {
+                rec: &rec,
+                flags: &hflags,
+            },
+            FrameCountParams { n: r as u32 },
             r,
             256,
         );
         ex.scan(&hflags, &hoffs, r);
         let nh = ex.read_at(&hoffs, r as usize) as u64;
         let next = DeviceSurfaces::new(g, nh);
-        let mut binds = vec![
-            (17, &hflags),
-            (18, &hoffs),
-            (16, &rec),
-            (9, &rays.dir),
-            (11, &rays.pix),
-            (12, &weight),
-            (13, tris),
-            (14, normals),
-            (15, material),
-        ];
-        binds.extend(next.outputs());
-        ex.run(
-            Kernel::FrHitSurfaces,
-            Params::n(r as u32, 0, 0, 0),
-            &binds,
-            r,
-            256,
-        );
+        let l = launch::FrHitSurfaces {
+            flags: &hflags,
+            offs: &hoffs,
+            rec: &rec,
+            r_dir: &rays.dir,
+            r_pix: &rays.pix,
+            r_w: &weight,
+            g_tris: tris,
+            g_normals: normals,
+            g_material: material,
+            s_pos: &next.s.pos,
+            s_ng: &next.s.ng,
+            s_ns: &next.s.ns,
+            s_inc: &next.s.inc,
+            s_tw: &next.s.tw,
+            s_mat: &next.s.mat,
+            s_pix: &next.pix,
+        };
+        ex.run(l, FrameCountParams { n: r as u32 }, r, 256);
         surf = next;
         clock.lap(&mut ex, &mut stats, FramePhase::Shading);
         generation += 1;
@@ -454,9 +494,14 @@ pub fn render(
     let words = (3 * npix).div_ceil(4);
     let enc = g.storage("srgb", words * 4);
     ex.run(
-        Kernel::FrEncode,
-        Params::n(words as u32, npix as u32, 0, 0),
-        &[(19, &img), (26, &enc)],
+        launch::FrEncode {
+            img: &img,
+            out_u: &enc,
+        },
+        EncodeParams {
+            words: words as u32,
+            pixels: npix as u32,
+        },
         words,
         256,
     );
@@ -474,9 +519,14 @@ fn kind_count(ex: &mut Exec, kl: &wgpu::Buffer, n: u64) -> u64 {
     let chunks = n.div_ceil(TOTALS_CHUNK);
     let out = ex.g.storage("kind counts", chunks * 4);
     ex.run(
-        Kernel::FrKindCount,
-        Params::n(n as u32, 3, 0, 0),
-        &[(10, kl), (26, &out)],
+        launch::FrKindCount {
+            r_kl: kl,
+            out_u: &out,
+        },
+        KindCountParams {
+            rays: n as u32,
+            kind: 3,
+        },
         chunks,
         256,
     );

@@ -46,6 +46,58 @@
 
 const NO_HIT: u32 = 0xffffffffu;
 
+// Parameters of fr_gb_flags.
+struct GbFlagsParams {
+    pixels: u32, // pixels of the image
+    width: u32, // the image width
+    stride: u32, // the G-buffer's row stride in texels
+    background: vec3<f32>, // the background colour (linear RGB)
+}
+
+// Parameters of fr_gb_surfaces.
+struct GbSurfacesParams {
+    pixels: u32, // pixels of the image
+    width: u32, // the image width
+    stride: u32, // the G-buffer's row stride in texels
+    eye: vec3<f32>, // the camera's position
+}
+
+// Parameters of fr_shadow_meta.
+struct ShadowMetaParams {
+    rays: u32, // shadow rays: surfaces · lights
+    lights: u32, // lights of the scene
+}
+
+// Parameters of the kernels that take one count (fr_occluded, fr_accumulate, fr_slot_flags,
+// fr_bounce_emit, fr_hit_flags, fr_hit_surfaces).
+struct FrameCountParams {
+    n: u32, // the rays, surfaces or slots, as each kernel says
+}
+
+// Parameters of fr_misses.
+struct MissesParams {
+    rays: u32, // bounce rays traced
+    background: vec3<f32>, // the background colour (linear RGB)
+}
+
+// Parameters of fr_encode.
+struct EncodeParams {
+    words: u32, // u32 words of the sRGB bytes
+    pixels: u32, // pixels of the image
+}
+
+// Parameters of fr_totals.
+struct TotalsParams {
+    rays: u32, // rays whose records are summed
+    counters: u32, // 1: per-ray (steps, tests) counters are bound and summed
+}
+
+// Parameters of fr_kind_count.
+struct KindCountParams {
+    rays: u32, // rays of the batch
+    kind: u32, // the kind counted (RayKind's number)
+}
+
 fn fid(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
 }
@@ -95,29 +147,29 @@ fn shading_normal(t: u32, u: f32, v: f32) -> vec3<f32> {
 }
 
 // ---------------------------------------------------------------- G-buffer
-// Params u0 = (pixels, width, row stride in texels, -), f0 = (background rgb, -).
 // Covered flags, and the image's start: the background where nothing is seen, else 0.
 @compute @workgroup_size(256)
 fn fr_gb_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = gb_flags_params();
     let p = fid(gid, nwg);
-    if p >= P.u0.x {
+    if p >= prm.pixels {
         return;
     }
-    let q = (p / P.u0.y) * P.u0.z + p % P.u0.y;
+    let q = (p / prm.width) * prm.stride + p % prm.width;
     let covered = gb_id[q].w != 0u;
     flags[p] = u32(covered);
-    img[p] = select(vec4<f32>(P.f0.xyz, 0.0), vec4<f32>(0.0), covered);
+    img[p] = select(vec4<f32>(prm.background, 0.0), vec4<f32>(0.0), covered);
 }
 
-// Params u0 = (pixels, width, row stride, -), f0 = (eye, -).
 // Surfaces::from_gbuffer: one surface per covered pixel, in pixel order.
 @compute @workgroup_size(256)
 fn fr_gb_surfaces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = gb_surfaces_params();
     let p = fid(gid, nwg);
-    if p >= P.u0.x || flags[p] == 0u {
+    if p >= prm.pixels || flags[p] == 0u {
         return;
     }
-    let q = (p / P.u0.y) * P.u0.z + p % P.u0.y;
+    let q = (p / prm.width) * prm.stride + p % prm.width;
     let i = offs[p];
     let t = gb_id[q].x;
     let pos = gb_pos[q].xyz;
@@ -125,7 +177,7 @@ fn fr_gb_surfaces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     s_pos[i] = vec4<f32>(pos, 0.0);
     s_ng[i] = vec4<f32>(geometric_normal(t), 0.0);
     s_ns[i] = vec4<f32>(gb_nrm[q].xyz, 0.0);
-    var inc = normalize_or_zero3(pos - P.f0.xyz);
+    var inc = normalize_or_zero3(pos - prm.eye);
     if all(inc == vec3<f32>(0.0)) {
         inc = vec3<f32>(0.0, 0.0, 1.0);
     }
@@ -135,36 +187,39 @@ fn fr_gb_surfaces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
 }
 
 // ---------------------------------------------------------------- shadow rays
-// Params u0 = (rays, lights, -, -). The kind (shadow) and light, and the surface's pixel,
+// The kind (shadow) and light, and the surface's pixel,
 // of ray k = surface · lights + light (secondary::shadow_rays's order).
 @compute @workgroup_size(256)
 fn fr_shadow_meta(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = shadow_meta_params();
     let k = fid(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.rays {
         return;
     }
-    r_kl[k] = 1u | ((k % P.u0.y) << 2u);
-    r_pix[k] = s_pix[k / P.u0.y];
+    r_kl[k] = 1u | ((k % prm.lights) << 2u);
+    r_pix[k] = s_pix[k / prm.lights];
 }
 
-// Params u0 = (rays, -, -, -). Whether each shadow ray's light is hidden.
+// Whether each shadow ray's light is hidden.
 @compute @workgroup_size(256)
 fn fr_occluded(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = frame_count_params();
     let k = fid(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.n {
         return;
     }
     out_u[k] = u32(rec[k].x != NO_HIT);
 }
 
 // ---------------------------------------------------------------- accumulation
-// Params u0 = (surfaces, -, -, -). Each pixel's colours added in surface order, one thread
+// Each pixel's colours added in surface order, one thread
 // per run of equal pixels (a generation's surfaces are in pixel order), so the sums are the
 // CPU's `pixels[p] += c` in the same order, whatever the scheduling.
 @compute @workgroup_size(256)
 fn fr_accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = frame_count_params();
     let i = fid(gid, nwg);
-    let n = P.u0.x;
+    let n = prm.n;
     if i >= n {
         return;
     }
@@ -179,12 +234,13 @@ fn fr_accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     img[p] = vec4<f32>(c, 0.0);
 }
 
-// Params u0 = (rays, -, -, -), f0 = (background rgb, -). The background times the weight of
+// The background times the weight of
 // every bounce ray that hit nothing, added per pixel in ray order (rays are in pixel order).
 @compute @workgroup_size(256)
 fn fr_misses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = misses_params();
     let i = fid(gid, nwg);
-    let n = P.u0.x;
+    let n = prm.rays;
     if i >= n {
         return;
     }
@@ -196,7 +252,7 @@ fn fr_misses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     var missed = false;
     for (var j = i; j < n && r_pix[j] == p; j++) {
         if rec[j].x == NO_HIT {
-            c = c + mulv(P.f0.xyz, r_w[j].xyz);
+            c = c + mulv(prm.background, r_w[j].xyz);
             missed = true;
         }
     }
@@ -206,23 +262,25 @@ fn fr_misses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
 }
 
 // ---------------------------------------------------------------- bounce rays
-// Params u0 = (slots, -, -, -). Bounce slots that hold a ray (stages.wgsl's bounce_rays
+// Bounce slots that hold a ray (stages.wgsl's bounce_rays
 // marks them with their kind).
 @compute @workgroup_size(256)
 fn fr_slot_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = frame_count_params();
     let k = fid(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.n {
         return;
     }
     flags[k] = u32(col[k].w != 0.0);
 }
 
-// Params u0 = (slots, -, -, -). The filled slots as a ray batch, in slot order (surface-major,
+// The filled slots as a ray batch, in slot order (surface-major,
 // reflection before refraction: secondary::bounce_rays's order).
 @compute @workgroup_size(256)
 fn fr_bounce_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = frame_count_params();
     let k = fid(gid, nwg);
-    if k >= P.u0.x || flags[k] == 0u {
+    if k >= prm.n || flags[k] == 0u {
         return;
     }
     let j = offs[k];
@@ -234,21 +292,23 @@ fn fr_bounce_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
 }
 
 // ---------------------------------------------------------------- surfaces from hits
-// Params u0 = (rays, -, -, -). Rays that hit something.
+// Rays that hit something.
 @compute @workgroup_size(256)
 fn fr_hit_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = frame_count_params();
     let i = fid(gid, nwg);
-    if i >= P.u0.x {
+    if i >= prm.n {
         return;
     }
     flags[i] = u32(rec[i].x != NO_HIT);
 }
 
-// Params u0 = (rays, -, -, -). Surfaces::from_hits: one surface per hit, in ray order.
+// Surfaces::from_hits: one surface per hit, in ray order.
 @compute @workgroup_size(256)
 fn fr_hit_surfaces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = frame_count_params();
     let i = fid(gid, nwg);
-    if i >= P.u0.x || flags[i] == 0u {
+    if i >= prm.n || flags[i] == 0u {
         return;
     }
     let j = offs[i];
@@ -281,18 +341,19 @@ fn srgb(c0: f32) -> u32 {
     return min(u32(max(mul(s, 255.0) + 0.5, 0.0)), 255u);
 }
 
-// Params u0 = (words, pixels, -, -). The image as sRGB bytes (r, g, b per pixel, row-major),
+// The image as sRGB bytes (r, g, b per pixel, row-major),
 // four to a word: what the PNG stores, and all the host reads back of a frame's image.
 @compute @workgroup_size(256)
 fn fr_encode(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = encode_params();
     let k = fid(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.words {
         return;
     }
     var w = 0u;
     for (var b = 0u; b < 4u; b++) {
         let q = 4u * k + b;
-        if q < 3u * P.u0.y {
+        if q < 3u * prm.pixels {
             let c = img[q / 3u][q % 3u];
             w = w | (srgb(c) << (8u * b));
         }
@@ -301,13 +362,14 @@ fn fr_encode(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
 }
 
 // ---------------------------------------------------------------- per-trace totals
-// Params u0 = (rays, counters present, -, -). Per chunk of 1024 rays: hits, and with the
+// Per chunk of 1024 rays: hits, and with the
 // grid's per-ray counters their sums as (low, high) words, so that a trace's totals come back
 // in a few words per thousand rays instead of the records.
 @compute @workgroup_size(256)
 fn fr_totals(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = totals_params();
     let c = fid(gid, nwg);
-    let n = P.u0.x;
+    let n = prm.rays;
     let lo = c * 1024u;
     if lo >= n {
         return;
@@ -317,7 +379,7 @@ fn fr_totals(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     var s = vec4<u32>(0u);
     for (var i = lo; i < hi; i++) {
         hits += u32(rec[i].x != NO_HIT);
-        if P.u0.y != 0u {
+        if prm.counters != 0u {
             let x = cnt[i];
             let a = s.x + x.x;
             s.y += u32(a < s.x);
@@ -334,19 +396,20 @@ fn fr_totals(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     out_u[5u * c + 4u] = s.w;
 }
 
-// Params u0 = (rays, kind, -, -). Rays of one kind per chunk of 1024 (the bounce batch's
+// Rays of one kind per chunk of 1024 (the bounce batch's
 // refraction count).
 @compute @workgroup_size(256)
 fn fr_kind_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = kind_count_params();
     let c = fid(gid, nwg);
-    let n = P.u0.x;
+    let n = prm.rays;
     let lo = c * 1024u;
     if lo >= n {
         return;
     }
     var k = 0u;
     for (var i = lo; i < min(lo + 1024u, n); i++) {
-        k += u32((r_kl[i] & 3u) == P.u0.y);
+        k += u32((r_kl[i] & 3u) == prm.kind);
     }
     out_u[c] = k;
 }

@@ -8,412 +8,61 @@ use std::sync::Mutex;
 use std::time::Instant;
 use trace::Phase;
 
-/// Launch parameters, the `Params` block of `common.wgsl`. `f[1][3]` is reserved: [`Exec::run`]
+/// The launch-parameter block, `Params` of `common.wgsl`: what a kernel's typed parameter
+/// struct ([`params`]) packs into ([`ParamBlock`]). `f[1][3]` is reserved: [`Exec::run`]
 /// always sets it to 0, the zero the kernels' `mul()` hides products behind.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Params {
-    /// u0..u3: integer parameters (counts, offsets, flags), as each kernel documents.
+    /// u0..u3: words 0–15.
     pub u: [[u32; 4]; 4],
-    /// f0, f1: float parameters (f1.w is reserved, always 0).
+    /// f0, f1: words 16–23 (f1.w is reserved, always 0).
     pub f: [[f32; 4]; 2],
 }
 const _: () = assert!(std::mem::size_of::<Params>() == 96);
 
+/// Launch parameters that pack into the [`Params`] block.
+pub trait ParamBlock {
+    /// The block.
+    fn block(&self) -> Params;
+}
+
 impl Params {
-    /// Parameters with `u0 = (n, a, b, c)`.
-    pub fn n(n: u32, a: u32, b: u32, c: u32) -> Params {
-        Params {
-            u: [[n, a, b, c], [0; 4], [0; 4], [0; 4]],
-            f: [[0.0; 4]; 2],
+    /// The block from its 24 words (16 integers, then the bits of the 8 floats).
+    pub fn from_words(w: [u32; 24]) -> Params {
+        let mut p = Params::default();
+        for (i, &x) in w.iter().enumerate() {
+            if i < 16 {
+                p.u[i / 4][i % 4] = x;
+            } else {
+                p.f[(i - 16) / 4][i % 4] = f32::from_bits(x);
+            }
         }
+        p
     }
 }
 
 const COMMON: &str = include_str!("shaders/common.wgsl");
-const GEOM: &str = include_str!("shaders/geom.wgsl");
-const PRIM_BINDINGS: &str = include_str!("prims/bindings.wgsl");
-/// The voxel map's layout and lookup, shared by the grid kernels that look voxels up.
-const GRID_MAP: &str = include_str!("grid/map.wgsl");
 
-/// A compiled WGSL module: its files after the shared prelude (constants, `common.wgsl`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Module {
-    Scan,
-    Sort,
-    Compact,
-    Runs,
-    Permute,
-    Kinds,
-    Hash,
-    Build,
-    Traverse,
-    Final,
-    Stages,
-    Grid,
-    GridBuild,
-    VoxelMap,
-    Merge,
-    Expand,
-    Frame,
-}
-
-impl Module {
-    const ALL: [Module; 17] = [
-        Module::Scan,
-        Module::Sort,
-        Module::Compact,
-        Module::Runs,
-        Module::Permute,
-        Module::Kinds,
-        Module::Hash,
-        Module::Build,
-        Module::Traverse,
-        Module::Final,
-        Module::Stages,
-        Module::Grid,
-        Module::GridBuild,
-        Module::VoxelMap,
-        Module::Merge,
-        Module::Expand,
-        Module::Frame,
-    ];
-
-    /// The module's source after the prelude.
-    fn source(self) -> String {
-        match self {
-            Module::Scan => include_str!("prims/scan.wgsl").into(),
-            Module::Sort => include_str!("prims/sort.wgsl").into(),
-            Module::Compact => format!("{PRIM_BINDINGS}{}", include_str!("prims/compact.wgsl")),
-            Module::Runs => format!("{PRIM_BINDINGS}{}", include_str!("prims/runs.wgsl")),
-            Module::Permute => format!("{PRIM_BINDINGS}{}", include_str!("prims/permute.wgsl")),
-            Module::Kinds => format!("{PRIM_BINDINGS}{}", include_str!("rsh/kinds.wgsl")),
-            Module::Hash => format!("{GEOM}{}", include_str!("rsh/hash.wgsl")),
-            Module::Build => format!("{GEOM}{}", include_str!("rsh/build.wgsl")),
-            Module::Traverse => format!("{GEOM}{}", include_str!("rsh/traverse.wgsl")),
-            Module::Final => format!("{GEOM}{}", include_str!("rsh/final.wgsl")),
-            Module::Stages => include_str!("stages.wgsl").into(),
-            Module::Grid => format!("{GEOM}{}{GRID_MAP}", include_str!("grid/traverse.wgsl")),
-            Module::GridBuild => include_str!("grid/build.wgsl").into(),
-            Module::VoxelMap => include_str!("grid/voxelmap.wgsl").into(),
-            Module::Merge => format!("{}{GRID_MAP}", include_str!("grid/merge.wgsl")),
-            Module::Expand => format!("{}{GRID_MAP}", include_str!("grid/expand.wgsl")),
-            Module::Frame => include_str!("frame.wgsl").into(),
-        }
-    }
-}
-
-/// Every compute kernel, by a key the compiler checks: a launch cannot name a kernel that
-/// does not exist, and every key's entry point is compiled (and so checked against its WGSL)
-/// when the kernels are built.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Kernel {
-    /// Block sums of a scan.
-    ScanReduce,
-    /// Exclusive scan within blocks, plus the scanned block sums.
-    ScanDown,
-    /// The AND and OR of all keys (digits equal in every key need no sort pass).
-    KeyBits,
-    /// Per-tile digit histograms of a radix pass.
-    SortCount,
-    /// Stable scatter of a radix pass.
-    SortScatter,
-    /// Stream compaction by flags and scanned offsets.
-    Compact,
-    /// Head flags of runs of equal keys.
-    RunHeads,
-    /// Each run's key and first position.
-    RunChunks,
-    /// Each run's length.
-    RunSizes,
-    /// Runs expanded back to elements (decompression).
-    ExpandRuns,
-    /// The values 0..n.
-    Iota,
-    /// Every word set to one value.
-    Fill,
-    /// `y[i] = x[order[i]]`.
-    Gather,
-    /// Where each ray kind starts among the sorted leaves.
-    KindHist,
-    /// Ray hash keys, validity flags and intersection constants.
-    HashKeys,
-    /// Level 1 of the hierarchy over the sorted leaves.
-    BuildLeafLevel,
-    /// A level of the hierarchy over the level below.
-    BuildUpperLevel,
-    /// Top nodes against the mesh spheres.
-    MeshTest,
-    /// Candidate (top node, triangle) pairs counted per slot.
-    TopCount,
-    /// Candidate (top node, triangle) pairs written.
-    TopEmit,
-    /// (Node, triangle) pairs tested.
-    PairTest,
-    /// Children of the surviving pairs counted.
-    ChildCount,
-    /// (Child, triangle) pairs written.
-    ChildEmit,
-    /// Exact ray–triangle tests of level 1's survivors.
-    FinalTests,
-    /// Hit records from the best hits.
-    Records,
-    /// Shadow rays of the surfaces.
-    ShadowRays,
-    /// Reflection and refraction rays of the surfaces.
-    BounceRays,
-    /// Blinn-Phong shading of the surfaces.
-    ShadeLocal,
-    /// Irregular-grid traversal, one thread per ray.
-    GridTrace,
-    /// Grid build: triangle boxes and the scene box.
-    GridTriBoxes,
-    /// Grid build: references to the top cells, counted or emitted.
-    GridTopRefs,
-    /// Grid build: references per octree node.
-    GridHistogram,
-    /// Grid build: which nodes want to split.
-    GridWants,
-    /// Grid build: child masks of the references.
-    GridMasks,
-    /// Grid build: which nodes split.
-    GridSplit,
-    /// Grid build: a level's voxel-map entries, leaf cells and children.
-    GridNodes,
-    /// Grid build: kept and child reference counts.
-    GridRefFlags,
-    /// Grid build: kept or child references written.
-    GridRefEmit,
-    /// Voxel map: subtree depths and leaf counts (bottom-up).
-    VmUp,
-    /// Voxel map: block roots and places in blocks (top-down).
-    VmDown,
-    /// Voxel map: block entries per subtree (bottom-up).
-    VmBsum,
-    /// Voxel map: pre-order block and leaf offsets (top-down).
-    VmOffsets,
-    /// Voxel map: entries painted, cells renumbered.
-    VmFill,
-    /// Voxel map: cells in map order.
-    VmCells,
-    /// Voxel map: references' renumbered cells.
-    VmKeys,
-    /// Merge: list ranges from the reference ranges.
-    MInit,
-    /// Merge: candidates of the live cells.
-    MCandidates,
-    /// Merge: cells a candidate points at.
-    MPredecessors,
-    /// Merge: chains walked from their heads into pairs.
-    MChains,
-    /// Merge: list lengths after the pass.
-    MCounts,
-    /// Merge: lists rewritten, pairs merged.
-    MEmit,
-    /// Merge: owners one step deep.
-    MCompress,
-    /// Merge: cells still live.
-    MLiveFlags,
-    /// Merge: live cells renumbered.
-    MFinalIndex,
-    /// Merge: the voxel map repointed.
-    MFinalMap,
-    /// Merge: live cells gathered.
-    MFinalCells,
-    /// Expansion: blocked sides and boxes at the start.
-    EInit,
-    /// Expansion: one side of every cell.
-    ESide,
-    /// The traversal's cell records.
-    ERecords,
-    /// Device frame: covered pixels and the image's start.
-    FrGbFlags,
-    /// Device frame: surfaces of the covered pixels.
-    FrGbSurfaces,
-    /// Device frame: shadow rays' kinds, lights and pixels.
-    FrShadowMeta,
-    /// Device frame: occlusion flags from hit records.
-    FrOccluded,
-    /// Device frame: colours added to their pixels in surface order.
-    FrAccumulate,
-    /// Device frame: the background behind bounce rays that hit nothing.
-    FrMisses,
-    /// Device frame: bounce slots that hold a ray.
-    FrSlotFlags,
-    /// Device frame: the filled bounce slots as a ray batch.
-    FrBounceEmit,
-    /// Device frame: rays that hit something.
-    FrHitFlags,
-    /// Device frame: surfaces of the hits.
-    FrHitSurfaces,
-    /// Device frame: the image as sRGB bytes.
-    FrEncode,
-    /// A trace's hits and counter sums per chunk of rays.
-    FrTotals,
-    /// Device frame: rays of one kind per chunk.
-    FrKindCount,
-}
+// `Module`, `Kernel` and `launch::*`, derived from the WGSL by `build.rs`.
+include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
 
 impl Kernel {
-    /// Every kernel.
-    pub const ALL: [Kernel; 72] = [
-        Kernel::ScanReduce,
-        Kernel::ScanDown,
-        Kernel::KeyBits,
-        Kernel::SortCount,
-        Kernel::SortScatter,
-        Kernel::Compact,
-        Kernel::RunHeads,
-        Kernel::RunChunks,
-        Kernel::RunSizes,
-        Kernel::ExpandRuns,
-        Kernel::Iota,
-        Kernel::Fill,
-        Kernel::Gather,
-        Kernel::KindHist,
-        Kernel::HashKeys,
-        Kernel::BuildLeafLevel,
-        Kernel::BuildUpperLevel,
-        Kernel::MeshTest,
-        Kernel::TopCount,
-        Kernel::TopEmit,
-        Kernel::PairTest,
-        Kernel::ChildCount,
-        Kernel::ChildEmit,
-        Kernel::FinalTests,
-        Kernel::Records,
-        Kernel::ShadowRays,
-        Kernel::BounceRays,
-        Kernel::ShadeLocal,
-        Kernel::GridTrace,
-        Kernel::GridTriBoxes,
-        Kernel::GridTopRefs,
-        Kernel::GridHistogram,
-        Kernel::GridWants,
-        Kernel::GridMasks,
-        Kernel::GridSplit,
-        Kernel::GridNodes,
-        Kernel::GridRefFlags,
-        Kernel::GridRefEmit,
-        Kernel::VmUp,
-        Kernel::VmDown,
-        Kernel::VmBsum,
-        Kernel::VmOffsets,
-        Kernel::VmFill,
-        Kernel::VmCells,
-        Kernel::VmKeys,
-        Kernel::MInit,
-        Kernel::MCandidates,
-        Kernel::MPredecessors,
-        Kernel::MChains,
-        Kernel::MCounts,
-        Kernel::MEmit,
-        Kernel::MCompress,
-        Kernel::MLiveFlags,
-        Kernel::MFinalIndex,
-        Kernel::MFinalMap,
-        Kernel::MFinalCells,
-        Kernel::EInit,
-        Kernel::ESide,
-        Kernel::ERecords,
-        Kernel::FrGbFlags,
-        Kernel::FrGbSurfaces,
-        Kernel::FrShadowMeta,
-        Kernel::FrOccluded,
-        Kernel::FrAccumulate,
-        Kernel::FrMisses,
-        Kernel::FrSlotFlags,
-        Kernel::FrBounceEmit,
-        Kernel::FrHitFlags,
-        Kernel::FrHitSurfaces,
-        Kernel::FrEncode,
-        Kernel::FrTotals,
-        Kernel::FrKindCount,
-    ];
-
-    /// The WGSL entry point and the module that holds it.
-    fn def(self) -> (&'static str, Module) {
-        use Kernel::*;
-        match self {
-            ScanReduce => ("scan_reduce", Module::Scan),
-            ScanDown => ("scan_down", Module::Scan),
-            KeyBits => ("key_bits", Module::Sort),
-            SortCount => ("sort_count", Module::Sort),
-            SortScatter => ("sort_scatter", Module::Sort),
-            Compact => ("compact", Module::Compact),
-            RunHeads => ("run_heads", Module::Runs),
-            RunChunks => ("run_chunks", Module::Runs),
-            RunSizes => ("run_sizes", Module::Runs),
-            ExpandRuns => ("expand_runs", Module::Runs),
-            Iota => ("iota", Module::Permute),
-            Fill => ("fill", Module::Permute),
-            Gather => ("gather", Module::Permute),
-            KindHist => ("kind_hist", Module::Kinds),
-            HashKeys => ("hash_keys", Module::Hash),
-            BuildLeafLevel => ("build_leaf_level", Module::Build),
-            BuildUpperLevel => ("build_upper_level", Module::Build),
-            MeshTest => ("mesh_test", Module::Traverse),
-            TopCount => ("top_count", Module::Traverse),
-            TopEmit => ("top_emit", Module::Traverse),
-            PairTest => ("pair_test", Module::Traverse),
-            ChildCount => ("child_count", Module::Traverse),
-            ChildEmit => ("child_emit", Module::Traverse),
-            FinalTests => ("final_tests", Module::Final),
-            Records => ("records", Module::Final),
-            ShadowRays => ("shadow_rays", Module::Stages),
-            BounceRays => ("bounce_rays", Module::Stages),
-            ShadeLocal => ("shade_local", Module::Stages),
-            GridTrace => ("grid_trace", Module::Grid),
-            GridTriBoxes => ("grid_tri_boxes", Module::GridBuild),
-            GridTopRefs => ("grid_top_refs", Module::GridBuild),
-            GridHistogram => ("grid_histogram", Module::GridBuild),
-            GridWants => ("grid_wants", Module::GridBuild),
-            GridMasks => ("grid_masks", Module::GridBuild),
-            GridSplit => ("grid_split", Module::GridBuild),
-            GridNodes => ("grid_nodes", Module::GridBuild),
-            GridRefFlags => ("grid_ref_flags", Module::GridBuild),
-            GridRefEmit => ("grid_ref_emit", Module::GridBuild),
-            VmUp => ("vm_up", Module::VoxelMap),
-            VmDown => ("vm_down", Module::VoxelMap),
-            VmBsum => ("vm_bsum", Module::VoxelMap),
-            VmOffsets => ("vm_offsets", Module::VoxelMap),
-            VmFill => ("vm_fill", Module::VoxelMap),
-            VmCells => ("vm_cells", Module::VoxelMap),
-            VmKeys => ("vm_keys", Module::VoxelMap),
-            MInit => ("m_init", Module::Merge),
-            MCandidates => ("m_candidates", Module::Merge),
-            MPredecessors => ("m_predecessors", Module::Merge),
-            MChains => ("m_chains", Module::Merge),
-            MCounts => ("m_counts", Module::Merge),
-            MEmit => ("m_emit", Module::Merge),
-            MCompress => ("m_compress", Module::Merge),
-            MLiveFlags => ("m_live_flags", Module::Merge),
-            MFinalIndex => ("m_final_index", Module::Merge),
-            MFinalMap => ("m_final_map", Module::Merge),
-            MFinalCells => ("m_final_cells", Module::Merge),
-            EInit => ("e_init", Module::Expand),
-            ESide => ("e_side", Module::Expand),
-            ERecords => ("e_records", Module::Expand),
-            FrGbFlags => ("fr_gb_flags", Module::Frame),
-            FrGbSurfaces => ("fr_gb_surfaces", Module::Frame),
-            FrShadowMeta => ("fr_shadow_meta", Module::Frame),
-            FrOccluded => ("fr_occluded", Module::Frame),
-            FrAccumulate => ("fr_accumulate", Module::Frame),
-            FrMisses => ("fr_misses", Module::Frame),
-            FrSlotFlags => ("fr_slot_flags", Module::Frame),
-            FrBounceEmit => ("fr_bounce_emit", Module::Frame),
-            FrHitFlags => ("fr_hit_flags", Module::Frame),
-            FrHitSurfaces => ("fr_hit_surfaces", Module::Frame),
-            FrEncode => ("fr_encode", Module::Frame),
-            FrTotals => ("fr_totals", Module::Frame),
-            FrKindCount => ("fr_kind_count", Module::Frame),
-        }
-    }
-
     /// The WGSL entry point's name.
     pub fn entry(self) -> &'static str {
         self.def().0
     }
+}
+
+/// A kernel launch's buffers: one implementation per kernel (the generated
+/// [`launch`] structs), whose fields are the storage buffers the entry point uses.
+pub trait Launch {
+    /// The kernel launched.
+    const KERNEL: Kernel;
+    /// Its parameters: the struct its WGSL declares ([`params`]).
+    type Params: ParamBlock;
+    /// The buffers, in the order of [`Kernel::bindings`].
+    fn buffers(&self) -> Vec<&wgpu::Buffer>;
 }
 
 /// Constants as exact bit patterns (see `common.wgsl`): the f32 values the CPU code uses,
@@ -597,16 +246,11 @@ impl<'a> Exec<'a> {
             .get_or_insert_with(|| g.device.create_command_encoder(&Default::default()))
     }
 
-    /// Launch `kernel` over `threads` threads of workgroups of `wg`, with `params` at binding 0
-    /// and `binds` (binding, buffer) after it.
-    pub fn run(
-        &mut self,
-        kernel: Kernel,
-        params: Params,
-        binds: &[(u32, &wgpu::Buffer)],
-        threads: u64,
-        wg: u32,
-    ) {
+    /// Launch `launch`'s kernel with its buffers over `threads` threads of workgroups of
+    /// `wg`, with `params` at binding 0.
+    pub fn run<L: Launch>(&mut self, launch: L, params: L::Params, threads: u64, wg: u32) {
+        let kernel = L::KERNEL;
+        let params = params.block();
         if threads == 0 {
             return;
         }
@@ -622,9 +266,10 @@ impl<'a> Exec<'a> {
             binding: 0,
             resource: ub.as_entire_binding(),
         }];
-        for (b, buf) in binds {
+        let buffers = launch.buffers();
+        for (&(binding, _), buf) in kernel.bindings().iter().zip(buffers) {
             entries.push(wgpu::BindGroupEntry {
-                binding: *b,
+                binding,
                 resource: buf.as_entire_binding(),
             });
         }
@@ -754,6 +399,59 @@ impl<'a> Exec<'a> {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    /// `build.rs` derives each kernel's bindings by following the WGSL's calls textually; naga's
+    /// validator, which wgpu uses to infer the bind-group layouts, must find the same: every
+    /// entry point a kernel of its module, and each kernel's storage bindings those its entry
+    /// point uses, besides the parameters at binding 0. Needs no GPU.
+    #[test]
+    fn derived_bindings_are_what_naga_finds() {
+        use naga::valid::{Capabilities, ValidationFlags, Validator};
+        let prelude = format!("{}\n{COMMON}\n", constants());
+        let mut seen = 0;
+        for m in Module::ALL {
+            let src = format!("{prelude}{}", m.source());
+            let module = naga::front::wgsl::parse_str(&src)
+                .unwrap_or_else(|e| panic!("{m:?}: {}", e.emit_to_string(&src)));
+            let info = Validator::new(ValidationFlags::all(), Capabilities::all())
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{m:?}: {e:?}"));
+            for (i, ep) in module.entry_points.iter().enumerate() {
+                let uses = info.get_entry_point(i);
+                let mut used: Vec<(u32, &str)> = module
+                    .global_variables
+                    .iter()
+                    .filter(|(h, _)| !uses[*h].is_empty())
+                    .filter_map(|(_, g)| {
+                        let b = g.binding.as_ref()?;
+                        assert_eq!(b.group, 0, "{}: group {}", ep.name, b.group);
+                        Some((b.binding, g.name.as_deref().unwrap()))
+                    })
+                    .collect();
+                used.sort();
+                assert_eq!(
+                    used.first().map(|u| u.0),
+                    Some(0),
+                    "{} reads no parameters",
+                    ep.name
+                );
+                let k = Kernel::ALL
+                    .into_iter()
+                    .find(|k| k.entry() == ep.name)
+                    .unwrap_or_else(|| panic!("entry point {} is no Kernel", ep.name));
+                assert_eq!(k.def().1, m, "{}", ep.name);
+                assert_eq!(k.bindings(), &used[1..], "{}", ep.name);
+                seen += 1;
+            }
+        }
+        assert_eq!(
+            seen,
+            Kernel::ALL.len(),
+            "every Kernel is an entry point of its module"
+        );
+    }
+
     #[test]
     fn hex_literals_are_exact() {
         assert_eq!(super::hex_f32(1.0), "0x1.000000p0f");

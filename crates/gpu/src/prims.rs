@@ -3,7 +3,8 @@
 //! (kernels in `prims/*.wgsl`). Each mirrors its CPU twin in `crates/par`, so the CRSH
 //! pipeline calls the same primitives in the same order on both backends.
 
-use crate::kernels::{Exec, Kernel, Params};
+use crate::kernels::params::{CompactParams, PermuteParams, RunsParams, ScanParams, SortParams};
+use crate::kernels::{launch, Exec};
 
 impl Exec<'_> {
     /// Exclusive scan of `n` u32 of `input` into `out` (n + 1 entries: the total last).
@@ -22,9 +23,14 @@ impl Exec<'_> {
         } else {
             let sums = self.g.storage("scan sums", blocks * 4);
             self.run(
-                Kernel::ScanReduce,
-                Params::n(n as u32, 0, 0, 0),
-                &[(1, input), (3, &sums)],
+                launch::ScanReduce {
+                    s_in: input,
+                    s_sums: &sums,
+                },
+                ScanParams {
+                    n: n as u32,
+                    single: 0,
+                },
                 blocks * 256,
                 256,
             );
@@ -33,9 +39,15 @@ impl Exec<'_> {
             &sums_scanned
         };
         self.run(
-            Kernel::ScanDown,
-            Params::n(n as u32, single as u32, 0, 0),
-            &[(1, input), (2, out), (3, sums_ref)],
+            launch::ScanDown {
+                s_in: input,
+                s_out: out,
+                s_sums: sums_ref,
+            },
+            ScanParams {
+                n: n as u32,
+                single: single as u32,
+            },
             blocks * 256,
             256,
         );
@@ -57,9 +69,15 @@ impl Exec<'_> {
         // Digits that are equal in every key need no pass (as in `par::sort_pairs`).
         let kb = self.g.upload("key bits", &[0u32, u32::MAX]);
         self.run(
-            Kernel::KeyBits,
-            Params::n(n as u32, 0, 0, 0),
-            &[(1, keys), (6, &kb)],
+            launch::KeyBits {
+                k_in: keys,
+                kbits: &kb,
+            },
+            SortParams {
+                n: n as u32,
+                shift: 0,
+                tiles: tiles as u32,
+            },
             tiles * 256,
             256,
         );
@@ -76,19 +94,30 @@ impl Exec<'_> {
         let passes = digits.len() as u32;
         let (mut src, mut dst) = ((keys, vals), (&k2, &v2));
         for &p in &digits {
-            let prm = Params::n(n as u32, 4 * p, tiles as u32, 0);
+            let prm = SortParams {
+                n: n as u32,
+                shift: 4 * p,
+                tiles: tiles as u32,
+            };
             self.run(
-                Kernel::SortCount,
+                launch::SortCount {
+                    k_in: src.0,
+                    hist: &hist,
+                },
                 prm,
-                &[(1, src.0), (3, &hist)],
                 tiles * 256,
                 256,
             );
             self.scan(&hist, &hist_s, 16 * tiles);
             self.run(
-                Kernel::SortScatter,
+                launch::SortScatter {
+                    k_in: src.0,
+                    v_in: src.1,
+                    hist: &hist_s,
+                    k_out: dst.0,
+                    v_out: dst.1,
+                },
                 prm,
-                &[(1, src.0), (2, src.1), (3, &hist_s), (4, dst.0), (5, dst.1)],
                 tiles * 256,
                 256,
             );
@@ -118,16 +147,18 @@ impl Exec<'_> {
         );
         if m > 0 {
             self.run(
-                Kernel::Compact,
-                Params::n(n as u32, b.is_none() as u32, 0, 0),
-                &[
-                    (1, flags),
-                    (2, &offs),
-                    (3, a),
-                    (4, b.unwrap_or(a)),
-                    (5, &oa),
-                    (6, &ob),
-                ],
+                launch::Compact {
+                    x_flag: flags,
+                    x_off: &offs,
+                    x_a: a,
+                    x_b: b.unwrap_or(a),
+                    y_a: &oa,
+                    y_b: &ob,
+                },
+                CompactParams {
+                    n: n as u32,
+                    index_as_b: b.is_none() as u32,
+                },
                 n,
                 256,
             );
@@ -154,8 +185,19 @@ impl Exec<'_> {
     pub fn compress_runs(&mut self, keys: &wgpu::Buffer, n: u64) -> Runs {
         let g = self.g;
         let heads = g.storage("heads", n * 4);
-        let p = Params::n(n as u32, 0, 0, 0);
-        self.run(Kernel::RunHeads, p, &[(3, keys), (5, &heads)], n, 256);
+        let p = RunsParams {
+            n: n as u32,
+            total: 0,
+        };
+        self.run(
+            launch::RunHeads {
+                x_a: keys,
+                y_a: &heads,
+            },
+            p,
+            n,
+            256,
+        );
         let offs = g.storage("head offsets", (n + 1) * 4);
         self.scan(&heads, &offs, n);
         let len = self.read_at(&offs, n as usize) as u64;
@@ -165,17 +207,31 @@ impl Exec<'_> {
             sizes: g.storage("chunk sizes", len * 4),
             len,
         };
-        let binds = [
-            (1, &heads),
-            (2, &offs),
-            (3, keys),
-            (5, &runs.keys),
-            (6, &runs.bases),
-        ];
-        self.run(Kernel::RunChunks, p, &binds, n, 256);
-        let p = Params::n(len as u32, 0, n as u32, 0);
-        let binds = [(4, &runs.bases), (7, &runs.sizes)];
-        self.run(Kernel::RunSizes, p, &binds, len, 256);
+        self.run(
+            launch::RunChunks {
+                x_flag: &heads,
+                x_off: &offs,
+                x_a: keys,
+                y_a: &runs.keys,
+                y_b: &runs.bases,
+            },
+            p,
+            n,
+            256,
+        );
+        let p = RunsParams {
+            n: len as u32,
+            total: n as u32,
+        };
+        self.run(
+            launch::RunSizes {
+                x_b: &runs.bases,
+                y_c: &runs.sizes,
+            },
+            p,
+            len,
+            256,
+        );
         runs
     }
 
@@ -183,9 +239,11 @@ impl Exec<'_> {
     pub fn iota(&mut self, n: u64) -> wgpu::Buffer {
         let out = self.g.storage("iota", n.max(1) * 4);
         self.run(
-            Kernel::Iota,
-            Params::n(n as u32, 0, 0, 0),
-            &[(5, &out)],
+            launch::Iota { y_a: &out },
+            PermuteParams {
+                n: n as u32,
+                value: 0,
+            },
             n,
             256,
         );
@@ -196,9 +254,11 @@ impl Exec<'_> {
     pub fn filled(&mut self, label: &str, words: u64, value: u32) -> wgpu::Buffer {
         let out = self.g.storage(label, words.max(1) * 4);
         self.run(
-            Kernel::Fill,
-            Params::n(words as u32, value, 0, 0),
-            &[(5, &out)],
+            launch::Fill { y_a: &out },
+            PermuteParams {
+                n: words as u32,
+                value,
+            },
             words,
             256,
         );
@@ -217,21 +277,42 @@ impl Exec<'_> {
     ) -> wgpu::Buffer {
         let g = self.g;
         let len = runs.len;
-        let p = Params::n(len as u32, 0, 0, 0);
+        let (pg, pe) = (
+            PermuteParams {
+                n: len as u32,
+                value: 0,
+            },
+            RunsParams {
+                n: len as u32,
+                total: 0,
+            },
+        );
         let sizes = g.storage("sorted sizes", len * 4);
-        let binds = [(3, order), (4, &runs.sizes), (5, &sizes)];
-        self.run(Kernel::Gather, p, &binds, len, 256);
+        self.run(
+            launch::Gather {
+                x_a: order,
+                x_b: &runs.sizes,
+                y_a: &sizes,
+            },
+            pg,
+            len,
+            256,
+        );
         let offs = g.storage("sorted offsets", (len + 1) * 4);
         self.scan(&sizes, &offs, len);
         let out = g.storage("expanded", n * 4);
-        let binds = [
-            (1, vals),
-            (2, &offs),
-            (3, order),
-            (4, &runs.bases),
-            (5, &out),
-        ];
-        self.run(Kernel::ExpandRuns, p, &binds, len, 256);
+        self.run(
+            launch::ExpandRuns {
+                x_flag: vals,
+                x_off: &offs,
+                x_a: order,
+                x_b: &runs.bases,
+                y_a: &out,
+            },
+            pe,
+            len,
+            256,
+        );
         out
     }
 }

@@ -220,28 +220,14 @@ impl GpuRaster {
         let bg = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("raster"),
             layout: &self.pipe.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: ub.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.tris.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.normals.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: self.material.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: self.mats.as_entire_binding(),
-                },
-            ],
+            entries: &crate::kernels::RasterBindings {
+                r_view: &ub,
+                r_tris: &self.tris,
+                r_normals: &self.normals,
+                r_material: &self.material,
+                r_mats: &self.mats,
+            }
+            .entries(),
         });
         let wall = g.timer == crate::device::PhaseTimer::WallClock;
         let qs = (!wall).then(|| {

@@ -13,7 +13,7 @@ struct View {
     proj: vec4<f32>,
 }
 
-@group(0) @binding(0) var<uniform> V: View;
+@group(0) @binding(0) var<uniform> r_view: View;
 @group(0) @binding(1) var<storage, read> r_tris: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> r_normals: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> r_material: array<u32>;
@@ -30,10 +30,10 @@ struct VOut {
 fn vs(@builtin(vertex_index) vi: u32) -> VOut {
     let t = vi / 3u;
     let k = vi % 3u;
-    let d = r_tris[vi].xyz - V.eye.xyz;
-    let c = vec3<f32>(dot(d, V.right.xyz), dot(d, V.up.xyz), dot(d, V.fwd.xyz));
+    let d = r_tris[vi].xyz - r_view.eye.xyz;
+    let c = vec3<f32>(dot(d, r_view.right.xyz), dot(d, r_view.up.xyz), dot(d, r_view.fwd.xyz));
     var o: VOut;
-    o.pos = vec4<f32>(c.x / V.proj.x, c.y / V.proj.y, V.proj.z, c.z);
+    o.pos = vec4<f32>(c.x / r_view.proj.x, c.y / r_view.proj.y, r_view.proj.z, c.z);
     o.bary = vec2<f32>(select(0.0, 1.0, k == 1u), select(0.0, 1.0, k == 2u));
     o.tri = t;
     return o;

@@ -14,7 +14,8 @@
 //! device.
 
 use crate::device::Gpu;
-use crate::kernels::{Exec, Kernel, Kernels, Params};
+use crate::kernels::params::StageParams;
+use crate::kernels::{launch, Exec, Kernels};
 use geom::Vec3;
 use render::secondary::Surfaces;
 use render::whitted::{Generation, Stages};
@@ -60,18 +61,6 @@ impl Surf {
         }
     }
 
-    /// Bindings 1–6, for the kernels that read every surface array.
-    pub fn binds(&self) -> Vec<(u32, &wgpu::Buffer)> {
-        vec![
-            (1, &self.pos),
-            (2, &self.ng),
-            (3, &self.ns),
-            (4, &self.inc),
-            (5, &self.tw),
-            (6, &self.mat),
-        ]
-    }
-
     /// The shadow rays of `n` surfaces and `nl` lights (`lights`: [`light_rows`]) into
     /// `org`/`dir`, ray `surface · nl + light`.
     #[allow(clippy::too_many_arguments)] // one launch: its bindings and sizes
@@ -85,16 +74,18 @@ impl Surf {
         nl: u64,
     ) {
         ex.run(
-            Kernel::ShadowRays,
-            Params::n(n as u32, nl as u32, 0, 0),
-            &[
-                (1, &self.pos),
-                (2, &self.ng),
-                (5, &self.tw),
-                (7, lights),
-                (9, org),
-                (10, dir),
-            ],
+            launch::ShadowRays {
+                s_pos: &self.pos,
+                s_ng: &self.ng,
+                s_tw: &self.tw,
+                lights,
+                o_org: org,
+                o_dir: dir,
+            },
+            StageParams {
+                surfaces: n as u32,
+                lights: nl as u32,
+            },
             n * nl,
             256,
         );
@@ -113,12 +104,23 @@ impl Surf {
         n: u64,
         nl: u64,
     ) {
-        let mut binds = self.binds();
-        binds.extend([(7, lights), (8, mats), (11, colour), (12, occluded)]);
         ex.run(
-            Kernel::ShadeLocal,
-            Params::n(n as u32, nl as u32, 0, 0),
-            &binds,
+            launch::ShadeLocal {
+                s_pos: &self.pos,
+                s_ng: &self.ng,
+                s_ns: &self.ns,
+                s_inc: &self.inc,
+                s_tw: &self.tw,
+                s_mat: &self.mat,
+                lights,
+                mats,
+                o_w: colour,
+                occluded,
+            },
+            StageParams {
+                surfaces: n as u32,
+                lights: nl as u32,
+            },
             n,
             256,
         );
@@ -132,12 +134,23 @@ impl Surf {
         slots: [&wgpu::Buffer; 3],
         n: u64,
     ) {
-        let mut binds = self.binds();
-        binds.extend([(8, mats), (9, slots[0]), (10, slots[1]), (11, slots[2])]);
         ex.run(
-            Kernel::BounceRays,
-            Params::n(n as u32, 0, 0, 0),
-            &binds,
+            launch::BounceRays {
+                s_pos: &self.pos,
+                s_ng: &self.ng,
+                s_ns: &self.ns,
+                s_inc: &self.inc,
+                s_tw: &self.tw,
+                s_mat: &self.mat,
+                mats,
+                o_org: slots[0],
+                o_dir: slots[1],
+                o_w: slots[2],
+            },
+            StageParams {
+                surfaces: n as u32,
+                lights: 0,
+            },
             n,
             256,
         );

@@ -6,7 +6,6 @@
 // Scene: 7 lights (3 × vec4: position + intensity, colour, attenuation), 8 materials
 // (4 × vec4: diffuse + shininess, specular + reflectivity, emission + transparency,
 // ior + the ambient term k_a ⊙ L_a).
-// Params u0 = (count, lights, -, -).
 
 @group(0) @binding(1) var<storage, read> s_pos: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> s_ng: array<vec4<f32>>;
@@ -23,6 +22,12 @@
 // Shading: occluded flags per (surface, light).
 @group(0) @binding(12) var<storage, read> occluded: array<u32>;
 
+// Parameters of shadow_rays, bounce_rays and shade_local.
+struct StageParams {
+    surfaces: u32, // surfaces of the generation
+    lights: u32, // lights of the scene (shadow_rays, shade_local)
+}
+
 fn inf() -> f32 {
     return bitcast<f32>(0x7f800000u);
 }
@@ -37,14 +42,16 @@ fn lin_id(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
 }
 
+// Shadow rays of the surfaces.
 @compute @workgroup_size(256)
 fn shadow_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = stage_params();
     let k = lin_id(gid, nwg);
-    if k >= P.u0.x * P.u0.y {
+    if k >= prm.surfaces * prm.lights {
         return;
     }
-    let i = k / P.u0.y;
-    let l = k % P.u0.y;
+    let i = k / prm.lights;
+    let l = k % prm.lights;
     let lp = lights[3u * l].xyz;
     let p = s_pos[i].xyz;
     var ng = s_ng[i].xyz;
@@ -104,8 +111,9 @@ fn mirror(i: u32, f: array<vec3<f32>, 2>) -> array<vec4<f32>, 2> {
 // 3 refraction) or 0 for an empty slot.
 @compute @workgroup_size(256)
 fn bounce_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = stage_params();
     let i = lin_id(gid, nwg);
-    if i >= P.u0.x {
+    if i >= prm.surfaces {
         return;
     }
     let m = s_mat[i];
@@ -156,8 +164,9 @@ fn mulv(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 // Local illumination times throughput, into o_w.xyz.
 @compute @workgroup_size(256)
 fn shade_local(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = stage_params();
     let i = lin_id(gid, nwg);
-    if i >= P.u0.x {
+    if i >= prm.surfaces {
         return;
     }
     let m = s_mat[i];
@@ -168,8 +177,8 @@ fn shade_local(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     let n = facing(i)[1];
     let p = s_pos[i].xyz;
     let view = s_inc[i].xyz;
-    for (var l = 0u; l < P.u0.y; l++) {
-        if occluded[i * P.u0.y + l] != 0u {
+    for (var l = 0u; l < prm.lights; l++) {
+        if occluded[i * prm.lights + l] != 0u {
             continue;
         }
         let to_light = lights[3u * l].xyz - p;

@@ -16,7 +16,8 @@
 //! merging and expansion then run on the CPU (their kernels are not written yet).
 
 use crate::device::{Gpu, GpuError};
-use crate::kernels::{Exec, Kernel, Params};
+use crate::kernels::params::{OctreeLevelParams, TopRefsParams, TriBoxesParams};
+use crate::kernels::{launch, Exec};
 use accel::grid::build::{self, Octrees, Setup, ADAPTIVE_COPIES, ADAPTIVE_SPLIT};
 use accel::grid::{GridConfig, Subdivision};
 use geom::{Aabb, Vec3};
@@ -66,9 +67,12 @@ pub fn subdivide_on_device(
     let tbox = g.storage("triangle boxes", ntris as u64 * 32);
     let bounds = g.upload("scene box", &[u32::MAX, u32::MAX, u32::MAX, 0, 0, 0]);
     ex.run(
-        Kernel::GridTriBoxes,
-        Params::n(n, 0, 0, 0),
-        &[(1, tris), (2, &tbox), (3, &bounds)],
+        launch::GridTriBoxes {
+            b_tris: tris,
+            b_tbox: &tbox,
+            b_bounds: &bounds,
+        },
+        TriBoxesParams { triangles: n },
         ntris as u64,
         256,
     );
@@ -90,8 +94,11 @@ pub fn subdivide_on_device(
             &[v4(st.bounds.min, st.pad), v4(size, small), v4(half, 0.0)],
         )
     };
-    let mut dims = Params::n(n, 0, 0, 0);
-    dims.u[1] = [st.top_dims[0], st.top_dims[1], st.top_dims[2], 0];
+    let count_refs = TopRefsParams {
+        triangles: n,
+        emit: 0,
+        top_dims: st.top_dims,
+    };
 
     // References to the top cells.
     let fr = frame(st.tsize, 0.0, st.tsize / 2.0 + Vec3::splat(st.pad));
@@ -101,17 +108,16 @@ pub fn subdivide_on_device(
     // outputs are placeholders it never writes.
     let none = g.storage("unused", 4);
     ex.run(
-        Kernel::GridTopRefs,
-        dims,
-        &[
-            (1, tris),
-            (2, &tbox),
-            (4, &fr),
-            (5, &cnt),
-            (6, &offs),
-            (7, &none),
-            (8, &none),
-        ],
+        launch::GridTopRefs {
+            b_tris: tris,
+            b_tbox: &tbox,
+            b_frame: &fr,
+            b_cnt: &cnt,
+            b_offs: &offs,
+            b_out_key: &none,
+            b_out_tri: &none,
+        },
+        count_refs,
         ntris as u64,
         256,
     );
@@ -121,20 +127,21 @@ pub fn subdivide_on_device(
     check("references", nref * 4)?;
     let mut ref_node = g.storage("references' nodes", nref * 4);
     let mut ref_tri = g.storage("references' triangles", nref * 4);
-    let mut emit = dims;
-    emit.u[0][2] = 1;
+    let emit = TopRefsParams {
+        emit: 1,
+        ..count_refs
+    };
     ex.run(
-        Kernel::GridTopRefs,
+        launch::GridTopRefs {
+            b_tris: tris,
+            b_tbox: &tbox,
+            b_frame: &fr,
+            b_cnt: &cnt,
+            b_offs: &offs,
+            b_out_key: &ref_node,
+            b_out_tri: &ref_tri,
+        },
         emit,
-        &[
-            (1, tris),
-            (2, &tbox),
-            (4, &fr),
-            (5, &cnt),
-            (6, &offs),
-            (7, &ref_node),
-            (8, &ref_tri),
-        ],
         ntris as u64,
         256,
     );
@@ -177,78 +184,80 @@ pub fn subdivide_on_device(
         let size = st.tsize / (1u32 << (level + 1)) as f32;
         let half = st.tsize / (2u32 << (level + 1)) as f32 + Vec3::splat(st.pad);
         let fr = frame(size, size.min_element(), half);
-        let mut prm = Params::n(nref as u32, level, 0, st.max_depth);
         let small = adaptive && level >= 1;
-        prm.u[0][2] = adaptive as u32 | (small as u32) << 1;
-        prm.u[2] = [0, table.len() as u32, 0, 0];
-        prm.f[0] = [cfg.leaf_density, ADAPTIVE_SPLIT, ADAPTIVE_COPIES, 0.0];
-        let with_n = |n: u64| {
-            let mut p = prm;
-            p.u[0][0] = n as u32;
-            p
+        let prm = OctreeLevelParams {
+            n: nref as u32,
+            level,
+            adaptive: adaptive as u32,
+            count_small: small as u32,
+            max_depth: st.max_depth,
+            table_len: table.len() as u32,
+            first_cell: 0,
+            next_entry: 0,
+            emit_kept: 0,
+            lambda2: cfg.leaf_density,
+            adaptive_split: ADAPTIVE_SPLIT,
+            adaptive_copies: ADAPTIVE_COPIES,
         };
+        let with_n = |n: u64| OctreeLevelParams { n: n as u32, ..prm };
         let count = g.storage("node counts", nn * 4);
         let smallc = g.storage("node small counts", nn * 4);
         ex.run(
-            Kernel::GridHistogram,
+            launch::GridHistogram {
+                b_tbox: &tbox,
+                b_frame: &fr,
+                b_ref_node: &ref_node,
+                b_ref_tri: &ref_tri,
+                b_count: &count,
+                b_small: &smallc,
+            },
             with_n(nref),
-            &[
-                (2, &tbox),
-                (4, &fr),
-                (9, &ref_node),
-                (10, &ref_tri),
-                (11, &count),
-                (12, &smallc),
-            ],
             nref,
             256,
         );
         let flags = g.storage("node flags", nn * 4);
         ex.run(
-            Kernel::GridWants,
+            launch::GridWants {
+                b_count: &count,
+                b_small: &smallc,
+                b_depth: &depth,
+                b_dtab: &dtab,
+                b_coords: &coords,
+                b_flags: &flags,
+            },
             with_n(nn),
-            &[
-                (11, &count),
-                (12, &smallc),
-                (13, &depth),
-                (14, &dtab),
-                (15, &coords),
-                (16, &flags),
-            ],
             nn,
             256,
         );
         let mask = g.storage("child masks", nref * 4);
         let sepcop = g.storage("node separation and copies", nn * 8);
         ex.run(
-            Kernel::GridMasks,
+            launch::GridMasks {
+                b_tris: tris,
+                b_tbox: &tbox,
+                b_frame: &fr,
+                b_ref_node: &ref_node,
+                b_ref_tri: &ref_tri,
+                b_coords: &coords,
+                b_flags: &flags,
+                b_mask: &mask,
+                b_sepcop: &sepcop,
+            },
             with_n(nref),
-            &[
-                (1, tris),
-                (2, &tbox),
-                (4, &fr),
-                (9, &ref_node),
-                (10, &ref_tri),
-                (15, &coords),
-                (16, &flags),
-                (17, &mask),
-                (18, &sepcop),
-            ],
             nref,
             256,
         );
         let split = g.storage("split", nn * 4);
         let leaf = g.storage("leaf", nn * 4);
         ex.run(
-            Kernel::GridSplit,
+            launch::GridSplit {
+                b_count: &count,
+                b_flags: &flags,
+                b_sepcop: &sepcop,
+                b_split: &split,
+                b_leaf: &leaf,
+            },
             with_n(nn),
-            &[
-                (11, &count),
-                (16, &flags),
-                (18, &sepcop),
-                (19, &split),
-                (20, &leaf),
-            ],
             nn,
             256,
         );
@@ -266,23 +275,24 @@ pub fn subdivide_on_device(
         let cells = g.storage("leaf cells", (nleaf * 16).max(16));
         let new_coords = g.storage("node coordinates", (8 * nsplit * 16).max(16));
         let cell_level = g.storage("leaf cells' levels", nleaf * 4);
-        let mut p = with_n(nn);
-        p.u[1][3] = ncells as u32;
-        p.u[2][0] = next_level_entry as u32;
+        let p = OctreeLevelParams {
+            first_cell: ncells as u32,
+            next_entry: next_level_entry as u32,
+            ..with_n(nn)
+        };
         ex.run(
-            Kernel::GridNodes,
+            launch::GridNodes {
+                b_count: &count,
+                b_coords: &coords,
+                b_split: &split,
+                b_child_base: &child_base,
+                b_leaf_index: &leaf_index,
+                b_entries: &entries,
+                b_cells: &cells,
+                b_new_coords: &new_coords,
+                b_cell_level: &cell_level,
+            },
             p,
-            &[
-                (11, &count),
-                (15, &coords),
-                (19, &split),
-                (21, &child_base),
-                (22, &leaf_index),
-                (23, &entries),
-                (24, &cells),
-                (25, &new_coords),
-                (27, &cell_level),
-            ],
             nn,
             256,
         );
@@ -290,15 +300,14 @@ pub fn subdivide_on_device(
         let kept = g.storage("kept flags", nref * 4);
         let ccnt = g.storage("child reference counts", nref * 4);
         ex.run(
-            Kernel::GridRefFlags,
+            launch::GridRefFlags {
+                b_cnt: &ccnt,
+                b_ref_node: &ref_node,
+                b_mask: &mask,
+                b_split: &split,
+                b_kept: &kept,
+            },
             with_n(nref),
-            &[
-                (5, &ccnt),
-                (9, &ref_node),
-                (17, &mask),
-                (19, &split),
-                (26, &kept),
-            ],
             nref,
             256,
         );
@@ -313,24 +322,25 @@ pub fn subdivide_on_device(
         check("references", nnew * 4)?;
         let kept_cell = g.storage("kept references' cells", nkept * 4);
         let kept_tri = g.storage("kept references' triangles", nkept * 4);
-        let mut p = with_n(nref);
-        p.u[0][2] = 1;
-        p.u[1][3] = ncells as u32;
+        let p = OctreeLevelParams {
+            emit_kept: 1,
+            first_cell: ncells as u32,
+            ..with_n(nref)
+        };
         ex.run(
-            Kernel::GridRefEmit,
+            launch::GridRefEmit {
+                b_offs: &child_at,
+                b_out_key: &kept_cell,
+                b_out_tri: &kept_tri,
+                b_ref_node: &ref_node,
+                b_ref_tri: &ref_tri,
+                b_mask: &mask,
+                b_split: &split,
+                b_child_base: &child_base,
+                b_leaf_index: &leaf_index,
+                b_kept: &kept_at,
+            },
             p,
-            &[
-                (6, &child_at),
-                (7, &kept_cell),
-                (8, &kept_tri),
-                (9, &ref_node),
-                (10, &ref_tri),
-                (17, &mask),
-                (19, &split),
-                (21, &child_base),
-                (22, &leaf_index),
-                (26, &kept_at),
-            ],
             nref,
             256,
         );
@@ -352,23 +362,21 @@ pub fn subdivide_on_device(
         }
         let new_node = g.storage("references' nodes", nnew * 4);
         let new_tri = g.storage("references' triangles", nnew * 4);
-        let mut p = with_n(nref);
-        p.u[0][2] = 0;
+        let p = with_n(nref);
         ex.run(
-            Kernel::GridRefEmit,
+            launch::GridRefEmit {
+                b_offs: &child_at,
+                b_out_key: &new_node,
+                b_out_tri: &new_tri,
+                b_ref_node: &ref_node,
+                b_ref_tri: &ref_tri,
+                b_mask: &mask,
+                b_split: &split,
+                b_child_base: &child_base,
+                b_leaf_index: &leaf_index,
+                b_kept: &kept_at,
+            },
             p,
-            &[
-                (6, &child_at),
-                (7, &new_node),
-                (8, &new_tri),
-                (9, &ref_node),
-                (10, &ref_tri),
-                (17, &mask),
-                (19, &split),
-                (21, &child_base),
-                (22, &leaf_index),
-                (26, &kept_at),
-            ],
             nref,
             256,
         );

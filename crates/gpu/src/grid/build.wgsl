@@ -9,10 +9,35 @@
 // Frame constants (binding 4, vec4 each): 0 = (scene box min, padding), 1 = (size of the
 // cells whose centres are tested, half-size bound of an adaptive "small" triangle),
 // 2 = (half-extent of the tested boxes, padded, 0).
-// Params: u0 = (n, level, flags, max depth), u1 = (top dims, first cell of the level),
-// u2 = (first voxel-map entry of the next level, depth-table length, -, -),
-// f0 = (λ₂, ADAPTIVE_SPLIT, ADAPTIVE_COPIES, -). flags: bit 0 emit (top pass) / adaptive
-// (levels), bit 1 count small triangles.
+
+// Parameters of grid_tri_boxes.
+struct TriBoxesParams {
+    triangles: u32, // triangles of the scene
+}
+
+// Parameters of grid_top_refs: the references to the top cells counted or written.
+struct TopRefsParams {
+    triangles: u32, // triangles of the scene
+    emit: u32, // 1: write the references at b_offs[t], 0: count them into b_cnt[t]
+    top_dims: vec3<u32>, // the top grid's dimensions
+}
+
+// Parameters of the kernels of one octree level (grid_histogram, grid_wants, grid_masks,
+// grid_split, grid_nodes, grid_ref_flags, grid_ref_emit).
+struct OctreeLevelParams {
+    n: u32, // references (histogram, masks, ref_flags, ref_emit) or nodes (wants, split, nodes)
+    level: u32, // the level's depth below the top cells
+    adaptive: u32, // 1: adaptive subdivision (grid_wants)
+    count_small: u32, // 1: small triangles counted (grid_histogram)
+    max_depth: u32, // the deepest level
+    table_len: u32, // entries of the depth table
+    first_cell: u32, // the level's first leaf cell (grid_nodes, grid_ref_emit)
+    next_entry: u32, // the next level's first voxel-map entry (grid_nodes)
+    emit_kept: u32, // grid_ref_emit: 1 the kept references, 0 the children's
+    lambda2: f32, // λ₂, the leaf density
+    adaptive_split: f32, // ADAPTIVE_SPLIT (accel::grid::build)
+    adaptive_copies: f32, // ADAPTIVE_COPIES (accel::grid::build)
+}
 
 @group(0) @binding(1) var<storage, read> b_tris: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> b_tbox: array<vec4<f32>>;
@@ -176,16 +201,17 @@ fn order_key(x: f32) -> u32 {
 
 var<workgroup> w_bounds: array<atomic<u32>, 6>;
 
-// Params: u0.x = triangles. Bounds (6 keys: min xyz, max xyz) start at (u32::MAX, 0).
+// Bounds (6 keys: min xyz, max xyz) start at (u32::MAX, 0).
 @compute @workgroup_size(256)
 fn grid_tri_boxes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = tri_boxes_params();
     if li < 3u {
         atomicStore(&w_bounds[li], 0xffffffffu);
         atomicStore(&w_bounds[li + 3u], 0u);
     }
     workgroupBarrier();
     let t = lin(gid, nwg);
-    if t < P.u0.x {
+    if t < prm.triangles {
         let a = tri_vertex(t, 0u);
         let b = tri_vertex(t, 1u);
         let c = tri_vertex(t, 2u);
@@ -209,7 +235,8 @@ fn grid_tri_boxes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_
 // build.rs `top_refs`: the top cells triangle t's padded box spans; a range of one cell needs
 // no test, the others share one prepared separating-axis test.
 fn top_pass(t: u32, emit: bool) -> u32 {
-    let dims = P.u1.xyz;
+    let prm = top_refs_params();
+    let dims = prm.top_dims;
     let m = bmin();
     let p = pad();
     let tsize = b_frame[1].xyz;
@@ -253,14 +280,15 @@ fn top_pass(t: u32, emit: bool) -> u32 {
     return n;
 }
 
-// Params: u0 = (triangles, -, emit, -), u1.xyz = top dims. Count: b_cnt[t]; emit: at b_offs[t].
+// Count: b_cnt[t]; emit: at b_offs[t].
 @compute @workgroup_size(256)
 fn grid_top_refs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = top_refs_params();
     let t = lin(gid, nwg);
-    if t >= P.u0.x {
+    if t >= prm.triangles {
         return;
     }
-    let emit = (P.u0.z & 1u) != 0u;
+    let emit = prm.emit != 0u;
     let n = top_pass(t, emit);
     if !emit {
         b_cnt[t] = n;
@@ -269,16 +297,17 @@ fn grid_top_refs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
 
 // ------------------------------------------------------------ octree levels
 // References per node, and (adaptive, below the top) those to triangles at most half the
-// node's size. Params: u0 = (references, level, flags, -).
+// node's size.
 @compute @workgroup_size(256)
 fn grid_histogram(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = octree_level_params();
     let r = lin(gid, nwg);
-    if r >= P.u0.x {
+    if r >= prm.n {
         return;
     }
     let p = b_ref_node[r];
     atomicAdd(&b_count[p], 1u);
-    if (P.u0.z & 2u) != 0u {
+    if prm.count_small != 0u {
         let t = b_ref_tri[r];
         let e = tri_box_max(t) - tri_box_min(t);
         if max_element3(e) <= b_frame[1].w {
@@ -289,20 +318,20 @@ fn grid_histogram(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
 
 // Which nodes want to split: below their top cell's paper depth, or (adaptive) their own
 // count of small triangles calls for it. At the top level each node's paper depth is
-// looked up in the depth table first. Params: u0 = (nodes, level, flags, max depth),
-// u2.y = table length, f0 = (λ₂, ADAPTIVE_SPLIT, -, -).
+// looked up in the depth table first.
 @compute @workgroup_size(256)
 fn grid_wants(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = octree_level_params();
     let i = lin(gid, nwg);
-    if i >= P.u0.x {
+    if i >= prm.n {
         return;
     }
-    let level = P.u0.y;
-    let adaptive = (P.u0.z & 1u) != 0u;
+    let level = prm.level;
+    let adaptive = prm.adaptive != 0u;
     let n = atomicLoad(&b_count[i]);
     if level == 0u {
         var d = 0u;
-        for (var k = 0u; k < P.u2.y; k++) {
+        for (var k = 0u; k < prm.table_len; k++) {
             d += u32(b_dtab[k] <= n);
         }
         b_depth[i] = select(d, 0u, n == 0u);
@@ -313,8 +342,8 @@ fn grid_wants(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     if level > 0u && adaptive {
         small = atomicLoad(&b_small[i]);
     }
-    let rule = level < depth || (adaptive && mul(P.f0.x, f32(small)) >= P.f0.y);
-    let wants = n > 0u && level < P.u0.w && rule;
+    let rule = level < depth || (adaptive && mul(prm.lambda2, f32(small)) >= prm.adaptive_split);
+    let wants = n > 0u && level < prm.max_depth && rule;
     let beyond = adaptive && level >= depth;
     b_flags[i] = u32(wants) | (u32(beyond) << 1u);
 }
@@ -357,11 +386,11 @@ fn child_mask(c: vec3<u32>, t: u32) -> u32 {
 
 // Child masks of the references of nodes that want to split; whether any reference of a node
 // separates its children, and (adaptive splits) how many copies its children receive.
-// Params: u0 = (references, level, -, -).
 @compute @workgroup_size(256)
 fn grid_masks(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = octree_level_params();
     let r = lin(gid, nwg);
-    if r >= P.u0.x {
+    if r >= prm.n {
         return;
     }
     let p = b_ref_node[r];
@@ -380,54 +409,54 @@ fn grid_masks(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 }
 
 // Which nodes split: they want to, some reference separates, and an adaptive split copies
-// fewer than ADAPTIVE_COPIES of each reference on average. Params: u0.x = nodes,
-// f0.z = ADAPTIVE_COPIES.
+// fewer than ADAPTIVE_COPIES of each reference on average.
 @compute @workgroup_size(256)
 fn grid_split(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = octree_level_params();
     let i = lin(gid, nwg);
-    if i >= P.u0.x {
+    if i >= prm.n {
         return;
     }
     let f = b_flags[i];
     let n = atomicLoad(&b_count[i]);
     let copies = atomicLoad(&b_sepcop[2u * i + 1u]);
-    let useful = (f & 2u) == 0u || f32(copies) < mul(P.f0.z, f32(n));
+    let useful = (f & 2u) == 0u || f32(copies) < mul(prm.adaptive_copies, f32(n));
     let s = (f & 1u) != 0u && atomicLoad(&b_sepcop[2u * i]) != 0u && useful;
     b_split[i] = u32(s);
     b_leaf[i] = 1u - u32(s);
 }
 
 // The level's voxel-map entries; its leaves' cells at their scanned slots; the children of
-// split nodes. Params: u0.x = nodes, u1.w = first cell of the level, u2.x = first entry of
-// the next level.
+// split nodes.
 @compute @workgroup_size(256)
 fn grid_nodes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = octree_level_params();
     let i = lin(gid, nwg);
-    if i >= P.u0.x {
+    if i >= prm.n {
         return;
     }
     let c = b_coords[i];
     if b_split[i] != 0u {
         let base = 8u * b_child_base[i];
-        b_entries[i] = NODE | (1u << LOG_DIM_SHIFT) | (P.u2.x + base);
+        b_entries[i] = NODE | (1u << LOG_DIM_SHIFT) | (prm.next_entry + base);
         for (var k = 0u; k < 8u; k++) {
             let cc = 2u * c.xyz + vec3<u32>(k & 1u, (k >> 1u) & 1u, k >> 2u);
             b_new_coords[base + k] = vec4<u32>(cc, c.w);
         }
     } else {
         let l = b_leaf_index[i];
-        b_entries[i] = P.u1.w + l;
+        b_entries[i] = prm.first_cell + l;
         b_cells[l] = vec4<u32>(c.xyz, atomicLoad(&b_count[i]));
-        b_cell_level[l] = P.u0.y;
+        b_cell_level[l] = prm.level;
     }
 }
 
 // Per reference: kept (its node is a leaf) and how many child references it makes.
-// Params: u0.x = references.
 @compute @workgroup_size(256)
 fn grid_ref_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = octree_level_params();
     let r = lin(gid, nwg);
-    if r >= P.u0.x {
+    if r >= prm.n {
         return;
     }
     let s = b_split[b_ref_node[r]];
@@ -437,19 +466,20 @@ fn grid_ref_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
 
 // Kept references to their leaf cells (kept slots in binding 26 after the scan, outputs at
 // 7/8), or one reference per child overlapped (slots in 6, outputs at 7/8 of the other
-// launch). Params: u0 = (references, -, kept (1) or children (0), -), u1.w = first cell.
+// launch).
 @compute @workgroup_size(256)
 fn grid_ref_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = octree_level_params();
     let r = lin(gid, nwg);
-    if r >= P.u0.x {
+    if r >= prm.n {
         return;
     }
     let p = b_ref_node[r];
     let t = b_ref_tri[r];
-    if (P.u0.z & 1u) != 0u {
+    if prm.emit_kept != 0u {
         if b_split[p] == 0u {
             let at = b_kept[r];
-            b_out_key[at] = P.u1.w + b_leaf_index[p];
+            b_out_key[at] = prm.first_cell + b_leaf_index[p];
             b_out_tri[at] = t;
         }
         return;

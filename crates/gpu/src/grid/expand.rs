@@ -5,14 +5,19 @@
 
 use super::DeviceGrid;
 use crate::device::Gpu;
-use crate::kernels::{Exec, Kernel, Kernels, Params};
+use crate::kernels::params::{EInitParams, ERecordsParams, ESideParams};
+use crate::kernels::{launch, Exec, Kernels};
 
-fn params(d: &DeviceGrid, n: u64, a: u32, b: u32) -> Params {
+fn side_params(d: &DeviceGrid, n: u64, axis: u32, positive: u32) -> ESideParams {
     let f = &d.frame;
-    let mut p = Params::n(n as u32, a, f.shift, b);
-    p.u[1] = [f.dims[0], f.dims[1], f.dims[2], 0];
-    p.u[2] = [f.top_dims[0], f.top_dims[1], f.top_dims[2], 0];
-    p
+    ESideParams {
+        cells: n as u32,
+        axis,
+        positive,
+        shift: f.shift,
+        dims: f.dims,
+        top_dims: f.top_dims,
+    }
 }
 
 /// `passes` expansion passes over `d`'s cells, as `accel::grid::expand::expand`.
@@ -22,34 +27,36 @@ pub fn expand(g: &Gpu, k: &Kernels, d: &mut DeviceGrid, passes: u32, empty_only:
     let exp_min = g.storage("expanded boxes (min)", (n * 16).max(16));
     let exp_max = g.storage("expanded boxes (max)", (n * 16).max(16));
     let blocked = g.storage("blocked sides", n * 4);
-    let binds = [
-        (1, &d.entries),
-        (2, &d.cell_min),
-        (3, &d.cell_max),
-        (4, &d.ref_first),
-        (5, &d.refs),
-        (6, &exp_min),
-        (7, &exp_max),
-        (8, &blocked),
-    ];
     ex.run(
-        Kernel::EInit,
-        params(d, n, empty_only as u32, 0),
-        &[
-            (2, &d.cell_min),
-            (3, &d.cell_max),
-            (4, &d.ref_first),
-            (6, &exp_min),
-            (7, &exp_max),
-            (8, &blocked),
-        ],
+        launch::EInit {
+            e_min: &d.cell_min,
+            e_max: &d.cell_max,
+            e_first: &d.ref_first,
+            e_exp_min: &exp_min,
+            e_exp_max: &exp_max,
+            e_blocked: &blocked,
+        },
+        EInitParams {
+            cells: n as u32,
+            empty_only: empty_only as u32,
+        },
         n,
         256,
     );
     for _ in 0..passes {
         for axis in 0..3u32 {
             for positive in [0u32, 1] {
-                ex.run(Kernel::ESide, params(d, n, axis, positive), &binds, n, 256);
+                let l = launch::ESide {
+                    e_map: &d.entries,
+                    e_min: &d.cell_min,
+                    e_max: &d.cell_max,
+                    e_first: &d.ref_first,
+                    e_refs: &d.refs,
+                    e_exp_min: &exp_min,
+                    e_exp_max: &exp_max,
+                    e_blocked: &blocked,
+                };
+                ex.run(l, side_params(d, n, axis, positive), n, 256);
             }
         }
     }
@@ -65,14 +72,13 @@ pub fn records(g: &Gpu, k: &Kernels, d: &DeviceGrid) -> wgpu::Buffer {
     let n = d.ncells;
     let rec = g.storage("grid cells", n * 32);
     ex.run(
-        Kernel::ERecords,
-        params(d, n, 0, 0),
-        &[
-            (4, &d.ref_first),
-            (6, &d.exp_min),
-            (7, &d.exp_max),
-            (9, &rec),
-        ],
+        launch::ERecords {
+            e_first: &d.ref_first,
+            e_exp_min: &d.exp_min,
+            e_exp_max: &d.exp_max,
+            e_rec: &rec,
+        },
+        ERecordsParams { cells: n as u32 },
         n,
         256,
     );

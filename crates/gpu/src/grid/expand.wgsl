@@ -3,8 +3,6 @@
 // its expanded box and, if every cell there holds a subset of its references, grows by the
 // smallest overhang. A side that cannot grow is blocked for good (as on the CPU). Then the
 // traversal's cell records (expanded box and reference range).
-// Params: u0 = (cells, axis, shift, positive side), u1 = virtual dims, u2 = top dims;
-// e_init: u0.y = empty cells only.
 
 @group(0) @binding(1) var<storage, read> e_map: array<u32>;
 @group(0) @binding(2) var<storage, read> e_min: array<vec4<u32>>;
@@ -15,6 +13,27 @@
 @group(0) @binding(7) var<storage, read_write> e_exp_max: array<vec4<u32>>;
 @group(0) @binding(8) var<storage, read_write> e_blocked: array<u32>;
 @group(0) @binding(9) var<storage, read_write> e_rec: array<vec4<u32>>;
+
+// Parameters of e_init.
+struct EInitParams {
+    cells: u32, // cells of the grid
+    empty_only: u32, // 1: only empty cells expand (every other cell starts blocked)
+}
+
+// Parameters of e_side: one pass over one side of every cell.
+struct ESideParams {
+    cells: u32, // cells of the grid
+    axis: u32, // the side's axis
+    positive: u32, // 1: the side towards +axis, 0: towards −axis
+    shift: u32, // log2 of the top cells' resolution in voxels
+    dims: vec3<u32>, // the virtual grid's dimensions in voxels
+    top_dims: vec3<u32>, // the top grid's dimensions
+}
+
+// Parameters of e_records.
+struct ERecordsParams {
+    cells: u32, // cells of the grid
+}
 
 // The voxel map read by `lookup` (map.wgsl).
 fn map_entry(i: u32) -> u32 {
@@ -46,12 +65,13 @@ fn is_subset(a: u32, b: u32) -> bool {
 // Blocked sides at the start: with empty cells only, every non-empty cell is blocked.
 @compute @workgroup_size(256)
 fn e_init(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = e_init_params();
     let c = lin(gid, nwg);
-    if c >= P.u0.x {
+    if c >= prm.cells {
         return;
     }
     let empty = e_first[c] == e_first[c + 1u];
-    e_blocked[c] = select(0u, 0x3fu, P.u0.y != 0u && !empty);
+    e_blocked[c] = select(0u, 0x3fu, prm.empty_only != 0u && !empty);
     e_exp_min[c] = e_min[c];
     e_exp_max[c] = e_max[c];
 }
@@ -59,12 +79,13 @@ fn e_init(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // expand.rs `expand_side` for every cell not blocked on this side.
 @compute @workgroup_size(256)
 fn e_side(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = e_side_params();
     let c = lin(gid, nwg);
-    if c >= P.u0.x {
+    if c >= prm.cells {
         return;
     }
-    let axis = P.u0.y;
-    let positive = P.u0.w != 0u;
+    let axis = prm.axis;
+    let positive = prm.positive != 0u;
     let bit = 1u << (2u * axis + u32(positive));
     if (e_blocked[c] & bit) != 0u {
         return;
@@ -73,7 +94,7 @@ fn e_side(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var hi = e_exp_max[c].xyz;
     var layer: u32;
     if positive {
-        if hi[axis] >= P.u1[axis] {
+        if hi[axis] >= prm.dims[axis] {
             e_blocked[c] |= bit;
             return;
         }
@@ -97,7 +118,7 @@ fn e_side(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
             p[axis] = layer;
             p[u] = pu;
             p[v] = pv;
-            let n = lookup(p);
+            let n = lookup(p, prm.shift, prm.top_dims);
             if !is_subset(n, c) {
                 e_blocked[c] |= bit;
                 return;
@@ -129,7 +150,7 @@ fn e_side(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 @compute @workgroup_size(256)
 fn e_records(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let c = lin(gid, nwg);
-    if c >= P.u0.x {
+    if c >= e_records_params().cells {
         return;
     }
     e_rec[2u * c] = vec4<u32>(e_exp_min[c].xyz, e_first[c]);

@@ -8,7 +8,8 @@
 
 use super::DeviceGrid;
 use crate::device::Gpu;
-use crate::kernels::{Exec, Kernel, Kernels, Params};
+use crate::kernels::params::{MergeCountParams, MergeParams};
+use crate::kernels::{launch, Exec, Kernels};
 use accel::grid::MergeRule;
 
 /// Merge `d`'s cells as `accel::grid::merge::merge` does; returns the rounds run.
@@ -23,26 +24,27 @@ pub fn merge(
     let mut ex = Exec::new(g, k);
     let n = d.ncells;
     let f = &d.frame;
-    let params = |count: u64, axis: u32| {
-        let mut p = Params::n(count as u32, axis, f.shift, empty_only as u32);
-        p.u[1] = [
-            f.dims[0],
-            f.dims[1],
-            f.dims[2],
-            (rule == MergeRule::Runs) as u32,
-        ];
-        p.u[2] = [f.top_dims[0], f.top_dims[1], f.top_dims[2], 0];
-        p.f[0] = [f.voxel.x, f.voxel.y, f.voxel.z, 0.0];
-        p
+    let params = |count: u64, axis: u32| MergeParams {
+        cells: count as u32,
+        axis,
+        shift: f.shift,
+        empty_only: empty_only as u32,
+        dims: f.dims,
+        runs: (rule == MergeRule::Runs) as u32,
+        top_dims: f.top_dims,
+        voxel: f.voxel.to_array(),
     };
+    let counted = |n: u64| MergeCountParams { n: n as u32 };
     // Per initial cell: owner, list range (begin, end), candidate, marks, partner.
     let mut owner = ex.iota(n);
     let mut owner_next = g.storage("owners", n * 4);
     let mut range = g.storage("list ranges", n * 8);
     ex.run(
-        Kernel::MInit,
-        params(n, 0),
-        &[(11, &d.ref_first), (13, &range)],
+        launch::MInit {
+            m_count: &d.ref_first,
+            m_range_out: &range,
+        },
+        counted(n),
         n,
         256,
     );
@@ -58,59 +60,59 @@ pub fn merge(
         for axis in 0..3u32 {
             let p = params(nlive, axis);
             ex.run(
-                Kernel::MCandidates,
+                launch::MCandidates {
+                    m_map: &d.entries,
+                    m_live: &live,
+                    m_owner: &owner,
+                    m_min: &d.cell_min,
+                    m_max: &d.cell_max,
+                    m_range: &range,
+                    m_pool: &pool,
+                    m_cand: &cand,
+                    m_mark: &mark,
+                    m_partner: &partner,
+                },
                 p,
-                &[
-                    (1, &d.entries),
-                    (2, &live),
-                    (3, &owner),
-                    (4, &d.cell_min),
-                    (5, &d.cell_max),
-                    (6, &range),
-                    (7, &pool),
-                    (8, &cand),
-                    (9, &mark),
-                    (10, &partner),
-                ],
                 nlive,
                 256,
             );
             ex.run(
-                Kernel::MPredecessors,
+                launch::MPredecessors {
+                    m_live: &live,
+                    m_cand: &cand,
+                    m_mark: &mark,
+                },
                 p,
-                &[(2, &live), (8, &cand), (9, &mark)],
                 nlive,
                 256,
             );
             ex.run(
-                Kernel::MChains,
+                launch::MChains {
+                    m_live: &live,
+                    m_min: &d.cell_min,
+                    m_max: &d.cell_max,
+                    m_range: &range,
+                    m_pool: &pool,
+                    m_cand: &cand,
+                    m_mark: &mark,
+                    m_partner: &partner,
+                },
                 p,
-                &[
-                    (2, &live),
-                    (4, &d.cell_min),
-                    (5, &d.cell_max),
-                    (6, &range),
-                    (7, &pool),
-                    (8, &cand),
-                    (9, &mark),
-                    (10, &partner),
-                ],
                 nlive,
                 256,
             );
             let count = g.storage("list lengths", nlive * 4);
             ex.run(
-                Kernel::MCounts,
+                launch::MCounts {
+                    m_live: &live,
+                    m_range: &range,
+                    m_pool: &pool,
+                    m_cand: &cand,
+                    m_mark: &mark,
+                    m_partner: &partner,
+                    m_count: &count,
+                },
                 p,
-                &[
-                    (2, &live),
-                    (6, &range),
-                    (7, &pool),
-                    (8, &cand),
-                    (9, &mark),
-                    (10, &partner),
-                    (11, &count),
-                ],
                 nlive,
                 256,
             );
@@ -121,39 +123,43 @@ pub fn merge(
             ex.copy(&range, 0, &range_out, n * 8);
             let pool_out = g.storage("reference pool", total * 4);
             ex.run(
-                Kernel::MEmit,
+                launch::MEmit {
+                    m_live: &live,
+                    m_owner: &owner,
+                    m_max: &d.cell_max,
+                    m_range: &range,
+                    m_pool: &pool,
+                    m_cand: &cand,
+                    m_mark: &mark,
+                    m_partner: &partner,
+                    m_offs: &offs,
+                    m_range_out: &range_out,
+                    m_pool_out: &pool_out,
+                },
                 p,
-                &[
-                    (2, &live),
-                    (3, &owner),
-                    (5, &d.cell_max),
-                    (6, &range),
-                    (7, &pool),
-                    (8, &cand),
-                    (9, &mark),
-                    (10, &partner),
-                    (12, &offs),
-                    (13, &range_out),
-                    (14, &pool_out),
-                ],
                 nlive,
                 256,
             );
             range = range_out;
             pool = pool_out;
             ex.run(
-                Kernel::MCompress,
-                params(n, axis),
-                &[(3, &owner), (15, &owner_next)],
+                launch::MCompress {
+                    m_owner: &owner,
+                    m_owner_out: &owner_next,
+                },
+                counted(n),
                 n,
                 256,
             );
             std::mem::swap(&mut owner, &mut owner_next);
             let flags = g.storage("live flags", nlive * 4);
             ex.run(
-                Kernel::MLiveFlags,
+                launch::MLiveFlags {
+                    m_live: &live,
+                    m_owner: &owner,
+                    m_out: &flags,
+                },
                 p,
-                &[(2, &live), (3, &owner), (16, &flags)],
                 nlive,
                 256,
             );
@@ -167,20 +173,26 @@ pub fn merge(
         }
     }
     // Renumber the live cells in order; gather their boxes and ranges; repoint the map.
-    let p = params(nlive, 0);
+    let p = counted(nlive);
     let new_index = g.storage("merged cells' numbers", n * 4);
     ex.run(
-        Kernel::MFinalIndex,
+        launch::MFinalIndex {
+            m_live: &live,
+            m_out: &new_index,
+        },
         p,
-        &[(2, &live), (16, &new_index)],
         nlive,
         256,
     );
     let map = g.storage("voxel map", d.nentries * 4);
     ex.run(
-        Kernel::MFinalMap,
-        params(d.nentries, 0),
-        &[(1, &d.entries), (3, &owner), (15, &map), (16, &new_index)],
+        launch::MFinalMap {
+            m_map: &d.entries,
+            m_owner: &owner,
+            m_owner_out: &map,
+            m_out: &new_index,
+        },
+        counted(d.nentries),
         d.nentries,
         256,
     );
@@ -188,17 +200,16 @@ pub fn merge(
     let cmax = g.storage("cells' max", (nlive * 16).max(16));
     let first = g.storage("cells' first references", (nlive + 1) * 4);
     ex.run(
-        Kernel::MFinalCells,
+        launch::MFinalCells {
+            m_live: &live,
+            m_min: &d.cell_min,
+            m_max: &d.cell_max,
+            m_range: &range,
+            m_count: &first,
+            m_min_out: &cmin,
+            m_max_out: &cmax,
+        },
         p,
-        &[
-            (2, &live),
-            (4, &d.cell_min),
-            (5, &d.cell_max),
-            (6, &range),
-            (11, &first),
-            (17, &cmin),
-            (18, &cmax),
-        ],
         nlive,
         256,
     );

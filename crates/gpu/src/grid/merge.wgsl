@@ -17,8 +17,24 @@
 // the CPU's.
 //
 // Cells keep their initial index while merging; owner[i] is the live cell holding cell i.
-// Params: u0 = (live cells, axis, shift, empty only), u1 = (virtual dims, runs), u2 = top
-// dims, f0.xyz = voxel size. m_compress / m_final_* take u0.x = their own count.
+
+// Parameters of a merge pass's kernels (m_candidates, m_predecessors, m_chains, m_counts,
+// m_emit, m_live_flags).
+struct MergeParams {
+    cells: u32, // live cells
+    axis: u32, // the pass's axis
+    shift: u32, // log2 of the top cells' resolution in voxels
+    empty_only: u32, // 1: only empty cells merge
+    dims: vec3<u32>, // the virtual grid's dimensions in voxels
+    runs: u32, // 1: runs of cells merge (MergeRule::Runs), 0: pairs
+    top_dims: vec3<u32>, // the top grid's dimensions
+    voxel: vec3<f32>, // the voxel's size in world units
+}
+
+// Parameters of the kernels that take one count (m_init, m_compress, m_final_*).
+struct MergeCountParams {
+    n: u32, // the elements, as each kernel says
+}
 
 @group(0) @binding(1) var<storage, read> m_map: array<u32>;
 @group(0) @binding(2) var<storage, read> m_live: array<u32>;
@@ -55,7 +71,7 @@ fn lin(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
 
 // grid::half_area: the box's extent in world units, e.x e.y + e.y e.z + e.z e.x.
 fn half_area(lo: vec3<u32>, hi: vec3<u32>) -> f32 {
-    let v = P.f0.xyz;
+    let v = merge_params().voxel;
     let e = vec3<f32>(mul(f32(hi.x - lo.x), v.x), mul(f32(hi.y - lo.y), v.y), mul(f32(hi.z - lo.z), v.z));
     return keep(keep(mul(e.x, e.y) + mul(e.y, e.z)) + mul(e.z, e.x));
 }
@@ -188,14 +204,15 @@ fn run_union_write(i: u32, last: u32, at: u32) {
 // merge.rs `neighbour` and `worth_merging`: the cell at i's +axis probe voxel, if exactly
 // aligned and if merging lowers the SAH cost.
 fn candidate(i: u32, axis: u32) -> u32 {
+    let prm = merge_params();
     let lo = m_min[i].xyz;
     let hi = m_max[i].xyz;
-    if hi[axis] >= P.u1[axis] {
+    if hi[axis] >= prm.dims[axis] {
         return NONE;
     }
     var p = lo;
     p[axis] = hi[axis];
-    let j = m_owner[lookup(p)];
+    let j = m_owner[lookup(p, prm.shift, prm.top_dims)];
     let jl = m_min[j].xyz;
     let jh = m_max[j].xyz;
     for (var k = 0u; k < 3u; k++) {
@@ -206,7 +223,7 @@ fn candidate(i: u32, axis: u32) -> u32 {
     }
     let ni = list_len(i);
     let nj = list_len(j);
-    if P.u0.w != 0u && !(ni == 0u && nj == 0u) {
+    if prm.empty_only != 0u && !(ni == 0u && nj == 0u) {
         return NONE;
     }
     var uh = hi;
@@ -220,12 +237,13 @@ fn candidate(i: u32, axis: u32) -> u32 {
 // 1. Candidates of the live cells; their marks cleared.
 @compute @workgroup_size(256)
 fn m_candidates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_params();
     let k = lin(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.cells {
         return;
     }
     let i = m_live[k];
-    m_cand[i] = candidate(i, P.u0.y);
+    m_cand[i] = candidate(i, prm.axis);
     m_mark[2u * i] = 0u;
     m_mark[2u * i + 1u] = 0u;
     m_partner[i] = NONE;
@@ -235,8 +253,9 @@ fn m_candidates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
 // pointing cell's).
 @compute @workgroup_size(256)
 fn m_predecessors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_params();
     let k = lin(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.cells {
         return;
     }
     let j = m_cand[m_live[k]];
@@ -250,15 +269,16 @@ fn m_predecessors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
 // passes; the next run starts after the run's last cell.
 @compute @workgroup_size(256)
 fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_params();
     let k = lin(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.cells {
         return;
     }
     let head = m_live[k];
     if m_cand[head] == NONE || m_mark[2u * head] != 0u {
         return;
     }
-    let axis = P.u0.y;
+    let axis = prm.axis;
     var i = head;
     loop {
         let j = m_cand[i];
@@ -267,7 +287,7 @@ fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         }
         m_mark[2u * j + 1u] = 1u;
         var last = j;
-        if P.u1.w != 0u {
+        if prm.runs != 0u {
             let lo = m_min[i].xyz;
             var hi = m_max[i].xyz;
             hi[axis] = m_max[j][axis];
@@ -279,7 +299,7 @@ fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
                     break;
                 }
                 let nc = list_len(c);
-                if P.u0.w != 0u && !(len == 0u && nc == 0u) {
+                if prm.empty_only != 0u && !(len == 0u && nc == 0u) {
                     break;
                 }
                 let cl = m_min[c].xyz;
@@ -309,8 +329,9 @@ fn m_chains(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
 // 4. Each live cell's list length after the pass (absorbers: the union; residue: none).
 @compute @workgroup_size(256)
 fn m_counts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_params();
     let k = lin(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.cells {
         return;
     }
     let i = m_live[k];
@@ -330,8 +351,9 @@ fn m_counts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
 // face and become its cells' owner.
 @compute @workgroup_size(256)
 fn m_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_params();
     let k = lin(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.cells {
         return;
     }
     let i = m_live[k];
@@ -378,7 +400,7 @@ fn m_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     } else {
         run_union_write(i, last, at);
     }
-    let axis = P.u0.y;
+    let axis = prm.axis;
     var hi = m_max[i];
     hi[axis] = m_max[last][axis];
     m_max[i] = hi;
@@ -392,11 +414,12 @@ fn m_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     }
 }
 
-// 6. Owners one step deep again (merge.rs `compress_owners`). u0.x = all cells.
+// 6. Owners one step deep again (merge.rs `compress_owners`); n = all cells.
 @compute @workgroup_size(256)
 fn m_compress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_count_params();
     let x = lin(gid, nwg);
-    if x >= P.u0.x {
+    if x >= prm.n {
         return;
     }
     m_owner_out[x] = m_owner[m_owner[x]];
@@ -405,30 +428,33 @@ fn m_compress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 // 7. Flags of the cells still live (for the compaction of the live list).
 @compute @workgroup_size(256)
 fn m_live_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_params();
     let k = lin(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.cells {
         return;
     }
     let i = m_live[k];
     m_out[k] = u32(m_owner[i] == i);
 }
 
-// Final compaction (merge.rs `compact`): the live cells' new numbers (u0.x = live cells) …
+// Final compaction (merge.rs `compact`): the live cells' new numbers (n = live cells) …
 @compute @workgroup_size(256)
 fn m_final_index(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_count_params();
     let k = lin(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.n {
         return;
     }
     m_out[m_live[k]] = k;
 }
 
-// … and the voxel map pointed at them (u0.x = entries; binding 16 holds the new numbers,
+// … and the voxel map pointed at them (n = entries; binding 16 holds the new numbers,
 // binding 15 the map rewritten).
 @compute @workgroup_size(256)
 fn m_final_map(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_count_params();
     let x = lin(gid, nwg);
-    if x >= P.u0.x {
+    if x >= prm.n {
         return;
     }
     let e = m_map[x];
@@ -442,28 +468,30 @@ fn m_final_map(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
 @group(0) @binding(17) var<storage, read_write> m_min_out: array<vec4<u32>>;
 @group(0) @binding(18) var<storage, read_write> m_max_out: array<vec4<u32>>;
 
-// … and the live cells gathered in their order: boxes and first references (u0.x = live
+// … and the live cells gathered in their order: boxes and first references (n = live
 // cells; the pool is already in live order, the residue's lists being empty).
 @compute @workgroup_size(256)
 fn m_final_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_count_params();
     let k = lin(gid, nwg);
-    if k >= P.u0.x {
+    if k >= prm.n {
         return;
     }
     let i = m_live[k];
     m_min_out[k] = m_min[i];
     m_max_out[k] = m_max[i];
     m_count[k] = m_range[2u * i];
-    if k + 1u == P.u0.x {
+    if k + 1u == prm.n {
         m_count[k + 1u] = m_range[2u * i + 1u];
     }
 }
 
-// The initial lists' ranges from the reference ranges (u0.x = cells; binding 11 holds them).
+// The initial lists' ranges from the reference ranges (n = cells; binding 11 holds them).
 @compute @workgroup_size(256)
 fn m_init(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = merge_count_params();
     let i = lin(gid, nwg);
-    if i >= P.u0.x {
+    if i >= prm.n {
         return;
     }
     m_range_out[2u * i] = m_count[i];

@@ -7,7 +7,8 @@
 //! the device and read back only the counts' sums per chunk of rays (low and high words).
 
 use super::GpuGrid;
-use crate::kernels::{Exec, Kernel, Params};
+use crate::kernels::params::GridTraceParams;
+use crate::kernels::{launch, Exec};
 use crate::rays::{records_to_hits, upload_segments, DeviceRays};
 use trace::Counter;
 use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats};
@@ -51,23 +52,26 @@ fn records(
     let rec = g.storage("grid records", n * 16);
     let cnt = g.storage("grid counts", n * 8);
     ex.phase(Phase::Traversal);
-    let mut p = Params::n(n as u32, (mode == TraceMode::Any) as u32, grid.shift, 0);
-    p.u[1] = [grid.dims[0], grid.dims[1], grid.dims[2], 0];
-    p.u[2] = [grid.top_dims[0], grid.top_dims[1], grid.top_dims[2], 0];
+    let p = GridTraceParams {
+        rays: n as u32,
+        any_hit: (mode == TraceMode::Any) as u32,
+        shift: grid.shift,
+        dims: grid.dims,
+        top_dims: grid.top_dims,
+    };
     ex.run(
-        Kernel::GridTrace,
+        launch::GridTrace {
+            gr_const: &grid.consts,
+            gr_map: &grid.map,
+            gr_cell: &grid.cells,
+            gr_ref: &grid.refs,
+            gr_tris: &grid.tris,
+            gr_org: org,
+            gr_dir: dir,
+            gr_rec: &rec,
+            gr_cnt: &cnt,
+        },
         p,
-        &[
-            (1, &grid.consts),
-            (2, &grid.map),
-            (3, &grid.cells),
-            (4, &grid.refs),
-            (5, &grid.tris),
-            (6, org),
-            (7, dir),
-            (8, &rec),
-            (9, &cnt),
-        ],
         n,
         256,
     );

@@ -9,7 +9,6 @@
 // comparisons decide as the CPU's i64 ones do, and NaN (the CPU's `as i64` gives 0) is
 // tested by its bits, which no fast-math assumption can remove.
 //
-// Params u0 = (rays, any hit, shift, -), u1 = virtual dims, u2 = top dims.
 // Bindings: 1 grid constants (box min, box max, voxel size, 1 / voxel size), 2 voxel map,
 //           3 cells (2 × vec4<u32>: expanded lo | first reference, expanded hi | end),
 //           4 references, 5 triangles (3 × vec4), 6 ray org | t_min, 7 ray dir | t_max,
@@ -24,6 +23,15 @@
 @group(0) @binding(7) var<storage, read> gr_dir: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> gr_rec: array<vec4<u32>>;
 @group(0) @binding(9) var<storage, read_write> gr_cnt: array<vec2<u32>>;
+
+// Parameters of grid_trace.
+struct GridTraceParams {
+    rays: u32, // rays traced
+    any_hit: u32, // 1: any hit (stop at the first), 0: closest
+    shift: u32, // log2 of the top cells' resolution in voxels
+    dims: vec3<u32>, // the virtual grid's dimensions in voxels
+    top_dims: vec3<u32>, // the top grid's dimensions
+}
 
 // The voxel map read by `lookup` (map.wgsl).
 fn map_entry(i: u32) -> u32 {
@@ -47,14 +55,16 @@ fn floor_or_zero(x: f32) -> f32 {
 }
 
 
+// Irregular-grid traversal, one thread per ray.
 @compute @workgroup_size(256)
 fn grid_trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let p = grid_trace_params();
     let r = gid.x + gid.y * nwg.x * 256u;
-    if r >= P.u0.x {
+    if r >= p.rays {
         return;
     }
-    let any_hit = P.u0.y != 0u;
-    let dims = P.u1.xyz;
+    let any_hit = p.any_hit != 0u;
+    let dims = p.dims;
     let bmin = gr_const[0].xyz;
     let bmax = gr_const[1].xyz;
     let voxel = gr_const[2].xyz;
@@ -105,7 +115,7 @@ fn grid_trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
             v[k] = u32(clamp(f, 0.0, f32(dims[k] - 1u)));
         }
         loop {
-            let c = lookup(v);
+            let c = lookup(v, p.shift, p.top_dims);
             steps += 1u;
             let lo_b = gr_cell[2u * c];
             let hi_e = gr_cell[2u * c + 1u];

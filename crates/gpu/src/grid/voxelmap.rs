@@ -13,7 +13,8 @@
 use super::build::DeviceOctrees;
 use super::DeviceGrid;
 use crate::device::{Gpu, GpuError};
-use crate::kernels::{Exec, Kernel, Kernels, Params};
+use crate::kernels::params::{VmCellsParams, VmKeysParams, VmLevelParams};
+use crate::kernels::{launch, Exec, Kernels};
 use accel::grid::build::{assemble, Setup};
 
 /// Flatten `d`'s octrees into the voxel map and the cells of the initial grid, on the device.
@@ -29,41 +30,57 @@ pub fn finish(g: &Gpu, k: &Kernels, st: &Setup, d: &DeviceOctrees) -> Result<Dev
     let bsum = node("subtree block entries");
     let boff = node("first block entries");
     let loff = node("first leaves");
-    let level = |ex: &mut Exec, kernel: Kernel, l: usize, binds: &[(u32, &wgpu::Buffer)]| {
+    // A level's parameters and thread count.
+    let level = |l: usize| {
         let (first, n) = d.levels[l];
-        let mut p = Params::n(n as u32, first as u32, (l == 0) as u32, 0);
-        p.u[1][0] = d.ntop as u32;
-        ex.run(kernel, p, binds, n, 256);
+        let p = VmLevelParams {
+            nodes: n as u32,
+            first: first as u32,
+            top: (l == 0) as u32,
+            top_cells: d.ntop as u32,
+        };
+        (p, n)
     };
     let deepest_first: Vec<usize> = (0..d.levels.len()).rev().collect();
     for &l in &deepest_first {
-        level(
-            &mut ex,
-            Kernel::VmUp,
-            l,
-            &[(1, &d.entries), (2, &depth), (3, &leaves)],
+        let (p, n) = level(l);
+        ex.run(
+            launch::VmUp {
+                v_entries: &d.entries,
+                v_depth: &depth,
+                v_leaves: &leaves,
+            },
+            p,
+            n,
+            256,
         );
     }
     for l in 0..d.levels.len() {
-        level(
-            &mut ex,
-            Kernel::VmDown,
-            l,
-            &[
-                (1, &d.entries),
-                (2, &depth),
-                (4, &kown),
-                (5, &place),
-                (6, &root),
-            ],
+        let (p, n) = level(l);
+        ex.run(
+            launch::VmDown {
+                v_entries: &d.entries,
+                v_depth: &depth,
+                v_kown: &kown,
+                v_place: &place,
+                v_root: &root,
+            },
+            p,
+            n,
+            256,
         );
     }
     for &l in &deepest_first {
-        level(
-            &mut ex,
-            Kernel::VmBsum,
-            l,
-            &[(1, &d.entries), (4, &kown), (7, &bsum)],
+        let (p, n) = level(l);
+        ex.run(
+            launch::VmBsum {
+                v_entries: &d.entries,
+                v_kown: &kown,
+                v_bsum: &bsum,
+            },
+            p,
+            n,
+            256,
         );
     }
     let top_b = g.storage("top cells' first block entries", (d.ntop + 1) * 4);
@@ -81,42 +98,44 @@ pub fn finish(g: &Gpu, k: &Kernels, st: &Setup, d: &DeviceOctrees) -> Result<Dev
         )));
     }
     for l in 0..d.levels.len() {
-        level(
-            &mut ex,
-            Kernel::VmOffsets,
-            l,
-            &[
-                (1, &d.entries),
-                (3, &leaves),
-                (4, &kown),
-                (7, &bsum),
-                (8, &boff),
-                (9, &loff),
-                (21, &top_b),
-                (22, &top_l),
-            ],
+        let (p, n) = level(l);
+        ex.run(
+            launch::VmOffsets {
+                v_entries: &d.entries,
+                v_leaves: &leaves,
+                v_kown: &kown,
+                v_bsum: &bsum,
+                v_boff: &boff,
+                v_loff: &loff,
+                v_top_b: &top_b,
+                v_top_l: &top_l,
+            },
+            p,
+            n,
+            256,
         );
     }
     let out = g.storage("voxel map", total * 4);
     let new_index = g.storage("cells' new numbers", d.ncells * 4);
     let order = g.storage("cells in map order", d.ncells * 4);
     for l in 0..d.levels.len() {
-        level(
-            &mut ex,
-            Kernel::VmFill,
-            l,
-            &[
-                (1, &d.entries),
-                (4, &kown),
-                (5, &place),
-                (6, &root),
-                (8, &boff),
-                (9, &loff),
-                (10, &d.coords),
-                (11, &out),
-                (12, &new_index),
-                (13, &order),
-            ],
+        let (p, n) = level(l);
+        ex.run(
+            launch::VmFill {
+                v_entries: &d.entries,
+                v_kown: &kown,
+                v_place: &place,
+                v_root: &root,
+                v_boff: &boff,
+                v_loff: &loff,
+                v_coords: &d.coords,
+                v_out: &out,
+                v_new_index: &new_index,
+                v_order: &order,
+            },
+            p,
+            n,
+            256,
         );
     }
     // Cells in map order, their reference ranges, the references sorted by cell.
@@ -125,16 +144,18 @@ pub fn finish(g: &Gpu, k: &Kernels, st: &Setup, d: &DeviceOctrees) -> Result<Dev
     let cell_max = g.storage("cells' footprints (max)", (nc * 16).max(16));
     let count = g.storage("cells' reference counts", nc * 4);
     ex.run(
-        Kernel::VmCells,
-        Params::n(nc as u32, d.shift, 0, 0),
-        &[
-            (13, &order),
-            (14, &d.cells),
-            (15, &d.cell_level),
-            (16, &cell_min),
-            (17, &cell_max),
-            (18, &count),
-        ],
+        launch::VmCells {
+            v_order: &order,
+            v_cells: &d.cells,
+            v_cell_level: &d.cell_level,
+            v_cell_min: &cell_min,
+            v_cell_max: &cell_max,
+            v_count: &count,
+        },
+        VmCellsParams {
+            cells: nc as u32,
+            shift: d.shift,
+        },
         nc,
         256,
     );
@@ -143,9 +164,14 @@ pub fn finish(g: &Gpu, k: &Kernels, st: &Setup, d: &DeviceOctrees) -> Result<Dev
     let keys = g.storage("references' cells", d.nkept * 4);
     let refs = g.storage("references", d.nkept * 4);
     ex.run(
-        Kernel::VmKeys,
-        Params::n(d.nkept as u32, 0, 0, 0),
-        &[(12, &new_index), (19, &d.kept_cell), (20, &keys)],
+        launch::VmKeys {
+            v_new_index: &new_index,
+            v_kept_cell: &d.kept_cell,
+            v_keys: &keys,
+        },
+        VmKeysParams {
+            refs: d.nkept as u32,
+        },
         d.nkept,
         256,
     );

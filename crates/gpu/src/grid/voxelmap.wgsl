@@ -12,8 +12,25 @@
 //
 // Node arrays are indexed by the node's entry in the sparse map (levels in order; the
 // children of inner entry e are entries (e & INDEX) + 0..7).
-// Params: u0 = (nodes of the level, first entry of the level, top level (1) or not, -),
-// u1 = (top cells, -, -, -); vm_cells u0 = (cells, shift, -, -); vm_keys u0.x = references.
+
+// Parameters of the per-level kernels (vm_up, vm_down, vm_bsum, vm_offsets, vm_fill).
+struct VmLevelParams {
+    nodes: u32, // nodes of the level
+    first: u32, // the level's first entry
+    top: u32, // 1: the top level
+    top_cells: u32, // cells of the top grid
+}
+
+// Parameters of vm_cells.
+struct VmCellsParams {
+    cells: u32, // leaf cells
+    shift: u32, // log2 of the top cells' resolution in voxels
+}
+
+// Parameters of vm_keys.
+struct VmKeysParams {
+    refs: u32, // kept references
+}
 
 @group(0) @binding(1) var<storage, read> v_entries: array<u32>;
 @group(0) @binding(2) var<storage, read_write> v_depth: array<u32>;
@@ -52,11 +69,12 @@ fn lin(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
 }
 
 fn node_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    let prm = vm_level_params();
     let i = lin(gid, nwg);
-    if i >= P.u0.x {
+    if i >= prm.nodes {
         return 0xffffffffu;
     }
-    return P.u0.y + i;
+    return prm.first + i;
 }
 
 fn block_size(k: u32) -> u32 {
@@ -91,13 +109,14 @@ fn vm_up(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
 // bottom) and its block's k; its children's places and enclosing roots.
 @compute @workgroup_size(256)
 fn vm_down(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = vm_level_params();
     let i = node_index(gid, nwg);
     if i == 0xffffffffu {
         return;
     }
     let e = v_entries[i];
     let inner = (e & NODE) != 0u;
-    let top = P.u0.z != 0u;
+    let top = prm.top != 0u;
     let is_root = inner && (top || v_place[2u * i] == v_place[2u * i + 1u]);
     let k = select(0u, min(v_depth[i], MAX_BLOCK_LEVELS), is_root);
     v_kown[i] = k;
@@ -141,12 +160,13 @@ fn vm_bsum(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
 // comes before its children's) and its first leaf; top cells take theirs from the scans.
 @compute @workgroup_size(256)
 fn vm_offsets(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = vm_level_params();
     let i = node_index(gid, nwg);
     if i == 0xffffffffu {
         return;
     }
-    if P.u0.z != 0u {
-        v_boff[i] = P.u1.x + v_top_b[i];
+    if prm.top != 0u {
+        v_boff[i] = prm.top_cells + v_top_b[i];
         v_loff[i] = v_top_l[i];
     }
     let e = v_entries[i];
@@ -169,6 +189,7 @@ fn vm_offsets(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 // block root its one entry there; the leaves' new numbers both ways.
 @compute @workgroup_size(256)
 fn vm_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = vm_level_params();
     let i = node_index(gid, nwg);
     if i == 0xffffffffu {
         return;
@@ -183,7 +204,7 @@ fn vm_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     } else {
         v = NODE | (v_kown[i] << LOG_DIM_SHIFT) | v_boff[i];
     }
-    if P.u0.z != 0u {
+    if prm.top != 0u {
         v_out[i] = v;
         return;
     }
@@ -208,13 +229,14 @@ fn vm_fill(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
 // Cells in map order: footprint on the virtual grid and reference count.
 @compute @workgroup_size(256)
 fn vm_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = vm_cells_params();
     let n = lin(gid, nwg);
-    if n >= P.u0.x {
+    if n >= prm.cells {
         return;
     }
     let old = v_order[n];
     let c = v_cells[old];
-    let s = P.u0.y - v_cell_level[old];
+    let s = prm.shift - v_cell_level[old];
     let lo = c.xyz << vec3<u32>(s);
     v_cell_min[n] = vec4<u32>(lo, 0u);
     v_cell_max[n] = vec4<u32>(lo + vec3<u32>(1u << s), 0u);
@@ -224,8 +246,9 @@ fn vm_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
 // References' cells renumbered (the sort keys).
 @compute @workgroup_size(256)
 fn vm_keys(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let prm = vm_keys_params();
     let r = lin(gid, nwg);
-    if r >= P.u0.x {
+    if r >= prm.refs {
         return;
     }
     v_keys[r] = v_new_index[v_kept_cell[r]];

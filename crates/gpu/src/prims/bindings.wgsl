@@ -1,6 +1,5 @@
 // The bindings and thread index shared by the small data-parallel passes (compact.wgsl,
 // runs.wgsl, permute.wgsl, rsh/kinds.wgsl), prepended to each of them.
-// Params u0 = (n, mode, total, -).
 // Bindings: 1 flags / keys, 2 offsets (n + 1), 3 a in, 4 b in, 5 a out, 6 b out, 7 c out.
 @group(0) @binding(1) var<storage, read> x_flag: array<u32>;
 @group(0) @binding(2) var<storage, read> x_off: array<u32>;

@@ -9,8 +9,14 @@
 //                 out[base(digit, tile) + start + running count] = (key, value).
 // Many elements per thread keep the number of workgroup barriers per element low, which
 // matters on CPU implementations of Vulkan (lavapipe), where a barrier is a context switch.
-// Params: n = element count, a = shift, b = tile count.
 // Bindings: 1 keys in, 2 values in, 3 hist, 4 keys out, 5 values out.
+
+// Parameters of key_bits, sort_count and sort_scatter: one radix pass.
+struct SortParams {
+    n: u32, // keys
+    shift: u32, // the pass's digit: key >> shift & 15
+    tiles: u32, // tiles of the keys
+}
 
 @group(0) @binding(1) var<storage, read> k_in: array<u32>;
 @group(0) @binding(2) var<storage, read> v_in: array<u32>;
@@ -28,8 +34,10 @@ var<workgroup> packed: array<array<u32, 8>, 256>;
 var<workgroup> w_or: atomic<u32>;
 var<workgroup> w_and: atomic<u32>;
 
+// The AND and OR of all keys (digits equal in every key need no sort pass).
 @compute @workgroup_size(256)
 fn key_bits(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let p = sort_params();
     if li == 0u {
         atomicStore(&w_or, 0u);
         atomicStore(&w_and, 0xffffffffu);
@@ -39,7 +47,7 @@ fn key_bits(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid
     var o = 0u;
     var a = 0xffffffffu;
     for (var k = 0u; k < PER; k++) {
-        if base + k < P.u0.x {
+        if base + k < p.n {
             o |= k_in[base + k];
             a &= k_in[base + k];
         }
@@ -53,8 +61,10 @@ fn key_bits(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid
     }
 }
 
+// Per-tile digit histograms of a radix pass.
 @compute @workgroup_size(256)
 fn sort_count(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let p = sort_params();
     let tile = wg_linear(wid, nwg);
     if li < 16u {
         atomicStore(&bins[li], 0u);
@@ -62,18 +72,20 @@ fn sort_count(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) w
     workgroupBarrier();
     let base = (tile * WG + li) * PER;
     for (var k = 0u; k < PER; k++) {
-        if base + k < P.u0.x {
-            atomicAdd(&bins[(k_in[base + k] >> P.u0.y) & 15u], 1u);
+        if base + k < p.n {
+            atomicAdd(&bins[(k_in[base + k] >> p.shift) & 15u], 1u);
         }
     }
     workgroupBarrier();
-    if li < 16u && tile < P.u0.z {
-        hist[li * P.u0.z + tile] = atomicLoad(&bins[li]);
+    if li < 16u && tile < p.tiles {
+        hist[li * p.tiles + tile] = atomicLoad(&bins[li]);
     }
 }
 
+// Stable scatter of a radix pass.
 @compute @workgroup_size(256)
 fn sort_scatter(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let p = sort_params();
     let tile = wg_linear(wid, nwg);
     let base = (tile * WG + li) * PER;
     // This thread's digit counts, digit d in lane d / 2, half d % 2.
@@ -82,8 +94,8 @@ fn sort_scatter(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id)
         own[j] = 0u;
     }
     for (var k = 0u; k < PER; k++) {
-        if base + k < P.u0.x {
-            let d = (k_in[base + k] >> P.u0.y) & 15u;
+        if base + k < p.n {
+            let d = (k_in[base + k] >> p.shift) & 15u;
             own[d >> 1u] += 1u << ((d & 1u) * 16u);
         }
     }
@@ -108,18 +120,18 @@ fn sort_scatter(@builtin(local_invocation_index) li: u32, @builtin(workgroup_id)
     for (var j = 0u; j < 8u; j++) {
         run[j] = packed[li][j] - own[j];
     }
-    if tile >= P.u0.z {
+    if tile >= p.tiles {
         return;
     }
     for (var k = 0u; k < PER; k++) {
         let i = base + k;
-        if i < P.u0.x {
+        if i < p.n {
             let key = k_in[i];
-            let d = (key >> P.u0.y) & 15u;
+            let d = (key >> p.shift) & 15u;
             let sh = (d & 1u) * 16u;
             let rank = (run[d >> 1u] >> sh) & 0xffffu;
             run[d >> 1u] += 1u << sh;
-            let dst = hist[d * P.u0.z + tile] + rank;
+            let dst = hist[d * p.tiles + tile] + rank;
             k_out[dst] = key;
             v_out[dst] = v_in[i];
         }

@@ -3,7 +3,8 @@
 //! the CPU's stop rules; the kinds' starts among the leaves come from `kinds.wgsl`.
 
 use super::device_scene::DeviceScene;
-use crate::kernels::{Exec, Kernel, Params};
+use crate::kernels::params::{KindHistParams, LevelParams};
+use crate::kernels::{launch, Exec};
 use crate::rays::DeviceRays;
 use ::rsh::Union;
 
@@ -50,9 +51,13 @@ pub fn build(
         let starts = g.upload("kind starts", &[0u32; 4]);
         let present = g.upload("kind present", &[0u32; 4]);
         ex.run(
-            Kernel::KindHist,
-            Params::n(m as u32, 0, 0, 0),
-            &[(3, kl), (4, leaves), (5, &starts), (6, &present)],
+            launch::KindHist {
+                x_a: kl,
+                x_b: leaves,
+                y_a: &starts,
+                y_b: &present,
+            },
+            KindHistParams { leaves: m as u32 },
             m,
             256,
         );
@@ -88,20 +93,39 @@ pub fn build(
             first: g.storage("node first", (total as u64 + 1) * 4),
             per_kind: nodes,
         };
-        let prm = Params {
-            u: [[total, b, union, children], run, cum, below],
-            f: [[0.0; 4]; 2],
+        let prm = LevelParams {
+            nodes: total,
+            b,
+            union_thesis: union,
+            children,
+            run,
+            cum,
+            below,
         };
-        let outs = [(5, &lv.sphere), (6, &lv.cone), (7, &lv.sc), (8, &lv.first)];
         if levels.is_empty() {
-            let mut binds = vec![(1, leaves), (2, org), (3, dir), (4, &eng.shuffles)];
-            binds.extend(outs);
-            ex.run(Kernel::BuildLeafLevel, prm, &binds, total as u64, 64);
+            let l = launch::BuildLeafLevel {
+                b_leaf: leaves,
+                b_org: org,
+                b_dir: dir,
+                b_shuffle: &eng.shuffles,
+                o_sphere: &lv.sphere,
+                o_cone: &lv.cone,
+                o_sc: &lv.sc,
+                o_first: &lv.first,
+            };
+            ex.run(l, prm, total as u64, 64);
         } else {
             let c = levels.last().unwrap();
-            let mut binds = vec![(9, &c.sphere), (10, &c.cone), (11, &c.sc)];
-            binds.extend(outs);
-            ex.run(Kernel::BuildUpperLevel, prm, &binds, total as u64, 64);
+            let l = launch::BuildUpperLevel {
+                c_sphere: &c.sphere,
+                c_cone: &c.cone,
+                c_sc: &c.sc,
+                o_sphere: &lv.sphere,
+                o_cone: &lv.cone,
+                o_sc: &lv.sc,
+                o_first: &lv.first,
+            };
+            ex.run(l, prm, total as u64, 64);
         }
         levels.push(lv);
         // Stop rules of rsh::build.

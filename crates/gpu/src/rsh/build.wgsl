@@ -4,11 +4,19 @@
 // consecutive children of one kind. Kinds are sorted (the kind is the key's top bits), so a
 // node's children are found from per-kind run starts and node counts, without a search.
 //
-// Params u0 = (nodes, b, union (0 exact, 1 thesis), children total)
-//        u1 = child run start per kind, u2 = first node index per kind (cumulative),
-//        u3 = child count per kind.
 // Bindings (level 1): 1 leaves, 2 ray org, 3 ray dir, 4 shuffles, 5 sphere, 6 cone, 7 sc,
 //                     8 first.  (upper): 1 child sphere, 2 child cone, 3 child sc, 5..8 out.
+
+// Parameters of build_leaf_level and build_upper_level: one level of the hierarchy.
+struct LevelParams {
+    nodes: u32, // nodes of the level
+    b: u32, // children per node (the branching factor)
+    union_thesis: u32, // 1: the thesis's sphere/cone union, 0: the exact one
+    children: u32, // children in the level below (the sentinel of o_first)
+    run: vec4<u32>, // per kind: where its children start in the level below
+    cum: vec4<u32>, // per kind: its first node in this level (cumulative)
+    below: vec4<u32>, // per kind: its children in the level below
+}
 
 @group(0) @binding(1) var<storage, read> b_leaf: array<u32>;
 @group(0) @binding(2) var<storage, read> b_org: array<vec4<f32>>;
@@ -25,14 +33,15 @@
 
 // Children [start, end) and kind of node g.
 fn node_range(g: u32) -> vec3<u32> {
+    let p = level_params();
     var k = 0u;
     for (var j = 1u; j < 4u; j++) {
-        if g >= P.u2[j] {
+        if g >= p.cum[j] {
             k = j;
         }
     }
-    let start = P.u1[k] + (g - P.u2[k]) * P.u0.y;
-    let end = min(start + P.u0.y, P.u1[k] + P.u3[k]);
+    let start = p.run[k] + (g - p.cum[k]) * p.b;
+    let end = min(start + p.b, p.run[k] + p.below[k]);
     return vec3<u32>(start, end, k);
 }
 
@@ -183,21 +192,23 @@ fn write_node(g: u32, s: vec4<f32>, k: Cone, t: f32, kind: u32, start: u32) {
     let sc = p_sin_cos(k.angle);
     o_sc[g] = vec4<f32>(sc.x, sc.y, t, bitcast<f32>(kind));
     o_first[g] = start;
-    if g + 1u == P.u0.x {
-        o_first[P.u0.x] = P.u0.w;
+    let p = level_params();
+    if g + 1u == p.nodes {
+        o_first[p.nodes] = p.children;
     }
 }
 
+// Level 1 of the hierarchy over the sorted leaves.
 @compute @workgroup_size(64)
 fn build_leaf_level(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let g = gid.x + gid.y * nwg.x * 64u;
-    if g >= P.u0.x {
+    if g >= level_params().nodes {
         return;
     }
     let rg = node_range(g);
     let count = rg.y - rg.x;
     var s: vec4<f32>;
-    if P.u0.z == 0u {
+    if level_params().union_thesis == 0u {
         s = minimal_ball(rg.x, count);
     } else {
         s = vec4<f32>(b_org[b_leaf[rg.x]].xyz, 0.0);
@@ -217,10 +228,11 @@ fn build_leaf_level(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     write_node(g, s, k, t * C_ONE_P_4EPS, rg.z, rg.x);
 }
 
+// A level of the hierarchy over the level below.
 @compute @workgroup_size(64)
 fn build_upper_level(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let g = gid.x + gid.y * nwg.x * 64u;
-    if g >= P.u0.x {
+    if g >= level_params().nodes {
         return;
     }
     let rg = node_range(g);
@@ -230,7 +242,7 @@ fn build_upper_level(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
     var t = c_sc[rg.x].z;
     for (var c = rg.x + 1u; c < rg.y; c++) {
         let cc = c_cone[c];
-        if P.u0.z == 0u {
+        if level_params().union_thesis == 0u {
             s = sphere_union_exact(s, c_sphere[c]);
             k = cone_union_exact(k, Cone(cc.xyz, cc.w));
         } else {

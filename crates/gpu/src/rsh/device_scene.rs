@@ -31,7 +31,7 @@ pub struct DeviceScene {
     /// The CPU's minimal-ball shuffle rows (`geom::miniball`).
     pub shuffles: wgpu::Buffer,
     /// The scene box's minimum corner (the hash's origin quantisation).
-    pub box_min: [f32; 4],
+    pub box_min: [f32; 3],
     /// The scene box's extent.
-    pub box_ext: [f32; 4],
+    pub box_ext: [f32; 3],
 }

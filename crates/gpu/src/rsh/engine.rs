@@ -13,7 +13,8 @@ use super::device_scene::DeviceScene;
 use super::order::leaf_order;
 use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
-use crate::kernels::{Exec, Kernel, Kernels, Params};
+use crate::kernels::params::RecordsParams;
+use crate::kernels::{launch, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
 use ::rsh::{HashKind, Method, ObjectHierarchy, RshConfig};
@@ -65,8 +66,8 @@ pub(super) struct SceneBuffers {
     mesh_sphere: wgpu::Buffer,
     mesh_first: Vec<u32>,
     ntri: u32,
-    box_min: [f32; 4],
-    box_ext: [f32; 4],
+    box_min: [f32; 3],
+    box_ext: [f32; 3],
     max_rays: usize,
 }
 
@@ -112,8 +113,8 @@ impl SceneBuffers {
             mesh_sphere: gpu.upload("mesh spheres", &meshes),
             mesh_first: geo.mesh_first.clone(),
             ntri: ntri as u32,
-            box_min: [b.x, b.y, b.z, 0.0],
-            box_ext: [ext.x, ext.y, ext.z, 0.0],
+            box_min: [b.x, b.y, b.z],
+            box_ext: [ext.x, ext.y, ext.z],
             max_rays,
         })
     }
@@ -294,16 +295,15 @@ impl GpuRsh {
         ex.phase(Phase::FinalTests);
         let rec = g.storage("records", n * 16);
         ex.run(
-            Kernel::Records,
-            Params::n(0, 0, n as u32, 0),
-            &[
-                (6, &dr.org),
-                (7, &dr.dir),
-                (8, &dr.pre),
-                (9, &self.s.tris),
-                (11, &best),
-                (13, &rec),
-            ],
+            launch::Records {
+                f_org: &dr.org,
+                f_dir: &dr.dir,
+                f_pre: &dr.pre,
+                f_tris: &self.s.tris,
+                f_best_pair: &best,
+                f_rec: &rec,
+            },
+            RecordsParams { rays: n as u32 },
             n,
             256,
         );

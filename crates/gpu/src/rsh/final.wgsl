@@ -3,10 +3,20 @@
 // (t, triangle id), the tie rule of the brute-force oracle, taken by a 64-bit atomic minimum
 // of (t bits << 32 | id) exactly as the CPU engine does (positive floats order like their
 // bits), so the result does not depend on the order the pairs are processed in.
-// Params u0 = (pairs, -, rays, -).
 // Bindings: 1 pairs: node, 2 pairs: triangle, 3 level-1 first, 4 level-1 sc (kind), 5 leaves,
 //           6 ray org, 7 ray dir, 8 ray constants, 9 triangles (3 × vec4), 10 best (u64),
 //           12 counters; records (records.wgsl): 11 best as (id, t bits), 13 records out.
+
+// Parameters of final_tests.
+struct FinalTestsParams {
+    pairs: u32, // surviving (level-1 node, triangle) pairs
+    counters: u32, // the first counter word in f_cnt
+}
+
+// Parameters of records.
+struct RecordsParams {
+    rays: u32, // rays of the trace call
+}
 
 @group(0) @binding(1) var<storage, read> f_node: array<u32>;
 @group(0) @binding(2) var<storage, read> f_tri: array<u32>;
@@ -29,14 +39,16 @@ fn hit_of(r: u32, t: u32) -> vec4<f32> {
     return intersect(o.xyz, f_pre[r], o.w, f_dir[r].w, f_tris[3u * t].xyz, f_tris[3u * t + 1u].xyz, f_tris[3u * t + 2u].xyz);
 }
 
+// Exact ray–triangle tests of level 1's survivors.
 @compute @workgroup_size(256)
 fn final_tests(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
     if li < 4u {
         atomicStore(&fcnt[li], 0u);
     }
     workgroupBarrier();
+    let p = final_tests_params();
     let i = gid.x + gid.y * nwg.x * 256u;
-    if i < P.u0.x {
+    if i < p.pairs {
         let n = f_node[i];
         let t = f_tri[i];
         let l0 = f_first[n];
@@ -54,8 +66,8 @@ fn final_tests(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_inv
     if li < 4u {
         let v = atomicLoad(&fcnt[li]);
         if v > 0u {
-            // 64-bit (low, high) counters from word P.u3.x, as traverse.wgsl's add64.
-            let at = P.u3.x + 2u * li;
+            // 64-bit (low, high) counters from word `counters`, as traverse.wgsl's add64.
+            let at = p.counters + 2u * li;
             let old = atomicAdd(&f_cnt[at], v);
             if old + v < old {
                 atomicAdd(&f_cnt[at + 1u], 1u);
@@ -68,7 +80,7 @@ fn final_tests(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_inv
 @compute @workgroup_size(256)
 fn records(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let r = gid.x + gid.y * nwg.x * 256u;
-    if r >= P.u0.z {
+    if r >= records_params().rays {
         return;
     }
     let t = f_best_pair[r].x;

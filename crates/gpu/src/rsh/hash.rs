@@ -3,7 +3,8 @@
 //! screen key), whether it can hit anything (t_min < t_max) and its intersection constants.
 
 use super::device_scene::DeviceScene;
-use crate::kernels::{Exec, Kernel, Params};
+use crate::kernels::params::HashParams;
+use crate::kernels::{launch, Exec};
 use crate::rays::DeviceRays;
 
 /// Keys and validity flags of every ray (`screen`: RAH's pixel Z-order key).
@@ -18,25 +19,26 @@ pub fn hash_keys(
     let valid = eng.gpu.storage("valid", n * 4);
     let hb = &eng.cfg.hash_bits;
     ex.run(
-        Kernel::HashKeys,
-        Params {
-            u: [
-                [n as u32, screen as u32, rays.width, hb.light],
-                [hb.shadow_dir, hb.origin, hb.dir, 0],
-                [0; 4],
-                [0; 4],
-            ],
-            f: [eng.box_min, eng.box_ext],
+        launch::HashKeys {
+            h_org: &rays.org,
+            h_dir: &rays.dir,
+            h_kl: &rays.kl,
+            h_pixel: &rays.pix,
+            h_keys: &keys,
+            h_valid: &valid,
+            h_pre: &rays.pre,
         },
-        &[
-            (1, &rays.org),
-            (2, &rays.dir),
-            (3, &rays.kl),
-            (4, &rays.pix),
-            (5, &keys),
-            (6, &valid),
-            (7, &rays.pre),
-        ],
+        HashParams {
+            rays: n as u32,
+            screen: screen as u32,
+            width: rays.width,
+            light_bits: hb.light,
+            shadow_dir_bits: hb.shadow_dir,
+            origin_bits: hb.origin,
+            dir_bits: hb.dir,
+            box_min: eng.box_min,
+            box_ext: eng.box_ext,
+        },
         n,
         256,
     );

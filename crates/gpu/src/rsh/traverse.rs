@@ -8,7 +8,10 @@
 
 use super::build::Level;
 use super::device_scene::DeviceScene;
-use crate::kernels::{Exec, Kernel, Params};
+use crate::kernels::params::{
+    ChildParams, FinalTestsParams, MeshTestParams, PairTestParams, TopParams,
+};
+use crate::kernels::{launch, Exec};
 use crate::rays::DeviceRays;
 use ::rsh::traverse::Counters;
 use ::rsh::NodeTest;
@@ -71,15 +74,18 @@ impl GpuTraversal<'_> {
             c.mesh_tests += entries as u64;
             let out = g.storage("mesh pass bits", words as u64 * 4);
             ex.run(
-                Kernel::MeshTest,
-                Params::n(entries as u32, nm as u32, 0, self.exact()),
-                &[
-                    (1, &top.sphere),
-                    (2, &top.cone),
-                    (3, &top.sc),
-                    (6, &eng.mesh_sphere),
-                    (10, &out),
-                ],
+                launch::MeshTest {
+                    n_sphere: &top.sphere,
+                    n_cone: &top.cone,
+                    n_sc: &top.sc,
+                    t_mesh: &eng.mesh_sphere,
+                    o_a: &out,
+                },
+                MeshTestParams {
+                    entries: entries as u32,
+                    meshes: nm as u32,
+                    exact: self.exact(),
+                },
                 words as u64,
                 256,
             );
@@ -137,35 +143,34 @@ impl GpuTraversal<'_> {
         }
         let tiles = (tris.len() as u32).div_ceil(tile);
         let slots = nodes.len() as u64 * tiles as u64;
-        let prm = Params {
-            u: [
-                [slots as u32, tiles, nodes.start as u32, self.exact()],
-                [tris.start as u32, tris.end as u32, nm, tile],
-                [0; 4],
-                [16 * li as u32, 0, 0, 0],
-            ],
-            f: [[0.0; 4]; 2],
+        let prm = TopParams {
+            slots: slots as u32,
+            tiles,
+            first_node: nodes.start as u32,
+            exact: self.exact(),
+            tri_start: tris.start as u32,
+            tri_end: tris.end as u32,
+            meshes: nm,
+            tile,
+            counters: 16 * li as u32,
         };
         let counts = g.storage("top counts", slots * 4);
-        let common = [
-            (1, &top.sphere),
-            (2, &top.cone),
-            (3, &top.sc),
-            (5, &eng.tri_sphere),
-            (6, &eng.tri_mesh),
-            (7, pass),
-        ];
         // top_count shares its candidate loop with top_emit, so its layout has the emit
         // bindings too; they are never written when counting.
         let (unused_a, unused_b) = (g.storage("unused", 4), g.storage("unused", 4));
-        let mut binds = common.to_vec();
-        binds.extend([
-            (10, &counts),
-            (11, &unused_a),
-            (12, self.counters),
-            (13, &unused_b),
-        ]);
-        ex.run(Kernel::TopCount, prm, &binds, slots, 256);
+        let l = launch::TopCount {
+            n_sphere: &top.sphere,
+            n_cone: &top.cone,
+            n_sc: &top.sc,
+            t_sphere: &eng.tri_sphere,
+            t_mesh: &eng.tri_mesh,
+            m_pass: pass,
+            o_a: &counts,
+            o_b: &unused_a,
+            cnt: self.counters,
+            e_off: &unused_b,
+        };
+        ex.run(l, prm, slots, 256);
         let offs = g.storage("top offsets", (slots + 1) * 4);
         ex.scan(&counts, &offs, slots);
         let total = ex.read_at(&offs, slots as usize) as u64;
@@ -177,9 +182,18 @@ impl GpuTraversal<'_> {
             tri: g.storage("pairs tri", total * 4),
             len: total,
         };
-        let mut binds = common.to_vec();
-        binds.extend([(10, &pairs.node), (11, &pairs.tri), (13, &offs)]);
-        ex.run(Kernel::TopEmit, prm, &binds, slots, 256);
+        let l = launch::TopEmit {
+            n_sphere: &top.sphere,
+            n_cone: &top.cone,
+            n_sc: &top.sc,
+            t_sphere: &eng.tri_sphere,
+            t_mesh: &eng.tri_mesh,
+            m_pass: pass,
+            o_a: &pairs.node,
+            o_b: &pairs.tri,
+            e_off: &offs,
+        };
+        ex.run(l, prm, slots, 256);
         self.survivors(ex, li, pairs, c);
     }
 
@@ -191,24 +205,25 @@ impl GpuTraversal<'_> {
         }
         ex.phase(Phase::FinalTests);
         let l1 = &self.levels[0];
-        let mut prm = Params::n(pairs.len as u32, 0, 0, 0);
-        prm.u[3][0] = 16 * self.levels.len() as u32;
+        let prm = FinalTestsParams {
+            pairs: pairs.len as u32,
+            counters: 16 * self.levels.len() as u32,
+        };
         ex.run(
-            Kernel::FinalTests,
+            launch::FinalTests {
+                f_node: &pairs.node,
+                f_tri: &pairs.tri,
+                f_first: &l1.first,
+                f_sc: &l1.sc,
+                f_leaf: self.leaves,
+                f_org: &self.rays.org,
+                f_dir: &self.rays.dir,
+                f_pre: &self.rays.pre,
+                f_tris: &self.eng.tris,
+                f_best: self.best,
+                f_cnt: self.counters,
+            },
             prm,
-            &[
-                (1, &pairs.node),
-                (2, &pairs.tri),
-                (3, &l1.first),
-                (4, &l1.sc),
-                (5, self.leaves),
-                (6, &self.rays.org),
-                (7, &self.rays.dir),
-                (8, &self.rays.pre),
-                (9, &self.eng.tris),
-                (10, self.best),
-                (12, self.counters),
-            ],
             pairs.len,
             256,
         );
@@ -220,21 +235,23 @@ impl GpuTraversal<'_> {
         let g = &self.eng.gpu;
         let lv = &self.levels[li];
         let flags = g.storage("flags", pairs.len * 4);
-        let mut prm = Params::n(pairs.len as u32, 0, 0, self.exact());
-        prm.u[3][0] = 16 * li as u32;
+        let prm = PairTestParams {
+            pairs: pairs.len as u32,
+            exact: self.exact(),
+            counters: 16 * li as u32,
+        };
         ex.run(
-            Kernel::PairTest,
+            launch::PairTest {
+                n_sphere: &lv.sphere,
+                n_cone: &lv.cone,
+                n_sc: &lv.sc,
+                t_sphere: &self.eng.tri_sphere,
+                p_node: &pairs.node,
+                p_tri: &pairs.tri,
+                o_a: &flags,
+                cnt: self.counters,
+            },
             prm,
-            &[
-                (1, &lv.sphere),
-                (2, &lv.cone),
-                (3, &lv.sc),
-                (5, &self.eng.tri_sphere),
-                (8, &pairs.node),
-                (9, &pairs.tri),
-                (10, &flags),
-                (12, self.counters),
-            ],
             pairs.len,
             256,
         );
@@ -252,9 +269,14 @@ impl GpuTraversal<'_> {
         let count = pairs.len;
         let counts = g.storage("child counts", count * 4);
         ex.run(
-            Kernel::ChildCount,
-            Params::n(count as u32, 0, 0, 0),
-            &[(4, &lv.first), (8, &pairs.node), (10, &counts)],
+            launch::ChildCount {
+                n_first: &lv.first,
+                p_node: &pairs.node,
+                o_a: &counts,
+            },
+            ChildParams {
+                pairs: count as u32,
+            },
             count,
             256,
         );
@@ -282,16 +304,17 @@ impl GpuTraversal<'_> {
             len: total,
         };
         ex.run(
-            Kernel::ChildEmit,
-            Params::n(count as u32, 0, 0, 0),
-            &[
-                (4, &lv.first),
-                (8, &pairs.node),
-                (9, &pairs.tri),
-                (10, &children.node),
-                (11, &children.tri),
-                (13, &offs),
-            ],
+            launch::ChildEmit {
+                n_first: &lv.first,
+                p_node: &pairs.node,
+                p_tri: &pairs.tri,
+                o_a: &children.node,
+                o_b: &children.tri,
+                e_off: &offs,
+            },
+            ChildParams {
+                pairs: count as u32,
+            },
             count,
             256,
         );

@@ -8,7 +8,9 @@
 // literals, because WGSL folds literal expressions in f64 (abstract float) while Rust folds
 // them in f32.
 
-// Launch parameters: 16 u32 and 8 f32; each kernel documents its use of them.
+// The launch-parameter block: 16 u32 and 8 f32 (f1.w the opaque zero below). Kernels read
+// it through their module's `struct …Params`, whose accessor build.rs generates (the Rust
+// side packs the same struct at the same offsets: kernels.rs, `params`).
 struct Params {
     u0: vec4<u32>,
     u1: vec4<u32>,
