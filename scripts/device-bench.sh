@@ -44,7 +44,7 @@ step 200 "bench gpu 512 shadows" "$R" bench gpu --scenes cornell,office,$S/sponz
     --width 512 --height 512 --bounces 0 --rah --md "$OUT/bench-gpu-512-shadows.md"
 step 200 "bench gpu 1024 b3" "$R" bench gpu --scenes office,$S/sponza.toml \
     --width 1024 --height 1024 --bounces 3 --md "$OUT/bench-gpu-1024-b3.md"
-# The GPU tests (the device-resident frame against the host-sequenced one; the minimal-ball
+# The GPU tests (the GPU frame against the CPU loop over its G-buffer, in parts; the minimal-ball
 # fix eb34266 is checked by hierarchies_match_the_cpu_node_for_node).
 for m in frame grid_build grid agreement; do
     for t in "$BIN"/device-*; do

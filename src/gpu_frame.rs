@@ -1,14 +1,13 @@
 //! One Whitted frame on the wgpu backend, shared by `render --backend gpu`, `bench gpu` and
 //! the viewer (thesis §3.1–3.3 on the GPU; see `crates/gpu`).
 //!
-//! The frame stays on the device ([`gpu::frame`]): the G-buffer from the GPU's render
-//! pipeline, CRSH/RAH or the grid (built and traversed by kernels), the surfaces, the ray
-//! generations, the shading and the pixel accumulation are kernels, and only the sRGB image
-//! and a few totals come back. Where a generation's buffers could exceed one binding of the
-//! device ([`gpu::frame::too_big`]), the frame is host-sequenced instead: the same kernels in
-//! parts that fit, with the surfaces and the image on the host between passes (the viewer's
-//! normal view, which needs the G-buffer, uses that path too). The bytes moved between host
-//! and device during the frame are reported (`host_device_bytes`).
+//! The frame is `render`'s one Whitted loop ([`render::whitted::run`]) on the GPU backend
+//! ([`gpu::frame::GpuBackend`]), so it stays on the device: the G-buffer from the GPU's
+//! render pipeline, CRSH/RAH or the grid (built and traversed by kernels), the surfaces, the
+//! ray generations, the shading and the pixel accumulation are kernels, and only the sRGB
+//! image and a few totals come back (and the G-buffer, for the viewer's view of it). A
+//! generation too large for one binding of the device is held in parts. The bytes moved
+//! between host and device during the frame are reported (`host_device_bytes`).
 
 use crate::engines::{Engine, EngineOptions};
 use anyhow::{anyhow, Result};
@@ -108,16 +107,9 @@ impl GpuFrame {
         Ok(t0.elapsed().as_secs_f64())
     }
 
-    /// Why [`GpuFrame::render`] cannot keep an `opts`-sized frame of `scene` on the device
-    /// (`None`: it can).
-    pub fn not_resident(&self, scene: &Scene, opts: &RenderOptions) -> Option<String> {
-        gpu::frame::too_big(self.engine.gpu(), scene, opts)
-    }
-
-    /// Render one frame on the device ([`gpu::frame`]), or host-sequenced where it might
-    /// not fit ([`GpuFrame::not_resident`]); returns it with the GPU seconds per phase
-    /// (rasterize, the engine's, and the host-sequenced stages'). `geo` must be the geometry
-    /// the engine was built or last rebuilt over.
+    /// Render one frame on the device; returns it with the GPU seconds per phase
+    /// (rasterize and the engine's). `geo` must be the geometry the engine was built or last
+    /// rebuilt over.
     pub fn render(
         &self,
         scene: &Scene,
@@ -126,44 +118,12 @@ impl GpuFrame {
         progress: &dyn Progress,
         build_seconds: f64,
     ) -> Result<(Rendered, Vec<(String, f64)>)> {
-        if let Some(why) = self.not_resident(scene, opts) {
-            let mut r = self.render_host(scene, geo, opts, progress, build_seconds)?;
-            r.0.stats.gpu_frame = Some(format!("host-sequenced: {why}"));
-            return Ok(r);
-        }
-        self.check_size(opts)?;
-        let (f, moved) = self.traffic(|| {
-            gpu::frame::render(
-                self.engine.as_ref(),
-                &self.raster,
-                scene,
-                geo,
-                opts,
-                progress,
-            )
-            .map_err(|e| anyhow!("`backend`=gpu: {e}"))
-        })?;
-        let mut stats = f.stats;
-        stats.put_build(build_seconds, self.engine.build_passes());
-        (stats.host_device_bytes, stats.host_read_backs) = (Some(moved[0]), Some(moved[1]));
-        stats.gpu_frame = Some("device-resident".into());
-        let out = Rendered {
-            pixels: Vec::new(),
-            srgb8: Some(f.srgb8),
-            gbuffer: render::raster::GBuffer::default(),
-            raster: render::raster::RasterStats {
-                triangles: geo.len() as u64,
-                ..Default::default()
-            },
-            stats,
-        };
-        Ok((out, self.phases(None)))
+        self.frame(scene, geo, opts, progress, build_seconds, false)
     }
 
-    /// The host-sequenced frame: the GPU's G-buffer read back, the Whitted loop on the host
-    /// with every pass a kernel over parts that fit the device's bindings, the surfaces and
-    /// the pixels on the host between passes. The G-buffer and the linear pixels come back.
-    pub fn render_host(
+    /// [`GpuFrame::render`], with the G-buffer read back too (`Rendered::gbuffer`: the
+    /// viewer's normals view).
+    pub fn render_with_gbuffer(
         &self,
         scene: &Scene,
         geo: &Geometry,
@@ -171,25 +131,43 @@ impl GpuFrame {
         progress: &dyn Progress,
         build_seconds: f64,
     ) -> Result<(Rendered, Vec<(String, f64)>)> {
+        self.frame(scene, geo, opts, progress, build_seconds, true)
+    }
+
+    fn frame(
+        &self,
+        scene: &Scene,
+        geo: &Geometry,
+        opts: &RenderOptions,
+        progress: &dyn Progress,
+        build_seconds: f64,
+        keep_gbuffer: bool,
+    ) -> Result<(Rendered, Vec<(String, f64)>)> {
         self.check_size(opts)?;
-        let raster = &self.raster;
-        let stages = gpu::GpuStages::new(self.engine.gpu(), self.engine.kernels());
-        let (mut out, moved) = self.traffic(|| {
-            Ok(render::whitted::render_with(
-                scene,
-                geo,
+        let ((mut out, in_parts), moved) = self.traffic(|| {
+            let mut b = gpu::frame::GpuBackend::new(
                 self.engine.as_ref(),
+                &self.raster,
+                scene,
                 opts,
-                progress,
-                &|v, n| raster.rasterize(v, n),
-                &stages,
-            ))
+                keep_gbuffer,
+            )
+            .map_err(|e| anyhow!("`backend`=gpu: {e}"))?;
+            let out = render::whitted::run(&mut b, scene, geo, opts, progress);
+            Ok((out, b.in_parts))
         })?;
-        out.stats
-            .put_build(build_seconds, self.engine.build_passes());
-        (out.stats.host_device_bytes, out.stats.host_read_backs) = (Some(moved[0]), Some(moved[1]));
-        out.stats.gpu_frame = Some("host-sequenced".into());
-        Ok((out, self.phases(Some(&stages))))
+        let stats = &mut out.stats;
+        stats.put_build(build_seconds, self.engine.build_passes());
+        (stats.host_device_bytes, stats.host_read_backs) = (Some(moved[0]), Some(moved[1]));
+        stats.gpu_frame = Some(
+            if in_parts {
+                "device-resident, a generation in parts (it exceeded one binding)"
+            } else {
+                "device-resident"
+            }
+            .into(),
+        );
+        Ok((out, self.phases()))
     }
 
     /// Whether the device takes a G-buffer of `opts`'s size.
@@ -207,9 +185,8 @@ impl GpuFrame {
         Ok((r, [g.bytes_moved() - bytes, g.read_backs() - reads]))
     }
 
-    /// GPU seconds per phase since the last frame: rasterize, the engine's, and the
-    /// host-sequenced `stages`' when they ran.
-    fn phases(&self, stages: Option<&gpu::GpuStages>) -> Vec<(String, f64)> {
+    /// GPU seconds per phase since the last frame: rasterize and the engine's.
+    fn phases(&self) -> Vec<(String, f64)> {
         let mut phases: Vec<(String, f64)> = Vec::new();
         if let Some(t) = self.raster.last_gpu_seconds.get() {
             phases.push(("rasterize".into(), t));
@@ -220,9 +197,6 @@ impl GpuFrame {
                 .into_iter()
                 .map(|(p, t)| (p.to_string(), t)),
         );
-        if let Some(st) = stages {
-            phases.extend(st.times.borrow().iter().map(|(p, t)| (p.to_string(), *t)));
-        }
         phases
     }
 }

@@ -403,10 +403,10 @@ impl Session {
                 }
                 #[cfg(feature = "gpu")]
                 Built::Gpu(g) => {
-                    // The normals view needs the G-buffer on the host: the host-sequenced
-                    // frame brings it back; every other view keeps the frame on the device.
+                    // The normals view needs the G-buffer on the host: the frame reads it
+                    // back too; every other view brings back only the image.
                     let (out, phases) = if self.buffer == Buffer::Normals {
-                        g.render_host(&self.scene, &self.geo, &opts, &(), build_seconds)?
+                        g.render_with_gbuffer(&self.scene, &self.geo, &opts, &(), build_seconds)?
                     } else {
                         g.render(&self.scene, &self.geo, &opts, &(), build_seconds)?
                     };

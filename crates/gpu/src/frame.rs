@@ -1,6 +1,6 @@
-//! A whole Whitted frame resident on the device: the twin of
-//! [`render::whitted::render_with`] (thesis chapter 3, Figure 3.1) with every step a kernel
-//! and nothing but the image and a few totals crossing to the host.
+//! The GPU backend of the Whitted loop ([`render::whitted::run`], thesis chapter 3,
+//! Figure 3.1): the twin of [`render::cpu::CpuBackend`] with every step a kernel and
+//! nothing but the image and a few totals crossing to the host.
 //!
 //! Rasterize into a G-buffer that stays on the device ([`GpuRaster::rasterize_device`]) →
 //! surfaces of the covered pixels (`frame.wgsl`, compacted by the backend's scan) → per
@@ -9,6 +9,11 @@
 //! to their pixels; reflection/refraction rays (`stages.wgsl`, compacted) → traced → the
 //! background behind the misses → the next generation's surfaces from the hits. Finally the
 //! image is encoded to sRGB bytes on the device and read back.
+//!
+//! A generation's surfaces are held in parts of at most [`GpuBackend::part_size`] surfaces,
+//! so that every buffer a kernel binds (a part's shadow rays, bounce slots, hits) fits one
+//! binding of the device however many surfaces the bounces spawn; parts are processed in
+//! order, so the sums are the same as in one part. A frame of ordinary size is one part.
 //!
 //! What the host reads back per frame: the sRGB image (3 bytes per pixel), the sizes that
 //! allocate the next buffers (4 bytes each), the engines' totals (hits, and the grid's step
@@ -21,19 +26,19 @@
 
 use crate::device::{Gpu, GpuError};
 use crate::kernels::params::{
-    EncodeParams, FrameCountParams, GbFlagsParams, GbSurfacesParams, KindCountParams, MissesParams,
-    ShadowMetaParams, TotalsParams,
+    EncodeParams, FrameCountParams, GbFlagsParams, GbSurfacesParams, HitSurfacesParams,
+    KindCountParams, MissesParams, ShadowMetaParams, TotalsParams,
 };
 use crate::kernels::{launch, Exec};
-use crate::raster::GpuRaster;
+use crate::raster::{DeviceGBuffer, GpuRaster};
 use crate::rays::DeviceRays;
 use crate::stages::Surf;
 use crate::GpuEngine;
-use render::raster::default_near;
+use render::raster::{GBuffer, RasterStats};
 use render::stats::{FramePhase, RenderStats};
-use render::whitted::{Progress, RenderOptions};
+use render::whitted::{Backend, RenderOptions, Rendered};
 use render::View;
-use scene::{Geometry, Scene};
+use scene::Scene;
 use std::time::Instant;
 use trace::{TraceMode, TraceStats};
 
@@ -140,9 +145,9 @@ pub fn trace_device(
     rec
 }
 
-/// One generation's surfaces on the device: `stages.wgsl`'s six arrays (bindings 1–6) and
-/// their pixels (binding 7 of `frame.wgsl`).
-struct DeviceSurfaces {
+/// One part of a generation's surfaces on the device: `stages.wgsl`'s six arrays and their
+/// pixels.
+pub struct DeviceSurfaces {
     s: Surf,
     pix: wgpu::Buffer,
     len: u64,
@@ -158,29 +163,28 @@ impl DeviceSurfaces {
     }
 }
 
-/// The result of a device frame.
-pub struct FrameOut {
-    /// The image as sRGB bytes (r, g, b per pixel, row-major): what the PNG stores, encoded
-    /// on the device by `render::output::srgb_encode`'s formula (the device's `pow`, so a
-    /// byte may differ from the CPU encoding of the same linear value by one).
-    pub srgb8: Vec<u8>,
-    /// The render's counters and phase times (wall clock, waiting at each phase's end),
-    /// as [`render::whitted::render_with`] reports them.
-    pub stats: RenderStats,
+/// One part of a ray batch on the device: the rays, and a bounce ray's weight (shadow rays
+/// carry none: their surface's throughput applies).
+pub struct DeviceBatch {
+    rays: DeviceRays,
+    weight: Option<wgpu::Buffer>,
 }
 
-/// Why a frame cannot stay on the device, or `None` when it can: every buffer a kernel binds
-/// (the G-buffer, the image, a generation's surfaces, shadow rays and bounce slots) must fit
-/// one binding and index in u32. A generation has at most `pixels · bᵍ` surfaces, b being the most bounce rays one
-/// material spawns (reflection and refraction: 2).
-pub fn too_big(gpu: &Gpu, scene: &Scene, opts: &RenderOptions) -> Option<String> {
-    let b = scene
-        .materials
-        .iter()
-        .map(|m| (m.reflectivity > 0.0) as u64 + (m.transparency > 0.0) as u64)
-        .max()
-        .unwrap_or(0);
-    let nl = scene.lights.len().max(2) as u64;
+/// `n` in parts of at most `per` (one empty part when `n` is 0, so that a launch that
+/// makes no surface still runs, as it always did).
+fn parts(n: u64, per: u64) -> Vec<(u64, u64)> {
+    if n == 0 {
+        return vec![(0, 0)];
+    }
+    (0..n.div_ceil(per))
+        .map(|k| (k * per, per.min(n - k * per)))
+        .collect()
+}
+
+/// Why a frame cannot run on the device at all (`None`: it can): the G-buffer's targets and
+/// the image must each fit one binding, and its pixels index in u32. A generation's rays
+/// never stop a frame: they come in parts that fit ([`GpuBackend::part_size`]).
+pub fn too_big(gpu: &Gpu, opts: &RenderOptions) -> Option<String> {
     let cap = gpu.max_binding().min(gpu.limits.max_buffer_size);
     // The G-buffer's targets (rows padded to 256 bytes) and the image, 16 bytes per pixel.
     let gbuffer = (opts.width as u64 * 16).next_multiple_of(256) * opts.height as u64;
@@ -191,94 +195,108 @@ pub fn too_big(gpu: &Gpu, scene: &Scene, opts: &RenderOptions) -> Option<String>
             cap >> 20
         ));
     }
-    let mut s = opts.width as u64 * opts.height as u64;
-    for g in 0..=opts.bounces {
-        // Shadow rays (vec4 origins) or bounce slots, whichever is larger.
-        let bytes = s.saturating_mul(nl).saturating_mul(16);
-        if bytes > cap || s.saturating_mul(nl) > u32::MAX as u64 {
-            return Some(format!(
-                "generation {g} may have {s} surfaces, whose rays need {} MiB in one binding (the device allows {} MiB)",
-                bytes >> 20,
-                cap >> 20
-            ));
-        }
-        s = s.saturating_mul(b);
-        if s == 0 {
-            break;
-        }
-    }
     None
 }
 
-/// Wall-clock phases of a frame: each ends by waiting for the device.
-struct Clock {
-    t0: Instant,
+/// A frame of one scene on `engine`'s device (see the module's documentation).
+pub struct GpuBackend<'a> {
+    engine: &'a dyn GpuEngine,
+    raster: &'a GpuRaster,
+    scene: &'a Scene,
+    g: &'a Gpu,
+    ex: Exec<'a>,
+    part: u64,
+    lights: wgpu::Buffer,
+    mats: wgpu::Buffer,
+    gb: Option<DeviceGBuffer>,
+    img: Option<wgpu::Buffer>,
+    npix: u64,
+    host_gbuffer: Option<GBuffer>,
+    keep_gbuffer: bool,
+    /// Whether a generation came in more than one part.
+    pub in_parts: bool,
 }
 
-impl Clock {
-    fn start() -> Clock {
-        Clock { t0: Instant::now() }
+impl<'a> GpuBackend<'a> {
+    /// A frame of `scene` with `engine` (built over the scene's geometry) and `raster`
+    /// (holding it, on the engine's device), of `opts`'s size; with `keep_gbuffer` the
+    /// G-buffer is also read back to the host (for a view of it), else only the image comes
+    /// back.
+    pub fn new(
+        engine: &'a dyn GpuEngine,
+        raster: &'a GpuRaster,
+        scene: &'a Scene,
+        opts: &RenderOptions,
+        keep_gbuffer: bool,
+    ) -> Result<Self, GpuError> {
+        let g = engine.gpu();
+        raster.check_size(opts.width, opts.height)?;
+        if let Some(why) = too_big(g, opts) {
+            return Err(GpuError::Limits(why));
+        }
+        Ok(GpuBackend {
+            engine,
+            raster,
+            scene,
+            g,
+            ex: Exec::new(g, engine.kernels()),
+            part: Self::part_size(g, scene),
+            lights: g.upload("lights", &crate::stages::light_rows(&scene.lights)),
+            mats: g.upload(
+                "materials",
+                &crate::stages::material_rows(&scene.materials, scene.ambient),
+            ),
+            gb: None,
+            img: None,
+            npix: 0,
+            host_gbuffer: None,
+            keep_gbuffer,
+            in_parts: false,
+        })
     }
 
-    /// Finish `ex`'s work, add the time since the last lap to `phase`.
-    fn lap(&mut self, ex: &mut Exec, stats: &mut RenderStats, phase: FramePhase) {
-        ex.finish();
-        ex.g.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .expect("GPU device lost");
-        let now = Instant::now();
-        stats.add_phase(phase, (now - self.t0).as_secs_f64());
-        self.t0 = now;
+    /// The most surfaces of one part: its shadow rays (a vec4 origin and direction per
+    /// light) and bounce slots (two per surface) must fit one binding, and index in u32.
+    pub fn part_size(g: &Gpu, scene: &Scene) -> u64 {
+        let cap = g.max_binding().min(g.limits.max_buffer_size);
+        let per = scene.lights.len().max(2) as u64;
+        (cap / (16 * per)).min(u32::MAX as u64 / per).max(1)
+    }
+
+    /// The `n` surfaces a kernel places, as (first, count) parts.
+    fn split(&mut self, n: u64) -> Vec<(u64, u64)> {
+        let p = parts(n, self.part);
+        self.in_parts |= p.len() > 1;
+        p
     }
 }
 
-/// Render one frame of `scene` with `engine` on its device, everything between the G-buffer
-/// and the image staying there. `raster` holds `geo` (made on the engine's device);
-/// [`too_big`] must have accepted the frame's size.
-pub fn render(
-    engine: &dyn GpuEngine,
-    raster: &GpuRaster,
-    scene: &Scene,
-    geo: &Geometry,
-    opts: &RenderOptions,
-    progress: &dyn Progress,
-) -> Result<FrameOut, GpuError> {
-    let g = engine.gpu();
-    raster.check_size(opts.width, opts.height)?;
-    if let Some(why) = too_big(g, scene, opts) {
-        return Err(GpuError::Limits(why));
-    }
-    let (w, h) = (opts.width, opts.height);
-    let npix = w as u64 * h as u64;
-    let nl = scene.lights.len() as u64;
-    let view = View::new(&scene.camera, w, h);
-    let mut stats = RenderStats {
-        scene: scene.name.clone(),
-        engine: engine.name().to_string(),
-        width: w,
-        height: h,
-        triangles: geo.len() as u64,
-        meshes: geo.mesh_count() as u64,
-        lights: nl,
-        bounces: opts.bounces,
-        ..Default::default()
-    };
-    let mut clock = Clock::start();
-    let mut ex = Exec::new(g, engine.kernels());
-    progress.stage("rasterize");
-    let gb = raster.rasterize_device(&view, default_near(geo));
-    clock.lap(&mut ex, &mut stats, FramePhase::Rasterize);
+impl Backend for GpuBackend<'_> {
+    type Surfaces = Vec<DeviceSurfaces>;
+    type Rays = Vec<DeviceBatch>;
+    type Hits = Vec<wgpu::Buffer>;
 
-    let bg = scene.background;
-    let lights = g.upload("lights", &crate::stages::light_rows(&scene.lights));
-    let mats = g.upload(
-        "materials",
-        &crate::stages::material_rows(&scene.materials, scene.ambient),
-    );
-    let (tris, normals, material) = raster.scene_buffers();
-    let img = g.storage("image", npix * 16);
-    // Surfaces of the covered pixels, in pixel order.
-    let mut surf = {
+    fn engine_name(&self) -> String {
+        self.engine.name().to_string()
+    }
+
+    fn rasterize(&mut self, view: &View, near: f32) {
+        self.gb = Some(self.raster.rasterize_device(view, near));
+        if self.keep_gbuffer {
+            self.host_gbuffer = Some(self.raster.rasterize(view, near).0);
+        }
+    }
+
+    fn primary_surfaces(&mut self, view: &View) -> Vec<DeviceSurfaces> {
+        let g = self.g;
+        let (w, h) = (view.width, view.height);
+        let npix = w as u64 * h as u64;
+        self.npix = npix;
+        let bg = self.scene.background;
+        let img = g.storage("image", npix * 16);
+        let gb = self.gb.take().expect("rasterized first");
+        let (tris, _, material) = self.raster.scene_buffers();
+        let ex = &mut self.ex;
         let flags = g.storage("covered", npix * 4);
         let offs = g.storage("covered offsets", (npix + 1) * 4);
         let p = GbFlagsParams {
@@ -299,47 +317,57 @@ pub fn render(
         );
         ex.scan(&flags, &offs, npix);
         let n = ex.read_at(&offs, npix as usize) as u64;
-        let s = DeviceSurfaces::new(g, n);
-        let p = GbSurfacesParams {
-            pixels: npix as u32,
-            width: w,
-            stride: gb.stride,
-            eye: view.eye.to_array(),
-        };
-        let l = launch::FrGbSurfaces {
-            flags: &flags,
-            offs: &offs,
-            g_tris: tris,
-            g_material: material,
-            gb_pos: &gb.pos,
-            gb_nrm: &gb.normal,
-            gb_id: &gb.id,
-            s_pos: &s.s.pos,
-            s_ng: &s.s.ng,
-            s_ns: &s.s.ns,
-            s_inc: &s.s.inc,
-            s_tw: &s.s.tw,
-            s_mat: &s.s.mat,
-            s_pix: &s.pix,
-        };
-        ex.run(l, p, npix, 256);
-        s
-    };
-    stats.covered_pixels = surf.len;
-    clock.lap(&mut ex, &mut stats, FramePhase::RayCreation);
+        let mut out = Vec::new();
+        for (first, count) in self.split(n) {
+            let s = DeviceSurfaces::new(g, count);
+            let p = GbSurfacesParams {
+                pixels: npix as u32,
+                width: w,
+                stride: gb.stride,
+                first: first as u32,
+                count: count as u32,
+                eye: view.eye.to_array(),
+            };
+            let l = launch::FrGbSurfaces {
+                flags: &flags,
+                offs: &offs,
+                g_tris: tris,
+                g_material: material,
+                gb_pos: &gb.pos,
+                gb_nrm: &gb.normal,
+                gb_id: &gb.id,
+                s_pos: &s.s.pos,
+                s_ng: &s.s.ng,
+                s_ns: &s.s.ns,
+                s_inc: &s.s.inc,
+                s_tw: &s.s.tw,
+                s_mat: &s.s.mat,
+                s_pix: &s.pix,
+            };
+            self.ex.run(l, p, npix, 256);
+            out.push(s);
+        }
+        self.img = Some(img);
+        out
+    }
 
-    let mut generation = 0u32;
-    loop {
-        let n = surf.len;
-        // Shadows of this generation's surfaces, then local shading.
-        progress.stage(&format!("shadow rays, generation {generation}"));
-        let m = n * nl;
-        let occ = g.storage("occluded", m * 4);
-        if m > 0 {
+    fn surfaces_len(&self, s: &Vec<DeviceSurfaces>) -> u64 {
+        s.iter().map(|p| p.len).sum()
+    }
+
+    fn shadow_rays(&mut self, s: &Vec<DeviceSurfaces>) -> Vec<DeviceBatch> {
+        let g = self.g;
+        let nl = self.scene.lights.len() as u64;
+        let mut out = Vec::new();
+        for surf in s {
+            let (n, m) = (surf.len, surf.len * nl);
+            if m == 0 {
+                continue;
+            }
             let rays = DeviceRays::storage(g, "shadow", m);
             surf.s
-                .shadow_rays(&mut ex, &lights, &rays.org, &rays.dir, n, nl);
-            ex.run(
+                .shadow_rays(&mut self.ex, &self.lights, &rays.org, &rays.dir, n, nl);
+            self.ex.run(
                 launch::FrShadowMeta {
                     s_pix: &surf.pix,
                     r_kl: &rays.kl,
@@ -352,166 +380,260 @@ pub fn render(
                 m,
                 256,
             );
-            clock.lap(&mut ex, &mut stats, FramePhase::RayCreation);
-            let rec = trace_device(engine, &rays, TraceMode::Any, &mut stats.trace);
-            stats.rays_shadow += m;
-            clock.lap(&mut ex, &mut stats, FramePhase::Trace);
+            out.push(DeviceBatch { rays, weight: None });
+        }
+        out
+    }
+
+    fn bounce_rays(&mut self, s: &Vec<DeviceSurfaces>) -> Vec<DeviceBatch> {
+        let g = self.g;
+        let mut out = Vec::new();
+        for surf in s {
+            let slots = 2 * surf.len;
+            if slots == 0 {
+                continue;
+            }
+            let (b_org, b_dir, b_w) = (
+                g.storage("slot org", slots * 16),
+                g.storage("slot dir", slots * 16),
+                g.storage("slot weight", slots * 16),
+            );
+            let ex = &mut self.ex;
+            surf.s
+                .bounce_rays(ex, &self.mats, [&b_org, &b_dir, &b_w], surf.len);
+            let flags = g.storage("slot flags", slots * 4);
+            let offs = g.storage("slot offsets", (slots + 1) * 4);
             ex.run(
-                launch::FrOccluded {
-                    rec: &rec,
-                    out_u: &occ,
+                launch::FrSlotFlags {
+                    col: &b_w,
+                    flags: &flags,
                 },
-                FrameCountParams { n: m as u32 },
-                m,
+                FrameCountParams { n: slots as u32 },
+                slots,
                 256,
             );
-        }
-        progress.stage(&format!("shading, generation {generation}"));
-        if n > 0 {
-            let colour = g.storage("colour", n * 16);
-            surf.s.shade(&mut ex, &lights, &mats, &occ, &colour, n, nl);
+            ex.scan(&flags, &offs, slots);
+            let r = ex.read_at(&offs, slots as usize) as u64;
+            if r == 0 {
+                continue;
+            }
+            let rays = DeviceRays::storage(g, "bounce", r);
+            let weight = g.storage("bounce weight", r * 16);
             ex.run(
-                launch::FrAccumulate {
+                launch::FrBounceEmit {
+                    flags: &flags,
+                    offs: &offs,
+                    b_org: &b_org,
+                    b_dir: &b_dir,
+                    col: &b_w,
                     s_pix: &surf.pix,
+                    r_org: &rays.org,
+                    r_dir: &rays.dir,
+                    r_kl: &rays.kl,
+                    r_pix: &rays.pix,
+                    r_w: &weight,
+                },
+                FrameCountParams { n: slots as u32 },
+                slots,
+                256,
+            );
+            out.push(DeviceBatch {
+                rays,
+                weight: Some(weight),
+            });
+        }
+        out
+    }
+
+    fn rays_len(&self, r: &Vec<DeviceBatch>) -> u64 {
+        r.iter().map(|b| b.rays.len).sum()
+    }
+
+    fn count_kinds(&mut self, r: &Vec<DeviceBatch>) -> [u64; 4] {
+        let mut k = [0u64; 4];
+        for b in r {
+            if b.weight.is_none() {
+                k[1] += b.rays.len;
+            } else {
+                let refractions = kind_count(&mut self.ex, &b.rays.kl, b.rays.len);
+                k[3] += refractions;
+                k[2] += b.rays.len - refractions;
+            }
+        }
+        k
+    }
+
+    fn trace(
+        &mut self,
+        r: &Vec<DeviceBatch>,
+        mode: TraceMode,
+        stats: &mut TraceStats,
+    ) -> Vec<wgpu::Buffer> {
+        self.ex.finish();
+        r.iter()
+            .map(|b| trace_device(self.engine, &b.rays, mode, stats))
+            .collect()
+    }
+
+    fn shade(
+        &mut self,
+        s: &Vec<DeviceSurfaces>,
+        shadows: Option<(&Vec<DeviceBatch>, &Vec<wgpu::Buffer>)>,
+    ) {
+        let g = self.g;
+        let nl = self.scene.lights.len() as u64;
+        let img = self.img.clone().expect("primary surfaces first");
+        // The shadow batches are the non-empty parts, in order.
+        let mut recs = shadows.map(|(_, h)| h.iter());
+        for surf in s {
+            let (n, m) = (surf.len, surf.len * nl);
+            let occ = g.storage("occluded", m * 4);
+            if m > 0 {
+                let rec = recs
+                    .as_mut()
+                    .and_then(|r| r.next())
+                    .expect("a shadow batch per part with rays");
+                self.ex.run(
+                    launch::FrOccluded { rec, out_u: &occ },
+                    FrameCountParams { n: m as u32 },
+                    m,
+                    256,
+                );
+            }
+            if n > 0 {
+                let colour = g.storage("colour", n * 16);
+                surf.s
+                    .shade(&mut self.ex, &self.lights, &self.mats, &occ, &colour, n, nl);
+                self.ex.run(
+                    launch::FrAccumulate {
+                        s_pix: &surf.pix,
+                        img: &img,
+                        col: &colour,
+                    },
+                    FrameCountParams { n: n as u32 },
+                    n,
+                    256,
+                );
+            }
+        }
+    }
+
+    fn next_surfaces(
+        &mut self,
+        r: &Vec<DeviceBatch>,
+        h: &Vec<wgpu::Buffer>,
+    ) -> Vec<DeviceSurfaces> {
+        let g = self.g;
+        let bg = self.scene.background;
+        let img = self.img.clone().expect("primary surfaces first");
+        let (tris, normals, material) = self.raster.scene_buffers();
+        let mut out = Vec::new();
+        for (b, rec) in r.iter().zip(h) {
+            let n = b.rays.len;
+            let weight = b.weight.as_ref().expect("bounce rays carry weights");
+            // The background behind the misses, then the surfaces of the hits.
+            self.ex.run(
+                launch::FrMisses {
+                    r_pix: &b.rays.pix,
+                    r_w: weight,
+                    rec,
                     img: &img,
-                    col: &colour,
+                },
+                MissesParams {
+                    rays: n as u32,
+                    background: bg.to_array(),
+                },
+                n,
+                256,
+            );
+            let hflags = g.storage("hit flags", n * 4);
+            let hoffs = g.storage("hit offsets", (n + 1) * 4);
+            self.ex.run(
+                launch::FrHitFlags {
+                    rec,
+                    flags: &hflags,
                 },
                 FrameCountParams { n: n as u32 },
                 n,
                 256,
             );
+            self.ex.scan(&hflags, &hoffs, n);
+            let nh = self.ex.read_at(&hoffs, n as usize) as u64;
+            for (first, count) in self.split(nh) {
+                let next = DeviceSurfaces::new(g, count);
+                let l = launch::FrHitSurfaces {
+                    flags: &hflags,
+                    offs: &hoffs,
+                    rec,
+                    r_dir: &b.rays.dir,
+                    r_pix: &b.rays.pix,
+                    r_w: weight,
+                    g_tris: tris,
+                    g_normals: normals,
+                    g_material: material,
+                    s_pos: &next.s.pos,
+                    s_ng: &next.s.ng,
+                    s_ns: &next.s.ns,
+                    s_inc: &next.s.inc,
+                    s_tw: &next.s.tw,
+                    s_mat: &next.s.mat,
+                    s_pix: &next.pix,
+                };
+                let p = HitSurfacesParams {
+                    rays: n as u32,
+                    first: first as u32,
+                    count: count as u32,
+                };
+                self.ex.run(l, p, n, 256);
+                out.push(next);
+            }
         }
-        clock.lap(&mut ex, &mut stats, FramePhase::Shading);
-        if generation >= opts.bounces || n == 0 {
-            break;
-        }
-        progress.stage(&format!("secondary rays, generation {}", generation + 1));
-        let slots = 2 * n;
-        let (b_org, b_dir, b_w) = (
-            g.storage("slot org", slots * 16),
-            g.storage("slot dir", slots * 16),
-            g.storage("slot weight", slots * 16),
-        );
-        surf.s
-            .bounce_rays(&mut ex, &mats, [&b_org, &b_dir, &b_w], n);
-        let flags = g.storage("slot flags", slots * 4);
-        let offs = g.storage("slot offsets", (slots + 1) * 4);
-        ex.run(
-            launch::FrSlotFlags {
-                col: &b_w,
-                flags: &flags,
-            },
-            FrameCountParams { n: slots as u32 },
-            slots,
-            256,
-        );
-        ex.scan(&flags, &offs, slots);
-        let r = ex.read_at(&offs, slots as usize) as u64;
-        if r == 0 {
-            clock.lap(&mut ex, &mut stats, FramePhase::RayCreation);
-            break;
-        }
-        let rays = DeviceRays::storage(g, "bounce", r);
-        let weight = g.storage("bounce weight", r * 16);
-        ex.run(
-            launch::FrBounceEmit {
-                flags: &flags,
-                offs: &offs,
-                b_org: &b_org,
-                b_dir: &b_dir,
-                col: &b_w,
-                s_pix: &surf.pix,
-                r_org: &rays.org,
-                r_dir: &rays.dir,
-                r_kl: &rays.kl,
-                r_pix: &rays.pix,
-                r_w: &weight,
-            },
-            FrameCountParams { n: slots as u32 },
-            slots,
-            256,
-        );
-        let refractions = kind_count(&mut ex, &rays.kl, r);
-        stats.rays_refraction += refractions;
-        stats.rays_reflection += r - refractions;
-        clock.lap(&mut ex, &mut stats, FramePhase::RayCreation);
-        let rec = trace_device(engine, &rays, TraceMode::Closest, &mut stats.trace);
-        clock.lap(&mut ex, &mut stats, FramePhase::Trace);
-        // The background behind the misses, then the next generation's surfaces.
-        let p = MissesParams {
-            rays: r as u32,
-            background: bg.to_array(),
-        };
-        ex.run(
-            launch::FrMisses {
-                r_pix: &rays.pix,
-                r_w: &weight,
-                rec: &rec,
-                img: &img,
-            },
-            p,
-            r,
-            256,
-        );
-        let hflags = g.storage("hit flags", r * 4);
-        let hoffs = g.storage("hit offsets", (r + 1) * 4);
-        ex.run(
-            launch::FrHitFlags {
-                rec: &rec,
-                flags: &hflags,
-            },
-            FrameCountParams { n: r as u32 },
-            r,
-            256,
-        );
-        ex.scan(&hflags, &hoffs, r);
-        let nh = ex.read_at(&hoffs, r as usize) as u64;
-        let next = DeviceSurfaces::new(g, nh);
-        let l = launch::FrHitSurfaces {
-            flags: &hflags,
-            offs: &hoffs,
-            rec: &rec,
-            r_dir: &rays.dir,
-            r_pix: &rays.pix,
-            r_w: &weight,
-            g_tris: tris,
-            g_normals: normals,
-            g_material: material,
-            s_pos: &next.s.pos,
-            s_ng: &next.s.ng,
-            s_ns: &next.s.ns,
-            s_inc: &next.s.inc,
-            s_tw: &next.s.tw,
-            s_mat: &next.s.mat,
-            s_pix: &next.pix,
-        };
-        ex.run(l, FrameCountParams { n: r as u32 }, r, 256);
-        surf = next;
-        clock.lap(&mut ex, &mut stats, FramePhase::Shading);
-        generation += 1;
+        out
     }
-    // The image out, as sRGB bytes.
-    let words = (3 * npix).div_ceil(4);
-    let enc = g.storage("srgb", words * 4);
-    ex.run(
-        launch::FrEncode {
-            img: &img,
-            out_u: &enc,
-        },
-        EncodeParams {
-            words: words as u32,
-            pixels: npix as u32,
-        },
-        words,
-        256,
-    );
-    let raw: Vec<u32> = ex.read(&enc, words as usize);
-    let mut srgb8: Vec<u8> = raw.iter().flat_map(|w| w.to_le_bytes()).collect();
-    srgb8.truncate(3 * npix as usize);
-    clock.lap(&mut ex, &mut stats, FramePhase::Shading);
-    stats.total_tests = stats.trace.total_tests();
-    stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
-    Ok(FrameOut { srgb8, stats })
+
+    fn sync(&mut self) {
+        self.ex.finish();
+        self.g
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("GPU device lost");
+    }
+
+    fn finish(&mut self, mut stats: RenderStats) -> Rendered {
+        // The image out, as sRGB bytes.
+        let t0 = Instant::now();
+        let npix = self.npix;
+        let words = (3 * npix).div_ceil(4);
+        let enc = self.g.storage("srgb", words * 4);
+        let img = self.img.clone().expect("primary surfaces first");
+        self.ex.run(
+            launch::FrEncode {
+                img: &img,
+                out_u: &enc,
+            },
+            EncodeParams {
+                words: words as u32,
+                pixels: npix as u32,
+            },
+            words,
+            256,
+        );
+        let raw: Vec<u32> = self.ex.read(&enc, words as usize);
+        let mut srgb8: Vec<u8> = raw.iter().flat_map(|w| w.to_le_bytes()).collect();
+        srgb8.truncate(3 * npix as usize);
+        self.sync();
+        stats.add_phase(FramePhase::Shading, t0.elapsed().as_secs_f64());
+        Rendered {
+            pixels: Vec::new(),
+            srgb8: Some(srgb8),
+            gbuffer: self.host_gbuffer.take().unwrap_or_default(),
+            raster: RasterStats {
+                triangles: stats.triangles,
+                ..Default::default()
+            },
+            stats,
+        }
+    }
 }
 
 /// Refraction rays (kind 3) among the `n` rays of `kl`, counted per chunk on the device.

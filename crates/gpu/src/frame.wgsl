@@ -54,12 +54,21 @@ struct GbFlagsParams {
     background: vec3<f32>, // the background colour (linear RGB)
 }
 
-// Parameters of fr_gb_surfaces.
+// Parameters of fr_gb_surfaces: the part of the surfaces from `first` on, `count` of them.
 struct GbSurfacesParams {
     pixels: u32, // pixels of the image
     width: u32, // the image width
     stride: u32, // the G-buffer's row stride in texels
+    first: u32, // the part's first surface
+    count: u32, // the part's surfaces
     eye: vec3<f32>, // the camera's position
+}
+
+// Parameters of fr_hit_surfaces: the part of the surfaces from `first` on, `count` of them.
+struct HitSurfacesParams {
+    rays: u32, // rays of the batch
+    first: u32, // the part's first surface
+    count: u32, // the part's surfaces
 }
 
 // Parameters of fr_shadow_meta.
@@ -69,7 +78,7 @@ struct ShadowMetaParams {
 }
 
 // Parameters of the kernels that take one count (fr_occluded, fr_accumulate, fr_slot_flags,
-// fr_bounce_emit, fr_hit_flags, fr_hit_surfaces).
+// fr_bounce_emit, fr_hit_flags).
 struct FrameCountParams {
     n: u32, // the rays, surfaces or slots, as each kernel says
 }
@@ -169,8 +178,12 @@ fn fr_gb_surfaces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     if p >= prm.pixels || flags[p] == 0u {
         return;
     }
+    // Surface offs[p], if it is in this part.
+    let i = offs[p] - prm.first;
+    if offs[p] < prm.first || i >= prm.count {
+        return;
+    }
     let q = (p / prm.width) * prm.stride + p % prm.width;
-    let i = offs[p];
     let t = gb_id[q].x;
     let pos = gb_pos[q].xyz;
     s_pix[i] = p;
@@ -306,12 +319,16 @@ fn fr_hit_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
 // Surfaces::from_hits: one surface per hit, in ray order.
 @compute @workgroup_size(256)
 fn fr_hit_surfaces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let prm = frame_count_params();
+    let prm = hit_surfaces_params();
     let i = fid(gid, nwg);
-    if i >= prm.n || flags[i] == 0u {
+    if i >= prm.rays || flags[i] == 0u {
         return;
     }
-    let j = offs[i];
+    // Surface offs[i], if it is in this part.
+    let j = offs[i] - prm.first;
+    if offs[i] < prm.first || j >= prm.count {
+        return;
+    }
     let h = rec[i];
     let t = h.x;
     let u = bitcast<f32>(h.z);

@@ -15,9 +15,10 @@
 //!   the G-buffer's render targets.
 //! - [`stages`]: the Whitted loop's shadow-ray generation, reflection/refraction-ray
 //!   generation and shading as kernels.
-//! - [`frame`]: a whole Whitted frame resident on the device (G-buffer, surfaces, rays,
-//!   traces, shading and the image all stay there; the host reads back the sRGB image and
-//!   a few totals), built from the kernels above.
+//! - [`frame`]: the GPU backend of `render`'s one Whitted loop ([`frame::GpuBackend`]): a
+//!   whole frame resident on the device (G-buffer, surfaces, rays, traces, shading and the
+//!   image all stay there; the host reads back the sRGB image and a few totals), built from
+//!   the kernels above.
 //!
 //! Every kernel mirrors a CPU pass over flat structure-of-arrays buffers of the same layout;
 //! the CPU engines are this backend's oracle (see `tests/`).

@@ -1,30 +1,25 @@
 //! The Whitted loop's per-generation passes as kernels (`stages.wgsl`): shadow-ray
-//! generation, reflection/refraction-ray generation and Blinn-Phong shading, implementing
-//! [`render::whitted::Stages`] so `render_with` runs them in place of the CPU passes.
+//! generation, reflection/refraction-ray generation and Blinn-Phong shading, the twins of
+//! `render::secondary` and `render::shade`.
 //!
-//! The surfaces arrive from the host (the loop builds them from the G-buffer or from the
-//! previous generation's hits) and the rays and colours go back to it: a generation's
-//! surfaces are uploaded once and shared by its three passes ([`Stages::generation`]), and
-//! each pass costs a read-back; the ray generation reproduces the CPU's rays bit for bit (same
-//! operation order, unfused products), the shading uses the device's `pow` for the specular
-//! exponent and may differ from the CPU's in the last bits.
-//!
-//! This is the host-sequenced frame (and the per-pass test harness). The device-resident
-//! frame, [`crate::frame`], launches the same three kernels on buffers that never leave the
-//! device.
+//! `Surf` launches them on surfaces that live on the device: the GPU backend of the loop
+//! ([`crate::frame::GpuBackend`]) runs them so. [`GpuStages`] runs the same launches on host
+//! surfaces, one pass at a time (uploaded, run in parts that fit the device's bindings, read
+//! back): what the pass tests compare with the CPU passes, whose rays the kernels reproduce
+//! bit for bit (same operation order, unfused products); the shading uses the device's `pow`
+//! for the specular exponent and may differ from the CPU's in the last bits.
 
 use crate::device::Gpu;
 use crate::kernels::params::StageParams;
 use crate::kernels::{launch, Exec, Kernels};
 use geom::Vec3;
 use render::secondary::Surfaces;
-use render::whitted::{Generation, Stages};
 use scene::{Light, Material, Scene};
 use std::cell::RefCell;
 use trace::{RayBatch, RayKind};
 
-/// GPU passes of the Whitted loop, with the seconds they took (wall clock, including the
-/// transfers) per pass.
+/// The GPU passes on host surfaces, one at a time, with the seconds they took (wall clock,
+/// including the transfers) per pass.
 pub struct GpuStages<'g> {
     gpu: &'g Gpu,
     kernels: &'g Kernels,
@@ -36,9 +31,9 @@ fn v4(v: Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
 }
 
-/// `n` surfaces' buffers on the device (bindings 1–6 of `stages.wgsl`), and the launches
-/// of the three passes over them, shared by the host-sequenced passes here and the
-/// device-resident frame ([`crate::frame`]).
+/// `n` surfaces' buffers on the device (`stages.wgsl`'s surface arrays), and the launches
+/// of the three passes over them, shared by the GPU backend ([`crate::frame`]) and the
+/// per-pass [`GpuStages`].
 pub(crate) struct Surf {
     pub pos: wgpu::Buffer,
     pub ng: wgpu::Buffer,
@@ -250,20 +245,7 @@ fn ray_of(o: [f32; 4], d: [f32; 4]) -> geom::Ray {
 }
 
 impl GpuStages<'_> {
-    /// `pre`, or `s` uploaded now.
-    fn surf_or<'a>(
-        &self,
-        s: &Surfaces,
-        pre: Option<&'a Surf>,
-        own: &'a mut Option<Surf>,
-    ) -> &'a Surf {
-        match pre {
-            Some(x) => x,
-            None => own.insert(self.surf(s)),
-        }
-    }
-
-    fn shadow_rays_part(&self, s: &Surfaces, lights: &[Light], pre: Option<&Surf>) -> RayBatch {
+    fn shadow_rays_part(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
         let (n, nl) = (s.len(), lights.len());
         if n * nl == 0 {
             return RayBatch::default();
@@ -271,8 +253,7 @@ impl GpuStages<'_> {
         self.timed("shadow-ray kernel", || {
             let g = self.gpu;
             let mut ex = Exec::new(g, self.kernels);
-            let mut own = None;
-            let sf = self.surf_or(s, pre, &mut own);
+            let sf = self.surf(s);
             let lb = self.lights(lights);
             let m = (n * nl) as u64;
             let (org, dir) = (g.storage("org", m * 16), g.storage("dir", m * 16));
@@ -295,13 +276,7 @@ impl GpuStages<'_> {
         })
     }
 
-    fn local_shading_part(
-        &self,
-        s: &Surfaces,
-        scene: &Scene,
-        occluded: &[bool],
-        pre: Option<&Surf>,
-    ) -> Vec<Vec3> {
+    fn local_shading_part(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
         let (materials, lights) = (&scene.materials, &scene.lights);
         let n = s.len();
         if n == 0 {
@@ -310,8 +285,7 @@ impl GpuStages<'_> {
         self.timed("shading kernel", || {
             let g = self.gpu;
             let mut ex = Exec::new(g, self.kernels);
-            let mut own = None;
-            let sf = self.surf_or(s, pre, &mut own);
+            let sf = self.surf(s);
             let lb = self.lights(lights);
             let mb = self.materials(materials, scene.ambient);
             let occ: Vec<u32> = occluded.iter().map(|&o| o as u32).collect();
@@ -323,12 +297,7 @@ impl GpuStages<'_> {
         })
     }
 
-    fn bounce_rays_part(
-        &self,
-        s: &Surfaces,
-        materials: &[Material],
-        pre: Option<&Surf>,
-    ) -> RayBatch {
+    fn bounce_rays_part(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
         let n = s.len();
         if n == 0 {
             return RayBatch::default();
@@ -336,8 +305,7 @@ impl GpuStages<'_> {
         self.timed("bounce-ray kernel", || {
             let g = self.gpu;
             let mut ex = Exec::new(g, self.kernels);
-            let mut own = None;
-            let sf = self.surf_or(s, pre, &mut own);
+            let sf = self.surf(s);
             let mb = self.materials(materials, Vec3::ZERO);
             let m = 2 * n as u64;
             let (org, dir, w) = (
@@ -388,95 +356,40 @@ impl GpuStages<'_> {
 
 /// Each pass runs on parts of the surfaces that fit the device's bindings; surfaces are
 /// independent, so the parts' results, in order, are the whole's.
-impl Stages for GpuStages<'_> {
-    fn shadow_rays(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
+impl GpuStages<'_> {
+    /// Shadow rays, one per (surface, light), surface-major (`secondary::shadow_rays`).
+    pub fn shadow_rays(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
         // Per surface: one origin and one direction (vec4) per light.
         let per = self.part(16 * lights.len().max(1) as u64);
-        if s.len() <= per {
-            return self.shadow_rays_part(s, lights, None);
-        }
         let mut b = RayBatch::default();
         for r in Self::parts(s.len(), per) {
-            b.append(self.shadow_rays_part(&s.slice(r), lights, None));
+            b.append(self.shadow_rays_part(&s.slice(r), lights));
         }
         b
     }
 
-    fn local_shading(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+    /// Local illumination of every surface times its throughput (`shade::local`);
+    /// `occluded[i · lights + l]` says whether light l is hidden from surface i.
+    pub fn local_shading(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
         // Per surface: a vec4 per surface array and the colour, a u32 per light.
         let nl = scene.lights.len();
         let per = self.part(16u64.max(4 * nl as u64));
-        if s.len() <= per {
-            return self.local_shading_part(s, scene, occluded, None);
-        }
         let mut c = Vec::with_capacity(s.len());
         for r in Self::parts(s.len(), per) {
             let occ = &occluded[r.start * nl..r.end * nl];
-            c.extend(self.local_shading_part(&s.slice(r), scene, occ, None));
+            c.extend(self.local_shading_part(&s.slice(r), scene, occ));
         }
         c
     }
 
-    fn bounce_rays(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
+    /// Reflection and refraction rays (`secondary::bounce_rays`).
+    pub fn bounce_rays(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
         // Per surface: two ray slots of origin, direction and weight (vec4 each).
         let per = self.part(32);
-        if s.len() <= per {
-            return self.bounce_rays_part(s, materials, None);
-        }
         let mut b = RayBatch::default();
         for r in Self::parts(s.len(), per) {
-            b.append(self.bounce_rays_part(&s.slice(r), materials, None));
+            b.append(self.bounce_rays_part(&s.slice(r), materials));
         }
         b
-    }
-
-    /// The generation's surfaces go to the device once, at the first pass that needs them,
-    /// when they fit every pass in one part (else each pass uploads its parts, as above).
-    fn generation<'a>(&'a self, s: &'a Surfaces) -> Box<dyn Generation + 'a> {
-        Box::new(GpuGeneration {
-            stages: self,
-            s,
-            surf: std::cell::OnceCell::new(),
-        })
-    }
-}
-
-/// One generation on the GPU: its surfaces uploaded once and shared by the passes.
-struct GpuGeneration<'a, 'g> {
-    stages: &'a GpuStages<'g>,
-    s: &'a Surfaces,
-    surf: std::cell::OnceCell<Surf>,
-}
-
-impl GpuGeneration<'_, '_> {
-    /// The uploaded surfaces, when a pass with `per` surfaces per part takes them whole.
-    fn whole(&self, per: usize) -> Option<&Surf> {
-        (self.s.len() <= per).then(|| self.surf.get_or_init(|| self.stages.surf(self.s)))
-    }
-}
-
-impl Generation for GpuGeneration<'_, '_> {
-    fn shadow_rays(&self, lights: &[Light]) -> RayBatch {
-        let st = self.stages;
-        match self.whole(st.part(16 * lights.len().max(1) as u64)) {
-            Some(sf) => st.shadow_rays_part(self.s, lights, Some(sf)),
-            None => st.shadow_rays(self.s, lights),
-        }
-    }
-
-    fn local_shading(&self, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
-        let st = self.stages;
-        match self.whole(st.part(16u64.max(4 * scene.lights.len() as u64))) {
-            Some(sf) => st.local_shading_part(self.s, scene, occluded, Some(sf)),
-            None => st.local_shading(self.s, scene, occluded),
-        }
-    }
-
-    fn bounce_rays(&self, materials: &[Material]) -> RayBatch {
-        let st = self.stages;
-        match self.whole(st.part(32)) {
-            Some(sf) => st.bounce_rays_part(self.s, materials, Some(sf)),
-            None => st.bounce_rays(self.s, materials),
-        }
     }
 }

@@ -4,10 +4,12 @@
 //! (shadow, reflection, refraction; eqs. 3.1–3.7) are generated as flat [`trace::RayBatch`]es
 //! ([`secondary`]) and traced by any engine implementing [`trace::Tracer`]; hits are shaded
 //! with Blinn-Phong and distance attenuation (eqs. 3.17–3.19, [`shade`]) in a batched
-//! Whitted loop ([`whitted`]) that records per-phase times and counters ([`stats`]).
+//! Whitted loop ([`whitted`]), written once over a backend ([`whitted::Backend`]: the CPU's
+//! is [`cpu`], the GPU's `gpu::frame`), that records per-phase times and counters ([`stats`]).
 
 #![warn(missing_docs)]
 
+pub mod cpu;
 pub mod output;
 pub mod raster;
 pub mod rayfile;

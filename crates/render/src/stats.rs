@@ -115,7 +115,8 @@ pub struct RenderStats {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub host_read_backs: Option<u64>,
     /// GPU backend: how the frame ran, `device-resident` (everything between the G-buffer
-    /// and the sRGB image stayed on the device) or `host-sequenced` with the reason.
+    /// and the sRGB image stayed on the device), said with the reason when a generation was
+    /// held in parts.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gpu_frame: Option<String>,
 }

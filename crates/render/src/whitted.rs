@@ -1,21 +1,25 @@
-//! The batched Whitted loop of the hybrid renderer (thesis chapter 3, Figure 3.1).
+//! The batched Whitted loop of the hybrid renderer (thesis chapter 3, Figure 3.1), written
+//! once for every backend.
 //!
 //! rasterize → G-buffer → surfaces; then per generation: shadow rays (any hit) → shade;
-//! reflection/refraction rays (closest hit) → next generation's surfaces; up to `bounces`
-//! generations. Every batch goes to the same [`Tracer`], so engines are compared on identical
-//! rays. Contributions are accumulated in a fixed order, so images are bit-reproducible.
+//! reflection/refraction rays (closest hit) → the background behind the misses and the next
+//! generation's surfaces; up to `bounces` generations. [`run`] is the loop; a [`Backend`]
+//! says where the surfaces, rays, hits and image live and runs each step over them: the CPU
+//! backend ([`crate::cpu::CpuBackend`]) with host arrays and any [`Tracer`], the GPU backend
+//! (`gpu::frame::GpuBackend`) with device buffers and kernels. Every batch goes to the
+//! backend's one engine, so engines are compared on identical rays; contributions are
+//! accumulated in surface order, so images are bit-reproducible.
 
-use crate::raster::{default_near, rasterize, GBuffer, RasterStats};
-use crate::secondary::{bounce_rays, shadow_rays, Surfaces};
-use crate::shade;
+use crate::cpu::CpuBackend;
+use crate::raster::{default_near, GBuffer, RasterStats};
 use crate::stats::{FramePhase, RenderStats};
 use crate::view::View;
 use geom::Vec3;
-use rayon::prelude::*;
-use scene::{Geometry, Light, Material, Scene};
+use scene::{Geometry, Scene};
 use std::time::Instant;
 use trace::batch::{Hit, RayBatch};
 use trace::tracer::{TraceMode, Tracer};
+use trace::TraceStats;
 
 /// Largest accepted image side and bounce count (the CLI validates against these).
 pub const MAX_SIDE: u32 = 16384;
@@ -101,34 +105,79 @@ impl Rendered {
     }
 }
 
-fn timed<T>(stats: &mut RenderStats, phase: FramePhase, f: impl FnOnce() -> T) -> T {
+/// Where a render's data lives and how each step of the loop runs on it. The loop ([`run`])
+/// calls the steps in a fixed order and times them; a backend only does the work (and, at
+/// [`Backend::sync`], waits for work it queued, so that a phase's time is its own).
+pub trait Backend {
+    /// One generation's surfaces (host arrays or device buffers).
+    type Surfaces;
+    /// A batch of rays.
+    type Rays;
+    /// The hits of a traced batch.
+    type Hits;
+
+    /// The engine's name (the `engine` of the statistics).
+    fn engine_name(&self) -> String;
+    /// Rasterize the primary visibility of `view` (near plane at `near`) into a G-buffer.
+    fn rasterize(&mut self, view: &View, near: f32);
+    /// The G-buffer's surfaces, in pixel order; the image starts as the background where
+    /// nothing is seen and black elsewhere.
+    fn primary_surfaces(&mut self, view: &View) -> Self::Surfaces;
+    /// How many surfaces `s` holds.
+    fn surfaces_len(&self, s: &Self::Surfaces) -> u64;
+    /// Shadow rays, one per (surface, light), surface-major (eqs. 3.1–3.2).
+    fn shadow_rays(&mut self, s: &Self::Surfaces) -> Self::Rays;
+    /// Reflection and refraction rays of the surfaces, surface-major (eqs. 3.3–3.7).
+    fn bounce_rays(&mut self, s: &Self::Surfaces) -> Self::Rays;
+    /// How many rays `r` holds.
+    fn rays_len(&self, r: &Self::Rays) -> u64;
+    /// `r`'s rays by kind (primary, shadow, reflection, refraction).
+    fn count_kinds(&mut self, r: &Self::Rays) -> [u64; 4];
+    /// Trace `r` with the backend's engine, counting into `stats`.
+    fn trace(&mut self, r: &Self::Rays, mode: TraceMode, stats: &mut TraceStats) -> Self::Hits;
+    /// Local illumination of every surface times its throughput (eqs. 3.17–3.19), added to
+    /// its pixel in surface order; `shadows` are the shadow rays and their any-hit results
+    /// (`None`: no shadow ray, so no light is hidden).
+    fn shade(&mut self, s: &Self::Surfaces, shadows: Option<(&Self::Rays, &Self::Hits)>);
+    /// The background times the weight of every ray of `r` that hit nothing, added to its
+    /// pixel in ray order, then the surfaces of the hits, in ray order.
+    fn next_surfaces(&mut self, r: &Self::Rays, h: &Self::Hits) -> Self::Surfaces;
+    /// Wait for the work queued so far (a device backend; the CPU's is done already).
+    fn sync(&mut self);
+    /// The image and the G-buffer as the render's result, with `stats`.
+    fn finish(&mut self, stats: RenderStats) -> Rendered;
+}
+
+/// `f` timed into `phase`, the backend's queued work included.
+fn timed<B: Backend, T>(
+    b: &mut B,
+    stats: &mut RenderStats,
+    phase: FramePhase,
+    f: impl FnOnce(&mut B) -> T,
+) -> T {
     let t0 = Instant::now();
-    let r = f();
+    let r = f(b);
+    b.sync();
     stats.add_phase(phase, t0.elapsed().as_secs_f64());
     r
 }
 
-fn trace(
-    tracer: &dyn Tracer,
-    rays: &RayBatch,
-    mode: TraceMode,
-    stats: &mut RenderStats,
-) -> Vec<Hit> {
-    let mut hits = vec![Hit::MISS; rays.len()];
-    let t0 = Instant::now();
-    tracer.trace(rays, mode, &mut hits, &mut stats.trace);
-    stats.add_phase(FramePhase::Trace, t0.elapsed().as_secs_f64());
-    let [p, s, rl, rf] = rays.count_by_kind();
+/// `r` traced, timed and counted by kind.
+fn trace<B: Backend>(b: &mut B, r: &B::Rays, mode: TraceMode, stats: &mut RenderStats) -> B::Hits {
+    let [p, s, rl, rf] = b.count_kinds(r);
     stats.rays_primary_traced += p;
     stats.rays_shadow += s;
     stats.rays_reflection += rl;
     stats.rays_refraction += rf;
-    hits
+    let t0 = Instant::now();
+    let h = b.trace(r, mode, &mut stats.trace);
+    b.sync();
+    stats.add_phase(FramePhase::Trace, t0.elapsed().as_secs_f64());
+    h
 }
 
-/// Render `scene` with `tracer`: the G-buffer from the CPU rasterizer, then the Whitted
-/// generations (shadow, reflection and refraction rays traced by `tracer`) and shading on the
-/// CPU ([`render_with`] lets a backend replace the rasterizer and the passes).
+/// Render `scene` with `tracer` on the CPU: the CPU rasterizer's G-buffer, then the Whitted
+/// generations with every batch traced by `tracer` ([`run`] on a [`CpuBackend`]).
 pub fn render(
     scene: &Scene,
     geo: &Geometry,
@@ -136,190 +185,77 @@ pub fn render(
     opts: &RenderOptions,
     progress: &dyn Progress,
 ) -> Rendered {
-    render_with(
+    run(
+        &mut CpuBackend::new(scene, geo, tracer),
         scene,
         geo,
-        tracer,
         opts,
         progress,
-        &|view, near| rasterize(geo, &scene.materials, view, near),
-        &CpuStages,
     )
 }
 
-/// Primary visibility from a rasterizer: the view and the near-plane distance in, a
-/// G-buffer out (the CPU rasterizer, or the GPU backend's render pipeline).
-pub type RasterFn<'a> = dyn Fn(&View, f32) -> (GBuffer, RasterStats) + 'a;
-
-/// The per-generation passes of the Whitted loop around the traces: shadow-ray generation,
-/// local shading and reflection/refraction-ray generation. The defaults are the CPU passes
-/// (`secondary`, `shade`); the GPU backend implements them as kernels.
-pub trait Stages {
-    /// Shadow rays, one per (surface, light), surface-major ([`shadow_rays`]).
-    fn shadow_rays(&self, s: &Surfaces, lights: &[Light]) -> RayBatch {
-        shadow_rays(s, lights)
-    }
-
-    /// Local illumination of every surface times its throughput ([`shade::local`]) under
-    /// the scene's materials and lights; `occluded[i · lights + l]` says whether light l is
-    /// hidden from surface i.
-    fn local_shading(&self, s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
-        let (materials, lights) = (&scene.materials, &scene.lights);
-        let nl = lights.len();
-        (0..s.len())
-            .into_par_iter()
-            .map(|i| {
-                let visible: Vec<bool> = (0..nl).map(|l| !occluded[i * nl + l]).collect();
-                let m = &materials[s.material[i] as usize];
-                shade::local(s, i, m, lights, &visible, scene.ambient) * s.throughput[i]
-            })
-            .collect()
-    }
-
-    /// Reflection and refraction rays ([`bounce_rays`]).
-    fn bounce_rays(&self, s: &Surfaces, materials: &[Material]) -> RayBatch {
-        bounce_rays(s, materials)
-    }
-
-    /// The three passes of one generation over surfaces `s`, which the borrow keeps
-    /// unchanged across them (so a backend may move them to its device once, not once per
-    /// pass). The default runs the passes above with `s` each time.
-    fn generation<'a>(&'a self, s: &'a Surfaces) -> Box<dyn Generation + 'a> {
-        Box::new(EachPass { stages: self, s })
-    }
-}
-
-/// One generation's passes over its surfaces (see [`Stages::generation`]).
-pub trait Generation {
-    /// [`Stages::shadow_rays`] of the generation's surfaces.
-    fn shadow_rays(&self, lights: &[Light]) -> RayBatch;
-    /// [`Stages::local_shading`] of the generation's surfaces.
-    fn local_shading(&self, scene: &Scene, occluded: &[bool]) -> Vec<Vec3>;
-    /// [`Stages::bounce_rays`] of the generation's surfaces.
-    fn bounce_rays(&self, materials: &[Material]) -> RayBatch;
-}
-
-/// The default [`Generation`]: each pass called with the surfaces.
-struct EachPass<'a, S: Stages + ?Sized> {
-    stages: &'a S,
-    s: &'a Surfaces,
-}
-
-impl<S: Stages + ?Sized> Generation for EachPass<'_, S> {
-    fn shadow_rays(&self, lights: &[Light]) -> RayBatch {
-        self.stages.shadow_rays(self.s, lights)
-    }
-    fn local_shading(&self, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
-        self.stages.local_shading(self.s, scene, occluded)
-    }
-    fn bounce_rays(&self, materials: &[Material]) -> RayBatch {
-        self.stages.bounce_rays(self.s, materials)
-    }
-}
-
-/// The CPU passes.
-pub struct CpuStages;
-
-impl Stages for CpuStages {}
-
-/// [`render`] with another rasterizer for the primary visibility and other implementations
-/// of the per-generation passes.
-pub fn render_with(
+/// The Whitted loop: one frame of `scene` (whose geometry is `geo`) on `backend`.
+pub fn run<B: Backend>(
+    backend: &mut B,
     scene: &Scene,
     geo: &Geometry,
-    tracer: &dyn Tracer,
     opts: &RenderOptions,
     progress: &dyn Progress,
-    raster_fn: &RasterFn,
-    stages: &dyn Stages,
 ) -> Rendered {
     let view = View::new(&scene.camera, opts.width, opts.height);
-    let lights = &scene.lights;
     let mut stats = RenderStats {
         scene: scene.name.clone(),
-        engine: tracer.name().to_string(),
+        engine: backend.engine_name(),
         width: opts.width,
         height: opts.height,
         triangles: geo.len() as u64,
         meshes: geo.mesh_count() as u64,
-        lights: lights.len() as u64,
+        lights: scene.lights.len() as u64,
         bounces: opts.bounces,
         ..Default::default()
     };
+    let st = &mut stats;
     progress.stage("rasterize");
-    let (gb, raster) = timed(&mut stats, FramePhase::Rasterize, || {
-        raster_fn(&view, default_near(geo))
+    timed(backend, st, FramePhase::Rasterize, |b| {
+        b.rasterize(&view, default_near(geo))
     });
-    let npix = (opts.width * opts.height) as usize;
-    let mut pixels: Vec<Vec3> = gb
-        .tri
-        .iter()
-        .map(|&t| {
-            if t == geom::NO_HIT {
-                scene.background
-            } else {
-                Vec3::ZERO
-            }
-        })
-        .collect();
-    let mut surfaces = timed(&mut stats, FramePhase::RayCreation, || {
-        Surfaces::from_gbuffer(&gb, geo, view.eye)
+    let mut surfaces = timed(backend, st, FramePhase::RayCreation, |b| {
+        b.primary_surfaces(&view)
     });
-    stats.covered_pixels = surfaces.len() as u64;
-    debug_assert_eq!(pixels.len(), npix);
+    st.covered_pixels = backend.surfaces_len(&surfaces);
     let mut generation = 0u32;
     loop {
-        // The generation's passes share its surfaces (a backend moves them once).
-        let gen = stages.generation(&surfaces);
+        let n = backend.surfaces_len(&surfaces);
         // Shadows of this generation's surfaces, then local shading.
         progress.stage(&format!("shadow rays, generation {generation}"));
-        let shadows = timed(&mut stats, FramePhase::RayCreation, || {
-            gen.shadow_rays(lights)
+        let shadows = timed(backend, st, FramePhase::RayCreation, |b| {
+            b.shadow_rays(&surfaces)
         });
-        let occl = if shadows.is_empty() {
-            Vec::new()
-        } else {
-            trace(tracer, &shadows, TraceMode::Any, &mut stats)
-        };
+        let occluded =
+            (backend.rays_len(&shadows) > 0).then(|| trace(backend, &shadows, TraceMode::Any, st));
         progress.stage(&format!("shading, generation {generation}"));
-        timed(&mut stats, FramePhase::Shading, || {
-            let occluded: Vec<bool> = occl.iter().map(|h| h.is_hit()).collect();
-            let local = gen.local_shading(scene, &occluded);
-            for (i, c) in local.into_iter().enumerate() {
-                pixels[surfaces.pixel[i] as usize] += c;
-            }
+        timed(backend, st, FramePhase::Shading, |b| {
+            b.shade(&surfaces, occluded.as_ref().map(|h| (&shadows, h)))
         });
-        if generation >= opts.bounces {
+        if generation >= opts.bounces || n == 0 {
             break;
         }
         progress.stage(&format!("secondary rays, generation {}", generation + 1));
-        let rays = timed(&mut stats, FramePhase::RayCreation, || {
-            gen.bounce_rays(&scene.materials)
+        let rays = timed(backend, st, FramePhase::RayCreation, |b| {
+            b.bounce_rays(&surfaces)
         });
-        drop(gen);
-        if rays.is_empty() {
+        if backend.rays_len(&rays) == 0 {
             break;
         }
-        let hits = trace(tracer, &rays, TraceMode::Closest, &mut stats);
-        surfaces = timed(&mut stats, FramePhase::Shading, || {
-            for (i, h) in hits.iter().enumerate() {
-                if !h.is_hit() {
-                    pixels[rays.pixel[i] as usize] += scene.background * rays.throughput[i];
-                }
-            }
-            Surfaces::from_hits(&rays, &hits, geo)
+        let hits = trace(backend, &rays, TraceMode::Closest, st);
+        surfaces = timed(backend, st, FramePhase::Shading, |b| {
+            b.next_surfaces(&rays, &hits)
         });
         generation += 1;
     }
     stats.total_tests = stats.trace.total_tests();
     stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
-    Rendered {
-        pixels,
-        srgb8: None,
-        gbuffer: gb,
-        raster,
-        stats,
-    }
+    backend.finish(stats)
 }
 
 /// Trace primary rays through every pixel centre (closest hit): the reference the

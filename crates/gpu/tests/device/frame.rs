@@ -1,19 +1,22 @@
-//! The device-resident frame (`gpu::frame`) against the host-sequenced GPU frame (the same
-//! raster, kernels and engine, with the surfaces and the image on the host between passes):
-//! the same counters exactly, image bytes within one (the device encodes sRGB with its own
-//! `pow`), and at most the image's bytes + 1 MiB moved between host and device. Also the
-//! device traces in parts against the CPU engine.
+//! The GPU backend of the Whitted loop (`gpu::frame::GpuBackend`) against the CPU backend
+//! over the GPU's own G-buffer (the same engine tracing, the same rays: the GPU generates
+//! the CPU's rays bit for bit), so the same counters exactly and image bytes within one (the
+//! device shades with its own `pow` and encodes sRGB with it), with at most the image's
+//! bytes + 1 MiB moved between host and device; a generation held in parts against the same
+//! frame in one part (the same bytes); and the device traces in parts against the CPU engine.
 //!
-//! The host-sequenced frame's own tolerance against the CPU renderer is checked in
-//! `raster.rs`; together they bound the device frame against the CPU.
+//! The GPU's G-buffer against the CPU rasterizer's is checked in `raster.rs`; together they
+//! bound the GPU frame against the CPU's.
 
 use crate::common;
 
 use accel::{GridConfig, GridEngine};
-use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh, GpuStages};
-use render::whitted::{render_with, RenderOptions};
+use gpu::frame::GpuBackend;
+use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh};
+use render::cpu::CpuBackend;
+use render::whitted::{run, RenderOptions};
 use rsh::RshConfig;
-use scene::{builtin, Geometry};
+use scene::{builtin, Geometry, Scene};
 use trace::{Hit, RayKind, TraceMode, TraceStats, Tracer};
 
 fn gpu() -> Option<Gpu> {
@@ -34,10 +37,22 @@ fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
     ]
 }
 
+/// One frame of `s` on the GPU backend.
+fn gpu_frame(
+    e: &dyn GpuEngine,
+    raster: &GpuRaster,
+    s: &Scene,
+    geo: &Geometry,
+    opts: &RenderOptions,
+) -> (render::whitted::Rendered, bool) {
+    let mut b = GpuBackend::new(e, raster, s, opts, false).unwrap();
+    let out = run(&mut b, s, geo, opts, &());
+    (out, b.in_parts)
+}
+
 #[test]
-fn device_frames_equal_host_sequenced_frames() {
+fn gpu_frames_equal_cpu_frames_over_the_gpu_gbuffer() {
     let Some(g) = gpu() else { return };
-    let kernels = g.kernels();
     for (name, w, h, bounces) in [
         ("cornell", 96, 72, 3),
         ("spheres", 80, 64, 3),
@@ -53,20 +68,21 @@ fn device_frames_equal_host_sequenced_frames() {
             bounces,
         };
         let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
+        let view = render::View::new(&s.camera, w, h);
         for e in engines(&g, &geo) {
             let what = format!("{name} {}", e.name());
-            let stages = GpuStages::new(e.gpu(), &kernels);
-            let host = render_with(
+            let (gb, _) = raster.rasterize(&view, render::raster::default_near(&geo));
+            let tracer: &dyn Tracer = e.as_ref();
+            let host = run(
+                &mut CpuBackend::new(&s, &geo, tracer).with_gbuffer(gb),
                 &s,
                 &geo,
-                e.as_ref(),
                 &opts,
                 &(),
-                &|v, n| raster.rasterize(v, n),
-                &stages,
             );
             let moved = e.gpu().bytes_moved();
-            let dev = gpu::frame::render(e.as_ref(), &raster, &s, &geo, &opts, &()).unwrap();
+            let (dev, in_parts) = gpu_frame(e.as_ref(), &raster, &s, &geo, &opts);
+            assert!(!in_parts, "{what}: one part");
             let bytes = e.gpu().bytes_moved() - moved;
             let image = (w * h * 3) as u64;
             eprintln!("{what}: {bytes} bytes moved, image {image}");
@@ -74,7 +90,7 @@ fn device_frames_equal_host_sequenced_frames() {
                 bytes <= image + (1 << 20),
                 "{what}: {bytes} bytes moved for a {image}-byte image"
             );
-            let (a, b) = (srgb(&host.pixels), dev.srgb8);
+            let (a, b) = (srgb(&host.pixels), dev.rgb8());
             assert_eq!(a.len(), b.len(), "{what}: image size");
             let off = a.iter().zip(&b).filter(|(x, y)| x != y).count();
             let far = a
@@ -100,8 +116,8 @@ fn device_frames_equal_host_sequenced_frames() {
                 "{what}: phases"
             );
             // Deterministic: the same frame again gives the same bytes and counts.
-            let again = gpu::frame::render(e.as_ref(), &raster, &s, &geo, &opts, &()).unwrap();
-            assert_eq!(again.srgb8, b, "{what}: a second frame");
+            let (again, _) = gpu_frame(e.as_ref(), &raster, &s, &geo, &opts);
+            assert_eq!(again.rgb8(), b, "{what}: a second frame");
             assert_eq!(again.stats.total_tests, ds.total_tests);
         }
     }
@@ -166,39 +182,55 @@ fn device_traces_in_parts_equal_the_cpu() {
 }
 
 #[test]
-fn frames_that_might_not_fit_a_binding_are_refused_with_the_reason() {
+fn generations_beyond_one_binding_run_in_parts_with_the_same_bytes() {
     // A device that binds just cornell's grid's largest array at once: a 16-pixel-wide frame
     // whose G-buffer fills a binding exactly fits there, but its shadow rays (16 bytes × 2
-    // light slots per pixel) do not, so the frame is refused up front (the render command
-    // then sequences it on the host, in parts); a small frame runs under the same limits.
+    // light slots per pixel) do not, so its generations are held in parts; the image and
+    // every count equal the same frame's on the device as it is (one part). A G-buffer
+    // beyond one binding is refused with the reason.
     let Some(mut g) = gpu() else { return };
     let s = builtin::by_name("cornell").unwrap();
     let geo = Geometry::from_scene(&s);
     let cpu = GridEngine::new(&geo, &GridConfig::default()).unwrap();
     let gr = &cpu.grid;
     let limit = common::tight_binding(&cpu, &geo);
+    let full = g.clone();
     g.limits.max_storage_buffer_binding_size = limit;
-    let e = GpuGrid::upload(g.clone(), gr, &geo.tris, "grid-gpu").unwrap();
     let opts = RenderOptions {
         width: 16,
         height: (limit / 256) as u32,
-        bounces: 1,
+        bounces: 2,
     };
-    let why = gpu::frame::too_big(&g, &s, &opts).expect("too big");
-    assert!(
-        why.contains("generation 0") && why.contains("binding"),
-        "{why}"
-    );
-    let small = RenderOptions {
-        width: 16,
-        height: 8,
-        bounces: 1,
+    let whole = {
+        let e = GpuGrid::upload(full.clone(), gr, &geo.tris, "grid-gpu").unwrap();
+        let raster = GpuRaster::new(&full, &geo, &s.materials).unwrap();
+        let (out, in_parts) = gpu_frame(&e, &raster, &s, &geo, &opts);
+        assert!(!in_parts, "one part on the device as it is");
+        out
     };
-    assert_eq!(gpu::frame::too_big(&g, &s, &small), None);
+    let e = GpuGrid::upload(g.clone(), gr, &geo.tris, "grid-gpu").unwrap();
     let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
-    let err = gpu::frame::render(&e, &raster, &s, &geo, &opts, &())
+    assert!(GpuBackend::part_size(&g, &s) < whole.stats.covered_pixels);
+    let (parts, in_parts) = gpu_frame(&e, &raster, &s, &geo, &opts);
+    assert!(in_parts, "the generations come in parts");
+    assert_eq!(parts.rgb8(), whole.rgb8(), "image bytes");
+    let (a, b) = (&parts.stats, &whole.stats);
+    assert_eq!(a.covered_pixels, b.covered_pixels);
+    assert_eq!(
+        (a.rays_shadow, a.rays_reflection, a.rays_refraction),
+        (b.rays_shadow, b.rays_reflection, b.rays_refraction)
+    );
+    assert_eq!(a.trace.hits, b.trace.hits);
+    assert_eq!(a.total_tests, b.total_tests);
+    // One row more than a binding holds: refused up front, with the reason.
+    let tall = RenderOptions {
+        height: opts.height + 1,
+        ..opts
+    };
+    let why = gpu::frame::too_big(&g, &tall).expect("too big");
+    assert!(why.contains("G-buffer") && why.contains("binding"), "{why}");
+    let err = GpuBackend::new(&e, &raster, &s, &tall, false)
         .err()
         .expect("refused");
-    assert!(err.to_string().contains("generation 0"), "{err}");
-    assert!(gpu::frame::render(&e, &raster, &s, &geo, &small, &()).is_ok());
+    assert!(err.to_string().contains("binding"), "{err}");
 }

@@ -11,9 +11,10 @@
 //! GPU's ray generation reproduces the CPU's rays bit for bit, and its shading the CPU's
 //! colours within 1e-4 (relative: the device's `pow` for the specular exponent).
 
+use gpu::frame::GpuBackend;
 use gpu::{Gpu, GpuRaster, GpuRsh, GpuStages};
 use render::raster::{default_near, rasterize};
-use render::whitted::{render, render_with, RenderOptions};
+use render::whitted::{render, run, RenderOptions};
 use render::View;
 use rsh::{RshConfig, RshEngine};
 use scene::{builtin, Geometry};
@@ -123,21 +124,13 @@ fn renders_match_cpu_renders() {
             mixed.stats.total_tests, cpu.stats.total_tests,
             "{name}: tests"
         );
-        // GPU raster + GPU ray generation and shading + GPU tracer: within the tolerance.
+        // The GPU frame (GPU raster, ray generation, shading and tracer): within the
+        // tolerance.
+        let gpu_engine = GpuRsh::new(g.clone(), &geo, RshConfig::crsh()).unwrap();
         let r = GpuRaster::new(&g, &geo, &s.materials).unwrap();
-        let kernels = g.kernels();
-        let stages = GpuStages::new(&g, &kernels);
-        let full = render_with(
-            &s,
-            &geo,
-            &gpu_engine,
-            &opts,
-            &(),
-            &|v, n| r.rasterize(v, n),
-            &stages,
-        );
-        assert!(stages.times.borrow().len() >= 2, "the GPU passes ran");
-        let (a, b) = (bytes(&full.pixels), bytes(&cpu.pixels));
+        let mut b = GpuBackend::new(&gpu_engine, &r, &s, &opts, false).unwrap();
+        let full = run(&mut b, &s, &geo, &opts, &());
+        let (a, b) = (full.rgb8(), bytes(&cpu.pixels));
         let bad = a
             .chunks(3)
             .zip(b.chunks(3))
@@ -156,7 +149,6 @@ fn renders_match_cpu_renders() {
 #[test]
 fn ray_generation_and_shading_match_the_cpu_passes() {
     use render::secondary::{bounce_rays, shadow_rays, Surfaces};
-    use render::whitted::{CpuStages, Stages};
     // Twice: on the device as it is, and as if it bound only 4 KiB at once (the passes then
     // run in parts of 128–256 surfaces; a 3000² frame's shadow rays used to exceed
     // lavapipe's 128 MiB binding and panic), there with an ambient light too.
@@ -216,39 +208,14 @@ fn ray_generation_and_shading_match_the_cpu_passes() {
                 let occ: Vec<bool> = (0..surf.len() * s.lights.len())
                     .map(|k| k % 3 == 1)
                     .collect();
-                let ca = CpuStages.local_shading(surf, &s, &occ);
-                let moved = g.bytes_moved();
+                let ca = render::cpu::local_shading(surf, &s, &occ);
                 let cb = stages.local_shading(surf, &s, &occ);
-                let apart = g.bytes_moved() - moved;
                 for (i, (x, y)) in ca.iter().zip(&cb).enumerate() {
                     let tol = 1e-4 * x.abs().max_element().max(1e-3);
                     assert!(
                         (*x - *y).abs().max_element() <= tol,
                         "{what}: colour {i}: {x} vs {y}"
                     );
-                }
-                // The generation's passes together: the same results as the passes one by
-                // one, and the surfaces moved to the device once (unless they come in parts),
-                // so fewer bytes than the three separate passes.
-                let gen = stages.generation(surf);
-                let sh = gen.shadow_rays(&s.lights);
-                let one = stages.shadow_rays(surf, &s.lights);
-                assert_eq!((&sh.org, &sh.dir), (&one.org, &one.dir), "{what}: shadows");
-                assert_eq!(gen.local_shading(&s, &occ), cb, "{what}: colours");
-                let bo = gen.bounce_rays(&s.materials);
-                let one = stages.bounce_rays(surf, &s.materials);
-                assert_eq!(
-                    (&bo.org, &bo.dir, &bo.kind),
-                    (&one.org, &one.dir, &one.kind),
-                    "{what}: bounces"
-                );
-                if !small && !surf.is_empty() {
-                    // The shading pass alone re-sends the surfaces; within the generation
-                    // it does not.
-                    let m0 = g.bytes_moved();
-                    let _ = gen.local_shading(&s, &occ);
-                    let within = g.bytes_moved() - m0;
-                    assert!(within < apart, "{what}: {within} ≥ {apart} bytes");
                 }
             }
         }
