@@ -33,15 +33,47 @@ pub struct WindowOptions {
     pub scale: u32,
 }
 
-const SHADER: &str = r#"
-@group(0) @binding(0) var img: texture_2d<f32>;
+/// The blit's bind group by name: the one place its binding numbers are written (the
+/// shader's declarations are made from it, [`shader`]).
+struct BlitBindings<'a> {
+    img: &'a wgpu::TextureView,
+    size: &'a wgpu::Buffer,
+}
+
+impl BlitBindings<'_> {
+    const IMG: u32 = 0;
+    const SIZE: u32 = 1;
+
+    fn entries(&self) -> [wgpu::BindGroupEntry<'_>; 2] {
+        [
+            wgpu::BindGroupEntry {
+                binding: Self::IMG,
+                resource: wgpu::BindingResource::TextureView(self.img),
+            },
+            wgpu::BindGroupEntry {
+                binding: Self::SIZE,
+                resource: self.size.as_entire_binding(),
+            },
+        ]
+    }
+}
+
+/// The blit shader, its bindings declared from [`BlitBindings`].
+fn shader() -> String {
+    format!(
+        "@group(0) @binding({}) var img: texture_2d<f32>;\n@group(0) @binding({}) var<uniform> size: Size;\n{BLIT}",
+        BlitBindings::IMG,
+        BlitBindings::SIZE
+    )
+}
+
+const BLIT: &str = r#"
 struct Out { @builtin(position) pos: vec4<f32> };
 @vertex fn vs(@builtin(vertex_index) i: u32) -> Out {
     let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
     return Out(vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0));
 }
 struct Size { target_size: vec2<f32> };
-@group(0) @binding(1) var<uniform> size: Size;
 fn texel(pos: vec4<f32>) -> vec4<f32> {
     let d = vec2<f32>(textureDimensions(img));
     let xy = vec2<i32>(floor(pos.xy * d / size.target_size));
@@ -138,7 +170,7 @@ impl Gfx {
         surface.configure(&device, &config);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("viewer"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+            source: wgpu::ShaderSource::Wgsl(shader().into()),
         });
         let surface_pipe = pipeline(&device, &module, config.format);
         let texture = Self::texture(
@@ -232,16 +264,11 @@ impl Gfx {
         let bg = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("viewer blit"),
             layout: &pipe.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&tv),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.size_buf.as_entire_binding(),
-                },
-            ],
+            entries: &BlitBindings {
+                img: &tv,
+                size: &self.size_buf,
+            }
+            .entries(),
         });
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("viewer blit"),
