@@ -443,19 +443,13 @@ impl Traversal<'_> {
         let [a, b, cc] = self.scene.tris[t as usize];
         let leaves = self.h.levels[0].children(n);
         let order = &self.h.order;
-        // The node's rays 8 lanes at a time, with the scalar kernel's bits; lanes on an
-        // exact edge (and every lane without AVX) take the scalar kernel.
+        // The node's rays 8 lanes at a time: the vector test rejects misses, the scalar
+        // kernel decides the rest (every lane without AVX).
         let mut p = leaves.start;
         while p < leaves.end {
             let k = (leaves.end - p).min(8);
-            let r8 = intersect8(self.lanes, p, k, a, b, cc);
-            for_lanes(r8.hit, |l| {
-                let r = order[p + l] as usize;
-                if self.offer(r, r8.t[l], t, r8.u[l], r8.v[l]) {
-                    first(p + l);
-                }
-            });
-            for_lanes(r8.redo, |l| {
+            let redo = intersect8(self.lanes, p, k, a, b, cc);
+            for_lanes(redo, |l| {
                 let r = order[p + l] as usize;
                 if let Some(hit) = intersect(&self.lanes.pre(p + l), a, b, cc) {
                     if self.offer(r, hit.t, t, hit.u, hit.v) {

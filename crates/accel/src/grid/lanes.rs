@@ -212,7 +212,6 @@ mod avx2 {
         ok: [F8; 3],
         sx: F8,
         sy: F8,
-        sz: F8,
         t_min: F8,
         t_max: F8,
         v: [I8; 3],
@@ -234,7 +233,6 @@ mod avx2 {
             for (dst, src) in [
                 (&mut self.sx, &from.sx),
                 (&mut self.sy, &from.sy),
-                (&mut self.sz, &from.sz),
                 (&mut self.t_min, &from.t_min),
                 (&mut self.t_max, &from.t_max),
                 (&mut self.t_leave, &from.t_leave),
@@ -387,7 +385,6 @@ mod avx2 {
             let sz = _mm256_div_ps(one, dkz);
             st(&mut e.sx, _mm256_mul_ps(pick(kx, d[0], d[1], d[2]), sz));
             st(&mut e.sy, _mm256_mul_ps(pick(ky, d[0], d[1], d[2]), sz));
-            st(&mut e.sz, sz);
             for (i, k) in [kx, ky, kz].into_iter().enumerate() {
                 sti(&mut e.k[i], k);
                 st(&mut e.ok[i], pick(k, o[0], o[1], o[2]));
@@ -491,12 +488,12 @@ mod avx2 {
                 s.r.copy_lane(j, e, x);
                 pre[j] = Some(RayPre {
                     org: Vec3::new(e.o[0].0[x], e.o[1].0[x], e.o[2].0[x]),
+                    dir: Vec3::new(e.d[0].0[x], e.d[1].0[x], e.d[2].0[x]),
                     kx: e.k[0].0[x] as u8,
                     ky: e.k[1].0[x] as u8,
                     kz: e.k[2].0[x] as u8,
                     sx: e.sx.0[x],
                     sy: e.sy.0[x],
-                    sz: e.sz.0[x],
                     t_min: e.t_min.0[x],
                     t_max: e.t_max.0[x],
                 });
@@ -593,13 +590,7 @@ mod avx2 {
             }
             let kk = [ldi(&s.r.k[0]), ldi(&s.r.k[1]), ldi(&s.r.k[2])];
             let okk = [ld(&s.r.ok[0]), ld(&s.r.ok[1]), ld(&s.r.ok[2])];
-            let ray_f = [
-                ld(&s.r.sx),
-                ld(&s.r.sy),
-                ld(&s.r.sz),
-                ld(&s.r.t_min),
-                ld(&s.r.t_max),
-            ];
+            let ray_f = [ld(&s.r.sx), ld(&s.r.sy)];
             let iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
             let mut at = 0;
             while at < jobs_lane.len() {
@@ -625,7 +616,7 @@ mod avx2 {
                 let perm = |x: __m256| _mm256_permutevar8x32_ps(x, lane);
                 let kj = kk.map(|k| _mm256_permutevar8x32_epi32(k, lane));
                 let oj = okk.map(perm);
-                let [sx, sy, sz, t_min, t_max] = ray_f.map(perm);
+                let [sx, sy] = ray_f.map(perm);
                 // The jobs' triangles: one 8-float load per job (a, b, c.x, c.y: the first 8
                 // of its 9 floats) transposed into component vectors, and c.z gathered;
                 // masked-out jobs read triangle 0 (there is one: a job exists).
@@ -664,24 +655,16 @@ mod avx2 {
                     rel(ax0, ay0, az0),
                     rel(bx0, by0, bz0),
                     rel(cx0, cy0, cz0),
-                    [sx, sy, sz],
-                    t_min,
-                    t_max,
+                    [sx, sy],
                 );
-                let redo = wt.edge;
-                let hit = _mm256_andnot_ps(redo, _mm256_and_ps(wt.hit, fmask));
-                let look = _mm256_movemask_ps(_mm256_or_ps(hit, _mm256_and_ps(redo, fmask)));
+                let look = _mm256_movemask_ps(_mm256_and_ps(wt.scalar, fmask));
                 if look == 0 {
                     continue;
                 }
-                // Hits (and jobs the scalar kernel decides) update their lane in queue order,
-                // which is each lane's list order.
-                let hit_bits = _mm256_movemask_ps(hit);
-                let (mut ta, mut ua, mut va, mut tria) =
-                    (F8::default(), F8::default(), F8::default(), I8::default());
-                st(&mut ta, wt.t);
-                st(&mut ua, _mm256_mul_ps(wt.v, wt.inv));
-                st(&mut va, _mm256_mul_ps(wt.w, wt.inv));
+                // The jobs the vector test does not reject are decided by the scalar kernel
+                // (its exact distance), and update their lane in queue order, which is each
+                // lane's list order.
+                let mut tria = I8::default();
                 sti(&mut tria, tri);
                 for x in 0..n {
                     let j = jl.0[x] as usize;
@@ -689,14 +672,12 @@ mod avx2 {
                         continue;
                     }
                     let id = tria.0[x] as u32;
-                    let h = if hit_bits & (1 << x) != 0 {
-                        Some((ta.0[x], ua.0[x], va.0[x]))
-                    } else {
-                        let [a, b, c] = tris[id as usize];
-                        let p = pre[j].as_ref().expect("an active lane has its ray");
-                        intersect(p, a, b, c).map(|h| (h.t, h.u, h.v))
+                    let [a, b, c] = tris[id as usize];
+                    let p = pre[j].as_ref().expect("an active lane has its ray");
+                    let Some(h) = intersect(p, a, b, c) else {
+                        continue;
                     };
-                    let Some((t, u, v)) = h else { continue };
+                    let (t, u, v) = (h.t, h.u, h.v);
                     if best[j].closer(t, id) {
                         best[j] = Hit { tri: id, t, u, v };
                         s.best_t.0[j] = t;

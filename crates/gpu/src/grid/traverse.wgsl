@@ -123,7 +123,7 @@ fn grid_trace(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
             for (var i = lo_b.w; i < hi_e.w; i++) {
                 tests += 1u;
                 let t = gr_ref[i];
-                let h = intersect(o, pre, ow.w, dw.w, gr_tris[3u * t].xyz, gr_tris[3u * t + 1u].xyz, gr_tris[3u * t + 2u].xyz);
+                let h = intersect(o, d, pre, ow.w, dw.w, gr_tris[3u * t].xyz, gr_tris[3u * t + 1u].xyz, gr_tris[3u * t + 2u].xyz);
                 if h.w != 0.0 {
                     if h.x < best.x || (h.x == best.x && t < best_tri) {
                         best_tri = t;

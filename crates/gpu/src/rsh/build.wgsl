@@ -58,20 +58,6 @@ fn ls64(v: vec3<f64>) -> f64 {
     return keep64(xx + yy) + zz;
 }
 
-fn dot64(a: vec3<f64>, b: vec3<f64>) -> f64 {
-    let xx = mul64(a.x, b.x);
-    let yy = mul64(a.y, b.y);
-    let zz = mul64(a.z, b.z);
-    return keep64(xx + yy) + zz;
-}
-
-fn cross64(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
-    let x = mul64(a.y, b.z) - mul64(b.y, a.z);
-    let y = mul64(a.z, b.x) - mul64(b.z, a.x);
-    let z = mul64(a.x, b.y) - mul64(b.x, a.y);
-    return vec3<f64>(x, y, z);
-}
-
 fn ball_contains(bl: Ball, p: vec3<f64>) -> bool {
     return ls64(p - bl.c) <= mul64(bl.r2, 1.0lf + 1e-10lf) + 1e-20lf;
 }

@@ -36,7 +36,7 @@ var<workgroup> fcnt: array<atomic<u32>, 4>;
 
 fn hit_of(r: u32, t: u32) -> vec4<f32> {
     let o = f_org[r];
-    return intersect(o.xyz, f_pre[r], o.w, f_dir[r].w, f_tris[3u * t].xyz, f_tris[3u * t + 1u].xyz, f_tris[3u * t + 2u].xyz);
+    return intersect(o.xyz, f_dir[r].xyz, f_pre[r], o.w, f_dir[r].w, f_tris[3u * t].xyz, f_tris[3u * t + 1u].xyz, f_tris[3u * t + 2u].xyz);
 }
 
 // Exact ray–triangle tests of level 1's survivors.

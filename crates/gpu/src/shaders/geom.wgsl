@@ -188,8 +188,37 @@ fn ray_pre(d: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(d[kx] * sz, d[ky] * sz, sz, bitcast<f32>(kx | (ky << 2u) | (kz << 4u)));
 }
 
+fn dot64(a: vec3<f64>, b: vec3<f64>) -> f64 {
+    let xx = mul64(a.x, b.x);
+    let yy = mul64(a.y, b.y);
+    let zz = mul64(a.z, b.z);
+    return keep64(xx + yy) + zz;
+}
+
+fn cross64(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
+    let x = mul64(a.y, b.z) - mul64(b.y, a.z);
+    let y = mul64(a.z, b.x) - mul64(b.z, a.x);
+    let z = mul64(a.x, b.y) - mul64(b.x, a.y);
+    return vec3<f64>(x, y, z);
+}
+
+// geom::tri::exact_hit: (t, u, v) of the ray (o, d) at the triangle's plane, in f64 from the
+// f32 inputs, rounded once to f32: the same operations in the same order, every product and
+// partial sum kept (unfused), the quotient correctly rounded (div64).
+fn exact_hit(o: vec3<f32>, d: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> vec3<f32> {
+    let a64 = vec3<f64>(a);
+    let d64 = vec3<f64>(d);
+    let e1 = vec3<f64>(b) - a64;
+    let e2 = vec3<f64>(c) - a64;
+    let s = vec3<f64>(o) - a64;
+    let p = cross64(d64, e2);
+    let q = cross64(s, e1);
+    let inv = div64(1.0lf, dot64(e1, p));
+    return vec3<f32>(f32(mul64(dot64(e2, q), inv)), f32(mul64(dot64(s, p), inv)), f32(mul64(dot64(d64, q), inv)));
+}
+
 // Returns (t, u, v, 1) on a hit, w = 0 otherwise.
-fn intersect(org: vec3<f32>, pre: vec4<f32>, t_min: f32, t_max: f32, a0: vec3<f32>, b0: vec3<f32>, c0: vec3<f32>) -> vec4<f32> {
+fn intersect(org: vec3<f32>, dir: vec3<f32>, pre: vec4<f32>, t_min: f32, t_max: f32, a0: vec3<f32>, b0: vec3<f32>, c0: vec3<f32>) -> vec4<f32> {
     let bits = bitcast<u32>(pre.w);
     let kx = bits & 3u;
     let ky = (bits >> 2u) & 3u;
@@ -218,14 +247,13 @@ fn intersect(org: vec3<f32>, pre: vec4<f32>, t_min: f32, t_max: f32, a0: vec3<f3
     if det == 0.0 {
         return vec4<f32>(0.0);
     }
-    let az = pre.z * a[kz];
-    let bz = pre.z * b[kz];
-    let cz = pre.z * c[kz];
-    let t_scaled = keep(mul(u, az) + mul(v, bz)) + mul(w, cz);
-    let inv = div(1.0, det);
-    let t = t_scaled * inv;
-    if !(t > t_min && t < t_max) {
+    // A shear that overflowed (sx ±∞ or NaN, its exponent all ones): no hit (geom::tri).
+    if (bitcast<u32>(pre.x) & 0x7f800000u) == 0x7f800000u {
         return vec4<f32>(0.0);
     }
-    return vec4<f32>(t, v * inv, w * inv, 1.0);
+    let h = exact_hit(org, dir, a0, b0, c0);
+    if !(h.x > t_min && h.x < t_max) {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(h, 1.0);
 }
