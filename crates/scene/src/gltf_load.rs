@@ -149,6 +149,41 @@ fn import_buffers(
     Ok(out)
 }
 
+/// Why accessor `acc` cannot be read from `buffers` (`Ok`: it can): its elements must lie
+/// within its buffer view, and the view within its buffer (glTF §3.6.2).
+fn check_accessor(acc: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> Result<(), String> {
+    let Some(view) = acc.view() else {
+        // A sparse-only accessor has no view: the reader makes its zeros itself.
+        return Ok(());
+    };
+    let buf = view.buffer();
+    let have = buffers.get(buf.index()).map_or(0, |d| d.0.len()) as u64;
+    let (start, len) = (view.offset() as u64, view.length() as u64);
+    if start + len > have {
+        return Err(format!(
+            "accessor {}: buffer view {} (bytes {start}..{}) runs past the end of buffer {} ({have} bytes)",
+            acc.index(),
+            view.index(),
+            start + len,
+            buf.index()
+        ));
+    }
+    let count = acc.count() as u64;
+    if count > 0 {
+        let size = acc.size() as u64;
+        let stride = view.stride().map_or(size, |s| s as u64);
+        let end = acc.offset() as u64 + (count - 1) * stride + size;
+        if end > len {
+            return Err(format!(
+                "accessor {} ({count} elements of {size} bytes) needs {end} bytes of buffer view {}, which has {len}",
+                acc.index(),
+                view.index()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// [`load_gltf_scene`] with the buffer files it references confined to `sb`.
 pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
@@ -229,6 +264,18 @@ pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene,
             };
             triangles += count as u64 / 3;
             sb.admit_triangles(path, None, triangles)?;
+            // Every accessor the primitive reads lies within its buffer view, and every view
+            // within its buffer: the reader would otherwise return nothing (once reported as
+            // "no positions" for a view past its buffer's end).
+            let accessors = prim
+                .get(&gltf::Semantic::Positions)
+                .map(|a| ("positions", a))
+                .into_iter()
+                .chain(prim.get(&gltf::Semantic::Normals).map(|a| ("normals", a)))
+                .chain(prim.indices().map(|a| ("indices", a)));
+            for (role, acc) in accessors {
+                check_accessor(&acc, &buffers).map_err(|e| bad(format!("{what}: {role} {e}")))?;
+            }
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
             let pos: Vec<Vec3> = reader
                 .read_positions()

@@ -136,6 +136,44 @@ fn gltf_node_cycles_are_errors() {
 }
 
 #[test]
+fn gltf_views_past_their_buffer_are_named() {
+    // One triangle's positions (36 bytes) in a 36-byte buffer, read through a view that
+    // claims 48 bytes (past the buffer's end), then through a 36-byte view by an accessor
+    // of 4 vertices (past the view's end): each error names what runs past what (the first
+    // used to read "no positions").
+    let d = dir("views");
+    let data =
+        "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+    for (name, view_len, count, needle) in [
+        (
+            "view.gltf",
+            48,
+            3,
+            "runs past the end of buffer 0 (36 bytes)",
+        ),
+        (
+            "accessor.gltf",
+            36,
+            4,
+            "needs 48 bytes of buffer view 0, which has 36",
+        ),
+    ] {
+        let g = format!(
+            r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":{count},"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
+"bufferViews":[{{"buffer":0,"byteLength":{view_len}}}],
+"buffers":[{{"byteLength":36,"uri":"{data}"}}]}}"#
+        );
+        let e = err_of(&write(&d, name, &g));
+        assert!(
+            e.contains(name) && e.contains("positions") && e.contains(needle),
+            "{e}"
+        );
+    }
+}
+
+#[test]
 fn out_of_range_material_values_are_errors() {
     let d = dir("materials");
     for (mtl, needle) in [
