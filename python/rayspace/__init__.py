@@ -6,11 +6,13 @@ peers. Engine options are the command line's, spelled with ``_`` for ``-``
 (``Engine(scene, "crsh", object_hierarchy="bvh", pair_budget=1 << 20)``), and every result
 is the command line's: the same hits bit for bit, the same image bytes, the same counters.
 
-Arrays in and out are NumPy: rays as ``(N, 3) float32`` origins and directions with
-``(N,)`` ``tmin``/``tmax``; hits as ``{"t", "triangle", "u", "v"}`` (a miss has triangle
-``MISS`` and t = inf). Bad input raises :class:`Error` (a ``ValueError``) with the command
-line's one-line message. The GIL is released while scenes load, engines build and rays
-are traced.
+Arrays in and out are NumPy: rays as ``(N, 3)`` origins and directions of any real dtype
+and any strides (converted to float32 once; float32 C arrays are used as they are) with
+``tmin``/``tmax`` each a scalar or ``(N,)``; hits as ``{"t", "triangle", "u", "v"}`` (a
+miss has triangle ``MISS`` and t = inf). Bad values raise :class:`Error` (a
+``ValueError``) with a one-line message naming the argument; input that is not numbers,
+or an unknown keyword argument, raises ``TypeError``. The GIL is released while scenes
+load, engines build and rays are traced.
 
 Distributed frames and sweeps on Ray: :mod:`rayspace.distributed`.
 """
@@ -22,6 +24,7 @@ import os
 from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import _rayspace
 from ._rayspace import MISS, Error, Scene
@@ -51,20 +54,24 @@ def engines() -> List[str]:
 
 
 def _array(name: str, a: Any, dtype: Any, shape: Tuple[Optional[int], ...]) -> np.ndarray:
-    """``a`` checked as a C-contiguous array of ``dtype`` and ``shape`` (None: any)."""
-    if not isinstance(a, np.ndarray):
-        raise Error(f"{name}: expected a NumPy array, got {type(a).__name__}")
-    if a.dtype != dtype:
-        raise Error(
-            f"{name}: expected dtype {np.dtype(dtype).name}, got {a.dtype.name} "
-            f"(convert with {name}.astype(numpy.{np.dtype(dtype).name}))"
-        )
-    if a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape)):
+    """``a`` (any array-like: any real dtype, any strides) as a C-contiguous array of
+    ``dtype`` and ``shape`` (None: any), converted once; an array that is one already is
+    passed as it is, without a copy. Integer targets take integers only (a float is not
+    silently truncated). Not real numbers: ``TypeError``; the wrong shape: ``ValueError``."""
+    arr = np.asarray(a)
+    want_int = np.dtype(dtype).kind in "iu"
+    kinds = "iub" if want_int else "iufb"
+    if arr.dtype.kind not in kinds:
+        what = "integers" if want_int else "real numbers"
+        raise TypeError(f"{name}: expected {what}, got an array of dtype {arr.dtype}")
+    if arr.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, arr.shape)):
         want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
-        raise Error(f"{name}: expected shape {want}, got {a.shape}")
-    if not a.flags["C_CONTIGUOUS"]:
-        raise Error(f"{name}: expected a C-contiguous array (use numpy.ascontiguousarray({name}))")
-    return a
+        raise Error(f"{name}: expected shape {want}, got {arr.shape}")
+    if want_int and arr.dtype != dtype and arr.size:
+        info = np.iinfo(dtype)
+        if arr.min() < info.min or arr.max() > info.max:
+            raise Error(f"{name}: values outside {np.dtype(dtype).name}'s range [{info.min}, {info.max}]")
+    return np.ascontiguousarray(arr, dtype=dtype)
 
 
 def _finite(name: str, a: np.ndarray) -> None:
@@ -81,9 +88,17 @@ def _rays(origins: Any, directions: Any, tmin: Any, tmax: Any):
         raise Error(f"directions: {len(d)} rays, but origins has {len(o)}")
     _finite("origins", o)
     _finite("directions", d)
-    lo = None if tmin is None else _array("tmin", tmin, np.float32, (len(o),))
-    hi = None if tmax is None else _array("tmax", tmax, np.float32, (len(o),))
-    return o, d, lo, hi
+    return o, d, _bound("tmin", tmin, len(o)), _bound("tmax", tmax, len(o))
+
+
+def _bound(name: str, b: Any, n: int) -> Optional[np.ndarray]:
+    """A ray bound: None (the default), a scalar for every ray, or one per ray."""
+    if b is None:
+        return None
+    if np.ndim(b) == 0:
+        s = _array(name, b, np.float32, ())
+        return np.full(n, s, np.float32)
+    return _array(name, b, np.float32, (n,))
 
 
 class Engine:
@@ -122,14 +137,17 @@ class Engine:
 
     def trace(
         self,
-        origins: np.ndarray,
-        directions: np.ndarray,
-        tmin: Optional[np.ndarray] = None,
-        tmax: Optional[np.ndarray] = None,
+        origins: ArrayLike,
+        directions: ArrayLike,
+        tmin: Optional[ArrayLike] = None,
+        tmax: Optional[ArrayLike] = None,
         any_hit: bool = False,
     ) -> Dict[str, np.ndarray]:
-        """Trace rays: ``(N, 3) float32`` origins and directions, optional ``(N,) float32``
-        bounds (default 0 and inf). Returns ``{"t", "triangle", "u", "v"}`` arrays; a
+        """Trace rays: ``(N, 3)`` origins and directions, optional bounds, each a scalar or
+        ``(N,)`` (default 0 and inf). Any real dtype and any strides are taken (converted to
+        C-contiguous float32 once; float32 C arrays are used as they are); the wrong shape
+        raises ``ValueError`` (:class:`Error`), non-numbers ``TypeError``. Returns
+        ``{"t", "triangle", "u", "v"}`` arrays; a
         closest-hit record is brute force's bit for bit (smallest t, ties to the smallest
         triangle), an any-hit record is some hit in range. ``engine.trace(**rays(scene))``
         works as is."""
@@ -195,10 +213,10 @@ def read_rays(path: PathLike) -> Dict[str, np.ndarray]:
 
 def write_rays(
     path: PathLike,
-    origins: np.ndarray,
-    directions: np.ndarray,
-    tmin: Optional[np.ndarray] = None,
-    tmax: Optional[np.ndarray] = None,
+    origins: ArrayLike,
+    directions: ArrayLike,
+    tmin: Optional[ArrayLike] = None,
+    tmax: Optional[ArrayLike] = None,
 ) -> None:
     """Write rays as a rayspace ray file (``write_rays(path, **rays(scene))``)."""
     o, d, lo, hi = _rays(origins, directions, tmin, tmax)
@@ -214,14 +232,14 @@ def read_hits(path: PathLike) -> Dict[str, Any]:
 
 def write_hits(
     path: PathLike,
-    t: np.ndarray,
-    triangle: np.ndarray,
-    u: np.ndarray,
-    v: np.ndarray,
+    t: ArrayLike,
+    triangle: ArrayLike,
+    u: ArrayLike,
+    v: ArrayLike,
     any_hit: bool = False,
 ) -> None:
     """Write hit records as a rayspace hit file (``write_hits(path, **engine.trace(...))``)."""
-    n = len(t) if isinstance(t, np.ndarray) else None
+    n = np.shape(t)[0] if np.ndim(t) == 1 else None
     t = _array("t", t, np.float32, (n,))
     triangle = _array("triangle", triangle, np.uint32, (n,))
     u = _array("u", u, np.float32, (n,))
