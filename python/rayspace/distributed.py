@@ -3,8 +3,9 @@
 A long BART animation, or a sweep over scenes × engines × configurations, outgrows one
 machine. These functions run rayspace's own work as Ray tasks: each worker process loads
 its scene once (one actor per worker), frames and measurements are handed out one at a
-time from a queue (so a slow frame does not hold up the others), and the results come
-back to the caller. A frame rendered here is the command line's frame byte for byte
+time from a queue (so a slow frame does not hold up the others), frames are written as
+they come back, a lost worker costs only the work it held (handed out again), and a
+second call resumes where the first stopped. A frame rendered here is the command line's frame byte for byte
 (:func:`rayspace._rayspace.frame` is the function ``rayspace render --frames`` calls), and
 every count equals one local process's.
 
@@ -18,6 +19,8 @@ Start a cluster with ``ray start --head`` on one machine and
 from __future__ import annotations
 
 import contextlib
+import hashlib
+import json
 import os
 import re
 import time
@@ -89,6 +92,63 @@ class _FrameWorker:
         return out
 
 
+MANIFEST = "frames.manifest.json"
+
+
+def _lost_errors() -> tuple:
+    """Ray's exceptions for work lost with its worker (those this Ray version has)."""
+    import ray.exceptions as x
+
+    names = ("RayActorError", "WorkerCrashedError", "NodeDiedError", "ObjectLostError", "OwnerDiedError")
+    return tuple(getattr(x, n) for n in names if hasattr(x, n))
+
+
+def _params(scene_path: str, times: List[float], engine: str, width: int, height: int, bounces: int,
+            pattern: str, meshes: str, options: Dict[str, Any]) -> Dict[str, Any]:
+    """What decides a frame's bytes: a re-run whose parameters differ renders again."""
+    stat = None
+    if os.path.exists(scene_path):
+        st = os.stat(scene_path)
+        stat = [st.st_size, st.st_mtime_ns]
+    return {
+        "scene": scene_path, "scene_file": stat, "times": [float(t).hex() for t in times],
+        "engine": engine, "width": width, "height": height, "bounces": bounces,
+        "pattern": pattern, "meshes": meshes, "options": {k: repr(v) for k, v in sorted(options.items())},
+    }
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _done_frames(out_dir: str, pattern: str, params: Dict[str, Any]) -> Dict[int, Dict[str, str]]:
+    """The frames of an earlier call with the same parameters that are on disk as it
+    wrote them (index → its hash and CSV line)."""
+    try:
+        with open(os.path.join(out_dir, MANIFEST)) as f:
+            m = json.load(f)
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(m, dict) or m.get("params") != params:
+        return {}
+    done = {}
+    for k, rec in (m.get("frames") or {}).items():
+        try:
+            index = int(k)
+            with open(os.path.join(out_dir, _frame_path(pattern, index)), "rb") as f:
+                ok = _sha256(f.read()) == rec["sha256"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if ok:
+            done[index] = {"sha256": rec["sha256"], "line": rec["line"]}
+    return done
+
+
+def _write_manifest(out_dir: str, params: Dict[str, Any], frames: Dict[int, Dict[str, str]]) -> None:
+    m = {"params": params, "frames": {str(k): frames[k] for k in sorted(frames)}}
+    _rayspace.write_atomic(os.path.join(out_dir, MANIFEST), json.dumps(m).encode())
+
+
 def render_frames(
     scene_path: str,
     frames: Union[int, Sequence[float]],
@@ -102,17 +162,27 @@ def render_frames(
     workers: Optional[int] = None,
     chunk: int = 1,
     meshes: str = "groups",
+    cpus_per_worker: int = 1,
+    retries: int = 3,
     **options: Any,
 ) -> List[Dict[str, Any]]:
     """Render frames of an animated scene on Ray, as ``rayspace render SCENE --frames N``.
 
     ``frames``: a count, spread over the animation as ``--frames`` spreads it, or a list
-    of times. Each Ray worker (``workers`` actors, default one per CPU of the cluster)
-    loads the scene once; frames go out in tasks of ``chunk`` frames, interleaved over the
+    of times. Each Ray worker (``workers`` actors, default one per ``cpus_per_worker`` CPUs
+    of the cluster, each reserving that many CPUs and tracing on that many threads) loads
+    the scene once; frames go out in tasks of ``chunk`` frames, interleaved over the
     animation (task k holds frames k, k + K, k + 2K, …), handed to whichever worker is free.
-    The PNGs are written (atomically) into ``out_dir`` under ``pattern``, with
-    ``frames.csv`` (``--frame-csv``'s columns). Returns one dictionary per frame, in frame
-    order: ``frame``, ``time``, ``path`` and the CSV's columns.
+
+    Each PNG is written (atomically) into ``out_dir`` under ``pattern`` as it arrives, so
+    the caller holds a few frames at a time, and recorded with its hash in
+    ``frames.manifest.json``; ``frames.csv`` (``--frame-csv``'s columns) is written at the
+    end. A lost worker (its process or node killed) costs only its task: the task's frames
+    are handed out again (up to ``retries`` times each) to a new worker. Calling again with
+    the same parameters renders only the frames not yet on disk as the manifest recorded
+    them (a changed parameter renders them all). Returns one dictionary per frame, in frame
+    order: ``frame``, ``time``, ``path``, ``rendered`` (False: kept from an earlier call)
+    and the CSV's columns.
     """
     out_dir = os.fspath(out_dir)
     if not os.path.isdir(out_dir):
@@ -120,6 +190,10 @@ def render_frames(
     _frame_path(pattern, 0)
     if chunk < 1:
         raise Error(f"chunk={chunk}: expected at least 1")
+    if cpus_per_worker < 1:
+        raise Error(f"cpus_per_worker={cpus_per_worker}: expected at least 1")
+    if retries < 0:
+        raise Error(f"retries={retries}: expected 0 or more")
     scene_path = _portable(scene_path)
     if isinstance(frames, int):
         if frames < 1:
@@ -130,32 +204,54 @@ def render_frames(
         if not times:
             raise Error("frames: an empty list of times")
     n = len(times)
-    tasks = (n + chunk - 1) // chunk
-    work = [[(i, times[i]) for i in range(k, n, tasks)] for k in range(tasks)]
-    with _session(address, workers) as ray:
-        from ray.util import ActorPool
-
-        cpus = int(ray.cluster_resources().get("CPU", 1))
-        count = max(1, min(workers or cpus, tasks))
-        actor = ray.remote(num_cpus=1)(_FrameWorker)
-        pool = ActorPool([actor.remote(scene_path, meshes) for _ in range(count)])
-        results = []
-        for part in pool.map_unordered(
-            lambda a, w: a.frames.remote(w, engine, width, height, bounces, options), work
-        ):
-            results.extend(part)
-    results.sort(key=lambda r: r[0])
+    params = _params(scene_path, times, engine, width, height, bounces, pattern, meshes, options)
+    done = _done_frames(out_dir, pattern, params)
+    kept = set(done)
+    todo = [i for i in range(n) if i not in done]
+    if todo:
+        tasks = (len(todo) + chunk - 1) // chunk
+        queue = [[(i, times[i]) for i in todo[k::tasks]] for k in range(tasks)]
+        with _session(address, workers) as ray:
+            lost = _lost_errors()
+            cpus = int(ray.cluster_resources().get("CPU", 1))
+            count = max(1, min(workers or max(1, cpus // cpus_per_worker), tasks))
+            env = {"env_vars": {"RAYON_NUM_THREADS": str(cpus_per_worker)}}
+            actor = ray.remote(num_cpus=cpus_per_worker, runtime_env=env)(_FrameWorker)
+            idle = [actor.remote(scene_path, meshes) for _ in range(count)]
+            running: Dict[Any, Any] = {}
+            failures: Dict[int, int] = {}
+            while queue or running:
+                while queue and idle:
+                    a, w = idle.pop(), queue.pop(0)
+                    running[a.frames.remote(w, engine, width, height, bounces, options)] = (a, w)
+                ready, _ = ray.wait(list(running), num_returns=1)
+                a, w = running.pop(ready[0])
+                try:
+                    part = ray.get(ready[0])
+                except lost as e:
+                    # The worker is gone: its frames go out again, to a new worker.
+                    key = w[0][0]
+                    failures[key] = failures.get(key, 0) + 1
+                    if failures[key] > retries:
+                        raise Error(f"frames {[i for i, _ in w]}: lost {failures[key]} times ({type(e).__name__})") from e
+                    queue.insert(0, w)
+                    idle.append(actor.remote(scene_path, meshes))
+                    continue
+                idle.append(a)
+                for index, png, line in part:
+                    _rayspace.write_atomic(os.path.join(out_dir, _frame_path(pattern, index)), png)
+                    done[index] = {"sha256": _sha256(png), "line": line}
+                _write_manifest(out_dir, params, done)
     header = _rayspace.frame_csv_header()
     columns = header.split(",")
     rows = []
-    for index, png, line in results:
-        path = os.path.join(out_dir, _frame_path(pattern, index))
-        _rayspace.write_atomic(path, png)
-        values: Dict[str, Any] = {"path": path}
+    for index in range(n):
+        line = done[index]["line"]
+        values: Dict[str, Any] = {"path": os.path.join(out_dir, _frame_path(pattern, index)), "rendered": index not in kept}
         for c, v in zip(columns, line.split(",")):
             values[c] = int(v) if c in ("frame", "triangles", "rays", "total_tests") else float(v)
         rows.append(values)
-    csv = header + "\n" + "".join(line + "\n" for _, _, line in results)
+    csv = header + "\n" + "".join(done[i]["line"] + "\n" for i in range(n))
     _rayspace.write_atomic(os.path.join(out_dir, "frames.csv"), csv.encode())
     return rows
 
@@ -208,7 +304,8 @@ def sweep(
     ``configs``: engine-option dictionaries (``[{}, {"levels": 4}]``; default one with no
     options); ``rays``: keyword arguments of :func:`rayspace.rays` (``kind``, ``width``,
     ``height``, ``spp``, ``seed``, ``ao_distance``) plus ``any_hit`` (default: true for
-    shadow and ao rays). One task per point, each on one CPU. Returns a pandas DataFrame
+    shadow and ao rays). One task per point, each on one CPU and one thread (a task whose
+worker is lost runs again, up to 3 times). Returns a pandas DataFrame
     when pandas is installed, else a list of dictionaries: build and trace milliseconds
     (best of ``repeats``), MRays/s, hits and the engine's counts, which equal one local
     process's.
@@ -218,7 +315,9 @@ def sweep(
     if not points:
         raise Error("sweep: no scenes, engines or rays")
     with _session(address, workers) as ray:
-        task = ray.remote(num_cpus=1)(_measure)
+        # A point whose worker is lost is measured again (Ray's task retries).
+        env = {"env_vars": {"RAYON_NUM_THREADS": "1"}}
+        task = ray.remote(num_cpus=1, max_retries=3, runtime_env=env)(_measure)
         refs = [task.remote(s, e, c, dict(k), meshes, repeats) for s, e, c, k in points]
         rows = ray.get(refs)
     try:

@@ -6,6 +6,8 @@ import os
 import socket
 import subprocess
 import sys
+import threading
+import time
 
 import pytest
 
@@ -86,6 +88,59 @@ def test_render_frames_equal_the_command_lines(cluster, tmp_path):
     for g, w in zip(got, want):
         for k in ("frame", "time", "triangles", "rays", "total_tests"):
             assert g[k] == w[k], k
+
+
+def test_a_killed_worker_loses_no_frame_and_a_second_call_renders_none(cluster, tmp_path):
+    """240 frames on the two workers; once 10 are on disk one worker process is killed:
+    every frame is still written once, byte-identical to the command line's, and calling
+    again with the same arguments rewrites none (a changed argument renders again)."""
+    museum = scene_file("bart-museum/aff/museum5.aff")
+    cli_dir, ray_dir = tmp_path / "cli", tmp_path / "ray"
+    cli_dir.mkdir()
+    ray_dir.mkdir()
+    args = dict(engine="grid", width=24, height=24, out_dir=ray_dir, address=cluster)
+    run_cli(
+        "render", museum, "--frames", "240", "--width", "24", "--height", "24", "--engine", "grid",
+        "--out", str(cli_dir / "frame_%04d.png"),
+    )
+    result = {}
+
+    def render():
+        try:
+            result["rows"] = distributed.render_frames(museum, 240, **args)
+        except BaseException as e:  # pragma: no cover - reported below
+            result["error"] = e
+
+    th = threading.Thread(target=render)
+    th.start()
+    deadline = time.time() + 240
+    while len(list(ray_dir.glob("frame_*.png"))) < 10 and th.is_alive() and time.time() < deadline:
+        time.sleep(0.02)
+    on_disk = len(list(ray_dir.glob("frame_*.png")))
+    assert th.is_alive() and on_disk < 240, f"the call ended ({on_disk} frames) before a worker could be killed"
+    killed = subprocess.run(["pkill", "-9", "-o", "-f", "ray::_FrameWorker"], capture_output=True)
+    print(f"killed the oldest worker process with {on_disk} frames on disk: pkill exit {killed.returncode}")
+    assert killed.returncode == 0, "no worker process to kill"
+    th.join(timeout=600)
+    assert not th.is_alive(), "render_frames did not finish"
+    assert "error" not in result, result.get("error")
+    rows = result["rows"]
+    assert [r["frame"] for r in rows] == list(range(240))
+    for i in range(240):
+        name = f"frame_{i:04d}.png"
+        assert (ray_dir / name).read_bytes() == (cli_dir / name).read_bytes(), name
+    # Again, the same arguments: nothing rendered, no file rewritten.
+    stamp = {p.name: p.stat().st_mtime_ns for p in ray_dir.glob("frame_*.png")}
+    again = distributed.render_frames(museum, 240, **args)
+    assert not any(r["rendered"] for r in again)
+    assert {p.name: p.stat().st_mtime_ns for p in ray_dir.glob("frame_*.png")} == stamp
+    # A frame removed, or a changed argument: those frames are rendered again.
+    (ray_dir / "frame_0007.png").unlink()
+    redo = distributed.render_frames(museum, 240, **args)
+    assert [r["frame"] for r in redo if r["rendered"]] == [7]
+    assert (ray_dir / "frame_0007.png").read_bytes() == (cli_dir / "frame_0007.png").read_bytes()
+    changed = distributed.render_frames(museum, [0.0, 1.0], **{**args, "width": 16})
+    assert all(r["rendered"] for r in changed)
 
 
 def test_sweep_counts_equal_one_process(cluster):
