@@ -269,10 +269,10 @@ pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene,
             // "no positions" for a view past its buffer's end).
             let accessors = prim
                 .get(&gltf::Semantic::Positions)
-                .map(|a| ("positions", a))
+                .map(|a| ("position", a))
                 .into_iter()
-                .chain(prim.get(&gltf::Semantic::Normals).map(|a| ("normals", a)))
-                .chain(prim.indices().map(|a| ("indices", a)));
+                .chain(prim.get(&gltf::Semantic::Normals).map(|a| ("normal", a)))
+                .chain(prim.indices().map(|a| ("index", a)));
             for (role, acc) in accessors {
                 check_accessor(&acc, &buffers).map_err(|e| bad(format!("{what}: {role} {e}")))?;
             }

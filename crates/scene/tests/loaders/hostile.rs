@@ -167,7 +167,7 @@ fn gltf_views_past_their_buffer_are_named() {
         );
         let e = err_of(&write(&d, name, &g));
         assert!(
-            e.contains(name) && e.contains("positions") && e.contains(needle),
+            e.contains(name) && e.contains("position accessor 0") && e.contains(needle),
             "{e}"
         );
     }
