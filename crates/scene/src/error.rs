@@ -49,12 +49,22 @@ pub enum SceneError {
         detail: String,
     },
     /// Neither a file nor a built-in scene.
-    #[error("unknown scene '{name}': not a file and not a built-in scene ({builtins})")]
+    #[error("unknown scene '{name}': not a file and not a built-in scene ({builtins}) or a shared scene ({shared})")]
     UnknownScene {
         /// The name given.
         name: String,
         /// The built-in scenes' names.
         builtins: String,
+        /// The shared real scenes' names ([`crate::SHARED`]).
+        shared: String,
+    },
+    /// A shared real scene by name, with no scenes directory to find it in.
+    #[error("scene '{name}' is {file} in the shared scenes, and there is no scenes directory: set RAYSPACE_SCENES or provide ../shared/scenes")]
+    NoScenesDir {
+        /// The name given.
+        name: String,
+        /// Its file under the scenes directory.
+        file: String,
     },
 }
 

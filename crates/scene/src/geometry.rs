@@ -31,6 +31,26 @@ pub struct Geometry {
 }
 
 impl Geometry {
+    /// A hash of the triangles' vertex bits, in order (FNV-1a over 32-bit words): what a
+    /// ray file records to say which scene its rays were made for. Equal geometry gives an
+    /// equal hash; any moved vertex almost surely another one. Never 0.
+    pub fn content_hash(&self) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut add = |w: u32| {
+            h ^= w as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        };
+        add(self.tris.len() as u32);
+        for t in &self.tris {
+            for v in t {
+                add(v.x.to_bits());
+                add(v.y.to_bits());
+                add(v.z.to_bits());
+            }
+        }
+        h.max(1)
+    }
+
     /// The world-space triangles of `scene`. Mesh culling spheres are the object-space
     /// minimal spheres transformed by each mesh's transform; for an animated scene the
     /// object-space spheres are the animation's precomputed ones (valid at every time), so

@@ -10,6 +10,7 @@
 
 pub mod aff;
 pub mod anim;
+pub mod autocam;
 pub mod builtin;
 pub mod error;
 pub mod geometry;
@@ -74,6 +75,12 @@ pub struct LoadOptions {
     /// [`io::Sandbox::admit_triangles`]). No limit by default; [`LoadOptions::for_memory`]
     /// derives one from a memory budget.
     pub max_triangles: u64,
+    /// The ambient fill ([`autocam::apply_fill`]): `None` gives it to scenes whose lights
+    /// are automatic ([`LoadReport::automatic_lights`]) and to no other; `Some` forces it
+    /// on or off.
+    pub fill: Option<bool>,
+    /// Exposure in stops ([`Scene::expose`]); 0 leaves the scene's light as it is.
+    pub exposure: f32,
 }
 
 impl Default for LoadOptions {
@@ -82,6 +89,8 @@ impl Default for LoadOptions {
             split: MeshSplit::default(),
             allow_outside_paths: false,
             max_triangles: u64::MAX,
+            fill: None,
+            exposure: 0.0,
         }
     }
 }
@@ -115,6 +124,91 @@ pub fn scenes_dir() -> Option<PathBuf> {
     candidates.into_iter().find(|p| p.is_dir())
 }
 
+/// The shared real scenes by name: the papers' benchmark views (`bench/scenes/*.toml`,
+/// built into the binary, their meshes read from the scenes directory) and BART's animated
+/// scenes (their `.aff` files there).
+pub const SHARED: [(&str, Shared); 4] = [
+    (
+        "sponza",
+        Shared::SceneFile(
+            "bench/scenes/sponza.toml",
+            include_str!("../../../bench/scenes/sponza.toml"),
+        ),
+    ),
+    (
+        "conference",
+        Shared::SceneFile(
+            "bench/scenes/conference.toml",
+            include_str!("../../../bench/scenes/conference.toml"),
+        ),
+    ),
+    ("kitchen", Shared::File("bart-kitchen/aff/kitchen.aff")),
+    ("museum", Shared::File("bart-museum/aff/museum5.aff")),
+];
+
+/// Where a shared scene comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum Shared {
+    /// A TOML scene file built into the binary (its name in the repository, its text),
+    /// whose meshes are `scenes:` paths.
+    SceneFile(&'static str, &'static str),
+    /// A file under the scenes directory.
+    File(&'static str),
+}
+
+/// The names [`load`] accepts besides files: the built-ins, then the shared scenes.
+pub fn scene_names() -> Vec<&'static str> {
+    builtin::NAMES
+        .iter()
+        .copied()
+        .chain(SHARED.iter().map(|s| s.0))
+        .collect()
+}
+
+/// A shared scene by name ([`SHARED`]), loaded from the scenes directory.
+fn load_shared(name: &str, what: Shared, opts: &LoadOptions) -> Result<Scene, SceneError> {
+    let Some(dir) = scenes_dir() else {
+        return Err(SceneError::NoScenesDir {
+            name: name.into(),
+            file: match what {
+                Shared::SceneFile(..) => "a view of the shared scenes".to_string(),
+                Shared::File(f) => f.to_string(),
+            },
+        });
+    };
+    match what {
+        Shared::File(rel) => {
+            let p = dir.join(rel);
+            load(&p.to_string_lossy(), opts)
+        }
+        Shared::SceneFile(path, text) => {
+            let path = Path::new(path);
+            let sb = io::Sandbox::for_scene(path, opts.allow_outside_paths)
+                .with_max_triangles(opts.max_triangles);
+            let mut scene = scenefile::load_scene_text_in(text, path, &sb)?;
+            finish(&mut scene, path, &sb, opts)?;
+            Ok(scene)
+        }
+    }
+}
+
+/// What every load ends with: the scene's invariants, the triangle budget (the file
+/// loaders check as they go; this covers the built-in scenes) and the ambient fill.
+fn finish(
+    scene: &mut Scene,
+    path: &Path,
+    sb: &io::Sandbox,
+    opts: &LoadOptions,
+) -> Result<(), SceneError> {
+    scene.validate()?;
+    sb.admit_triangles(path, None, scene.triangle_count() as u64)?;
+    if opts.fill.unwrap_or(scene.report.automatic_lights) {
+        autocam::apply_fill(scene);
+    }
+    scene.expose(opts.exposure);
+    Ok(())
+}
+
 /// Load a scene by built-in name or file path (`.obj`, `.gltf`/`.glb`, `.toml`).
 pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
     let path = Path::new(spec);
@@ -124,13 +218,17 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
         .map(|e| e.to_ascii_lowercase());
     let sb = io::Sandbox::for_scene(path, opts.allow_outside_paths)
         .with_max_triangles(opts.max_triangles);
-    let scene = match ext.as_deref() {
+    let mut scene = match ext.as_deref() {
         Some("obj") => obj::load_obj_scene_in(path, opts.split, &sb)?,
         Some("gltf") | Some("glb") => gltf_load::load_gltf_scene_in(path, &sb)?,
         Some("toml") => scenefile::load_scene_file_in(path, &sb)?,
         Some("aff") | Some("nff") => aff::load_aff_scene_in(path, &sb)?,
         _ => match builtin::by_name(spec) {
             Some(s) => s,
+            None if !path.exists() && SHARED.iter().any(|s| s.0 == spec) => {
+                let what = SHARED.iter().find(|s| s.0 == spec).expect("found").1;
+                return load_shared(spec, what, opts);
+            }
             None if path.exists() => {
                 return Err(SceneError::Invalid {
                     path: path.to_path_buf(),
@@ -141,12 +239,11 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
                 return Err(SceneError::UnknownScene {
                     name: spec.to_string(),
                     builtins: builtin::NAMES.join(", "),
+                    shared: SHARED.map(|s| s.0).join(", "),
                 })
             }
         },
     };
-    scene.validate()?;
-    // The file loaders check as they go; this covers the built-in scenes.
-    sb.admit_triangles(path, None, scene.triangle_count() as u64)?;
+    finish(&mut scene, path, &sb, opts)?;
     Ok(scene)
 }

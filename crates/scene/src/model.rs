@@ -290,6 +290,9 @@ pub struct LoadReport {
     pub load_seconds: f64,
     /// Anything else worth a line (approximations, ignored features).
     pub notes: Vec<String>,
+    /// The scene's lights were placed by the loader (the file has none), so it gets the
+    /// ambient fill unless told otherwise ([`crate::LoadOptions::fill`]).
+    pub automatic_lights: bool,
     /// Suspicious content that was loaded anyway, each naming `file:line` (the CLI prints
     /// them as `warning:` lines).
     pub warnings: Vec<String>,
@@ -346,6 +349,25 @@ impl Scene {
             ambient: Vec3::ZERO,
             report,
             animation: None,
+        }
+    }
+
+    /// Change the exposure by `ev` stops: every light, the ambient light, the background
+    /// and every emission scaled by 2^ev. The Whitted image is linear in them (each pixel
+    /// a sum of light × reflectance × throughput terms), so this is a camera's exposure,
+    /// applied before the sRGB encoding's clamp. 0 changes nothing.
+    pub fn expose(&mut self, ev: f32) {
+        if ev == 0.0 {
+            return;
+        }
+        let k = ev.exp2();
+        for l in &mut self.lights {
+            l.intensity *= k;
+        }
+        self.ambient *= k;
+        self.background *= k;
+        for m in &mut self.materials {
+            m.emission *= k;
         }
     }
 

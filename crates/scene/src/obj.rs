@@ -7,7 +7,7 @@
 
 use crate::error::Invalid;
 use crate::error::SceneError;
-use crate::model::{smooth_normals, Camera, Light, LoadReport, Material, Mesh, Scene};
+use crate::model::{smooth_normals, LoadReport, Material, Mesh, Scene};
 use crate::MeshSplit;
 use geom::Vec3;
 use std::path::Path;
@@ -363,18 +363,8 @@ pub fn load_obj_scene_in(
     Ok(scene)
 }
 
-/// Frame the scene's bounds with the camera and put a light above and behind the eye.
-pub fn auto_camera_and_light(scene: &mut Scene) {
-    let b = scene.bounds();
-    if b.is_empty() {
-        return;
-    }
-    scene.camera = Camera::framing(&b);
-    let (_, up, _) = scene.camera.basis();
-    let pos = scene.camera.eye + up * b.diagonal() * 0.3;
-    scene.lights = vec![Light::white(pos, 1.0)];
-    scene.report.notes.push("automatic camera and light".into());
-}
+/// The automatic camera and light ([`crate::autocam::auto_camera_and_light`]).
+pub use crate::autocam::auto_camera_and_light;
 
 #[cfg(test)]
 mod tests {

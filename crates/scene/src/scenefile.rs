@@ -211,6 +211,16 @@ pub fn load_scene_file_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene,
     parse_scene_file(&text, path, sb, t0)
 }
 
+/// A TOML scene from its text, as if read from `path` (which names it in messages and
+/// anchors its relative paths), with the files it references confined to `sb`.
+pub fn load_scene_text_in(
+    text: &str,
+    path: &Path,
+    sb: &crate::io::Sandbox,
+) -> Result<Scene, SceneError> {
+    parse_scene_file(text, path, sb, std::time::Instant::now())
+}
+
 /// One `[[meshes]]` entry's contribution: its meshes, their materials and, for a sequence,
 /// its vertex keys.
 type Entry = (Vec<crate::Mesh>, Vec<Material>, Option<VertexKeys>);
@@ -577,12 +587,15 @@ fn camera_and_lights(file: &File, scene: &mut Scene) {
                 attenuation: l.attenuation.unwrap_or([1.0, 0.0, 0.0]),
             })
             .collect();
+        // The camera may be automatic; the lights are the file's.
+        scene.report.automatic_lights = false;
     } else if file.camera.is_some() {
         let (_, up, _) = scene.camera.basis();
         scene.lights = vec![Light::white(
             scene.camera.eye + up * scene.bounds().diagonal() * 0.3,
             1.0,
         )];
+        scene.report.automatic_lights = true;
     }
 }
 
