@@ -238,6 +238,7 @@ fn frames_section(
             width: spec.width,
             height: spec.height,
             bounces,
+            spp: 1,
         };
         for &engine in &list {
             let cpu_frame = || -> Result<(f64, Vec<[u8; 3]>)> {

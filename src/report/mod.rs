@@ -261,6 +261,7 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
         width: spec.side,
         height: spec.side,
         bounces: spec.bounces,
+        spp: 1,
     };
     let affordable = brute_affordable(&geo, &s, spec.side, spec.bounces);
     let list = render_list(affordable);
@@ -392,6 +393,7 @@ fn frame_point(s: &Scene, geo: &Geometry, e: Engine, side: u32) -> Result<ScaleP
             width: side,
             height: side,
             bounces: 1,
+            spp: 1,
         },
         &(),
     );

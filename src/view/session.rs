@@ -131,6 +131,8 @@ pub struct Session {
     pub engine: Engine,
     pub backend: Backend,
     pub bounces: u32,
+    /// Samples per pixel of a full frame (antialiasing); previews take one.
+    pub spp: u32,
     pub buffer: Buffer,
     pub width: u32,
     pub height: u32,
@@ -206,6 +208,7 @@ impl Session {
             engine,
             backend,
             bounces,
+            spp: 1,
             buffer: Buffer::Shaded,
             width,
             height,
@@ -382,6 +385,7 @@ impl Session {
             width: w,
             height: h,
             bounces: self.bounces,
+            spp: if scale > 1 { 1 } else { self.spp.max(1) },
         };
         let record = matches!(self.buffer, Buffer::Kinds | Buffer::Tests);
         let mut note = None;

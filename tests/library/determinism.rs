@@ -14,6 +14,7 @@ fn renders_are_bit_identical() {
             width: 64,
             height: 48,
             bounces: 3,
+            spp: 1,
         };
         let a = render(&s, &geo, &engine, &opts, &());
         let b = render(&s, &geo, &engine, &opts, &());
@@ -36,6 +37,7 @@ fn cornell_spawns_every_ray_kind() {
             width: 64,
             height: 64,
             bounces: 2,
+            spp: 1,
         },
         &(),
     );

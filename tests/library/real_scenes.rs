@@ -34,6 +34,7 @@ fn real_scenes_render() {
                 width: 24,
                 height: 24,
                 bounces: 1,
+                spp: 1,
             },
             &(),
         );

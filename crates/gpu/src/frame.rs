@@ -599,33 +599,44 @@ impl Backend for GpuBackend<'_> {
             .expect("GPU device lost");
     }
 
-    fn finish(&mut self, mut stats: RenderStats) -> Rendered {
-        // The image out, as sRGB bytes.
+    fn finish(&mut self, mut stats: RenderStats, linear: bool) -> Rendered {
         let t0 = Instant::now();
         let npix = self.npix;
-        let words = (3 * npix).div_ceil(4);
-        let enc = self.g.storage("srgb", words * 4);
         let img = self.img.clone().expect("primary surfaces first");
-        self.ex.run(
-            launch::FrEncode {
-                img: &img,
-                out_u: &enc,
-            },
-            EncodeParams {
-                words: words as u32,
-                pixels: npix as u32,
-            },
-            words,
-            256,
-        );
-        let raw: Vec<u32> = self.ex.read(&enc, words as usize);
-        let mut srgb8: Vec<u8> = raw.iter().flat_map(|w| w.to_le_bytes()).collect();
-        srgb8.truncate(3 * npix as usize);
+        let (pixels, srgb8) = if linear {
+            // The linear image out (antialiasing averages the samples' pixels on the host).
+            let raw: Vec<f32> = self.ex.read(&img, 4 * npix as usize);
+            let px = raw
+                .chunks_exact(4)
+                .map(|c| geom::Vec3::new(c[0], c[1], c[2]))
+                .collect();
+            (px, None)
+        } else {
+            // The image out, as sRGB bytes.
+            let words = (3 * npix).div_ceil(4);
+            let enc = self.g.storage("srgb", words * 4);
+            self.ex.run(
+                launch::FrEncode {
+                    img: &img,
+                    out_u: &enc,
+                },
+                EncodeParams {
+                    words: words as u32,
+                    pixels: npix as u32,
+                },
+                words,
+                256,
+            );
+            let raw: Vec<u32> = self.ex.read(&enc, words as usize);
+            let mut srgb8: Vec<u8> = raw.iter().flat_map(|w| w.to_le_bytes()).collect();
+            srgb8.truncate(3 * npix as usize);
+            (Vec::new(), Some(srgb8))
+        };
         self.sync();
         stats.add_phase(FramePhase::Shading, t0.elapsed().as_secs_f64());
         Rendered {
-            pixels: Vec::new(),
-            srgb8: Some(srgb8),
+            pixels,
+            srgb8,
             gbuffer: self.host_gbuffer.take().unwrap_or_default(),
             raster: RasterStats {
                 triangles: stats.triangles,

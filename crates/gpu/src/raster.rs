@@ -209,12 +209,32 @@ impl GpuRaster {
             .collect();
         let dview = depth.create_view(&Default::default());
         let c = |v: Vec3| [v.x, v.y, v.z, 0.0];
+        // A jittered view (antialiasing) moves the geometry by −jitter pixels: in clip
+        // space x + jx·z and y + jy·z with these factors (`raster.wgsl`, applied only when
+        // proj.w is 1, so a centred view's bits are untouched).
+        let [jx, jy] = view.jitter;
+        let jittered = jx != 0.0 || jy != 0.0;
         let vu = ViewU {
             eye: c(view.eye),
-            right: c(view.right),
-            up: c(view.up),
+            right: [
+                view.right.x,
+                view.right.y,
+                view.right.z,
+                -2.0 * jx / view.width as f32,
+            ],
+            up: [
+                view.up.x,
+                view.up.y,
+                view.up.z,
+                2.0 * jy / view.height as f32,
+            ],
             fwd: c(view.fwd),
-            proj: [view.tan_x, view.tan_y, near, 0.0],
+            proj: [
+                view.tan_x,
+                view.tan_y,
+                near,
+                if jittered { 1.0 } else { 0.0 },
+            ],
         };
         let ub = g.uniform("view", &vu);
         let bg = g.device.create_bind_group(&wgpu::BindGroupDescriptor {

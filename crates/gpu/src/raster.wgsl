@@ -6,10 +6,12 @@
 
 struct View {
     eye: vec4<f32>,
+    // (right, clip-space x shift per unit depth of a jittered view)
     right: vec4<f32>,
+    // (up, clip-space y shift per unit depth of a jittered view)
     up: vec4<f32>,
     fwd: vec4<f32>,
-    // (tan_x, tan_y, near, -)
+    // (tan_x, tan_y, near, 1 for a jittered view)
     proj: vec4<f32>,
 }
 
@@ -34,6 +36,12 @@ fn vs(@builtin(vertex_index) vi: u32) -> VOut {
     let c = vec3<f32>(dot(d, r_view.right.xyz), dot(d, r_view.up.xyz), dot(d, r_view.fwd.xyz));
     var o: VOut;
     o.pos = vec4<f32>(c.x / r_view.proj.x, c.y / r_view.proj.y, r_view.proj.z, c.z);
+    // Antialiasing's sample offset (render::View::jitter), as the CPU rasterizer moves the
+    // triangle by −jitter pixels; a centred view skips it, so its bits are untouched.
+    if r_view.proj.w != 0.0 {
+        o.pos.x = o.pos.x + r_view.right.w * c.z;
+        o.pos.y = o.pos.y + r_view.up.w * c.z;
+    }
     o.bary = vec2<f32>(select(0.0, 1.0, k == 1u), select(0.0, 1.0, k == 2u));
     o.tri = t;
     return o;

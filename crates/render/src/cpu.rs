@@ -152,7 +152,7 @@ impl Backend for CpuBackend<'_> {
 
     fn sync(&mut self) {}
 
-    fn finish(&mut self, stats: RenderStats) -> Rendered {
+    fn finish(&mut self, stats: RenderStats, _linear: bool) -> Rendered {
         Rendered {
             pixels: std::mem::take(&mut self.pixels),
             srgb8: None,

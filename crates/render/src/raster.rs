@@ -190,6 +190,9 @@ fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<
             let (cx, cy, cz) = (v.c.x as f64, v.c.y as f64, v.c.z as f64);
             let sx = (cx / cz / view.tan_x as f64 + 1.0) * 0.5 * view.width as f64;
             let sy = (1.0 - cy / cz / view.tan_y as f64) * 0.5 * view.height as f64;
+            // A jittered view samples at centre + jitter: the same as moving the triangle
+            // by −jitter (zero for the centre, which leaves every bit as it was).
+            let (sx, sy) = (sx - view.jitter[0] as f64, sy - view.jitter[1] as f64);
             (
                 (sx * SUB as f64).round() as i64,
                 (sy * SUB as f64).round() as i64,

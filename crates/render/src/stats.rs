@@ -87,6 +87,8 @@ pub struct RenderStats {
     pub lights: u64,
     /// Reflection/refraction generations after the rasterized one.
     pub bounces: u32,
+    /// Samples per pixel (antialiasing; 1: the pixel centres).
+    pub spp: u32,
     /// Pixels covered by rasterized geometry (the primary "rays" that were not traced).
     pub covered_pixels: u64,
     /// Traced rays by kind.
@@ -131,6 +133,28 @@ impl RenderStats {
                 .map(|p| (FramePhase::BuildPass(p), p.seconds)),
         );
         self.phases.splice(0..0, rows);
+    }
+
+    /// Add another sample's counts and times (antialiasing's samples of one image): rays,
+    /// tests, the engine's counters, the phases and the GPU's transfers.
+    pub fn add_sample(&mut self, o: &RenderStats) {
+        self.rays_shadow += o.rays_shadow;
+        self.rays_reflection += o.rays_reflection;
+        self.rays_refraction += o.rays_refraction;
+        self.rays_primary_traced += o.rays_primary_traced;
+        self.trace.add(&o.trace);
+        self.total_tests += o.total_tests;
+        self.brute_force_tests += o.brute_force_tests;
+        for (p, t) in &o.phases {
+            self.add_phase(p.clone(), *t);
+        }
+        let add = |a: &mut Option<u64>, b: Option<u64>| {
+            if let Some(b) = b {
+                *a = Some(a.unwrap_or(0) + b);
+            }
+        };
+        add(&mut self.host_device_bytes, o.host_device_bytes);
+        add(&mut self.host_read_backs, o.host_read_backs);
     }
 
     /// All traced rays.

@@ -25,6 +25,25 @@ pub struct View {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
+    /// Where in its pixel this view samples, in pixels from the centre (each in
+    /// −0.5..0.5; zero for the centre). Antialiasing renders one view per sample
+    /// ([`View::jittered`], [`sample_offset`]); the rasterizer samples pixel (x, y) at
+    /// (x + 0.5 + jitter[0], y + 0.5 + jitter[1]).
+    pub jitter: [f32; 2],
+}
+
+/// The offset of sample `i` of `n` in its pixel (−0.5..0.5 each way): the Hammersley
+/// points ((i + ½)/n, radical inverse of i in base 2), stratified along both axes. One
+/// sample is the pixel's centre.
+pub fn sample_offset(i: u32, n: u32) -> [f32; 2] {
+    if n <= 1 {
+        return [0.0, 0.0];
+    }
+    let x = (i as f32 + 0.5) / n as f32;
+    let y = (i.reverse_bits() as f64 / 4_294_967_296.0) as f32;
+    // The radical inverse starts at 0: shift it by half a stratum so both axes are centred.
+    let y = y + 0.5 / n.next_power_of_two() as f32;
+    [x - 0.5, y - 0.5]
 }
 
 impl View {
@@ -41,6 +60,15 @@ impl View {
             tan_x: tan_y * width as f32 / height as f32,
             width,
             height,
+            jitter: [0.0, 0.0],
+        }
+    }
+
+    /// The same view sampling each pixel at `offset` from its centre (see [`View::jitter`]).
+    pub fn jittered(self, offset: [f32; 2]) -> View {
+        View {
+            jitter: offset,
+            ..self
         }
     }
 

@@ -54,7 +54,14 @@ pub struct RenderOptions {
     pub height: u32,
     /// Reflection/refraction generations after the rasterized one.
     pub bounces: u32,
+    /// Samples per pixel (antialiasing): each a whole frame of a jittered view
+    /// ([`crate::view::sample_offset`]), every sample's rays traced by the engine, the
+    /// pixels their mean (a box filter). 1 (the papers' counts): the pixel centres only.
+    pub spp: u32,
 }
+
+/// Largest accepted samples per pixel.
+pub const MAX_SPP: u32 = 256;
 
 impl Default for RenderOptions {
     fn default() -> Self {
@@ -62,6 +69,7 @@ impl Default for RenderOptions {
             width: 512,
             height: 512,
             bounces: 3,
+            spp: 1,
         }
     }
 }
@@ -144,8 +152,9 @@ pub trait Backend {
     fn next_surfaces(&mut self, r: &Self::Rays, h: &Self::Hits) -> Self::Surfaces;
     /// Wait for the work queued so far (a device backend; the CPU's is done already).
     fn sync(&mut self);
-    /// The image and the G-buffer as the render's result, with `stats`.
-    fn finish(&mut self, stats: RenderStats) -> Rendered;
+    /// The image and the G-buffer as the render's result, with `stats`; `linear`: the
+    /// caller needs the linear pixels (it averages samples), not only the sRGB bytes.
+    fn finish(&mut self, stats: RenderStats, linear: bool) -> Rendered;
 }
 
 /// `f` timed into `phase`, the backend's queued work included.
@@ -194,7 +203,13 @@ pub fn render(
     )
 }
 
-/// The Whitted loop: one frame of `scene` (whose geometry is `geo`) on `backend`.
+/// The Whitted loop: one frame of `scene` (whose geometry is `geo`) on `backend`, with
+/// `opts.spp` samples per pixel.
+///
+/// More than one sample renders the frame once per sample, from views jittered inside
+/// the pixels, and averages the linear pixels in sample order (a box filter, so the bytes
+/// do not depend on threads); the statistics add up every sample's rays, tests and phase
+/// times, and `covered_pixels` is the first sample's.
 pub fn run<B: Backend>(
     backend: &mut B,
     scene: &Scene,
@@ -202,7 +217,65 @@ pub fn run<B: Backend>(
     opts: &RenderOptions,
     progress: &dyn Progress,
 ) -> Rendered {
-    let view = View::new(&scene.camera, opts.width, opts.height);
+    let base = View::new(&scene.camera, opts.width, opts.height);
+    let spp = opts.spp.max(1);
+    if spp == 1 {
+        return frame(backend, scene, geo, opts, &base, progress, false);
+    }
+    let mut out: Option<Rendered> = None;
+    for i in 0..spp {
+        let p = Sample {
+            inner: progress,
+            i,
+            n: spp,
+        };
+        let view = base.jittered(crate::view::sample_offset(i, spp));
+        let r = frame(backend, scene, geo, opts, &view, &p, true);
+        match &mut out {
+            None => out = Some(r),
+            Some(acc) => {
+                for (a, b) in acc.pixels.iter_mut().zip(&r.pixels) {
+                    *a += *b;
+                }
+                acc.stats.add_sample(&r.stats);
+            }
+        }
+    }
+    let mut out = out.expect("at least one sample");
+    let n = spp as f32;
+    for p in &mut out.pixels {
+        *p /= n;
+    }
+    out.srgb8 = None;
+    out.stats.spp = spp;
+    out
+}
+
+/// Stage names of sample `i` of `n` (`sample 2/4: shading, generation 1`).
+struct Sample<'a> {
+    inner: &'a dyn Progress,
+    i: u32,
+    n: u32,
+}
+
+impl Progress for Sample<'_> {
+    fn stage(&self, name: &str) {
+        self.inner
+            .stage(&format!("sample {}/{}: {name}", self.i + 1, self.n));
+    }
+}
+
+/// One frame of `view` (one sample per pixel); `linear`: keep the linear pixels.
+fn frame<B: Backend>(
+    backend: &mut B,
+    scene: &Scene,
+    geo: &Geometry,
+    opts: &RenderOptions,
+    view: &View,
+    progress: &dyn Progress,
+    linear: bool,
+) -> Rendered {
+    let view = *view;
     let mut stats = RenderStats {
         scene: scene.name.clone(),
         engine: backend.engine_name(),
@@ -212,6 +285,7 @@ pub fn run<B: Backend>(
         meshes: geo.mesh_count() as u64,
         lights: scene.lights.len() as u64,
         bounces: opts.bounces,
+        spp: 1,
         ..Default::default()
     };
     let st = &mut stats;
@@ -255,7 +329,7 @@ pub fn run<B: Backend>(
     }
     stats.total_tests = stats.trace.total_tests();
     stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
-    backend.finish(stats)
+    backend.finish(stats, linear)
 }
 
 /// Trace primary rays through every pixel centre (closest hit): the reference the

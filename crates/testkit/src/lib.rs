@@ -249,6 +249,7 @@ pub fn record_render(
             width,
             height,
             bounces,
+            spp: 1,
         },
         &(),
     );

@@ -24,6 +24,7 @@ fn a_full_frame_is_the_render() {
             width: 64,
             height: 48,
             bounces: 2,
+            spp: 1,
         },
         &(),
     );

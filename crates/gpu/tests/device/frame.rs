@@ -66,6 +66,7 @@ fn gpu_frames_equal_cpu_frames_over_the_gpu_gbuffer() {
             width: w,
             height: h,
             bounces,
+            spp: 1,
         };
         let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
         let view = render::View::new(&s.camera, w, h);
@@ -200,6 +201,7 @@ fn generations_beyond_one_binding_run_in_parts_with_the_same_bytes() {
         width: 16,
         height: (limit / 256) as u32,
         bounces: 2,
+        spp: 1,
     };
     let whole = {
         let e = GpuGrid::upload(full.clone(), gr, &geo.tris, "grid-gpu").unwrap();

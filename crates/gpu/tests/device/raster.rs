@@ -106,6 +106,7 @@ fn renders_match_cpu_renders() {
         width: 96,
         height: 72,
         bounces: 2,
+        spp: 1,
     };
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
