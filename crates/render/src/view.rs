@@ -149,4 +149,24 @@ mod tests {
             );
         }
     }
+
+    #[test]
+    fn samples_are_stratified_inside_the_pixel() {
+        assert_eq!(sample_offset(0, 1), [0.0, 0.0]);
+        for n in [2u32, 4, 5, 8, 16] {
+            let pts: Vec<[f32; 2]> = (0..n).map(|i| sample_offset(i, n)).collect();
+            for p in &pts {
+                assert!(p.iter().all(|c| (-0.5..0.5).contains(c)), "{n}: {p:?}");
+            }
+            // One sample per stratum of 1/n along x, and per stratum of 1/2^k along y.
+            let k = n.next_power_of_two();
+            for (axis, strata) in [(0, n), (1, k)] {
+                let mut seen = vec![0; strata as usize];
+                for p in &pts {
+                    seen[((p[axis] + 0.5) * strata as f32) as usize] += 1;
+                }
+                assert!(seen.iter().all(|&c| c <= 1), "{n} axis {axis}: {seen:?}");
+            }
+        }
+    }
 }

@@ -39,63 +39,70 @@ fn gbuffer_matches_cpu_rasterizer() {
         assert!(r.check_size(160, 120).is_ok());
         let too_wide = r.check_size(g.limits.max_texture_dimension_2d + 1, 1);
         assert!(too_wide.unwrap_err().to_string().contains("texture limit"));
-        let view = View::new(&s.camera, 160, 120);
-        let near = default_near(&geo);
-        let (cpu, _) = rasterize(&geo, &s.materials, &view, near);
-        let (gpu, _) = r.rasterize(&view, near);
-        let covered = cpu.covered().max(1);
-        let mut other = 0;
-        for p in 0..cpu.tri.len() {
-            if cpu.tri[p] != gpu.tri[p] {
-                other += 1;
-                continue;
+        // The pixel centres, and a view jittered inside the pixels (antialiasing's
+        // samples): both rasterizers move the geometry by the same offset.
+        let centred = View::new(&s.camera, 160, 120);
+        for view in [centred, centred.jittered([0.375, -0.25])] {
+            let near = default_near(&geo);
+            let (cpu, _) = rasterize(&geo, &s.materials, &view, near);
+            let (gpu, _) = r.rasterize(&view, near);
+            let covered = cpu.covered().max(1);
+            let mut other = 0;
+            for p in 0..cpu.tri.len() {
+                if cpu.tri[p] != gpu.tri[p] {
+                    other += 1;
+                    continue;
+                }
+                if cpu.tri[p] == geom::NO_HIT {
+                    continue;
+                }
+                // Both points lie on the same triangle, so comparing where they project on
+                // the screen compares them fully. Within a tenth of a pixel: hardware snaps
+                // vertices to a sub-pixel grid and interpolates in its own precision (on an
+                // H100 a point at a grazing angle on the stadium lay 1.9 units from the CPU's,
+                // a third of its pixel's footprint, yet on the same spot of the screen).
+                let screen = |q: geom::Vec3| {
+                    let c = q - view.eye;
+                    let z = c.dot(view.fwd);
+                    let sx = c.dot(view.right) / (z * view.tan_x) * 0.5 * view.width as f32;
+                    let sy = c.dot(view.up) / (z * view.tan_y) * 0.5 * view.height as f32;
+                    geom::Vec3::new(sx, sy, 0.0)
+                };
+                let d = (screen(cpu.position[p]) - screen(gpu.position[p])).length();
+                assert!(
+                    d <= 0.1,
+                    "{name} pixel {p}: points {d} pixels apart on the screen ({} and {})",
+                    cpu.position[p],
+                    gpu.position[p]
+                );
+                // The hardware snaps vertices to a sub-pixel grid and interpolates the
+                // barycentrics its own way (on an H100 they differ from the CPU's by ~1e-3 on
+                // a sphere's few-pixel triangles, normals by 2e-3), so the GPU's normal is
+                // checked against its own barycentrics; the position check above bounds how
+                // far those are from the CPU's.
+                let [u, v] = gpu.bary[p];
+                let own = geo.shading_normal(gpu.tri[p], u, v);
+                assert!(
+                    (own - gpu.normal[p]).length() < 1e-4,
+                    "{name} pixel {p} (triangle {}): normal {} at its barycentrics ({u}, {v}) is {own}; CPU {}",
+                    cpu.tri[p],
+                    gpu.normal[p],
+                    cpu.normal[p]
+                );
+                assert_eq!(cpu.diffuse[p], gpu.diffuse[p]);
+                assert_eq!(cpu.specular[p], gpu.specular[p]);
             }
-            if cpu.tri[p] == geom::NO_HIT {
-                continue;
-            }
-            // Both points lie on the same triangle, so comparing where they project on
-            // the screen compares them fully. Within a tenth of a pixel: hardware snaps
-            // vertices to a sub-pixel grid and interpolates in its own precision (on an
-            // H100 a point at a grazing angle on the stadium lay 1.9 units from the CPU's,
-            // a third of its pixel's footprint, yet on the same spot of the screen).
-            let screen = |q: geom::Vec3| {
-                let c = q - view.eye;
-                let z = c.dot(view.fwd);
-                let sx = c.dot(view.right) / (z * view.tan_x) * 0.5 * view.width as f32;
-                let sy = c.dot(view.up) / (z * view.tan_y) * 0.5 * view.height as f32;
-                geom::Vec3::new(sx, sy, 0.0)
-            };
-            let d = (screen(cpu.position[p]) - screen(gpu.position[p])).length();
-            assert!(
-                d <= 0.1,
-                "{name} pixel {p}: points {d} pixels apart on the screen ({} and {})",
-                cpu.position[p],
-                gpu.position[p]
+            let frac = other as f64 / covered as f64;
+            eprintln!(
+                "{name} {:?}: {other} of {covered} covered pixels name another triangle",
+                view.jitter
             );
-            // The hardware snaps vertices to a sub-pixel grid and interpolates the
-            // barycentrics its own way (on an H100 they differ from the CPU's by ~1e-3 on
-            // a sphere's few-pixel triangles, normals by 2e-3), so the GPU's normal is
-            // checked against its own barycentrics; the position check above bounds how
-            // far those are from the CPU's.
-            let [u, v] = gpu.bary[p];
-            let own = geo.shading_normal(gpu.tri[p], u, v);
             assert!(
-                (own - gpu.normal[p]).length() < 1e-4,
-                "{name} pixel {p} (triangle {}): normal {} at its barycentrics ({u}, {v}) is {own}; CPU {}",
-                cpu.tri[p],
-                gpu.normal[p],
-                cpu.normal[p]
+                frac <= 0.01,
+                "{name}: {:.3} % of pixels differ",
+                frac * 100.0
             );
-            assert_eq!(cpu.diffuse[p], gpu.diffuse[p]);
-            assert_eq!(cpu.specular[p], gpu.specular[p]);
         }
-        let frac = other as f64 / covered as f64;
-        eprintln!("{name}: {other} of {covered} covered pixels name another triangle");
-        assert!(
-            frac <= 0.01,
-            "{name}: {:.3} % of pixels differ",
-            frac * 100.0
-        );
     }
 }
 
