@@ -97,6 +97,43 @@ impl Engine {
             _ => None,
         }
     }
+
+    /// Whether the engine option `keyword` (a name of `keywords::KEYWORDS`) changes what
+    /// this engine does: CRSH's and RAH's options for them (RAH orders rays by screen
+    /// position, so CRSH's hash is not its), the grid's for the grids (the two-level grid
+    /// stops before merging and expansion), none for the others.
+    pub fn takes(self, keyword: &str) -> bool {
+        let grid = keyword.starts_with("grid_");
+        match self {
+            Engine::Crsh => !grid,
+            Engine::Rah => !grid && !matches!(keyword, "hash" | "hash_bits"),
+            Engine::Grid => grid,
+            Engine::Grid2l => {
+                grid && !matches!(
+                    keyword,
+                    "grid_alpha" | "grid_merge" | "grid_merge_rule" | "grid_expansion"
+                )
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether the engine runs on the GPU backend.
+    pub fn has_gpu(self) -> bool {
+        matches!(
+            self,
+            Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l
+        )
+    }
+
+    /// The engines that run on the GPU backend, by name.
+    pub fn gpu_names() -> Vec<&'static str> {
+        Self::NAMES
+            .iter()
+            .filter(|(_, e)| e.has_gpu())
+            .map(|(n, _)| *n)
+            .collect()
+    }
 }
 
 /// The object side CRSH and RAH use on the CPU unless `--object-hierarchy` says otherwise.

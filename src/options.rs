@@ -50,6 +50,41 @@ impl LoadArgs {
     }
 }
 
+/// How a rendered scene is lit and exposed (`render`, `view`).
+#[derive(Args, Clone, Debug, Default)]
+pub struct LookArgs {
+    /// Ambient fill, `on` or `off`: a grey ambient light reflected by every material's
+    /// diffuse colour, so that no shadow is pure black (default: on for scenes whose lights
+    /// are automatic — a bare OBJ or glTF, a TOML file without lights — and off for scene
+    /// files with their own lights and the benchmark scenes, which keep the thesis's
+    /// eq. 3.19).
+    #[arg(long, value_parser = on_off(), help_heading = "Look")]
+    pub fill: Option<bool>,
+    /// Exposure in stops: every light, the ambient light, the background and emission
+    /// scaled by 2^EV (e.g. -1 for a blown-out scene; -16 to 16).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "EV", value_parser = exposure(), help_heading = "Look")]
+    pub exposure: f32,
+}
+
+/// `--exposure`: a finite number of stops in -16..=16.
+fn exposure() -> impl clap::builder::TypedValueParser<Value = f32> {
+    clap::builder::StringValueParser::new().try_map(|s: String| match s.parse::<f32>() {
+        Ok(v) if v.is_finite() && (-16.0..=16.0).contains(&v) => Ok(v),
+        _ => Err(format!("'{s}' is not a number of stops in -16..=16")),
+    })
+}
+
+impl LookArgs {
+    /// `o` with the fill and exposure asked for.
+    pub fn apply(&self, o: scene::LoadOptions) -> scene::LoadOptions {
+        scene::LoadOptions {
+            fill: self.fill,
+            exposure: self.exposure,
+            ..o
+        }
+    }
+}
+
 /// Options of the irregular grid (defaults: the paper's, `GridConfig::default()`).
 #[derive(Args, Clone, Debug)]
 pub struct GridArgs {

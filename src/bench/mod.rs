@@ -89,6 +89,7 @@ pub fn record(name: &str, width: u32, height: u32, bounces: u32) -> Result<Recor
         width,
         height,
         bounces,
+        spp: 1,
     };
     render(&s, &geo, &rec, &opts, &());
     let batches = rec.into_batches();
@@ -96,8 +97,8 @@ pub fn record(name: &str, width: u32, height: u32, bounces: u32) -> Result<Recor
 }
 
 /// The scenes of a benchmark: `--scenes a,b,...` as given (at least one name), or the
-/// built-in `builtins` plus each `bench/scenes/<real>.toml` when the shared scenes are
-/// present.
+/// built-in `builtins` plus the shared scenes `real` by name (`sponza`: the benchmark view
+/// of `bench/scenes/sponza.toml`) when the shared scenes are present.
 pub fn scenes(arg: Option<&str>, builtins: &[&str], real: &[&str]) -> Result<Vec<String>> {
     Ok(match arg {
         Some(s) => {
@@ -114,12 +115,9 @@ pub fn scenes(arg: Option<&str>, builtins: &[&str], real: &[&str]) -> Result<Vec
         None => {
             let mut v: Vec<String> = builtins.iter().map(|s| s.to_string()).collect();
             if scene::scenes_dir().is_some() {
-                for f in real {
-                    let p = format!("{}/bench/scenes/{f}.toml", env!("CARGO_MANIFEST_DIR"));
-                    if std::path::Path::new(&p).exists() {
-                        v.push(p);
-                    }
-                }
+                // The shared scenes by name (`scene::SHARED`: the benchmark views are built
+                // into the binary).
+                v.extend(real.iter().map(|f| f.to_string()));
             }
             v
         }

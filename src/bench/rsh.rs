@@ -71,7 +71,14 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
                 } else {
                     "mesh-spheres"
                 };
-                progress(&format!("{}: {:?} {b}/{d} {oname}", s.name, cfg.method));
+                progress(&format!(
+                    "{}: {} {b}/{d} {oname}",
+                    s.name,
+                    match cfg.method {
+                        rsh::Method::Crsh => "CRSH",
+                        rsh::Method::Rah => "RAH",
+                    }
+                ));
                 let t0 = std::time::Instant::now();
                 let e = rsh::RshEngine::new(&geo, cfg).map_err(anyhow::Error::msg)?;
                 let build_seconds = t0.elapsed().as_secs_f64();
@@ -120,7 +127,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
             );
             for row in &pair {
                 detail += &format!(
-                    "\n### {} {} {b}/{d} {}: intersections per level (thesis Tables 4.x)\n{}",
+                    "\n### {} {} {b}/{d} {}: intersections per level (as the thesis's chapter-4 tables)\n{}",
                     s.name,
                     row.engine.to_uppercase(),
                     row.objects,

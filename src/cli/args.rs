@@ -6,15 +6,40 @@
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use rayspace::bench::Spec;
 use rayspace::engines::Engine;
-pub use rayspace::options::{defaults, engine_options, GridArgs, LoadArgs, RshArgs};
+pub use rayspace::options::{defaults, engine_options, GridArgs, LoadArgs, LookArgs, RshArgs};
 use render::raygen::Kind;
 use render::whitted::{MAX_BOUNCES, MAX_SIDE};
 use std::path::PathBuf;
 
+/// The version and the optional features this binary was built with (`--version`).
+fn version() -> &'static str {
+    static V: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    V.get_or_init(|| {
+        let features: Vec<&str> = [
+            (cfg!(feature = "gpu"), "gpu"),
+            (cfg!(feature = "view"), "view"),
+            (cfg!(feature = "embree"), "embree"),
+        ]
+        .into_iter()
+        .filter_map(|(on, f)| on.then_some(f))
+        .collect();
+        format!(
+            "{} (features: {}; commit {})",
+            env!("CARGO_PKG_VERSION"),
+            if features.is_empty() {
+                "none".to_string()
+            } else {
+                features.join(", ")
+            },
+            env!("RAYSPACE_BUILD_COMMIT")
+        )
+    })
+}
+
 #[derive(Parser)]
 #[command(
     name = "rayspace",
-    version,
+    version = version(),
     about = "Ray tracing with ray-space hierarchies and irregular grids"
 )]
 pub struct Cli {
@@ -85,14 +110,19 @@ pub struct ViewArgs {
     /// The display interval previews aim at while the view moves (ms).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=10000))]
     pub interval_ms: u64,
+    /// Samples per pixel (antialiasing), as `render --spp`.
+    #[arg(long, default_value_t = 1, value_parser = spp())]
+    pub spp: u32,
     #[command(flatten)]
     pub load: LoadArgs,
+    #[command(flatten)]
+    pub look: LookArgs,
 }
 
 #[derive(Args, Clone)]
 pub struct ReportCmdArgs {
     /// Output directory (made if missing): index.html, report.json, img/, charts/.
-    #[arg(long)]
+    #[arg(short = 'o', long, default_value = "report")]
     pub out: PathBuf,
     /// The small version (under a minute on 2 cores): built-in scenes at 128², one timing
     /// run, short scaling series.
@@ -110,14 +140,19 @@ pub struct ReportCmdArgs {
 
 #[derive(Subcommand)]
 pub enum BenchCommand {
-    /// The thesis's chapter-4 tables: CRSH and RAH per configuration on the same rays.
+    /// The thesis's chapter-4 tables: CRSH and RAH per configuration on the same rays
+    /// (charts: intersections per hierarchy level, like the thesis's Figures 4.7–4.23).
+    #[command(mut_arg("scenes", |a| a.help("Scenes, comma-separated: built-in or shared names (sponza, conference, kitchen, museum) or files [default: cornell, office, and sponza when the shared scenes are present]")))]
     Rsh(BenchRshArgs),
     /// The GPU backend against the CPU engines on the same rays, phase by phase (CRSH, RAH;
     /// the irregular grid's traversal on primary, AO and random rays), with the agreement
     /// of hits and counters checked in the same run.
+    #[command(mut_arg("scenes", |a| a.help("Scenes, comma-separated: built-in or shared names (sponza, conference, kitchen, museum) or files [default: cornell, and sponza when the shared scenes are present]")))]
     Gpu(BenchGpuArgs),
     /// The irregular-grid paper's Tables 1, 2, 3 and 5: our grids against the peers
-    /// (obvhs; Embree with `--features embree`) on the same rays.
+    /// (obvhs; Embree with `--features embree`) on the same rays (charts: MRays/s by ray
+    /// kind and engine).
+    #[command(mut_arg("scenes", |a| a.help("Scenes, comma-separated: built-in or shared names (sponza, conference, kitchen, museum) or files [default: cornell, office, stadium, and sponza, conference, kitchen when the shared scenes are present]")))]
     Grid(BenchGridArgs),
     /// The irregular-grid paper's Table 4: AO samples per pixel that fit in a frame budget
     /// on an animated scene, per-frame rebuild included.
@@ -190,9 +225,7 @@ pub struct ReportArgs {
     /// Also write the markdown report to this file.
     #[arg(long)]
     pub md: Option<PathBuf>,
-    /// Write charts (PNG and SVG) into this directory (`bench grid`: MRays/s by ray kind and
-    /// engine; `bench rsh`: intersections per hierarchy level by configuration, like the
-    /// thesis's Figures 4.7–4.23).
+    /// Write the benchmark's charts (PNG and SVG) into this directory.
     #[arg(long)]
     pub charts: Option<PathBuf>,
 }
@@ -200,10 +233,7 @@ pub struct ReportArgs {
 /// The scenes and image size of a benchmark.
 #[derive(Args, Clone)]
 pub struct SceneArgs {
-    /// Scenes, comma-separated (default: the built-in scenes the benchmark reports on, and
-    /// the real scenes of its paper when the shared scenes are present: `bench rsh` cornell,
-    /// office, Sponza; `bench gpu` cornell, Sponza; `bench grid` cornell, office, stadium,
-    /// Sponza, Conference, Kitchen).
+    /// Scenes, comma-separated (each benchmark says its default).
     #[arg(long)]
     pub scenes: Option<String>,
     #[arg(long, default_value_t = 512, value_parser = side())]
@@ -266,9 +296,9 @@ pub struct RaysArgs {
     pub scene: String,
     #[arg(long, value_enum, default_value_t = Kind::Primary)]
     pub kind: Kind,
-    #[arg(long, default_value_t = 512, value_parser = side())]
+    #[arg(short = 'W', long, default_value_t = 512, value_parser = side())]
     pub width: u32,
-    #[arg(long, default_value_t = 512, value_parser = side())]
+    #[arg(short = 'H', long, default_value_t = 512, value_parser = side())]
     pub height: u32,
     /// Rays per pixel (ao, random).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1024))]
@@ -284,7 +314,7 @@ pub struct RaysArgs {
     #[command(flatten)]
     pub load: LoadArgs,
     /// Output ray file.
-    #[arg(long)]
+    #[arg(short = 'o', long)]
     pub out: PathBuf,
     /// Most memory the command may use, in MiB (default: 80 % of this machine's memory).
     #[arg(long = "max-memory", value_parser = clap::value_parser!(u64).range(1..))]
@@ -298,7 +328,7 @@ pub struct TraceArgs {
     /// The scene the rays were made for.
     #[arg(long)]
     pub scene: String,
-    #[arg(long, value_enum, default_value_t = Engine::Crsh)]
+    #[arg(short = 'e', long, value_enum, default_value_t = Engine::Crsh)]
     pub engine: Engine,
     #[command(flatten)]
     pub rsh: RshArgs,
@@ -315,8 +345,16 @@ pub struct TraceArgs {
     #[command(flatten)]
     pub load: LoadArgs,
     /// Output hit file.
-    #[arg(long)]
+    #[arg(short = 'o', long)]
     pub out: Option<PathBuf>,
+    /// Also write the summary (rays, build and trace times, MRays/s, hits, tests, the
+    /// engine's counters and phases) as JSON.
+    #[arg(long, value_name = "F.json")]
+    pub json: Option<PathBuf>,
+    /// Read the ray file as this layout (default: rayspace's when it has the header,
+    /// else hagrid's headerless rays, with a notice).
+    #[arg(long, value_enum)]
+    pub format: Option<render::rayfile::RayFormat>,
 }
 
 /// Where a render runs.
@@ -328,59 +366,86 @@ pub enum Backend {
 
 #[derive(Args, Clone)]
 pub struct RenderArgs {
-    /// A built-in scene (cornell, spheres, soup, stadium, office), or an .obj, .gltf/.glb or .toml file.
-    /// The default, `spheres`, is the first picture a newcomer sees: mirror, glass and
-    /// diffuse spheres on a reflective checkerboard under two lights, so reflection,
-    /// refraction and shadows are all plain to see (it renders in well under a second).
+    /// A built-in scene (cornell, spheres, soup, stadium, office), a shared real scene by
+    /// name (sponza, conference, kitchen, museum; read from $RAYSPACE_SCENES), or an .obj,
+    /// .gltf/.glb, .toml or BART .aff file. The default, `spheres`: mirror, glass and
+    /// diffuse spheres on a reflective checkerboard under two lights.
     #[arg(default_value = "spheres")]
     pub scene: String,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 512, value_parser = side())]
+    #[arg(short = 'W', long, default_value_t = 512, value_parser = side(), help_heading = "Image")]
     pub width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 512, value_parser = side())]
+    #[arg(short = 'H', long, default_value_t = 512, value_parser = side(), help_heading = "Image")]
     pub height: u32,
     /// Whitted recursion depth: reflection/refraction generations after the rasterized one.
-    #[arg(long, default_value_t = 3, value_parser = bounces())]
+    #[arg(short = 'b', long, default_value_t = 3, value_parser = bounces(), help_heading = "Image")]
     pub bounces: u32,
+    /// Samples per pixel (antialiasing): each sample a jittered view of the whole frame,
+    /// its rays traced by the engine, the pixels averaged (a box filter); 1 samples the
+    /// pixel centres (the papers' counts).
+    #[arg(short = 's', long, default_value_t = 1, value_parser = spp(), help_heading = "Image")]
+    pub spp: u32,
+    /// Output PNG (default: the scene's name, e.g. spheres.png; with --frames a folder of
+    /// the scene's name with %04d.png, or a temporary folder when only --gif is asked for).
+    #[arg(short = 'o', long, value_name = "F.png", help_heading = "Output")]
+    pub out: Option<PathBuf>,
+    /// Also write the statistics as JSON to this file (with --frames: every frame's).
+    #[arg(long, value_name = "F.json", help_heading = "Output")]
+    pub stats: Option<PathBuf>,
     /// Tracing engine.
-    #[arg(long, value_enum, default_value_t = Engine::Crsh)]
+    #[arg(short = 'e', long, value_enum, default_value_t = Engine::Crsh, help_heading = "Engine")]
     pub engine: Engine,
     /// Where the render runs: `gpu` rasterizes the G-buffer with a render pipeline and runs
-    /// CRSH/RAH (or the grid's traversal, on a grid the CPU builds), secondary-ray
-    /// generation and shading as compute kernels (wgpu).
-    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    /// the engine (crsh, rah, grid, grid2l), secondary-ray generation and shading as compute
+    /// kernels (wgpu).
+    #[arg(long, value_enum, default_value_t = Backend::Cpu, help_heading = "Engine")]
     pub backend: Backend,
-    #[command(flatten)]
-    pub rsh: RshArgs,
-    #[command(flatten)]
-    pub grid: GridArgs,
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Animation")]
+    pub anim: AnimArgs,
+    #[command(flatten, next_help_heading = "Look")]
+    pub look: LookArgs,
+    #[command(flatten, next_help_heading = "Scene loading")]
     pub load: LoadArgs,
-    /// Output PNG.
-    #[arg(long, default_value = "rayspace.png")]
-    pub out: PathBuf,
-    /// Also write the statistics as JSON to this file.
-    #[arg(long)]
-    pub stats: Option<PathBuf>,
-    /// Render one instant of an animated scene (seconds, in the scene's time).
-    #[arg(long, conflicts_with = "frames", allow_hyphen_values = true)]
-    pub time: Option<f32>,
-    /// Render N frames of an animated scene; `--out` then needs a `%0Nd`-style frame number
-    /// (e.g. frames/%04d.png). Engines are rebuilt every frame.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
-    pub frames: Option<u32>,
-    /// Frames per second (default: spread the frames over the scene's animation interval).
-    #[arg(long, allow_hyphen_values = true)]
-    pub fps: Option<f32>,
-    /// With --frames: per-frame statistics (build and trace times, rays, tests) as CSV.
-    #[arg(long = "frame-csv")]
-    pub frame_csv: Option<PathBuf>,
-    /// With --frames: also assemble the frames into this animated GIF.
-    #[arg(long)]
-    pub gif: Option<PathBuf>,
     /// Most memory the render may use, in MiB (default: 80 % of this machine's memory);
     /// a size whose memory model needs more is refused before anything is allocated.
-    #[arg(long = "max-memory", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long = "max-memory", value_parser = clap::value_parser!(u64).range(1..), help_heading = "Scene loading")]
     pub max_memory: Option<u64>,
+    #[command(flatten, next_help_heading = "CRSH and RAH (--engine crsh, rah)")]
+    pub rsh: RshArgs,
+    #[command(flatten, next_help_heading = "Irregular grid (--engine grid, grid2l)")]
+    pub grid: GridArgs,
+}
+
+/// An animated scene's time or frames.
+#[derive(Args, Clone)]
+pub struct AnimArgs {
+    /// Render one instant of an animated scene (seconds, in the scene's time).
+    #[arg(
+        short = 't',
+        long,
+        conflicts_with = "frames",
+        allow_hyphen_values = true
+    )]
+    pub time: Option<f32>,
+    /// Render N frames of an animated scene; `--out` then needs a `%0Nd`-style frame number
+    /// (e.g. frames/%04d.png; its folder is made). Engines are rebuilt every frame.
+    #[arg(short = 'n', long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub frames: Option<u32>,
+    /// With --frames: frames per second (default: spread the frames over the scene's
+    /// animation interval).
+    #[arg(long, allow_hyphen_values = true)]
+    pub fps: Option<f32>,
+    /// With --frames: per-frame statistics (update, build, phase times, rays, tests) as CSV.
+    #[arg(long = "frame-csv", value_name = "F.csv")]
+    pub frame_csv: Option<PathBuf>,
+    /// With --frames: also assemble the frames into this animated GIF (alone, without
+    /// --out, the frames are kept only while the GIF is made).
+    #[arg(long, value_name = "F.gif")]
+    pub gif: Option<PathBuf>,
+}
+
+/// Samples per pixel: 1..=`MAX_SPP`.
+fn spp() -> clap::builder::RangedI64ValueParser<u32> {
+    clap::value_parser!(u32).range(1..=render::whitted::MAX_SPP as i64)
 }

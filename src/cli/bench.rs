@@ -59,7 +59,9 @@ pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
     if let Some(d) = &a.out.charts {
         check_dir("--charts", d)?;
     }
-    let bar = step_bar(scenes.len() as u64 * (1 + 2 * configs.len() as u64));
+    // Per scene: the recording render, then four engines per configuration (CRSH, RAH, each
+    // with mesh spheres and with the BVH).
+    let bar = step_bar(scenes.len() as u64 * (1 + 4 * configs.len() as u64));
     let spec = a.spec.spec(scenes, configs, a.bounces);
     let (rows, md) = bench::rsh::run(&spec, &|m| bar.step(m))?;
     bar.0.finish_and_clear();

@@ -4,40 +4,13 @@
 //! as PNGs, per-frame CSV and an animated GIF.
 
 use super::args::{Backend, RenderArgs};
+use super::check::{frame_path, Outputs};
 use super::progress::step_bar;
-use super::{check_dir, check_out_dir};
 use anyhow::{bail, Context, Result};
 use rayspace::engines::EngineOptions;
 use rayspace::frames::{frame, FrameRow};
 use render::whitted::RenderOptions;
 use std::path::PathBuf;
-
-/// `path` with its `%0Nd` (or `%d`) replaced by `frame`.
-fn frame_path(pattern: &std::path::Path, frame: u32) -> Result<PathBuf> {
-    let s = pattern.to_string_lossy();
-    let Some(i) = s.find('%') else {
-        bail!("--out {s}: with --frames the name needs a frame number pattern such as %04d");
-    };
-    let rest = &s[i + 1..];
-    let Some(d) = rest.find('d') else {
-        bail!("--out {s}: expected %d or %0Nd");
-    };
-    let spec = &rest[..d];
-    let width: usize = if spec.is_empty() {
-        0
-    } else {
-        match spec.strip_prefix('0').unwrap_or(spec).parse() {
-            Ok(w) if w <= 12 => w,
-            _ => bail!("--out {s}: bad frame number pattern %{spec}d"),
-        }
-    };
-    Ok(PathBuf::from(format!(
-        "{}{:0width$}{}",
-        &s[..i],
-        frame,
-        &rest[d + 1..]
-    )))
-}
 
 /// The per-frame pipeline: update transforms (and the meshes' culling spheres, by transform),
 /// rebuild the engine, render; build and trace times apart.
@@ -46,6 +19,7 @@ pub fn render_frames(
     eopts: &EngineOptions,
     scene: &scene::Scene,
     n: u32,
+    outs: &Outputs,
 ) -> Result<()> {
     let Some(anim) = &scene.animation else {
         bail!(
@@ -53,28 +27,22 @@ pub fn render_frames(
             scene.name
         );
     };
-    frame_path(&a.out, 0)?;
-    if let Some(d) = frame_path(&a.out, 0)?
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-    {
-        check_dir("--out", d)?;
-    }
-    for p in [&a.frame_csv, &a.gif].into_iter().flatten() {
-        check_out_dir("--frame-csv/--gif", p)?;
-    }
-    let times: Vec<f32> = match a.fps {
-        Some(f) if f.is_finite() && f > 0.0 => (0..n).map(|i| anim.start + i as f32 / f).collect(),
-        Some(f) => bail!("--fps {f}: must be a positive number"),
+    let times: Vec<f32> = match a.anim.fps {
+        Some(f) => (0..n).map(|i| anim.start + i as f32 / f).collect(),
         None => anim.frame_times(n),
     };
+    // Frames only wanted inside the GIF go to a temporary folder, removed at the end
+    // (also when a frame fails).
+    let _cleanup = outs.temporary.as_ref().map(|d| Temporary(d.clone()));
     let bar = step_bar(n as u64);
     let opts = RenderOptions {
         width: a.width,
         height: a.height,
         bounces: a.bounces,
+        spp: a.spp,
     };
     let mut rows = Vec::new();
+    let mut stats = Vec::new();
     let mut gif_frames = Vec::new();
     // The GPU backend keeps one device, its compiled kernels and its engine across frames
     // and rebuilds the engine per frame.
@@ -86,24 +54,27 @@ pub fn render_frames(
         } else {
             frame(scene, t, i as u32, a.engine, eopts, &opts)?
         };
-        let path = frame_path(&a.out, i as u32)?;
+        let path = frame_path(&outs.out, i as u32)?;
         render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &path)
             .map_err(anyhow::Error::msg)
             .context("--out")?;
-        if a.gif.is_some() {
+        if a.anim.gif.is_some() {
             gif_frames.push(out.rgb8());
+        }
+        if a.stats.is_some() {
+            stats.push(out.stats);
         }
         rows.push(row);
     }
     bar.0.finish_and_clear();
     let mean = |f: &dyn Fn(&FrameRow) -> f64| rows.iter().map(f).sum::<f64>() / rows.len() as f64;
     say!(
-        "{} frames of {} ({}×{}, engine {:?}): mean per frame update {:.1} ms, build {:.1} ms, render {:.1} ms{}",
+        "{} frames of {} ({}×{}, engine {}): mean per frame update {:.1} ms, build {:.1} ms, render {:.1} ms{}",
         rows.len(),
         scene.name,
         a.width,
         a.height,
-        a.engine,
+        a.engine.name(),
         mean(&|r| r.update_ms),
         mean(&|r| r.build_ms),
         mean(&|r| r.trace_ms),
@@ -120,12 +91,18 @@ pub fn render_frames(
             }
         }
     );
-    say!(
-        "wrote {} … {}",
-        frame_path(&a.out, 0)?.display(),
-        frame_path(&a.out, n - 1)?.display()
-    );
-    if let Some(p) = &a.frame_csv {
+    if outs.temporary.is_none() {
+        say!(
+            "wrote {} … {}",
+            frame_path(&outs.out, 0)?.display(),
+            frame_path(&outs.out, n - 1)?.display()
+        );
+    }
+    if let Some(p) = &a.stats {
+        super::write_out("--stats", p, serde_json::to_string_pretty(&stats)?)?;
+        say!("wrote {} (every frame's statistics)", p.display());
+    }
+    if let Some(p) = &a.anim.frame_csv {
         let mut csv = FrameRow::csv_header() + "\n";
         for r in &rows {
             csv += &(r.csv_line() + "\n");
@@ -133,14 +110,23 @@ pub fn render_frames(
         super::write_out("--frame-csv", p, csv)?;
         say!("wrote {}", p.display());
     }
-    if let Some(p) = &a.gif {
-        let delay_ms = a.fps.map_or(100.0, |f| 1000.0 / f) as u32;
+    if let Some(p) = &a.anim.gif {
+        let delay_ms = a.anim.fps.map_or(100.0, |f| 1000.0 / f) as u32;
         render::output::write_gif(&gif_frames, a.width, a.height, delay_ms, p)
             .map_err(anyhow::Error::msg)
             .context("--gif")?;
         say!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// A folder removed when dropped (the frames of `--gif` alone).
+struct Temporary(PathBuf);
+
+impl Drop for Temporary {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 /// The GPU backend's frames: the device and engine made at the first frame.

@@ -13,6 +13,7 @@ macro_rules! say {
 
 mod args;
 mod bench;
+mod check;
 mod frames;
 mod progress;
 mod render;
@@ -23,7 +24,6 @@ mod view;
 
 use anyhow::{bail, Result};
 use args::{BenchCommand, Cli, Command};
-use clap::Parser;
 
 /// A command-line usage error (exit status 2), as one line.
 #[derive(Debug)]
@@ -62,13 +62,23 @@ fn one_line(e: &clap::Error) -> String {
 /// Parse the command line and run the command (`render` with its defaults when none).
 /// `--help` and `--version` print and exit here; a usage error is a [`UsageError`].
 pub fn run() -> Result<()> {
-    let cli = match Cli::try_parse() {
+    use clap::{CommandFactory, FromArgMatches};
+    let parsed = Cli::command()
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m).map(|c| (c, m)));
+    let (cli, matches) = match parsed {
         Ok(c) => c,
         Err(e) if !e.use_stderr() => e.exit(),
         Err(e) => return Err(UsageError(one_line(&e)).into()),
     };
+    let sub = |name: &str| {
+        matches
+            .subcommand_matches(name)
+            .cloned()
+            .unwrap_or_default()
+    };
     match cli.command {
-        Some(Command::Render(a)) => render::cmd_render(&a),
+        Some(Command::Render(a)) => render::cmd_render(&a, &sub("render")),
         Some(Command::Rays(a)) => trace::cmd_rays(&a),
         Some(Command::Trace(a)) => trace::cmd_trace(&a),
         Some(Command::Bench { what }) => match what {
@@ -79,7 +89,7 @@ pub fn run() -> Result<()> {
         },
         Some(Command::Report(a)) => report::cmd_report(&a),
         Some(Command::View(a)) => view::cmd_view(&a),
-        None => render::cmd_render(&args::defaults()),
+        None => render::cmd_render(&args::defaults(), &clap::ArgMatches::default()),
     }
 }
 
@@ -112,20 +122,6 @@ fn check_not_input(opt: &str, out: &std::path::Path, inputs: &[&std::path::Path]
                 out.display()
             );
         }
-    }
-    Ok(())
-}
-
-/// An output's file name must end in `.ext` (any case): `--out x.jpg` would get PNG bytes.
-fn check_extension(opt: &str, out: &std::path::Path, ext: &str) -> Result<()> {
-    let ok = out
-        .extension()
-        .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case(ext));
-    if !ok {
-        bail!(
-            "{opt} {}: the file name must end in .{ext} (the format written)",
-            out.display()
-        );
     }
     Ok(())
 }

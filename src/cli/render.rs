@@ -5,9 +5,9 @@
 
 use super::args::{engine_options, Backend, RenderArgs};
 use super::progress::progress_bar;
-use super::{check_extension, check_memory, check_not_input, check_out_dir};
+use super::{check, check_memory, check_not_input, check_out_dir, UsageError};
 use anyhow::{bail, Context, Result};
-use rayspace::engines::{self, Engine};
+use rayspace::engines;
 use render::whitted::{render, RenderOptions};
 use scene::Geometry;
 use serde::Serialize;
@@ -25,31 +25,54 @@ struct StatsFile<'a> {
     /// GPU seconds per phase from timestamp queries (`--backend gpu`; empty otherwise).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     gpu_phase_seconds: Vec<(String, f64)>,
+    /// CRSH/RAH: the object side the traversal used (`bvh` or `mesh-spheres`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    object_hierarchy: Option<&'static str>,
 }
 
-pub fn cmd_render(a: &RenderArgs) -> Result<()> {
-    let mut opts = engine_options(&a.rsh, &a.grid, a.frames.is_some());
-    opts.validate(a.engine)?;
-    check_out_dir("--out", &a.out)?;
-    check_extension("--out", &a.out, "png")?;
-    // Every output is checked before the work: none may be an input, or unwritable.
+/// The object hierarchy CRSH/RAH ran with: the one asked for, else the backend's default
+/// (the CPU's BVH; the GPU has mesh spheres only).
+fn object_hierarchy(a: &RenderArgs) -> Option<&'static str> {
+    a.engine.rsh_method()?;
+    let o = match (a.rsh.objects, a.backend) {
+        (Some(o), _) => o,
+        (None, Backend::Gpu) => rsh::ObjectHierarchy::MeshSpheres,
+        (None, Backend::Cpu) => rayspace::engines::DEFAULT_OBJECTS,
+    };
+    Some(match o {
+        rsh::ObjectHierarchy::Bvh => "bvh",
+        rsh::ObjectHierarchy::MeshSpheres => "mesh-spheres",
+    })
+}
+
+pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
+    // Options first, in one place, before anything is loaded (usage errors, exit 2).
+    let outs = check::render(a, m)?;
+    let mut opts = engine_options(&a.rsh, &a.grid, a.anim.frames.is_some());
+    opts.validate(a.engine)
+        .map_err(|e| UsageError(super::spell::flags_in(&e.to_string())))?;
+    // Every output is checked before the work: its folder made, none an input, none
+    // unwritable.
     let scene_file = std::path::Path::new(&a.scene);
-    check_not_input("--out", &a.out, &[scene_file])?;
+    let first = match a.anim.frames {
+        Some(_) => check::frame_path(&outs.out, 0)?,
+        None => outs.out.clone(),
+    };
     for (opt, p) in [
-        ("--stats", &a.stats),
-        ("--frame-csv", &a.frame_csv),
-        ("--gif", &a.gif),
+        ("--out", Some(&first)),
+        ("--stats", a.stats.as_ref()),
+        ("--frame-csv", a.anim.frame_csv.as_ref()),
+        ("--gif", a.anim.gif.as_ref()),
     ] {
         if let Some(p) = p {
+            check::make_parent(opt, p)?;
             check_out_dir(opt, p)?;
             check_not_input(opt, p, &[scene_file])?;
         }
     }
-    if let Some(g) = &a.gif {
-        check_extension("--gif", g, "gif")?;
-    }
+    let load_opts = a.look.apply(a.load.options(a.max_memory));
     let t0 = Instant::now();
-    let scene = super::load_scene(&a.scene, &a.load.options(a.max_memory))?;
+    let scene = super::load_scene(&a.scene, &load_opts)?;
     let geo = Geometry::from_scene(&scene);
     let load_s = t0.elapsed().as_secs_f64();
     let render_bytes = render::whitted::render_bytes(a.width, a.height, scene.lights.len());
@@ -96,28 +119,16 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             format!(" ({})", r.notes.join("; "))
         },
     );
-    if a.backend == Backend::Gpu {
-        if !matches!(
-            a.engine,
-            Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l
-        ) {
-            bail!(
-                "--backend gpu: only --engine crsh, rah, grid and grid2l run on the GPU (not {})",
-                a.engine.name()
-            );
-        }
-        if a.rsh.objects == Some(rsh::ObjectHierarchy::Bvh) {
-            bail!("--object-hierarchy bvh runs on the CPU backend only; the GPU backend has mesh-spheres");
-        }
+    if a.backend == Backend::Gpu && a.engine.rsh_method().is_some() {
+        // Said, not silent: CRSH/RAH on the GPU push every triangle through the ray
+        // hierarchy behind the mesh spheres (the GPU has no object tree yet).
+        say!("GPU backend: {} with --object-hierarchy mesh-spheres (the GPU backend has no object BVH)", a.engine.name());
     }
-    if let Some(n) = a.frames {
-        return super::frames::render_frames(a, &opts, &scene, n);
+    if let Some(n) = a.anim.frames {
+        return super::frames::render_frames(a, &opts, &scene, n, &outs);
     }
-    let (scene, geo) = match a.time {
+    let (scene, geo) = match a.anim.time {
         Some(t) => {
-            if !t.is_finite() {
-                bail!("--time {t}: not a finite time");
-            }
             if scene.animation.is_none() {
                 bail!("--time: {} is not animated", scene.name);
             }
@@ -131,6 +142,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         width: a.width,
         height: a.height,
         bounces: a.bounces,
+        spp: a.spp,
     };
     let t1 = Instant::now();
     let (out, gpu_phases, gpu_timer) = if a.backend == Backend::Gpu {
@@ -148,7 +160,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         out.stats.put_build(build_s, engine.build_passes());
         (out, Vec::new(), "")
     };
-    render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &a.out)
+    render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &outs.out)
         .map_err(anyhow::Error::msg)
         .context("--out")?;
     say!("{}", out.stats.table());
@@ -158,7 +170,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             say!("  {p:<20} {:>10.3} ms", t * 1e3);
         }
     }
-    say!("wrote {}", a.out.display());
+    say!("wrote {}", outs.out.display());
     if let Some(p) = &a.stats {
         let f = StatsFile {
             render: &out.stats,
@@ -167,6 +179,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             raster_setup_triangles: out.raster.setup,
             raster_fragments: out.raster.fragments,
             gpu_phase_seconds: gpu_phases.clone(),
+            object_hierarchy: object_hierarchy(a),
         };
         let json = serde_json::to_string_pretty(&f)?;
         super::write_out("--stats", p, json)?;

@@ -3,10 +3,12 @@
 //! `render::rayfile`'s; hagrid's headerless ray files are read too.
 
 use super::args::{engine_options, RaysArgs, TraceArgs};
-use super::{check_memory, check_not_input, check_out_dir};
+use super::{check, check_memory, check_not_input, check_out_dir};
 use anyhow::{bail, Result};
 use rayspace::engines;
+use render::rayfile::RayFormat;
 use scene::Geometry;
+use serde::Serialize;
 use std::time::Instant;
 
 /// `EX,EY,EZ,TX,TY,TZ[,FOV]` as a camera.
@@ -73,11 +75,13 @@ pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
             ao_distance: a.ao_distance,
         },
     );
-    render::rayfile::write_rays(&a.out, &rays).map_err(anyhow::Error::msg)?;
+    let tag = render::rayfile::SceneTag::of(&scene.name, &geo);
+    render::rayfile::write_rays_for(&a.out, &rays, Some(&tag)).map_err(anyhow::Error::msg)?;
     say!(
-        "wrote {} {:?} rays of {} to {}",
+        "wrote {} {} rays of {} to {}",
         rays.len(),
-        a.kind,
+        clap::ValueEnum::to_possible_value(&a.kind)
+            .map_or_else(String::new, |v| v.get_name().to_string()),
         scene.name,
         a.out.display()
     );
@@ -91,10 +95,37 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         check_out_dir("--out", o)?;
         check_not_input("--out", o, &[&a.rays, std::path::Path::new(&a.scene)])?;
     }
-    let rays =
-        render::rayfile::read_rays(&a.rays, trace::RayKind::Primary).map_err(anyhow::Error::msg)?;
+    if let Some(j) = &a.json {
+        check::make_parent("--json", j)?;
+        check_out_dir("--json", j)?;
+        check_not_input("--json", j, &[&a.rays, std::path::Path::new(&a.scene)])?;
+    }
+    let file = render::rayfile::read_ray_file(&a.rays, trace::RayKind::Primary, a.format)
+        .map_err(anyhow::Error::msg)?;
+    if file.format == RayFormat::Hagrid && a.format.is_none() {
+        eprintln!(
+            "notice: {} has no rayspace header: read as hagrid's headerless rays ({} rays of 6 × f32); --format rayspace refuses such a file",
+            a.rays.display(),
+            file.rays.len()
+        );
+    }
+    let rays = file.rays;
     let scene = super::load_scene(&a.scene, &a.load.options(None))?;
     let geo = Geometry::from_scene(&scene);
+    if let Some(tag) = &file.scene {
+        let here = render::rayfile::SceneTag::of(&scene.name, &geo);
+        if tag.hash != 0 && tag.hash != here.hash {
+            eprintln!(
+                "warning: {} was made for scene '{}' (content hash {:016x}), not for {} ('{}', {:016x}): the rays may not mean what they did",
+                a.rays.display(),
+                tag.name,
+                tag.hash,
+                a.scene,
+                here.name,
+                here.hash
+            );
+        }
+    }
     let mode = if a.any_hit {
         trace::TraceMode::Any
     } else {
@@ -138,11 +169,14 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
     );
     let n = rays.len().max(1) as f64;
     say!(
-        "{} rays, {} triangles, engine {} ({:?}): build {:.1} ms, trace {:.1} ms, {:.3} MRays/s{}",
+        "{} rays, {} triangles, engine {} ({}): build {:.1} ms, trace {:.1} ms, {:.3} MRays/s{}",
         rays.len(),
         geo.len(),
         name,
-        mode,
+        match mode {
+            trace::TraceMode::Any => "any hit",
+            trace::TraceMode::Closest => "closest hit",
+        },
         build * 1e3,
         secs * 1e3,
         n / secs.max(1e-12) / 1e6,
@@ -192,7 +226,67 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         render::rayfile::write_hits(o, &hits, mode).map_err(anyhow::Error::msg)?;
         say!("wrote {}", o.display());
     }
+    if let Some(j) = &a.json {
+        let phases = phase_runs.first().map_or_else(Vec::new, |first| {
+            first
+                .iter()
+                .map(|(p, _)| {
+                    let each = phase_runs
+                        .iter()
+                        .filter_map(|r| r.iter().find(|x| &x.0 == p).map(|x| x.1));
+                    (p.clone(), median(each))
+                })
+                .collect()
+        });
+        let summary = TraceSummary {
+            rays: rays.len() as u64,
+            triangles: geo.len() as u64,
+            engine: name,
+            mode: match mode {
+                trace::TraceMode::Any => "any hit",
+                trace::TraceMode::Closest => "closest hit",
+            },
+            build_seconds: build,
+            trace_seconds: secs,
+            mrays_per_second: n / secs.max(1e-12) / 1e6,
+            runs: runs.clone(),
+            phases,
+            hits: st.hits,
+            ray_tri_tests: st.ray_tri_tests,
+            node_tri_tests: st.node_tri_tests,
+            total_tests: st.total_tests(),
+            brute_force_tests: rays.len() as u64 * geo.len() as u64,
+            counters: st
+                .counters
+                .iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+        };
+        super::write_out("--json", j, serde_json::to_string_pretty(&summary)?)?;
+        say!("wrote {}", j.display());
+    }
     Ok(())
+}
+
+/// `trace --json`: the printed summary as numbers (times in seconds, medians over the
+/// repetitions; `runs` lists each repetition's build and trace seconds).
+#[derive(Serialize)]
+struct TraceSummary {
+    rays: u64,
+    triangles: u64,
+    engine: String,
+    mode: &'static str,
+    build_seconds: f64,
+    trace_seconds: f64,
+    mrays_per_second: f64,
+    runs: Vec<(f64, f64)>,
+    phases: Vec<(String, f64)>,
+    hits: u64,
+    ray_tri_tests: u64,
+    node_tri_tests: u64,
+    total_tests: u64,
+    brute_force_tests: u64,
+    counters: Vec<(String, u64)>,
 }
 
 /// The median of some values (the upper one of an even count; at least one value).

@@ -11,7 +11,7 @@ pub fn cmd_view(a: &ViewArgs) -> Result<()> {
     if let Some(p) = &a.screenshot {
         super::check_out_dir("--screenshot", p)?;
     }
-    let scene = super::load_scene(&a.scene, &a.load.options(a.max_memory))?;
+    let scene = super::load_scene(&a.scene, &a.look.apply(a.load.options(a.max_memory)))?;
     let need = render::whitted::render_bytes(a.width, a.height, scene.lights.len());
     super::check_memory("a frame", "--width/--height", need, a.max_memory)?;
     let backend = match a.backend {
@@ -26,6 +26,7 @@ pub fn cmd_view(a: &ViewArgs) -> Result<()> {
     let mut s = Session::new(
         scene, a.engine, backend, a.width, a.height, a.bounces, a.time,
     )?;
+    s.spp = a.spp;
     s.buffer = match a.buffer.as_str() {
         "normals" => Buffer::Normals,
         "kinds" => Buffer::Kinds,

@@ -38,7 +38,8 @@ fn fails(args: &[&str], needles: &[&str]) {
 }
 
 /// The README's first command: `rayspace` with no arguments renders the default scene to
-/// `rayspace.png` (512×512) in the working directory and prints the stats table.
+/// `spheres.png` (512×512, named after the scene) in the working directory, prints the stats
+/// table and says where the image went.
 #[test]
 fn no_arguments_render_the_default_scene() {
     let dir = tmp("default");
@@ -49,8 +50,8 @@ fn no_arguments_render_the_default_scene() {
         stdout.contains("| spheres") || stdout.contains("spheres"),
         "{stdout}"
     );
-    assert!(stdout.contains("wrote"), "{stdout}");
-    let img = image::open(dir.join("rayspace.png")).unwrap().to_rgb8();
+    assert!(stdout.contains("wrote spheres.png"), "{stdout}");
+    let img = image::open(dir.join("spheres.png")).unwrap().to_rgb8();
     assert_eq!(img.dimensions(), (512, 512));
     // Not a blank frame: the sky, the checkerboard's two tiles and the lit spheres give
     // many distinct colours.
@@ -166,9 +167,11 @@ fn bad_files() {
     fails(&["render", &p, "--out", o], &["bad.gltf"]);
     let p = write(&d, "scene.txt", "hello");
     fails(&["render", &p, "--out", o], &["scene.txt", "unsupported"]);
+    // An output folder is made when missing, but not under a file.
+    let under_file = format!("{p}/x.png");
     fails(
-        &["render", "cornell", "--out", "/nonexistent-dir/x.png"],
-        &["--out", "/nonexistent-dir"],
+        &["render", "cornell", "--out", &under_file],
+        &["--out", "x.png"],
     );
     // A directory where a file is expected.
     fails(&["render", d.to_str().unwrap(), "--out", o], &[]);
@@ -960,10 +963,11 @@ fn outputs_are_checked_before_work_and_never_clobber_inputs() {
     std::fs::write(&png, b"previous image").unwrap();
     fails(
         &words(&format!(
-            "render cornell --width 8 --height 8 --out {} --stats /nonexistent-dir/s.json",
+            "render cornell --width 8 --height 8 --out {} --stats {}/s.json",
+            png.display(),
             png.display()
         )),
-        &["--stats", "does not exist"],
+        &["--stats", "cannot make its folder"],
     );
     assert_eq!(std::fs::read(&png).unwrap(), b"previous image");
     // A successful write replaces the file whole and leaves no temporary beside it.

@@ -2,5 +2,7 @@
 //! test binary.
 
 mod cli;
+mod first_hour;
+mod readme;
 mod report;
 mod view;

@@ -33,10 +33,20 @@ pub enum Method {
 pub enum ObjectHierarchy {
     /// The thesis (§3.2.8): every triangle, culled at the top by the per-mesh spheres when
     /// mesh culling is on.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "every triangle behind the per-mesh bounding spheres (the thesis)")
+    )]
     MeshSpheres,
     /// A linear BVH over the triangles, built per frame ([`crate::objects`]), descended
     /// together with the ray hierarchy ([`crate::dual`]); the mesh spheres bound the meshes'
     /// subtrees when mesh culling is on.
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            help = "a BVH over the triangles, built per frame, descended with the ray hierarchy"
+        )
+    )]
     Bvh,
 }
 

@@ -37,9 +37,19 @@ pub use voxelmap::NODE;
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Subdivision {
     /// One depth per top cell from eq. 1 with the top cell's count (the paper's rule).
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "one octree depth per top cell, from its count (the paper's §4.1)")
+    )]
     Paper,
     /// The paper's depth, and below it every node whose own count of small triangles calls
     /// for a split (see [`build`]), up to the maximum depth.
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            help = "also split deeper nodes whose own count calls for it, up to --grid-max-depth"
+        )
+    )]
     Adaptive,
 }
 
@@ -63,10 +73,18 @@ impl std::str::FromStr for Subdivision {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MergeRule {
     /// Cells at even positions of a chain absorb their successor (the paper's §4.2).
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "even positions of a chain absorb their successor (the paper's §4.2)")
+    )]
     Pairs,
     /// A cell absorbs its successor and every next one, up to [`merge::MAX_RUN`] cells,
     /// while the SAH cost of the run so far still drops: in one pass, merges that pairs reach
     /// over several rounds.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "a cell absorbs its successors (up to 8) while the SAH cost still drops")
+    )]
     Runs,
 }
 

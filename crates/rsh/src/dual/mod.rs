@@ -63,11 +63,20 @@ pub enum Descent {
     /// −10.0 %, Kitchen's shadow rays −4.1 %, Kitchen's frames −5.4 % (three times, tried
     /// with a bias of 8: fewer tests still on Sponza, more time). Closest-hit batches keep
     /// once: twice cost Kitchen's 3-bounce frames 9 % more tests.
+    #[cfg_attr(feature = "clap", value(help = "the larger node of the pair"))]
     Size,
     /// The object node until it is a triangle, then the ray node.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "the object node until it is a triangle, then the ray node")
+    )]
     ObjectFirst,
     /// The ray node until single rays, then the object node (each ray walks its subtree;
     /// a subtree of at most 8 triangles gets the level-1 node's final tests instead).
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "the ray node until single rays, then the object node")
+    )]
     RayFirst,
 }
 
@@ -91,10 +100,18 @@ pub enum Schedule {
     /// pairs (an any-hit ray that hit drops out). Every ray belongs to one top node, so a
     /// ray's work happens in one task, in one order: hits and counts do not depend on the
     /// schedule of the workers.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "each top ray node's pairs depth first, in parallel (fast on the CPU)")
+    )]
     Depth,
     /// Level by level, the GPU's shape: one stack of pairs per ray level; each step tests a
     /// chunk of one stack data-parallel and emits the survivors' expansions (count → scan
     /// → emit), memory bounded by the pair budget.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "level by level in data-parallel steps (the GPU's shape)")
+    )]
     Breadth,
 }
 
