@@ -19,17 +19,24 @@ Distributed frames and sweeps on Ray: :mod:`rayspace.distributed`.
 
 from __future__ import annotations
 
-import json
-import os
+import json as _json
+import os as _os
+from importlib import metadata as _metadata
 from typing import Any, Dict, List, Optional, Tuple, Union
 
-import numpy as np
+import numpy as _np
 from numpy.typing import ArrayLike
 
 from . import _rayspace
 from ._rayspace import MISS, Error, Scene
 
+try:
+    __version__ = _metadata.version("rayspace")
+except _metadata.PackageNotFoundError:  # a source tree without an installed package
+    __version__ = "0.1.0"
+
 __all__ = [
+    "__version__",
     "MISS",
     "Error",
     "Scene",
@@ -45,7 +52,7 @@ __all__ = [
     "write_hits",
 ]
 
-PathLike = Union[str, "os.PathLike[str]"]
+PathLike = Union[str, "_os.PathLike[str]"]
 
 
 def engines() -> List[str]:
@@ -53,13 +60,13 @@ def engines() -> List[str]:
     return list(_rayspace.engine_names())
 
 
-def _array(name: str, a: Any, dtype: Any, shape: Tuple[Optional[int], ...]) -> np.ndarray:
+def _array(name: str, a: Any, dtype: Any, shape: Tuple[Optional[int], ...]) -> _np.ndarray:
     """``a`` (any array-like: any real dtype, any strides) as a C-contiguous array of
     ``dtype`` and ``shape`` (None: any), converted once; an array that is one already is
     passed as it is, without a copy. Integer targets take integers only (a float is not
     silently truncated). Not real numbers: ``TypeError``; the wrong shape: ``ValueError``."""
-    arr = np.asarray(a)
-    want_int = np.dtype(dtype).kind in "iu"
+    arr = _np.asarray(a)
+    want_int = _np.dtype(dtype).kind in "iu"
     kinds = "iub" if want_int else "iufb"
     if arr.dtype.kind not in kinds:
         what = "integers" if want_int else "real numbers"
@@ -68,22 +75,22 @@ def _array(name: str, a: Any, dtype: Any, shape: Tuple[Optional[int], ...]) -> n
         want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
         raise Error(f"{name}: expected shape {want}, got {arr.shape}")
     if want_int and arr.dtype != dtype and arr.size:
-        info = np.iinfo(dtype)
+        info = _np.iinfo(dtype)
         if arr.min() < info.min or arr.max() > info.max:
-            raise Error(f"{name}: values outside {np.dtype(dtype).name}'s range [{info.min}, {info.max}]")
-    return np.ascontiguousarray(arr, dtype=dtype)
+            raise Error(f"{name}: values outside {_np.dtype(dtype).name}'s range [{info.min}, {info.max}]")
+    return _np.ascontiguousarray(arr, dtype=dtype)
 
 
-def _finite(name: str, a: np.ndarray) -> None:
-    bad = ~np.isfinite(a)
+def _finite(name: str, a: _np.ndarray) -> None:
+    bad = ~_np.isfinite(a)
     if bad.any():
-        row = int(np.argwhere(bad)[0][0])
+        row = int(_np.argwhere(bad)[0][0])
         raise Error(f"{name}: row {row} is not finite ({a[row]})")
 
 
 def _rays(origins: Any, directions: Any, tmin: Any, tmax: Any):
-    o = _array("origins", origins, np.float32, (None, 3))
-    d = _array("directions", directions, np.float32, (None, 3))
+    o = _array("origins", origins, _np.float32, (None, 3))
+    d = _array("directions", directions, _np.float32, (None, 3))
     if len(o) != len(d):
         raise Error(f"directions: {len(d)} rays, but origins has {len(o)}")
     _finite("origins", o)
@@ -91,14 +98,14 @@ def _rays(origins: Any, directions: Any, tmin: Any, tmax: Any):
     return o, d, _bound("tmin", tmin, len(o)), _bound("tmax", tmax, len(o))
 
 
-def _bound(name: str, b: Any, n: int) -> Optional[np.ndarray]:
+def _bound(name: str, b: Any, n: int) -> Optional[_np.ndarray]:
     """A ray bound: None (the default), a scalar for every ray, or one per ray."""
     if b is None:
         return None
-    if np.ndim(b) == 0:
-        s = _array(name, b, np.float32, ())
-        return np.full(n, s, np.float32)
-    return _array(name, b, np.float32, (n,))
+    if _np.ndim(b) == 0:
+        s = _array(name, b, _np.float32, ())
+        return _np.full(n, s, _np.float32)
+    return _array(name, b, _np.float32, (n,))
 
 
 class Engine:
@@ -142,7 +149,7 @@ class Engine:
         tmin: Optional[ArrayLike] = None,
         tmax: Optional[ArrayLike] = None,
         any_hit: bool = False,
-    ) -> Dict[str, np.ndarray]:
+    ) -> Dict[str, _np.ndarray]:
         """Trace rays: ``(N, 3)`` origins and directions, optional bounds, each a scalar or
         ``(N,)`` (default 0 and inf). Any real dtype and any strides are taken (converted to
         C-contiguous float32 once; float32 C arrays are used as they are); the wrong shape
@@ -171,7 +178,7 @@ def rays(
     spp: int = 1,
     seed: int = 1,
     ao_distance: Optional[float] = None,
-) -> Dict[str, np.ndarray]:
+) -> Dict[str, _np.ndarray]:
     """The rays ``rayspace rays`` makes: ``kind`` primary, shadow, ao or random, per pixel
     of a ``width`` × ``height`` view of the scene's camera (``spp`` per pixel for ao and
     random). Returns ``{"origins", "directions", "tmin", "tmax"}``."""
@@ -186,29 +193,31 @@ def render(
     bounces: int = 3,
     time: Optional[float] = None,
     dynamic: bool = False,
+    spp: int = 1,
     **options: Any,
-) -> Tuple[np.ndarray, Dict[str, Any]]:
+) -> Tuple[_np.ndarray, Dict[str, Any]]:
     """``rayspace render``: an ``(height, width, 3) uint8`` sRGB image and the ``--stats``
     dictionary. ``time`` renders the animation at that time; ``dynamic=True`` takes the
-    engine options a frame of ``--frames`` takes (the grid's single expansion pass)."""
-    img, stats = _rayspace.render(scene, engine, width, height, bounces, time, dynamic, **options)
-    return img, json.loads(stats)
+    engine options a frame of ``--frames`` takes (the grid's single expansion pass);
+    ``spp`` samples per pixel antialias it (``--spp``)."""
+    img, stats = _rayspace.render(scene, engine, width, height, bounces, time, dynamic, spp, **options)
+    return img, _json.loads(stats)
 
 
-def png_bytes(image: np.ndarray) -> bytes:
+def png_bytes(image: _np.ndarray) -> bytes:
     """An ``(H, W, 3) uint8`` image as PNG bytes, encoded as the command line encodes."""
-    return _rayspace.png_bytes(_array("image", image, np.uint8, (None, None, 3)))
+    return _rayspace.png_bytes(_array("image", image, _np.uint8, (None, None, 3)))
 
 
-def write_png(path: PathLike, image: np.ndarray) -> None:
+def write_png(path: PathLike, image: _np.ndarray) -> None:
     """Write an ``(H, W, 3) uint8`` image as the command line's PNG bytes, atomically."""
-    _rayspace.write_atomic(os.fspath(path), png_bytes(image))
+    _rayspace.write_atomic(_os.fspath(path), png_bytes(image))
 
 
-def read_rays(path: PathLike) -> Dict[str, np.ndarray]:
+def read_rays(path: PathLike) -> Dict[str, _np.ndarray]:
     """A ray file (rayspace's, or hagrid's headerless 6 × f32 per ray) as
     ``{"origins", "directions", "tmin", "tmax"}``."""
-    return _rayspace.read_rays(os.fspath(path))
+    return _rayspace.read_rays(_os.fspath(path))
 
 
 def write_rays(
@@ -220,12 +229,12 @@ def write_rays(
 ) -> None:
     """Write rays as a rayspace ray file (``write_rays(path, **rays(scene))``)."""
     o, d, lo, hi = _rays(origins, directions, tmin, tmax)
-    _rayspace.write_rays(os.fspath(path), o, d, lo, hi)
+    _rayspace.write_rays(_os.fspath(path), o, d, lo, hi)
 
 
 def read_hits(path: PathLike) -> Dict[str, Any]:
     """A hit file as ``{"t", "triangle", "u", "v", "any_hit"}``."""
-    hits, any_hit = _rayspace.read_hits(os.fspath(path))
+    hits, any_hit = _rayspace.read_hits(_os.fspath(path))
     hits["any_hit"] = any_hit
     return hits
 
@@ -239,9 +248,9 @@ def write_hits(
     any_hit: bool = False,
 ) -> None:
     """Write hit records as a rayspace hit file (``write_hits(path, **engine.trace(...))``)."""
-    n = np.shape(t)[0] if np.ndim(t) == 1 else None
-    t = _array("t", t, np.float32, (n,))
-    triangle = _array("triangle", triangle, np.uint32, (n,))
-    u = _array("u", u, np.float32, (n,))
-    v = _array("v", v, np.float32, (n,))
-    _rayspace.write_hits(os.fspath(path), t, triangle, u, v, bool(any_hit))
+    n = _np.shape(t)[0] if _np.ndim(t) == 1 else None
+    t = _array("t", t, _np.float32, (n,))
+    triangle = _array("triangle", triangle, _np.uint32, (n,))
+    u = _array("u", u, _np.float32, (n,))
+    v = _array("v", v, _np.float32, (n,))
+    _rayspace.write_hits(_os.fspath(path), t, triangle, u, v, bool(any_hit))

@@ -11,7 +11,13 @@ class Error(ValueError): ...
 
 class Scene:
     @staticmethod
-    def load(spec: str, meshes: str = "groups", allow_outside_paths: bool = False) -> Scene: ...
+    def load(
+        spec: str,
+        meshes: str = "groups",
+        allow_outside_paths: bool = False,
+        fill: Optional[bool] = None,
+        exposure: float = 0.0,
+    ) -> Scene: ...
     @property
     def name(self) -> str: ...
     @property
@@ -88,6 +94,7 @@ def render(
     bounces: int = 3,
     time: Optional[float] = None,
     dynamic: bool = False,
+    spp: int = 1,
     **options: Any,
 ) -> Tuple[npt.NDArray[np.uint8], str]: ...
 def frame(

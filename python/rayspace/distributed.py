@@ -185,8 +185,12 @@ def render_frames(
     and the CSV's columns.
     """
     out_dir = os.fspath(out_dir)
-    if not os.path.isdir(out_dir):
-        raise Error(f"out_dir {out_dir}: not a directory")
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise Error(f"out_dir {out_dir}: exists and is not a directory")
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+    except OSError as e:
+        raise Error(f"out_dir {out_dir}: cannot make the folder: {e.strerror}") from None
     _frame_path(pattern, 0)
     if chunk < 1:
         raise Error(f"chunk={chunk}: expected at least 1")

@@ -85,18 +85,27 @@ impl Scene {
     /// .gltf/.glb, .toml, BART .aff), as the command line does (`meshes`: `--meshes`,
     /// `allow_outside_paths`: `--allow-outside-paths`).
     #[staticmethod]
-    #[pyo3(signature = (spec, meshes = "groups", allow_outside_paths = false))]
+    #[pyo3(signature = (spec, meshes = "groups", allow_outside_paths = false, fill = None, exposure = 0.0))]
     fn load(
         py: Python<'_>,
         spec: &str,
         meshes: &str,
         allow_outside_paths: bool,
+        fill: Option<bool>,
+        exposure: f32,
     ) -> PyResult<Scene> {
         let split = trace::by_name(meshes, "meshes", &scene::MeshSplit::NAMES)
             .map_err(|e| err(format!("meshes='{meshes}': {e}")))?;
+        if !(exposure.is_finite() && (-16.0..=16.0).contains(&exposure)) {
+            return Err(err(format!(
+                "exposure={exposure}: must be a number of stops in -16..=16"
+            )));
+        }
         let opts = scene::LoadOptions {
             split,
             allow_outside_paths,
+            fill,
+            exposure,
             ..Default::default()
         }
         .for_memory(trace::memory::limit(None));
@@ -594,7 +603,7 @@ fn write_hits(
 
 /// `rayspace render`'s image and `--stats` JSON (as a string) for one frame.
 #[pyfunction(name = "render")]
-#[pyo3(signature = (scene, engine = "crsh", width = 512, height = 512, bounces = 3, time = None, dynamic = false, **options))]
+#[pyo3(signature = (scene, engine = "crsh", width = 512, height = 512, bounces = 3, time = None, dynamic = false, spp = 1, **options))]
 #[allow(clippy::too_many_arguments)]
 fn render_frame<'py>(
     py: Python<'py>,
@@ -605,10 +614,17 @@ fn render_frame<'py>(
     bounces: u32,
     time: Option<f32>,
     dynamic: bool,
+    spp: u32,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyArray3<u8>>, String)> {
     let (engine, mut opts) = parse_engine(engine, options, dynamic)?;
     check_image(width, height, bounces)?;
+    if !(1..=render::whitted::MAX_SPP).contains(&spp) {
+        return Err(err(format!(
+            "spp={spp}: must be 1..={}",
+            render::whitted::MAX_SPP
+        )));
+    }
     let frame = match time {
         Some(t) => Some(scene.at_time(py, t)?),
         None => None,
@@ -620,6 +636,7 @@ fn render_frame<'py>(
         width,
         height,
         bounces,
+        spp,
     };
     let (rgb, stats) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
         let t1 = Instant::now();
@@ -675,6 +692,7 @@ fn frame<'py>(
         width,
         height,
         bounces,
+        spp: 1,
     };
     let (png, line) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
         let (out, row) =

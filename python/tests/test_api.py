@@ -200,3 +200,35 @@ def test_tracing_threads_share_an_engine(office):
         t.join()
     for g in got:
         same_hits(g, want)
+
+
+def test_version_and_a_clean_namespace():
+    assert isinstance(rs.__version__, str) and rs.__version__[0].isdigit()
+    public = {n for n in dir(rs) if not n.startswith("_")}
+    for helper in ("np", "os", "json", "Dict", "List", "Any", "Optional", "Union", "Tuple"):
+        assert helper not in public, helper
+    assert set(rs.__all__) <= set(dir(rs))
+
+
+def test_shared_scenes_by_name_as_the_command_line():
+    from conftest import need, scenes_dir
+
+    need(scenes_dir().is_dir(), f"no shared scenes at {scenes_dir()}")
+    s = rs.Scene.load("sponza")
+    assert s.name == "sponza" and s.triangle_count > 60_000
+    # The automatic camera and light of a bare OBJ come with the ambient fill, and an
+    # exposure of -1 halves every light.
+    bare = str(scenes_dir() / "cornell-box" / "CornellBox-Original.obj")
+    img, stats = rs.render(rs.Scene.load(bare), "grid", width=32, height=32)
+    dark, _ = rs.render(rs.Scene.load(bare, exposure=-1), "grid", width=32, height=32)
+    assert dark.astype(int).sum() < img.astype(int).sum()
+
+
+def test_antialiasing_samples(office):
+    one, s1 = rs.render(office, "grid", width=48, height=48, bounces=1)
+    four, s4 = rs.render(office, "grid", width=48, height=48, bounces=1, spp=4)
+    assert (s1["spp"], s4["spp"]) == (1, 4)
+    assert s4["rays_shadow"] > 3 * s1["rays_shadow"]
+    assert len({tuple(p) for p in four.reshape(-1, 3)}) > len({tuple(p) for p in one.reshape(-1, 3)})
+    with pytest.raises(rs.Error, match="spp=0"):
+        rs.render(office, "grid", width=8, height=8, spp=0)

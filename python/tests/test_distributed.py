@@ -66,9 +66,8 @@ def cluster(tmp_path_factory):
 
 def test_render_frames_equal_the_command_lines(cluster, tmp_path):
     museum = scene_file("bart-museum/aff/museum5.aff")
-    cli_dir, ray_dir = tmp_path / "cli", tmp_path / "ray"
-    cli_dir.mkdir()
-    ray_dir.mkdir()
+    # Neither folder exists: the command line and render_frames both make theirs.
+    cli_dir, ray_dir = tmp_path / "cli", tmp_path / "ray" / "frames"
     run_cli(
         "render", museum, "--frames", "3", "--width", "64", "--height", "64", "--engine", "grid",
         "--out", str(cli_dir / "frame_%04d.png"), "--frame-csv", str(cli_dir / "frames.csv"),
@@ -160,8 +159,10 @@ def test_sweep_counts_equal_one_process(cluster):
 
 
 def test_bad_arguments_raise_before_any_work(tmp_path):
+    afile = tmp_path / "a-file"
+    afile.write_text("x")
     with pytest.raises(rs.Error, match="not a directory"):
-        distributed.render_frames("cornell", 2, out_dir=tmp_path / "missing")
+        distributed.render_frames("cornell", 2, out_dir=afile)
     with pytest.raises(rs.Error, match="not animated"):
         distributed.render_frames("cornell", 2, out_dir=tmp_path)
     with pytest.raises(rs.Error, match="frame number pattern"):
