@@ -139,6 +139,26 @@ impl Engine {
 /// The object side CRSH and RAH use on the CPU unless `--object-hierarchy` says otherwise.
 pub const DEFAULT_OBJECTS: ObjectHierarchy = ObjectHierarchy::Bvh;
 
+/// The object hierarchy `engine` runs with, by name (`bvh`, `mesh-spheres`), for the stats:
+/// the one asked for, else the backend's default (the CPU's BVH; the GPU backend has mesh
+/// spheres only); `None` for engines that are not ray-space hierarchies.
+pub fn object_hierarchy_name(
+    engine: Engine,
+    asked: Option<ObjectHierarchy>,
+    gpu: bool,
+) -> Option<&'static str> {
+    engine.rsh_method()?;
+    let o = match (asked, gpu) {
+        (Some(o), _) => o,
+        (None, true) => ObjectHierarchy::MeshSpheres,
+        (None, false) => DEFAULT_OBJECTS,
+    };
+    Some(match o {
+        ObjectHierarchy::Bvh => "bvh",
+        ObjectHierarchy::MeshSpheres => "mesh-spheres",
+    })
+}
+
 /// What engines are built with: the options of every family, each engine taking its own.
 #[derive(Clone, Debug)]
 pub struct EngineOptions {

@@ -35,6 +35,11 @@ try:
 except _metadata.PackageNotFoundError:  # a source tree without an installed package
     __version__ = "0.1.0"
 
+def __dir__() -> List[str]:
+    """The public names (``dir(rayspace)``), not the helpers this module imports."""
+    return sorted(__all__ + ["distributed"])
+
+
 __all__ = [
     "__version__",
     "MISS",
@@ -226,10 +231,14 @@ def write_rays(
     directions: ArrayLike,
     tmin: Optional[ArrayLike] = None,
     tmax: Optional[ArrayLike] = None,
+    scene: Optional[Scene] = None,
 ) -> None:
-    """Write rays as a rayspace ray file (``write_rays(path, **rays(scene))``)."""
+    """Write rays as a rayspace ray file (``write_rays(path, **rays(scene), scene=scene)``);
+    ``scene``, the scene they were made for, is recorded in the file (its name and a hash
+    of its triangles), as ``rayspace rays`` records it, so ``rayspace trace`` can warn when
+    they are traced against another."""
     o, d, lo, hi = _rays(origins, directions, tmin, tmax)
-    _rayspace.write_rays(_os.fspath(path), o, d, lo, hi)
+    _rayspace.write_rays(_os.fspath(path), o, d, lo, hi, scene)
 
 
 def read_hits(path: PathLike) -> Dict[str, Any]:

@@ -76,6 +76,7 @@ def write_rays(
     directions: npt.NDArray[np.float32],
     tmin: Optional[npt.NDArray[np.float32]] = None,
     tmax: Optional[npt.NDArray[np.float32]] = None,
+    scene: Optional[Scene] = None,
 ) -> None: ...
 def read_hits(path: str) -> Tuple[Dict[str, np.ndarray], bool]: ...
 def write_hits(

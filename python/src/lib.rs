@@ -532,7 +532,7 @@ fn read_rays<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>
 }
 
 #[pyfunction]
-#[pyo3(signature = (path, origins, directions, tmin = None, tmax = None))]
+#[pyo3(signature = (path, origins, directions, tmin = None, tmax = None, scene = None))]
 fn write_rays(
     py: Python<'_>,
     path: PathBuf,
@@ -540,10 +540,12 @@ fn write_rays(
     directions: PyReadonlyArray2<'_, f32>,
     tmin: Option<PyReadonlyArray1<'_, f32>>,
     tmax: Option<PyReadonlyArray1<'_, f32>>,
+    scene: Option<&Scene>,
 ) -> PyResult<()> {
     render::output::check_output(&path).map_err(|e| err(format!("path: {e}")))?;
     let r = batch(&origins, &directions, tmin.as_ref(), tmax.as_ref())?;
-    py.detach(|| render::rayfile::write_rays(&path, &r))
+    let tag = scene.map(|s| render::rayfile::SceneTag::of(&s.scene.name, &s.geo));
+    py.detach(|| render::rayfile::write_rays_for(&path, &r, tag.as_ref()))
         .map_err(err)
 }
 
@@ -618,6 +620,7 @@ fn render_frame<'py>(
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyArray3<u8>>, String)> {
     let (engine, mut opts) = parse_engine(engine, options, dynamic)?;
+    let (engine_kind, objects) = (engine, opts.objects);
     check_image(width, height, bounces)?;
     if !(1..=render::whitted::MAX_SPP).contains(&spp) {
         return Err(err(format!(
@@ -650,6 +653,10 @@ fn render_frame<'py>(
         v["degenerate_skipped"] = sc.report.degenerate_skipped.into();
         v["raster_setup_triangles"] = out.raster.setup.into();
         v["raster_fragments"] = out.raster.fragments.into();
+        // The object side CRSH/RAH ran with, as `render --stats` says it.
+        if let Some(o) = engines::object_hierarchy_name(engine_kind, objects, false) {
+            v["object_hierarchy"] = o.into();
+        }
         Ok((rgb, v.to_string()))
     })?;
     let img = rgb

@@ -78,7 +78,7 @@ def test_rays_and_hits_equal_the_command_lines_files(tmp_path):
     same_hits(hits, cli_hits)
     rs.write_hits(mine, **hits)
     assert mine.read_bytes() == hits_file.read_bytes()
-    rs.write_rays(tmp_path / "again.rays", **made)
+    rs.write_rays(tmp_path / "again.rays", **made, scene=scene)
     assert (tmp_path / "again.rays").read_bytes() == rays_file.read_bytes()
 
 

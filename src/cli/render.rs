@@ -30,19 +30,9 @@ struct StatsFile<'a> {
     object_hierarchy: Option<&'static str>,
 }
 
-/// The object hierarchy CRSH/RAH ran with: the one asked for, else the backend's default
-/// (the CPU's BVH; the GPU has mesh spheres only).
+/// The object hierarchy CRSH/RAH ran with (`engines::object_hierarchy_name`).
 fn object_hierarchy(a: &RenderArgs) -> Option<&'static str> {
-    a.engine.rsh_method()?;
-    let o = match (a.rsh.objects, a.backend) {
-        (Some(o), _) => o,
-        (None, Backend::Gpu) => rsh::ObjectHierarchy::MeshSpheres,
-        (None, Backend::Cpu) => rayspace::engines::DEFAULT_OBJECTS,
-    };
-    Some(match o {
-        rsh::ObjectHierarchy::Bvh => "bvh",
-        rsh::ObjectHierarchy::MeshSpheres => "mesh-spheres",
-    })
+    engines::object_hierarchy_name(a.engine, a.rsh.objects, a.backend == Backend::Gpu)
 }
 
 pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
