@@ -20,12 +20,20 @@ pub struct FrameRow {
     pub triangles: usize,
     pub update_ms: f64,
     pub build_ms: f64,
-    pub trace_ms: f64,
+    /// The whole render (the CSV's `render_ms`): rasterization, ray creation, the engine's
+    /// trace calls and shading, the four phase columns below.
+    pub render_ms: f64,
     pub rays: u64,
     pub total_tests: u64,
     /// Engine phases inside the render (ms): for CRSH/RAH the per-frame ray-hierarchy build
     /// (hash … hierarchy creation) and its traversal, in [`engine_phases`] order.
     pub phases_ms: Vec<(Phase, f64)>,
+    /// The render's phases (ms): primary visibility into the G-buffer, ray creation, the
+    /// engine's trace calls, shading (the CSV's last four columns).
+    pub raster_ms: f64,
+    pub ray_creation_ms: f64,
+    pub trace_ms: f64,
+    pub shading_ms: f64,
 }
 
 /// The engine phases `--frame-csv` reports (the CPU's: no transfers; absent phases are 0).
@@ -41,7 +49,7 @@ impl FrameRow {
         for p in engine_phases() {
             h += &format!(",{}_ms", p.as_str().replace(' ', "_"));
         }
-        h
+        h + ",raster_ms,ray_creation_ms,trace_ms,shading_ms"
     }
 
     /// The record as a CSV line (without the line end).
@@ -53,14 +61,17 @@ impl FrameRow {
             self.triangles,
             self.update_ms,
             self.build_ms,
-            self.trace_ms,
+            self.render_ms,
             self.rays,
             self.total_tests
         );
         for (_, p) in &self.phases_ms {
             l += &format!(",{p:.3}");
         }
-        l
+        l + &format!(
+            ",{:.3},{:.3},{:.3},{:.3}",
+            self.raster_ms, self.ray_creation_ms, self.trace_ms, self.shading_ms
+        )
     }
 }
 
@@ -103,12 +114,16 @@ impl FrameRow {
             triangles: geo.len(),
             update_ms: secs[0] * 1e3,
             build_ms: secs[1] * 1e3,
-            trace_ms: secs[2] * 1e3,
+            render_ms: secs[2] * 1e3,
             rays: out.stats.rays_traced(),
             total_tests: out.stats.trace.total_tests(),
             phases_ms: engine_phases()
                 .map(|p| (p, out.stats.trace.seconds(p) * 1e3))
                 .collect(),
+            raster_ms: out.stats.raster_ms,
+            ray_creation_ms: out.stats.ray_creation_ms,
+            trace_ms: out.stats.trace_ms,
+            shading_ms: out.stats.shading_ms,
         }
     }
 }

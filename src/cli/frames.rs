@@ -77,7 +77,7 @@ pub fn render_frames(
         a.engine.name(),
         mean(&|r| r.update_ms),
         mean(&|r| r.build_ms),
-        mean(&|r| r.trace_ms),
+        mean(&|r| r.render_ms),
         {
             // Ray-space hierarchies build their structure inside the render, per batch.
             let h = mean(&|r| r.phases_ms.iter().filter(|p| p.0.is_build()).map(|p| p.1).sum());

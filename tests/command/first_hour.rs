@@ -264,11 +264,40 @@ fn animation_workflow() {
         "more/s.json",
     ];
     args.extend_from_slice(&small);
+    args.extend_from_slice(&["--frame-csv", "f.csv"]);
     ok(&d, &args);
     assert!(d.join("new/dir/0000.png").exists() && d.join("new/dir/0001.png").exists());
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("more/s.json")).unwrap()).unwrap();
     assert_eq!(v.as_array().map(|a| a.len()), Some(2));
+    // Every frame's phases: the JSON's four figures and the CSV's last four columns, which
+    // fit inside the render's time (they are its parts).
+    for f in v.as_array().unwrap() {
+        for k in ["raster_ms", "ray_creation_ms", "trace_ms", "shading_ms"] {
+            assert!(f[k].as_f64().is_some_and(|x| x >= 0.0), "{k}: {f}");
+        }
+    }
+    let csv = std::fs::read_to_string(d.join("f.csv")).unwrap();
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert!(head.starts_with(&[
+        "frame",
+        "time",
+        "triangles",
+        "update_ms",
+        "build_ms",
+        "render_ms"
+    ]));
+    assert!(head.ends_with(&["raster_ms", "ray_creation_ms", "trace_ms", "shading_ms"]));
+    for line in lines {
+        let x: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+        let parts: f64 = x[x.len() - 4..].iter().sum();
+        assert!(
+            parts > 0.0 && parts <= x[5] + 0.01,
+            "{parts} ms of phases in a {} ms render",
+            x[5]
+        );
+    }
     // Without --out: a folder named after the scene.
     let mut args = vec!["render", a, "--frames", "2"];
     args.extend_from_slice(&small);

@@ -108,6 +108,15 @@ pub struct RenderStats {
     /// Wall-clock seconds per renderer phase, in execution order (in JSON, `[name,
     /// seconds]` pairs).
     pub phases: Vec<(FramePhase, f64)>,
+    /// Milliseconds of the four renderer phases ([`RenderStats::set_phase_ms`]): primary
+    /// visibility into the G-buffer, ...
+    pub raster_ms: f64,
+    /// ... the surfaces and rays of every generation, ...
+    pub ray_creation_ms: f64,
+    /// ... inside the engine's trace calls only, ...
+    pub trace_ms: f64,
+    /// ... and shading with the accumulation into the pixels; together the render.
+    pub shading_ms: f64,
     /// GPU backend: bytes moved between host and device during the frame, both ways (every
     /// upload, launch parameter block and read-back; absent on the CPU).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -155,6 +164,16 @@ impl RenderStats {
         };
         add(&mut self.host_device_bytes, o.host_device_bytes);
         add(&mut self.host_read_backs, o.host_read_backs);
+    }
+
+    /// The four phase figures (`raster_ms`, `ray_creation_ms`, `trace_ms`, `shading_ms`)
+    /// from [`RenderStats::phases`], as the frame CSV and the JSON report them.
+    pub fn set_phase_ms(&mut self) {
+        let ms = |s: &Self, p: FramePhase| s.phase_seconds(&p) * 1e3;
+        self.raster_ms = ms(self, FramePhase::Rasterize);
+        self.ray_creation_ms = ms(self, FramePhase::RayCreation);
+        self.trace_ms = ms(self, FramePhase::Trace);
+        self.shading_ms = ms(self, FramePhase::Shading);
     }
 
     /// All traced rays.

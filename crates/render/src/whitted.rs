@@ -248,6 +248,7 @@ pub fn run<B: Backend>(
     }
     out.srgb8 = None;
     out.stats.spp = spp;
+    out.stats.set_phase_ms();
     out
 }
 
@@ -329,7 +330,9 @@ fn frame<B: Backend>(
     }
     stats.total_tests = stats.trace.total_tests();
     stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
-    backend.finish(stats, linear)
+    let mut out = backend.finish(stats, linear);
+    out.stats.set_phase_ms();
+    out
 }
 
 /// Trace primary rays through every pixel centre (closest hit): the reference the
