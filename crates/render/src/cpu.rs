@@ -5,7 +5,7 @@
 //! with device buffers.
 
 use crate::raster::{rasterize, GBuffer, RasterStats};
-use crate::secondary::{bounce_rays, shadow_rays, Surfaces};
+use crate::secondary::{bounce_rays_into, shadow_rays_into, Surfaces};
 use crate::shade;
 use crate::stats::RenderStats;
 use crate::view::View;
@@ -26,6 +26,19 @@ pub struct CpuBackend<'a> {
     gb: GBuffer,
     raster: RasterStats,
     pixels: Vec<Vec3>,
+    arena: FrameArena,
+}
+
+/// The buffers of a frame's generations, kept for the next generation and the next
+/// frame (`--frames`, the viewer, the bindings): ray batches, hit records, surfaces and
+/// shaded colours, refilled in place so a steady frame allocates nothing and faults in
+/// no fresh pages for them.
+#[derive(Default)]
+pub struct FrameArena {
+    rays: Vec<RayBatch>,
+    hits: Vec<Vec<Hit>>,
+    surfaces: Vec<Surfaces>,
+    shaded: Vec<Vec3>,
 }
 
 impl<'a> CpuBackend<'a> {
@@ -39,6 +52,7 @@ impl<'a> CpuBackend<'a> {
             gb: GBuffer::default(),
             raster: RasterStats::default(),
             pixels: Vec::new(),
+            arena: FrameArena::default(),
         }
     }
 }
@@ -50,22 +64,54 @@ impl CpuBackend<'_> {
         self.given = Some(gb);
         self
     }
+
+    /// The frame with the buffers an earlier frame left (see [`FrameArena`]).
+    pub fn with_arena(mut self, arena: FrameArena) -> Self {
+        self.arena = arena;
+        self
+    }
+
+    /// The buffers, for the next frame.
+    pub fn into_arena(self) -> FrameArena {
+        self.arena
+    }
+
+    fn spare_rays(&mut self) -> RayBatch {
+        self.arena.rays.pop().unwrap_or_default()
+    }
+
+    fn spare_surfaces(&mut self) -> Surfaces {
+        self.arena.surfaces.pop().unwrap_or_default()
+    }
 }
 
 /// Local illumination of every surface of `s` times its throughput ([`shade::local`]) under
 /// `scene`'s materials and lights; `occluded[i · lights + l]` says whether light l is hidden
 /// from surface i.
 pub fn local_shading(s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    shade_into(s, scene, |k| occluded[k], &mut out);
+    out
+}
+
+/// [`local_shading`] into `out` (kept), in parallel, with `occluded(i · lights + l)`.
+fn shade_into(
+    s: &Surfaces,
+    scene: &Scene,
+    occluded: impl Fn(usize) -> bool + Sync,
+    out: &mut Vec<Vec3>,
+) {
     let (materials, lights) = (&scene.materials, &scene.lights);
     let nl = lights.len();
+    out.clear();
     (0..s.len())
         .into_par_iter()
         .map(|i| {
-            let visible: Vec<bool> = (0..nl).map(|l| !occluded[i * nl + l]).collect();
             let m = &materials[s.material[i] as usize];
-            shade::local(s, i, m, lights, &visible, scene.ambient) * s.throughput[i]
+            let visible = |l: usize| !occluded(i * nl + l);
+            shade::local_with(s, i, m, lights, visible, scene.ambient) * s.throughput[i]
         })
-        .collect()
+        .collect_into_vec(out);
 }
 
 impl Backend for CpuBackend<'_> {
@@ -92,13 +138,15 @@ impl Backend for CpuBackend<'_> {
 
     fn primary_surfaces(&mut self, view: &View) -> Surfaces {
         let bg = self.scene.background;
-        self.pixels = self
-            .gb
+        self.pixels.clear();
+        self.gb
             .tri
-            .iter()
+            .par_iter()
             .map(|&t| if t == geom::NO_HIT { bg } else { Vec3::ZERO })
-            .collect();
-        Surfaces::from_gbuffer(&self.gb, self.geo, view.eye)
+            .collect_into_vec(&mut self.pixels);
+        let mut s = self.spare_surfaces();
+        s.fill_from_gbuffer(&self.gb, self.geo, view.eye);
+        s
     }
 
     fn surfaces_len(&self, s: &Surfaces) -> u64 {
@@ -106,11 +154,15 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn shadow_rays(&mut self, s: &Surfaces) -> RayBatch {
-        shadow_rays(s, &self.scene.lights)
+        let mut b = self.spare_rays();
+        shadow_rays_into(s, &self.scene.lights, &mut b);
+        b
     }
 
     fn bounce_rays(&mut self, s: &Surfaces) -> RayBatch {
-        bounce_rays(s, &self.scene.materials)
+        let mut b = self.spare_rays();
+        bounce_rays_into(s, &self.scene.materials, &mut b);
+        b
     }
 
     fn rays_len(&self, r: &RayBatch) -> u64 {
@@ -122,22 +174,24 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn trace(&mut self, r: &RayBatch, mode: TraceMode, stats: &mut TraceStats) -> Vec<Hit> {
-        let mut hits = vec![Hit::MISS; r.len()];
+        let mut hits = self.arena.hits.pop().unwrap_or_default();
+        hits.clear();
+        hits.resize(r.len(), Hit::MISS);
         self.tracer.trace(r, mode, &mut hits, stats);
         hits
     }
 
     fn shade(&mut self, s: &Surfaces, shadows: Option<(&RayBatch, &Vec<Hit>)>) {
-        let occluded: Vec<bool> = match shadows {
-            Some((_, h)) => h.iter().map(|h| h.is_hit()).collect(),
-            None => vec![false; s.len() * self.scene.lights.len()],
-        };
-        for (i, c) in local_shading(s, self.scene, &occluded)
-            .into_iter()
-            .enumerate()
-        {
-            self.pixels[s.pixel[i] as usize] += c;
+        let mut shaded = std::mem::take(&mut self.arena.shaded);
+        match shadows {
+            Some((_, h)) => shade_into(s, self.scene, |k| h[k].is_hit(), &mut shaded),
+            None => shade_into(s, self.scene, |_| false, &mut shaded),
         }
+        // Added in surface order, so the bytes do not depend on the threads.
+        for (&p, c) in s.pixel.iter().zip(&shaded) {
+            self.pixels[p as usize] += *c;
+        }
+        self.arena.shaded = shaded;
     }
 
     fn next_surfaces(&mut self, r: &RayBatch, h: &Vec<Hit>) -> Surfaces {
@@ -147,7 +201,18 @@ impl Backend for CpuBackend<'_> {
                 self.pixels[r.pixel[i] as usize] += bg * r.throughput[i];
             }
         }
-        Surfaces::from_hits(r, h, self.geo)
+        let mut s = self.spare_surfaces();
+        s.fill_from_hits(r, h, self.geo);
+        s
+    }
+
+    fn recycle(&mut self, r: RayBatch, h: Option<Vec<Hit>>) {
+        self.arena.rays.push(r);
+        self.arena.hits.extend(h);
+    }
+
+    fn recycle_surfaces(&mut self, s: Surfaces) {
+        self.arena.surfaces.push(s);
     }
 
     fn sync(&mut self) {}

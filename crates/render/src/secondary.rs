@@ -9,7 +9,9 @@ use geom::ray::offset_point;
 use geom::{Ray, Vec3, NO_HIT};
 use rayon::prelude::*;
 use scene::{Geometry, Light, Material};
+use std::mem::MaybeUninit;
 use trace::batch::{Hit, RayBatch, RayKind};
+use trace::fill::{scan_pieces, uninit_pieces};
 
 /// Surface points to shade, structure of arrays.
 #[derive(Clone, Debug, Default)]
@@ -33,6 +35,65 @@ pub struct Surfaces {
     /// Largest absolute vertex coordinate of the surface's triangle: the magnitude the
     /// self-intersection offset is scaled by ([`offset_point`]).
     pub scale: Vec<f32>,
+}
+
+/// Surfaces (or rays) per piece of a parallel refill: large enough that a piece's
+/// bookkeeping is noise, small enough that both cores get many pieces.
+const PIECE: usize = 8192;
+
+/// One surface, as [`SurfCursor::put`] writes it.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    /// See [`Surfaces::pixel`].
+    pub pixel: u32,
+    /// See [`Surfaces::pos`].
+    pub pos: Vec3,
+    /// See [`Surfaces::ng`].
+    pub ng: Vec3,
+    /// See [`Surfaces::ns`].
+    pub ns: Vec3,
+    /// See [`Surfaces::incident`].
+    pub incident: Vec3,
+    /// See [`Surfaces::material`].
+    pub material: u32,
+    /// See [`Surfaces::throughput`].
+    pub throughput: Vec3,
+    /// See [`Surfaces::depth`].
+    pub depth: u8,
+    /// See [`Surfaces::scale`].
+    pub scale: f32,
+}
+
+/// One piece of a [`Surfaces`] being refilled ([`Surfaces::refill`]).
+pub struct SurfCursor<'a> {
+    pixel: &'a mut [MaybeUninit<u32>],
+    pos: &'a mut [MaybeUninit<Vec3>],
+    ng: &'a mut [MaybeUninit<Vec3>],
+    ns: &'a mut [MaybeUninit<Vec3>],
+    incident: &'a mut [MaybeUninit<Vec3>],
+    material: &'a mut [MaybeUninit<u32>],
+    throughput: &'a mut [MaybeUninit<Vec3>],
+    depth: &'a mut [MaybeUninit<u8>],
+    scale: &'a mut [MaybeUninit<f32>],
+    at: usize,
+}
+
+impl SurfCursor<'_> {
+    /// Write the next surface of the piece (panics past the piece's end).
+    #[inline]
+    pub fn put(&mut self, s: Surface) {
+        let k = self.at;
+        self.pixel[k].write(s.pixel);
+        self.pos[k].write(s.pos);
+        self.ng[k].write(s.ng);
+        self.ns[k].write(s.ns);
+        self.incident[k].write(s.incident);
+        self.material[k].write(s.material);
+        self.throughput[k].write(s.throughput);
+        self.depth[k].write(s.depth);
+        self.scale[k].write(s.scale);
+        self.at = k + 1;
+    }
 }
 
 /// Largest absolute coordinate of triangle `t`'s vertices.
@@ -71,42 +132,129 @@ impl Surfaces {
     /// Covered G-buffer pixels, in pixel order.
     pub fn from_gbuffer(gb: &GBuffer, geo: &Geometry, eye: Vec3) -> Surfaces {
         let mut s = Surfaces::default();
-        for (p, &t) in gb.tri.iter().enumerate() {
-            if t == NO_HIT {
-                continue;
-            }
-            let pos = gb.position[p];
-            s.pixel.push(p as u32);
-            s.pos.push(pos);
-            s.ng.push(geo.geometric_normal(t));
-            s.ns.push(gb.normal[p]);
-            s.incident.push((pos - eye).normalize_or(Vec3::Z));
-            s.material.push(geo.material[t as usize]);
-            s.throughput.push(Vec3::ONE);
-            s.depth.push(0);
-            s.scale.push(tri_scale(geo, t));
-        }
+        s.fill_from_gbuffer(gb, geo, eye);
         s
+    }
+
+    /// [`Surfaces::from_gbuffer`] into these buffers (kept: no allocation once they are
+    /// large enough), in parallel over rows: count → scan → write.
+    pub fn fill_from_gbuffer(&mut self, gb: &GBuffer, geo: &Geometry, eye: Vec3) {
+        let (bounds, ranges) = scan_pieces(gb.tri.len(), PIECE, |r| {
+            gb.tri[r].iter().filter(|&&t| t != NO_HIT).count()
+        });
+        self.refill(*bounds.last().expect("bounds"), &bounds, |p, c| {
+            for i in ranges[p].clone() {
+                let t = gb.tri[i];
+                if t == NO_HIT {
+                    continue;
+                }
+                let pos = gb.position[i];
+                c.put(Surface {
+                    pixel: i as u32,
+                    pos,
+                    ng: geo.geometric_normal(t),
+                    ns: gb.normal[i],
+                    incident: (pos - eye).normalize_or(Vec3::Z),
+                    material: geo.material[t as usize],
+                    throughput: Vec3::ONE,
+                    depth: 0,
+                    scale: tri_scale(geo, t),
+                });
+            }
+        });
     }
 
     /// The closest hits of a batch, in ray order (misses are skipped).
     pub fn from_hits(rays: &RayBatch, hits: &[Hit], geo: &Geometry) -> Surfaces {
         let mut s = Surfaces::default();
-        for (i, h) in hits.iter().enumerate() {
-            if !h.is_hit() {
-                continue;
-            }
-            s.pixel.push(rays.pixel[i]);
-            s.pos.push(geo.point(h.tri, h.u, h.v));
-            s.ng.push(geo.geometric_normal(h.tri));
-            s.ns.push(geo.shading_normal(h.tri, h.u, h.v));
-            s.incident.push(rays.dir[i]);
-            s.material.push(geo.material[h.tri as usize]);
-            s.throughput.push(rays.throughput[i]);
-            s.depth.push(rays.depth[i].saturating_add(1));
-            s.scale.push(tri_scale(geo, h.tri));
-        }
+        s.fill_from_hits(rays, hits, geo);
         s
+    }
+
+    /// [`Surfaces::from_hits`] into these buffers, in parallel: count → scan → write.
+    pub fn fill_from_hits(&mut self, rays: &RayBatch, hits: &[Hit], geo: &Geometry) {
+        let (bounds, ranges) = scan_pieces(hits.len(), PIECE, |r| {
+            hits[r].iter().filter(|h| h.is_hit()).count()
+        });
+        self.refill(*bounds.last().expect("bounds"), &bounds, |p, c| {
+            for i in ranges[p].clone() {
+                let h = hits[i];
+                if !h.is_hit() {
+                    continue;
+                }
+                c.put(Surface {
+                    pixel: rays.pixel[i],
+                    pos: geo.point(h.tri, h.u, h.v),
+                    ng: geo.geometric_normal(h.tri),
+                    ns: geo.shading_normal(h.tri, h.u, h.v),
+                    incident: rays.dir[i],
+                    material: geo.material[h.tri as usize],
+                    throughput: rays.throughput[i],
+                    depth: rays.depth[i].saturating_add(1),
+                    scale: tri_scale(geo, h.tri),
+                });
+            }
+        });
+    }
+
+    /// Refill with `n` surfaces written in parallel, piece `i` (`bounds[i]..bounds[i + 1]`)
+    /// by `fill(i, cursor)` in order (see [`trace::fill`]). Panics, before any length is
+    /// set, if a piece is not written whole.
+    pub fn refill(
+        &mut self,
+        n: usize,
+        bounds: &[usize],
+        fill: impl Fn(usize, &mut SurfCursor) + Sync,
+    ) {
+        let mut pixel = uninit_pieces(&mut self.pixel, n, bounds).into_iter();
+        let mut pos = uninit_pieces(&mut self.pos, n, bounds).into_iter();
+        let mut ng = uninit_pieces(&mut self.ng, n, bounds).into_iter();
+        let mut ns = uninit_pieces(&mut self.ns, n, bounds).into_iter();
+        let mut incident = uninit_pieces(&mut self.incident, n, bounds).into_iter();
+        let mut material = uninit_pieces(&mut self.material, n, bounds).into_iter();
+        let mut throughput = uninit_pieces(&mut self.throughput, n, bounds).into_iter();
+        let mut depth = uninit_pieces(&mut self.depth, n, bounds).into_iter();
+        let mut scale = uninit_pieces(&mut self.scale, n, bounds).into_iter();
+        let e = "a piece per bound";
+        let cursors: Vec<SurfCursor> = (0..bounds.len() - 1)
+            .map(|_| SurfCursor {
+                pixel: pixel.next().expect(e),
+                pos: pos.next().expect(e),
+                ng: ng.next().expect(e),
+                ns: ns.next().expect(e),
+                incident: incident.next().expect(e),
+                material: material.next().expect(e),
+                throughput: throughput.next().expect(e),
+                depth: depth.next().expect(e),
+                scale: scale.next().expect(e),
+                at: 0,
+            })
+            .collect();
+        let whole: Vec<bool> = cursors
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, mut c)| {
+                fill(i, &mut c);
+                c.at == c.pixel.len()
+            })
+            .collect();
+        assert!(
+            whole.iter().all(|&w| w),
+            "Surfaces::refill: a piece was not written whole"
+        );
+        // SAFETY: every piece's cursor reached its end, so each of the n elements of every
+        // array was written.
+        unsafe {
+            self.pixel.set_len(n);
+            self.pos.set_len(n);
+            self.ng.set_len(n);
+            self.ns.set_len(n);
+            self.incident.set_len(n);
+            self.material.set_len(n);
+            self.throughput.set_len(n);
+            self.depth.set_len(n);
+            self.scale.set_len(n);
+        }
     }
 
     /// Geometric and shading normals turned to the side the ray came from.
@@ -134,35 +282,45 @@ impl Surfaces {
 /// scaled to the coordinates involved ([`offset_point`]), so the fragment's own triangle is
 /// never hit, at any distance or angle.
 pub fn shadow_rays(s: &Surfaces, lights: &[Light]) -> RayBatch {
-    let n = s.len() * lights.len();
-    let rays: Vec<(Ray, u32, u32)> = (0..n)
-        .into_par_iter()
-        .map(|k| {
-            let (i, l) = (k / lights.len(), k % lights.len());
-            let lp = lights[l].position;
-            let p = s.pos[i];
-            let ng = if s.ng[i].dot(lp - p) >= 0.0 {
-                s.ng[i]
-            } else {
-                -s.ng[i]
-            };
-            let end = offset_point(p, ng, s.scale[i].max(lp.abs().max_element()));
-            let d = end - lp;
-            let dist = d.length();
-            let ray = if dist > 0.0 && dist.is_finite() {
-                Ray::new(lp, d / dist, 0.0, dist)
-            } else {
-                Ray::new(lp, Vec3::Z, 0.0, 0.0)
-            };
-            (ray, s.pixel[i], l as u32)
-        })
-        .collect();
-    let mut b = RayBatch::with_capacity(n);
-    for (k, (r, px, l)) in rays.into_iter().enumerate() {
-        let i = k / lights.len();
-        b.push(r, RayKind::Shadow, px, l, s.throughput[i], s.depth[i]);
-    }
+    let mut b = RayBatch::default();
+    shadow_rays_into(s, lights, &mut b);
     b
+}
+
+/// [`shadow_rays`] into `b`'s buffers (kept: no allocation once they are large enough),
+/// written in parallel, surface-major as a serial loop makes them.
+pub fn shadow_rays_into(s: &Surfaces, lights: &[Light], b: &mut RayBatch) {
+    let nl = lights.len();
+    let (bounds, ranges) = scan_pieces(s.len(), PIECE, |r| r.len() * nl);
+    b.refill(s.len() * nl, 0, &bounds, |piece, c| {
+        for i in ranges[piece].clone() {
+            let p = s.pos[i];
+            for (l, light) in lights.iter().enumerate() {
+                let lp = light.position;
+                let ng = if s.ng[i].dot(lp - p) >= 0.0 {
+                    s.ng[i]
+                } else {
+                    -s.ng[i]
+                };
+                let end = offset_point(p, ng, s.scale[i].max(lp.abs().max_element()));
+                let d = end - lp;
+                let dist = d.length();
+                let ray = if dist > 0.0 && dist.is_finite() {
+                    Ray::new(lp, d / dist, 0.0, dist)
+                } else {
+                    Ray::new(lp, Vec3::Z, 0.0, 0.0)
+                };
+                c.put(
+                    ray,
+                    RayKind::Shadow,
+                    s.pixel[i],
+                    l as u32,
+                    s.throughput[i],
+                    s.depth[i],
+                );
+            }
+        }
+    });
 }
 
 /// Mirror direction (eq. 3.4) of unit `i` about unit `n`.
@@ -188,14 +346,35 @@ pub fn refract(i: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 /// 3.3–3.7). Total internal reflection turns the refracted ray into a reflected one with the
 /// refraction's weight. Origins are offset to the side the new ray leaves from.
 pub fn bounce_rays(s: &Surfaces, materials: &[Material]) -> RayBatch {
-    let per: Vec<Vec<(Ray, RayKind, Vec3)>> = (0..s.len())
-        .into_par_iter()
-        .map(|i| {
+    let mut b = RayBatch::default();
+    bounce_rays_into(s, materials, &mut b);
+    b
+}
+
+/// How many rays surface `i` spawns: one per reflective or transparent property of its
+/// material (total internal reflection keeps the refraction's ray as a reflection).
+#[inline]
+fn bounce_count(s: &Surfaces, materials: &[Material], i: usize) -> usize {
+    let m = &materials[s.material[i] as usize];
+    (m.reflectivity > 0.0) as usize + (m.transparency > 0.0) as usize
+}
+
+/// [`bounce_rays`] into `b`'s buffers, in parallel: count → scan → write, surface-major
+/// as a serial loop makes them.
+pub fn bounce_rays_into(s: &Surfaces, materials: &[Material], b: &mut RayBatch) {
+    let (bounds, ranges) = scan_pieces(s.len(), PIECE, |r| {
+        r.map(|i| bounce_count(s, materials, i)).sum()
+    });
+    b.refill(*bounds.last().expect("bounds"), 0, &bounds, |piece, c| {
+        for i in ranges[piece].clone() {
             let m = &materials[s.material[i] as usize];
-            let mut out = Vec::new();
+            if m.reflectivity <= 0.0 && m.transparency <= 0.0 {
+                continue;
+            }
             let inc = s.incident[i];
             let (ngf, nsf) = s.facing_normals(i);
             let p = s.pos[i];
+            let (px, depth) = (s.pixel[i], s.depth[i]);
             let mirror = || {
                 let mut d = reflect(inc, nsf);
                 if d.dot(ngf) <= 0.0 {
@@ -205,11 +384,8 @@ pub fn bounce_rays(s: &Surfaces, materials: &[Material]) -> RayBatch {
                 Ray::new(offset_point(p, ngf, s.scale[i]), d, 0.0, f32::INFINITY)
             };
             if m.reflectivity > 0.0 {
-                out.push((
-                    mirror(),
-                    RayKind::Reflection,
-                    s.throughput[i] * m.reflectivity,
-                ));
+                let w = s.throughput[i] * m.reflectivity;
+                c.put(mirror(), RayKind::Reflection, px, 0, w, depth);
             }
             if m.transparency > 0.0 {
                 let entering = s.ng[i].dot(inc) < 0.0;
@@ -220,25 +396,14 @@ pub fn bounce_rays(s: &Surfaces, materials: &[Material]) -> RayBatch {
                         if d.dot(ngf) >= 0.0 {
                             d = refract(inc, ngf, eta).unwrap_or(inc);
                         }
-                        out.push((
-                            Ray::new(offset_point(p, -ngf, s.scale[i]), d, 0.0, f32::INFINITY),
-                            RayKind::Refraction,
-                            w,
-                        ));
+                        let r = Ray::new(offset_point(p, -ngf, s.scale[i]), d, 0.0, f32::INFINITY);
+                        c.put(r, RayKind::Refraction, px, 0, w, depth);
                     }
-                    None => out.push((mirror(), RayKind::Reflection, w)),
+                    None => c.put(mirror(), RayKind::Reflection, px, 0, w, depth),
                 }
             }
-            out
-        })
-        .collect();
-    let mut b = RayBatch::with_capacity(per.iter().map(|v| v.len()).sum());
-    for (i, rays) in per.into_iter().enumerate() {
-        for (r, k, w) in rays {
-            b.push(r, k, s.pixel[i], 0, w, s.depth[i]);
         }
-    }
-    b
+    });
 }
 
 #[cfg(test)]

@@ -26,12 +26,26 @@ pub fn local(
     visible: &[bool],
     ambient: Vec3,
 ) -> Vec3 {
+    local_with(s, i, m, lights, |l| visible[l], ambient)
+}
+
+/// [`local`] with light l's visibility from `visible(l)` (the renderer reads it straight
+/// from the shadow rays' hits, so no per-surface array is made).
+#[inline]
+pub fn local_with(
+    s: &Surfaces,
+    i: usize,
+    m: &Material,
+    lights: &[Light],
+    visible: impl Fn(usize) -> bool,
+    ambient: Vec3,
+) -> Vec3 {
     let (_, n) = s.facing_normals(i);
     let p = s.pos[i];
     let view = s.incident[i];
     let mut color = m.emission + m.ambient * ambient;
     for (l, light) in lights.iter().enumerate() {
-        if !visible[l] {
+        if !visible(l) {
             continue;
         }
         let to_light = light.position - p;

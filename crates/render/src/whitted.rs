@@ -150,6 +150,11 @@ pub trait Backend {
     /// The background times the weight of every ray of `r` that hit nothing, added to its
     /// pixel in ray order, then the surfaces of the hits, in ray order.
     fn next_surfaces(&mut self, r: &Self::Rays, h: &Self::Hits) -> Self::Surfaces;
+    /// Take back a batch and its hits the loop is done with (a backend may keep their
+    /// buffers for the next generation or frame).
+    fn recycle(&mut self, _rays: Self::Rays, _hits: Option<Self::Hits>) {}
+    /// Take back surfaces the loop is done with.
+    fn recycle_surfaces(&mut self, _s: Self::Surfaces) {}
     /// Wait for the work queued so far (a device backend; the CPU's is done already).
     fn sync(&mut self);
     /// The image and the G-buffer as the render's result, with `stats`; `linear`: the
@@ -312,6 +317,7 @@ fn frame<B: Backend>(
         timed(backend, st, FramePhase::Shading, |b| {
             b.shade(&surfaces, occluded.as_ref().map(|h| (&shadows, h)))
         });
+        backend.recycle(shadows, occluded);
         if generation >= opts.bounces || n == 0 {
             break;
         }
@@ -320,14 +326,18 @@ fn frame<B: Backend>(
             b.bounce_rays(&surfaces)
         });
         if backend.rays_len(&rays) == 0 {
+            backend.recycle(rays, None);
             break;
         }
         let hits = trace(backend, &rays, TraceMode::Closest, st);
-        surfaces = timed(backend, st, FramePhase::Shading, |b| {
+        let next = timed(backend, st, FramePhase::Shading, |b| {
             b.next_surfaces(&rays, &hits)
         });
+        backend.recycle(rays, Some(hits));
+        backend.recycle_surfaces(std::mem::replace(&mut surfaces, next));
         generation += 1;
     }
+    backend.recycle_surfaces(surfaces);
     stats.total_tests = stats.trace.total_tests();
     stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
     let mut out = backend.finish(stats, linear);

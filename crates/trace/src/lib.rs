@@ -13,6 +13,7 @@
 
 pub mod batch;
 pub mod error;
+pub mod fill;
 pub mod memory;
 pub mod stats;
 pub mod tracer;
