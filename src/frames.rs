@@ -6,7 +6,7 @@
 //! through [`gpu_frame`] with the same record.
 
 use crate::engines::{self, Engine, EngineError, EngineOptions};
-use render::whitted::{render, RenderOptions, Rendered};
+use render::whitted::{RenderOptions, Rendered};
 use scene::Geometry;
 use serde::Serialize;
 use std::time::Instant;
@@ -75,13 +75,22 @@ impl FrameRow {
     }
 }
 
-/// The scene at time `t` and its geometry (transforms and the meshes' culling spheres
+/// What a sequence of frames keeps from one frame to the next: the geometry's buffers
+/// and the renderer's ([`render::cpu::FrameArena`]), refilled in place each frame.
+#[derive(Default)]
+pub struct FrameBuffers {
+    geo: Geometry,
+    arena: render::cpu::FrameArena,
+}
+
+/// The scene at time `t` as a frame renders it (camera, lights, materials; the meshes'
+/// triangles are `geo`'s, refilled in place: transforms and the meshes' culling spheres
 /// updated), with the seconds it took.
-fn update(scene: &scene::Scene, t: f32) -> (scene::Scene, Geometry, f64) {
+fn update(scene: &scene::Scene, t: f32, geo: &mut Geometry) -> (scene::Scene, f64) {
     let t0 = Instant::now();
-    let s = scene.at_time(t);
-    let geo = Geometry::from_scene(&s);
-    (s, geo, t0.elapsed().as_secs_f64())
+    let s = scene.frame_at(t);
+    geo.refill_at(scene, t);
+    (s, t0.elapsed().as_secs_f64())
 }
 
 /// Frame `index` of `scene` at time `t`: update the transforms, rebuild `engine`, render.
@@ -93,14 +102,40 @@ pub fn frame(
     eopts: &EngineOptions,
     opts: &RenderOptions,
 ) -> Result<(Rendered, FrameRow), EngineError> {
-    let (s, geo, update_s) = update(scene, t);
+    frame_with(
+        &mut FrameBuffers::default(),
+        scene,
+        t,
+        index,
+        engine,
+        eopts,
+        opts,
+    )
+}
+
+/// [`frame`] with the buffers of the frames before it (`render --frames` keeps one
+/// [`FrameBuffers`] for the whole sequence, so a steady frame allocates almost nothing).
+pub fn frame_with(
+    buffers: &mut FrameBuffers,
+    scene: &scene::Scene,
+    t: f32,
+    index: u32,
+    engine: Engine,
+    eopts: &EngineOptions,
+    opts: &RenderOptions,
+) -> Result<(Rendered, FrameRow), EngineError> {
+    let (s, update_s) = update(scene, t, &mut buffers.geo);
+    let geo = &buffers.geo;
     let t1 = Instant::now();
-    let tracer = engines::build(engine, eopts, &geo)?.tracer;
+    let tracer = engines::build(engine, eopts, geo)?.tracer;
     let build_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    let out = render(&s, &geo, tracer.as_ref(), opts, &());
+    let arena = std::mem::take(&mut buffers.arena);
+    let mut backend = render::cpu::CpuBackend::new(&s, geo, tracer.as_ref()).with_arena(arena);
+    let out = render::whitted::run(&mut backend, &s, geo, opts, &());
+    buffers.arena = backend.into_arena();
     let trace_s = t2.elapsed().as_secs_f64();
-    let row = FrameRow::of(index, t, &geo, [update_s, build_s, trace_s], &out);
+    let row = FrameRow::of(index, t, geo, [update_s, build_s, trace_s], &out);
     Ok((out, row))
 }
 
@@ -139,7 +174,8 @@ pub fn gpu_frame(
     index: u32,
     opts: &RenderOptions,
 ) -> anyhow::Result<(Rendered, FrameRow)> {
-    let (s, geo, update_s) = update(scene, t);
+    let mut geo = Geometry::default();
+    let (s, update_s) = update(scene, t, &mut geo);
     let build_s = gf.rebuild(&s, &geo)?;
     let t2 = Instant::now();
     let (out, _) = gf.render(&s, &geo, opts, &(), build_s)?;

@@ -8,7 +8,7 @@ use super::check::{frame_path, Outputs};
 use super::progress::step_bar;
 use anyhow::{bail, Context, Result};
 use rayspace::engines::EngineOptions;
-use rayspace::frames::{frame, FrameRow};
+use rayspace::frames::{frame_with, FrameBuffers, FrameRow};
 use render::whitted::RenderOptions;
 use std::path::PathBuf;
 
@@ -47,12 +47,14 @@ pub fn render_frames(
     // The GPU backend keeps one device, its compiled kernels and its engine across frames
     // and rebuilds the engine per frame.
     let mut gpu = GpuFrames::default();
+    // The CPU's frames keep their geometry and render buffers from one frame to the next.
+    let mut buffers = FrameBuffers::default();
     for (i, &t) in times.iter().enumerate() {
         bar.step(&format!("frame {i} (t = {t:.3})"));
         let (out, row) = if a.backend == Backend::Gpu {
             gpu.frame(a, eopts, scene, t, i as u32, &opts)?
         } else {
-            frame(scene, t, i as u32, a.engine, eopts, &opts)?
+            frame_with(&mut buffers, scene, t, i as u32, a.engine, eopts, &opts)?
         };
         let path = frame_path(&outs.out, i as u32)?;
         render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &path)

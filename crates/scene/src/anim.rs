@@ -372,6 +372,29 @@ impl Animation {
         }))
     }
 
+    /// Every track's matrix at time `t`, each evaluated once (BART's hierarchy shares a
+    /// node's track among all the meshes below it), in parallel.
+    pub fn track_matrices(&self, t: f32) -> Vec<Mat4> {
+        use rayon::prelude::*;
+        self.tracks.par_iter().map(|tr| tr.matrix(t)).collect()
+    }
+
+    /// [`Animation::mesh_transform`] from the tracks' matrices at the frame's time
+    /// ([`Animation::track_matrices`]): the same product, in the same order, so the same
+    /// bits, without evaluating a shared track again for every mesh below it.
+    pub fn mesh_transform_with(&self, m: usize, tracks: &[Mat4]) -> Option<Mat4> {
+        let chain = self.chains.get(m)?;
+        if chain.is_empty() {
+            return None;
+        }
+        Some(chain.iter().fold(Mat4::IDENTITY, |acc, x| {
+            acc * match x {
+                Xform::Static(s) => *s,
+                Xform::Track(i) => tracks[*i as usize],
+            }
+        }))
+    }
+
     /// The times of `n` frames spread evenly over [start, end] (BART's `a` line).
     pub fn frame_times(&self, n: u32) -> Vec<f32> {
         (0..n)

@@ -4,7 +4,7 @@
 //! mesh `m` owns the contiguous range `mesh_first[m] .. mesh_first[m + 1]`.
 
 use crate::model::Scene;
-use geom::{Aabb, Mat3, Sphere, Vec3};
+use geom::{Aabb, Mat3, Mat4, Sphere, Vec3};
 use rayon::prelude::*;
 
 /// A scene flattened for the engines: world-space triangles in flat arrays, grouped by mesh,
@@ -56,43 +56,115 @@ impl Geometry {
     /// object-space spheres are the animation's precomputed ones (valid at every time), so
     /// a frame costs no miniball at all (thesis §3.2.2).
     pub fn from_scene(scene: &Scene) -> Geometry {
+        let mut g = Geometry::default();
+        g.fill(scene, |m| (scene.meshes[m].transform, None));
+        g
+    }
+
+    /// The world-space triangles of animated `scene` at time `t` — bit for bit
+    /// `from_scene(&scene.at_time(t))` — written into these buffers (a frame of an
+    /// animation: kept from the last frame, so no allocation and no fresh pages), without
+    /// copying the scene: every track is evaluated once, every mesh's chain composed from
+    /// those matrices, meshes in parallel.
+    pub fn refill_at(&mut self, scene: &Scene, t: f32) {
+        let Some(a) = &scene.animation else {
+            return self.fill(scene, |m| (scene.meshes[m].transform, None));
+        };
+        let tracks = a.track_matrices(t);
+        self.fill(scene, |m| {
+            let mesh = &scene.meshes[m];
+            let xf = a.mesh_transform_with(m, &tracks).unwrap_or(mesh.transform);
+            let moved = match a.vertex_keys.get(m) {
+                Some(Some(vk)) => {
+                    let p = vk.at(t);
+                    let n = crate::model::smooth_normals(&p, &mesh.triangles);
+                    Some((p, n))
+                }
+                _ => None,
+            };
+            (xf, moved)
+        });
+    }
+
+    /// Fill the arrays from `scene`'s meshes, mesh m placed by `state(m)`: its transform
+    /// and, for a vertex-animated mesh, its positions and normals at the frame's time.
+    #[allow(clippy::type_complexity)]
+    fn fill(
+        &mut self,
+        scene: &Scene,
+        state: impl Fn(usize) -> (Mat4, Option<(Vec<Vec3>, Vec<Vec3>)>) + Sync,
+    ) {
         let pre = scene
             .animation
             .as_ref()
             .map(|a| a.local_spheres.as_slice())
             .filter(|s| s.len() == scene.meshes.len());
-        let mut g = Geometry::default();
-        g.mesh_first.push(0);
-        for (mi, m) in scene.meshes.iter().enumerate() {
-            let xf = m.transform;
-            let nxf = Mat3::from_mat4(xf).inverse().transpose();
-            let world: Vec<Vec3> = m
-                .positions
-                .par_iter()
-                .map(|p| xf.transform_point3(*p))
-                .collect();
-            let wn: Vec<Vec3> = m
-                .normals
-                .par_iter()
-                .map(|n| (nxf * *n).normalize_or(Vec3::Y))
-                .collect();
-            for (t, &mat) in m.triangles.iter().zip(&m.materials) {
-                let [a, b, c] = t.map(|i| i as usize);
-                g.tris.push([world[a], world[b], world[c]]);
-                g.normals.push([wn[a], wn[b], wn[c]]);
-                g.material.push(mat);
-                g.mesh.push(mi as u32);
-            }
-            g.mesh_first.push(g.tris.len() as u32);
-            let local = match pre {
-                Some(s) => s[mi],
-                None => m.local_bound().unwrap_or_default(),
-            };
-            g.mesh_local_sphere.push(local);
-            g.mesh_sphere.push(local.transformed(&xf));
+        self.mesh_first.clear();
+        self.mesh_first.push(0u32);
+        for m in &scene.meshes {
+            let last = *self.mesh_first.last().expect("starts at 0");
+            self.mesh_first.push(last + m.triangles.len() as u32);
         }
-        g.bounds = Aabb::from_points(g.tris.iter().flatten().copied());
-        g
+        let n = *self.mesh_first.last().expect("starts at 0") as usize;
+        // Every element is written below; a buffer of the right length (the last frame's)
+        // is overwritten in place.
+        self.tris.resize(n, [Vec3::ZERO; 3]);
+        self.normals.resize(n, [Vec3::ZERO; 3]);
+        self.material.resize(n, 0);
+        self.mesh.resize(n, 0);
+        // Meshes in parallel, each writing its own range of the flat arrays (the order of
+        // the serial loop: mesh by mesh, triangle by triangle), with the same arithmetic.
+        let mut tris = self.tris.as_mut_slice();
+        let mut normals = self.normals.as_mut_slice();
+        let mut material = self.material.as_mut_slice();
+        let mut mesh = self.mesh.as_mut_slice();
+        let mut parts = Vec::with_capacity(scene.meshes.len());
+        for m in &scene.meshes {
+            let k = m.triangles.len();
+            let (a, b) = std::mem::take(&mut tris).split_at_mut(k);
+            let (c, d) = std::mem::take(&mut normals).split_at_mut(k);
+            let (e, f) = std::mem::take(&mut material).split_at_mut(k);
+            let (h, i) = std::mem::take(&mut mesh).split_at_mut(k);
+            parts.push((a, c, e, h));
+            (tris, normals, material, mesh) = (b, d, f, i);
+        }
+        let spheres: Vec<(Sphere, Sphere)> = parts
+            .into_par_iter()
+            .zip(scene.meshes.par_iter())
+            .enumerate()
+            .map(|(mi, ((tris, normals, material, mesh), m))| {
+                let (xf, moved) = state(mi);
+                let (positions, vnormals) = match &moved {
+                    Some((p, n)) => (p.as_slice(), n.as_slice()),
+                    None => (m.positions.as_slice(), m.normals.as_slice()),
+                };
+                let nxf = Mat3::from_mat4(xf).inverse().transpose();
+                let world: Vec<Vec3> = positions.iter().map(|p| xf.transform_point3(*p)).collect();
+                let wn: Vec<Vec3> = vnormals
+                    .iter()
+                    .map(|n| (nxf * *n).normalize_or(Vec3::Y))
+                    .collect();
+                for (k, (t, &mat)) in m.triangles.iter().zip(&m.materials).enumerate() {
+                    let [a, b, c] = t.map(|i| i as usize);
+                    tris[k] = [world[a], world[b], world[c]];
+                    normals[k] = [wn[a], wn[b], wn[c]];
+                    material[k] = mat;
+                    mesh[k] = mi as u32;
+                }
+                let local = match pre {
+                    Some(s) => s[mi],
+                    None => m.local_bound().unwrap_or_default(),
+                };
+                (local, local.transformed(&xf))
+            })
+            .collect();
+        (self.mesh_local_sphere, self.mesh_sphere) = spheres.into_iter().unzip();
+        // Minimum and maximum are exact, so the parallel reduction is the serial one.
+        self.bounds = self
+            .tris
+            .par_chunks(4096)
+            .map(|c| Aabb::from_points(c.iter().flatten().copied()))
+            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
     }
 
     /// A bare triangle soup as one mesh, every vertex normal `normal`, material 0 (for tests
@@ -149,5 +221,42 @@ impl Geometry {
     pub fn point(&self, t: u32, u: f32, v: f32) -> Vec3 {
         let [a, b, c] = self.tris[t as usize];
         a * (1.0 - u - v) + b * u + c * v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A frame's geometry refilled in place equals the one made from the scene at that
+    /// time, bit for bit, whatever size the buffers had before.
+    #[test]
+    fn refill_at_equals_from_scene_at_time() {
+        let text = "[camera]\neye = [0, 2, 8]\ntarget = [0, 0, 0]\n[[meshes]]\nshape = \"plane\"\nscale = 5\n[[meshes]]\nshape = \"box\"\n[meshes.animation]\nkeys = [{ t = 0 }, { t = 1, translate = [2, 1, 0], rotate = [0, 90, 0], scale = 0.5 }]\n[[meshes]]\nshape = \"sphere\"\n[meshes.animation]\nkeys = [{ t = 0, translate = [0, 3, 0] }, { t = 2, rotate = [45, 0, 30] }]\n";
+        let path = std::path::Path::new("anim.toml");
+        let sb = crate::io::Sandbox::for_scene(path, false);
+        let scene = crate::scenefile::load_scene_text_in(text, path, &sb).unwrap();
+        assert!(scene.animation.is_some());
+        let mut g = Geometry::soup(vec![[Vec3::ONE; 3]; 7], Vec3::Y);
+        for t in [0.0, 0.37, 1.0, 1.5] {
+            let want = Geometry::from_scene(&scene.at_time(t));
+            g.refill_at(&scene, t);
+            let bits = |g: &Geometry| -> Vec<u32> {
+                g.tris
+                    .iter()
+                    .chain(&g.normals)
+                    .flatten()
+                    .flat_map(|v| v.to_array().map(f32::to_bits))
+                    .collect()
+            };
+            assert_eq!(bits(&g), bits(&want), "t = {t}");
+            assert_eq!(
+                (&g.material, &g.mesh, &g.mesh_first),
+                (&want.material, &want.mesh, &want.mesh_first)
+            );
+            assert_eq!(g.mesh_sphere, want.mesh_sphere);
+            assert_eq!(g.bounds, want.bounds);
+            assert_eq!(scene.frame_at(t).camera, scene.at_time(t).camera);
+        }
     }
 }

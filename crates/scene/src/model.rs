@@ -4,6 +4,7 @@ use crate::anim::VertexKeys;
 use crate::error::Invalid;
 use crate::error::SceneError;
 use geom::{finite3, miniball, tri, Mat4, Sphere, Vec3};
+use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// A Blinn-Phong material with Whitted-style reflection and refraction weights.
@@ -532,38 +533,64 @@ impl Scene {
         let Some(a) = &self.animation else {
             return s;
         };
-        for (m, mesh) in s.meshes.iter_mut().enumerate() {
-            if let Some(x) = a.mesh_transform(m, t) {
+        // Each track once per frame; then every mesh's chain from those matrices.
+        let tracks = a.track_matrices(t);
+        s.meshes.par_iter_mut().enumerate().for_each(|(m, mesh)| {
+            if let Some(x) = a.mesh_transform_with(m, &tracks) {
                 mesh.transform = x;
             }
             if let Some(Some(vk)) = a.vertex_keys.get(m) {
                 mesh.positions = vk.at(t);
                 mesh.normals = smooth_normals(&mesh.positions, &mesh.triangles);
             }
-        }
-        if let Some(ci) = a.camera {
-            let tr = &a.tracks[ci as usize];
-            let (pos, rot, _) = tr.trs(t);
-            let base = &self.camera;
-            let eye = if tr.translation.is_empty() {
-                base.eye
-            } else {
-                pos
-            };
-            let (dir, up) = if tr.rotation.is_empty() {
-                (base.target - base.eye, base.up)
-            } else {
-                // BART's GetCamera: the viewer looks along −z with y up, rotated.
-                (rot * -Vec3::Z, rot * Vec3::Y)
-            };
-            s.camera = Camera {
-                eye,
-                target: eye + dir.normalize_or(-Vec3::Z),
-                up,
-                vfov: base.vfov,
-            };
-        }
+        });
+        s.camera = self.camera_at(t);
         s
+    }
+
+    /// The camera at time `t` (the animation's camera track, if any).
+    pub fn camera_at(&self, t: f32) -> Camera {
+        let base = &self.camera;
+        let Some((a, ci)) = self.animation.as_ref().and_then(|a| Some((a, a.camera?))) else {
+            return base.clone();
+        };
+        let tr = &a.tracks[ci as usize];
+        let (pos, rot, _) = tr.trs(t);
+        let eye = if tr.translation.is_empty() {
+            base.eye
+        } else {
+            pos
+        };
+        let (dir, up) = if tr.rotation.is_empty() {
+            (base.target - base.eye, base.up)
+        } else {
+            // BART's GetCamera: the viewer looks along −z with y up, rotated.
+            (rot * -Vec3::Z, rot * Vec3::Y)
+        };
+        Camera {
+            eye,
+            target: eye + dir.normalize_or(-Vec3::Z),
+            up,
+            vfov: base.vfov,
+        }
+    }
+
+    /// What a frame at time `t` renders with besides its geometry
+    /// ([`crate::Geometry::refill_at`]): the camera at `t`, the lights, materials,
+    /// background and ambient light, without copying the meshes or the animation (a render
+    /// reads neither: its triangles are the geometry's).
+    pub fn frame_at(&self, t: f32) -> Scene {
+        Scene {
+            name: self.name.clone(),
+            meshes: Vec::new(),
+            materials: self.materials.clone(),
+            lights: self.lights.clone(),
+            camera: self.camera_at(t),
+            background: self.background,
+            ambient: self.ambient,
+            report: self.report.clone(),
+            animation: None,
+        }
     }
 }
 
