@@ -132,8 +132,11 @@ pub fn frame_with(
     let t2 = Instant::now();
     let arena = std::mem::take(&mut buffers.arena);
     let mut backend = render::cpu::CpuBackend::new(&s, geo, tracer.as_ref()).with_arena(arena);
-    let out = render::whitted::run(&mut backend, &s, geo, opts, &());
+    let mut out = render::whitted::run(&mut backend, &s, geo, opts, &());
     buffers.arena = backend.into_arena();
+    // A frame of a sequence is its image and record: its G-buffer goes back to the
+    // buffers for the next frame's rasterization.
+    buffers.arena.keep_gbuffer(std::mem::take(&mut out.gbuffer));
     let trace_s = t2.elapsed().as_secs_f64();
     let row = FrameRow::of(index, t, geo, [update_s, build_s, trace_s], &out);
     Ok((out, row))

@@ -4,7 +4,7 @@
 //! 3.17–3.19), and any [`Tracer`] for the batches. The GPU backend (`gpu::frame`) is its twin
 //! with device buffers.
 
-use crate::raster::{rasterize, GBuffer, RasterStats};
+use crate::raster::{rasterize_into, GBuffer, RasterScratch, RasterStats};
 use crate::secondary::{bounce_rays_into, shadow_rays_into, Surfaces};
 use crate::shade;
 use crate::stats::RenderStats;
@@ -39,6 +39,16 @@ pub struct FrameArena {
     hits: Vec<Vec<Hit>>,
     surfaces: Vec<Surfaces>,
     shaded: Vec<Vec3>,
+    gbuffer: GBuffer,
+    raster: RasterScratch,
+}
+
+impl FrameArena {
+    /// Keep a finished frame's G-buffer for the next frame's rasterization (a caller that
+    /// does not need it once the image is made hands it back).
+    pub fn keep_gbuffer(&mut self, gb: GBuffer) {
+        self.gbuffer = gb;
+    }
 }
 
 impl<'a> CpuBackend<'a> {
@@ -132,7 +142,19 @@ impl Backend for CpuBackend<'_> {
                     ..Default::default()
                 };
             }
-            None => (self.gb, self.raster) = rasterize(self.geo, &self.scene.materials, view, near),
+            None => {
+                let mut gb = std::mem::take(&mut self.arena.gbuffer);
+                let materials = &self.scene.materials;
+                self.raster = rasterize_into(
+                    self.geo,
+                    materials,
+                    view,
+                    near,
+                    &mut gb,
+                    &mut self.arena.raster,
+                );
+                self.gb = gb;
+            }
         }
     }
 

@@ -171,8 +171,13 @@ fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<
         }
         inside_all &= d.iter().all(|&x| x >= 0.0);
     }
-    let mut poly: Vec<CVert> = verts.to_vec();
-    if !inside_all {
+    // The common case, a triangle inside every plane, stays on the stack; only a clipped
+    // one builds its polygon in vectors.
+    let clipped: Vec<CVert>;
+    let poly: &[CVert] = if inside_all {
+        &verts
+    } else {
+        let mut poly = verts.to_vec();
         let mut tmp = Vec::with_capacity(9);
         for k in 0..5 {
             clip_plane(view, near, &poly, k, &mut tmp);
@@ -181,11 +186,14 @@ fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<
                 return;
             }
         }
-    }
+        clipped = poly;
+        &clipped
+    };
     let (w, h) = (view.width as i32, view.height as i32);
-    let snapped: Vec<(i64, i64, f32)> = poly
-        .iter()
-        .map(|v| {
+    // At most 8 vertices: a triangle clipped by five planes gains one per plane.
+    let mut snapped = [(0i64, 0i64, 0f32); 8];
+    for (dst, v) in snapped.iter_mut().zip(poly) {
+        *dst = {
             // In f64: the snap, not the projection, should be the only rounding that matters.
             let (cx, cy, cz) = (v.c.x as f64, v.c.y as f64, v.c.z as f64);
             let sx = (cx / cz / view.tan_x as f64 + 1.0) * 0.5 * view.width as f64;
@@ -198,8 +206,8 @@ fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<
                 (sy * SUB as f64).round() as i64,
                 1.0 / v.c.z,
             )
-        })
-        .collect();
+        };
+    }
     for i in 1..poly.len() - 1 {
         let mut idx = [0, i, i + 1];
         let p = |j: usize| snapped[idx[j]];
@@ -237,24 +245,37 @@ fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<
     }
 }
 
-/// Per-tile rasterization result (local z-buffer).
-struct TileOut {
-    tri: Vec<u32>,
-    bary: Vec<[f32; 2]>,
-    inv_z: Vec<f32>,
-    pixel_tests: u64,
-    fragments: u64,
+/// Triangles per setup piece (each piece's screen triangles go to its own kept vector).
+const SETUP_PIECE: usize = 4096;
+
+/// The rasterizer's scratch, kept from one frame to the next (the renderer's
+/// `FrameArena`): the pieces' screen triangles, the binned lists and their counts.
+#[derive(Default)]
+pub struct RasterScratch {
+    pieces: Vec<Vec<Setup>>,
+    setups: Vec<Setup>,
+    counts: Vec<u32>,
+    offsets: Vec<u32>,
+    lists: Vec<u32>,
 }
 
-fn raster_tile(view: &View, tx: u32, ty: u32, setups: &[Setup], list: &[u32]) -> TileOut {
-    let n = (TILE * TILE) as usize;
-    let mut o = TileOut {
-        tri: vec![NO_HIT; n],
-        bary: vec![[0.0; 2]; n],
-        inv_z: vec![0.0; n],
-        pixel_tests: 0,
-        fragments: 0,
-    };
+/// Rasterize one tile into its local z-buffer (`tri`, `bary`, `inv_z`, TILE × TILE, row by
+/// row): the triangles of `list` in order. Returns (pixel tests, fragments).
+#[allow(clippy::too_many_arguments)]
+fn raster_tile(
+    view: &View,
+    tx: u32,
+    ty: u32,
+    setups: &[Setup],
+    list: &[u32],
+    tri: &mut [u32],
+    bary: &mut [[f32; 2]],
+    inv_z: &mut [f32],
+) -> (u64, u64) {
+    tri.fill(NO_HIT);
+    bary.fill([0.0; 2]);
+    inv_z.fill(0.0);
+    let (mut pixel_tests, mut fragments) = (0u64, 0u64);
     let x0 = (tx * TILE) as i32;
     let y0 = (ty * TILE) as i32;
     let x1 = (x0 + TILE as i32 - 1).min(view.width as i32 - 1);
@@ -274,7 +295,7 @@ fn raster_tile(view: &View, tx: u32, ty: u32, setups: &[Setup], list: &[u32]) ->
             let sy = py as i64 * SUB + SUB / 2;
             for px in bx0..=bx1 {
                 let sx = px as i64 * SUB + SUB / 2;
-                o.pixel_tests += 1;
+                pixel_tests += 1;
                 let e0 = edge(bx, by, cx, cy, sx, sy);
                 let e1 = edge(cx, cy, ax, ay, sx, sy);
                 let e2 = edge(ax, ay, bx, by, sx, sy);
@@ -295,7 +316,7 @@ fn raster_tile(view: &View, tx: u32, ty: u32, setups: &[Setup], list: &[u32]) ->
                 let iz = lz[0] + lz[1] + lz[2];
                 let k = ((py - y0) as u32 * TILE + (px - x0) as u32) as usize;
                 let izf = iz as f32;
-                if izf > o.inv_z[k] || (izf == o.inv_z[k] && s.tri < o.tri[k]) {
+                if izf > inv_z[k] || (izf == inv_z[k] && s.tri < tri[k]) {
                     let w = [lz[0] / iz, lz[1] / iz, lz[2] / iz];
                     let u = w[0] * s.uv[0][0] as f64
                         + w[1] * s.uv[1][0] as f64
@@ -303,15 +324,15 @@ fn raster_tile(view: &View, tx: u32, ty: u32, setups: &[Setup], list: &[u32]) ->
                     let v = w[0] * s.uv[0][1] as f64
                         + w[1] * s.uv[1][1] as f64
                         + w[2] * s.uv[2][1] as f64;
-                    o.inv_z[k] = izf;
-                    o.tri[k] = s.tri;
-                    o.bary[k] = [u as f32, v as f32];
-                    o.fragments += 1;
+                    inv_z[k] = izf;
+                    tri[k] = s.tri;
+                    bary[k] = [u as f32, v as f32];
+                    fragments += 1;
                 }
             }
         }
     }
-    o
+    (pixel_tests, fragments)
 }
 
 /// Rasterize `geo` into a G-buffer. `near` is the near-plane distance (geometry closer to the
@@ -322,20 +343,53 @@ pub fn rasterize(
     view: &View,
     near: f32,
 ) -> (GBuffer, RasterStats) {
-    // 1. Setup, in triangle order.
-    let setups: Vec<Setup> = geo
-        .tris
-        .par_iter()
+    let mut gb = GBuffer::default();
+    let st = rasterize_into(
+        geo,
+        materials,
+        view,
+        near,
+        &mut gb,
+        &mut RasterScratch::default(),
+    );
+    (gb, st)
+}
+
+/// [`rasterize`] into `gb`'s buffers with `scratch` (both kept from the last frame: no
+/// allocation and no fresh pages once they are large enough). Every pass is parallel:
+/// setup over pieces of triangles, binning by piece (count → scan → stable scatter), tiles
+/// by rows of tiles writing their rows of the G-buffer, resolve by rows.
+pub fn rasterize_into(
+    geo: &Geometry,
+    materials: &[Material],
+    view: &View,
+    near: f32,
+    gb: &mut GBuffer,
+    scratch: &mut RasterScratch,
+) -> RasterStats {
+    // 1. Setup, in triangle order: each piece into its own kept vector, then gathered.
+    let npieces = geo.tris.len().div_ceil(SETUP_PIECE);
+    scratch.pieces.resize_with(npieces, Vec::new);
+    scratch
+        .pieces
+        .par_iter_mut()
+        .zip(geo.tris.par_chunks(SETUP_PIECE))
         .enumerate()
-        .fold(Vec::new, |mut acc, (i, t)| {
-            setup_triangle(view, near, i as u32, t, &mut acc);
-            acc
-        })
-        .reduce(Vec::new, |mut a, b| {
-            a.extend(b);
-            a
+        .for_each(|(p, (out, tris))| {
+            out.clear();
+            for (k, t) in tris.iter().enumerate() {
+                setup_triangle(view, near, (p * SETUP_PIECE + k) as u32, t, out);
+            }
         });
-    // 2. Binning: count → exclusive scan → stable scatter.
+    let setups = &mut scratch.setups;
+    setups.clear();
+    for piece in &scratch.pieces {
+        setups.extend_from_slice(piece);
+    }
+    let setups = &scratch.setups;
+    // 2. Binning: per piece of setups, count per tile → exclusive scan in (tile, piece)
+    // order → each piece scatters its own entries, so every tile lists its triangles in
+    // id order.
     let tiles_x = view.width.div_ceil(TILE);
     let tiles_y = view.height.div_ceil(TILE);
     let ntiles = (tiles_x * tiles_y) as usize;
@@ -347,86 +401,118 @@ pub fn rasterize(
             s.bbox[3] as u32 / TILE,
         )
     };
-    let mut count = vec![0u32; ntiles + 1];
-    for s in &setups {
-        let (a, b, c, d) = tile_range(s);
-        for ty in b..=d {
-            for tx in a..=c {
-                count[(ty * tiles_x + tx) as usize] += 1;
+    let bin_piece = SETUP_PIECE;
+    let nbins = setups.len().div_ceil(bin_piece).max(1);
+    let counts = &mut scratch.counts;
+    counts.clear();
+    counts.resize(nbins * ntiles, 0);
+    counts
+        .par_chunks_mut(ntiles)
+        .zip(setups.par_chunks(bin_piece.max(1)))
+        .for_each(|(count, part)| {
+            for s in part {
+                let (a, b, c, d) = tile_range(s);
+                for ty in b..=d {
+                    for tx in a..=c {
+                        count[(ty * tiles_x + tx) as usize] += 1;
+                    }
+                }
             }
+        });
+    // offsets[t · nbins + b]: where piece b's entries of tile t start; tile t's list is
+    // offsets[t · nbins] .. offsets[(t + 1) · nbins].
+    let offsets = &mut scratch.offsets;
+    offsets.clear();
+    offsets.resize(ntiles * nbins + 1, 0);
+    let mut run = 0u32;
+    for t in 0..ntiles {
+        for b in 0..nbins {
+            offsets[t * nbins + b] = run;
+            run += counts[b * ntiles + t];
         }
     }
-    let mut offset = vec![0u32; ntiles + 1];
-    for i in 0..ntiles {
-        offset[i + 1] = offset[i] + count[i];
+    offsets[ntiles * nbins] = run;
+    let lists = &mut scratch.lists;
+    lists.clear();
+    lists.resize(run as usize, 0);
+    {
+        // Each piece writes disjoint ranges of `lists` (its own runs of every tile).
+        let shared = SharedSlice(lists.as_mut_ptr());
+        let offsets = &*offsets;
+        setups
+            .par_chunks(bin_piece.max(1))
+            .enumerate()
+            .for_each(|(b, part)| {
+                let shared = &shared;
+                let mut cursor: Vec<u32> = (0..ntiles).map(|t| offsets[t * nbins + b]).collect();
+                for (k, s) in part.iter().enumerate() {
+                    let si = (b * bin_piece + k) as u32;
+                    let (a, bb, c, d) = tile_range(s);
+                    for ty in bb..=d {
+                        for tx in a..=c {
+                            let t = (ty * tiles_x + tx) as usize;
+                            // SAFETY: piece b owns offsets[t·nbins + b] .. + its count in
+                            // tile t, and writes each index of that range once.
+                            unsafe { shared.0.add(cursor[t] as usize).write(si) };
+                            cursor[t] += 1;
+                        }
+                    }
+                }
+            });
     }
-    let mut cursor = offset.clone();
-    let mut lists = vec![0u32; offset[ntiles] as usize];
-    for (si, s) in setups.iter().enumerate() {
-        let (a, b, c, d) = tile_range(s);
-        for ty in b..=d {
-            for tx in a..=c {
-                let t = (ty * tiles_x + tx) as usize;
-                lists[cursor[t] as usize] = si as u32;
-                cursor[t] += 1;
+    let lists = &scratch.lists;
+    // 3. Tiles, a row of tiles per task, each writing its rows of the G-buffer.
+    let (w, h) = (view.width as usize, view.height as usize);
+    gb.width = view.width;
+    gb.height = view.height;
+    gb.inv_depth.resize(w * h, 0.0);
+    gb.tri.resize(w * h, NO_HIT);
+    gb.bary.resize(w * h, [0.0; 2]);
+    let rows = TILE as usize * w;
+    let counted: Vec<(u64, u64)> = gb
+        .tri
+        .par_chunks_mut(rows)
+        .zip(gb.bary.par_chunks_mut(rows))
+        .zip(gb.inv_depth.par_chunks_mut(rows))
+        .enumerate()
+        .map(|(ty, ((tri, bary), inv_z))| {
+            let n = (TILE * TILE) as usize;
+            let (mut lt, mut lb, mut lz) = (vec![NO_HIT; n], vec![[0.0f32; 2]; n], vec![0.0f32; n]);
+            let mut sum = (0, 0);
+            for tx in 0..tiles_x {
+                let t = ty * tiles_x as usize + tx as usize;
+                let list = &lists[offsets[t * nbins] as usize..offsets[(t + 1) * nbins] as usize];
+                let c = raster_tile(view, tx, ty as u32, setups, list, &mut lt, &mut lb, &mut lz);
+                sum = (sum.0 + c.0, sum.1 + c.1);
+                for ly in 0..TILE as usize {
+                    let y = ty * TILE as usize + ly;
+                    if y >= h {
+                        break;
+                    }
+                    let x0 = (tx * TILE) as usize;
+                    let len = (TILE as usize).min(w - x0);
+                    let (dst, src) = (ly * w + x0, ly * TILE as usize);
+                    tri[dst..dst + len].copy_from_slice(&lt[src..src + len]);
+                    bary[dst..dst + len].copy_from_slice(&lb[src..src + len]);
+                    inv_z[dst..dst + len].copy_from_slice(&lz[src..src + len]);
+                }
             }
-        }
-    }
-    // 3. Tiles in parallel.
-    let outs: Vec<TileOut> = (0..ntiles)
-        .into_par_iter()
-        .map(|t| {
-            let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
-            raster_tile(
-                view,
-                tx,
-                ty,
-                &setups,
-                &lists[offset[t] as usize..offset[t + 1] as usize],
-            )
+            sum
         })
         .collect();
-    let (w, h) = (view.width as usize, view.height as usize);
-    let mut gb = GBuffer {
-        width: view.width,
-        height: view.height,
-        tri: vec![NO_HIT; w * h],
-        bary: vec![[0.0; 2]; w * h],
-        inv_depth: vec![0.0; w * h],
-        ..Default::default()
-    };
-    let mut stats = RasterStats {
+    let stats = RasterStats {
         triangles: geo.len() as u64,
         setup: setups.len() as u64,
         bin_entries: lists.len() as u64,
-        ..Default::default()
+        pixel_tests: counted.iter().map(|c| c.0).sum(),
+        fragments: counted.iter().map(|c| c.1).sum(),
     };
-    for (t, o) in outs.iter().enumerate() {
-        let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
-        stats.pixel_tests += o.pixel_tests;
-        stats.fragments += o.fragments;
-        for ly in 0..TILE {
-            let y = ty * TILE + ly;
-            if y >= view.height {
-                break;
-            }
-            for lx in 0..TILE {
-                let x = tx * TILE + lx;
-                if x >= view.width {
-                    break;
-                }
-                let (k, p) = ((ly * TILE + lx) as usize, (y * view.width + x) as usize);
-                gb.tri[p] = o.tri[k];
-                gb.bary[p] = o.bary[k];
-                gb.inv_depth[p] = o.inv_z[k];
-            }
-        }
-    }
-    // 4. Resolve the surface attributes, one pass writing all four arrays.
-    gb.position = vec![Vec3::ZERO; w * h];
-    gb.normal = vec![Vec3::ZERO; w * h];
-    gb.diffuse = vec![Vec3::ZERO; w * h];
-    gb.specular = vec![[0.0; 4]; w * h];
+    // 4. Resolve the surface attributes, one pass writing all four arrays (every pixel:
+    // the buffers may hold the last frame's values).
+    gb.position.resize(w * h, Vec3::ZERO);
+    gb.normal.resize(w * h, Vec3::ZERO);
+    gb.diffuse.resize(w * h, Vec3::ZERO);
+    gb.specular.resize(w * h, [0.0; 4]);
     let (tri, bary) = (&gb.tri, &gb.bary);
     gb.position
         .par_chunks_mut(w)
@@ -438,6 +524,10 @@ pub fn rasterize(
             for x in 0..w {
                 let t = tri[y * w + x];
                 if t == NO_HIT {
+                    pos[x] = Vec3::ZERO;
+                    nrm[x] = Vec3::ZERO;
+                    dif[x] = Vec3::ZERO;
+                    spe[x] = [0.0; 4];
                     continue;
                 }
                 let [u, v] = bary[y * w + x];
@@ -448,8 +538,13 @@ pub fn rasterize(
                 spe[x] = [m.specular.x, m.specular.y, m.specular.z, m.shininess];
             }
         });
-    (gb, stats)
+    stats
 }
+
+/// A pointer the binning's pieces write through, each to its own indices.
+struct SharedSlice(*mut u32);
+// SAFETY: the pieces write disjoint indices (see the binning above).
+unsafe impl Sync for SharedSlice {}
 
 /// A near-plane distance suited to the scene: small against its size, never zero.
 pub fn default_near(geo: &Geometry) -> f32 {
