@@ -28,7 +28,7 @@ pub struct View {
     /// Where in its pixel this view samples, in pixels from the centre (each in
     /// −0.5..0.5; zero for the centre). Antialiasing renders one view per sample
     /// ([`View::jittered`], [`sample_offset`]); the rasterizer samples pixel (x, y) at
-    /// (x + 0.5 + jitter[0], y + 0.5 + jitter[1]).
+    /// (x + 0.5 + `jitter[0]`, y + 0.5 + `jitter[1]`).
     pub jitter: [f32; 2],
 }
 
