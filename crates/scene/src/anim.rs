@@ -360,6 +360,12 @@ impl Animation {
 
     /// The world transform of mesh `m` at time `t` (None: the mesh's own transform).
     pub fn mesh_transform(&self, m: usize, t: f32) -> Option<Mat4> {
+        self.chain_product(m, |i| self.tracks[i].matrix(t))
+    }
+
+    /// Mesh m's chain, outermost first, multiplied out with `track(i)` for track i (None
+    /// for an empty chain).
+    fn chain_product(&self, m: usize, track: impl Fn(usize) -> Mat4) -> Option<Mat4> {
         let chain = self.chains.get(m)?;
         if chain.is_empty() {
             return None;
@@ -367,7 +373,7 @@ impl Animation {
         Some(chain.iter().fold(Mat4::IDENTITY, |acc, x| {
             acc * match x {
                 Xform::Static(s) => *s,
-                Xform::Track(i) => self.tracks[*i as usize].matrix(t),
+                Xform::Track(i) => track(*i as usize),
             }
         }))
     }
@@ -383,16 +389,7 @@ impl Animation {
     /// ([`Animation::track_matrices`]): the same product, in the same order, so the same
     /// bits, without evaluating a shared track again for every mesh below it.
     pub fn mesh_transform_with(&self, m: usize, tracks: &[Mat4]) -> Option<Mat4> {
-        let chain = self.chains.get(m)?;
-        if chain.is_empty() {
-            return None;
-        }
-        Some(chain.iter().fold(Mat4::IDENTITY, |acc, x| {
-            acc * match x {
-                Xform::Static(s) => *s,
-                Xform::Track(i) => tracks[*i as usize],
-            }
-        }))
+        self.chain_product(m, |i| tracks[i])
     }
 
     /// The times of `n` frames spread evenly over [start, end] (BART's `a` line).
