@@ -107,8 +107,21 @@ fn plane_dist(view: &View, near: f32, c: Vec3, k: usize) -> f32 {
 
 /// Clip a polygon against one plane. Intersections are computed from the endpoints in a
 /// canonical order, so the two triangles sharing a clipped edge get bit-identical vertices.
-fn clip_plane(view: &View, near: f32, poly: &[CVert], k: usize, out: &mut Vec<CVert>) {
-    out.clear();
+/// The most vertices a clipped triangle can have: a convex polygon gains at most one
+/// vertex per plane, so a triangle clipped by the five planes has at most 8 (one spare).
+const MAX_POLY: usize = 9;
+
+/// Clip a polygon against one plane into `out`, returning its vertex count. Intersections
+/// are computed from the endpoints in a canonical order, so the two triangles sharing a
+/// clipped edge get bit-identical vertices.
+fn clip_plane(
+    view: &View,
+    near: f32,
+    poly: &[CVert],
+    k: usize,
+    out: &mut [CVert; MAX_POLY],
+) -> usize {
+    let mut m = 0;
     let n = poly.len();
     for i in 0..n {
         let a = poly[i];
@@ -116,22 +129,25 @@ fn clip_plane(view: &View, near: f32, poly: &[CVert], k: usize, out: &mut Vec<CV
         let da = plane_dist(view, near, a.c, k);
         let db = plane_dist(view, near, b.c, k);
         if da >= 0.0 {
-            out.push(a);
+            out[m] = a;
+            m += 1;
         }
         if (da >= 0.0) != (db >= 0.0) {
             let swap = (a.c.x, a.c.y, a.c.z).partial_cmp(&(b.c.x, b.c.y, b.c.z))
                 == Some(std::cmp::Ordering::Greater);
             let (p, q, dp, dq) = if swap { (b, a, db, da) } else { (a, b, da, db) };
             let t = dp / (dp - dq);
-            out.push(CVert {
+            out[m] = CVert {
                 c: p.c + (q.c - p.c) * t,
                 uv: [
                     p.uv[0] + (q.uv[0] - p.uv[0]) * t,
                     p.uv[1] + (q.uv[1] - p.uv[1]) * t,
                 ],
-            });
+            };
+            m += 1;
         }
     }
+    m
 }
 
 /// Edge function of edge a→b at p (twice the signed area of (a, b, p)), exact in i64.
@@ -171,27 +187,28 @@ fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<
         }
         inside_all &= d.iter().all(|&x| x >= 0.0);
     }
-    // The common case, a triangle inside every plane, stays on the stack; only a clipped
-    // one builds its polygon in vectors.
-    let clipped: Vec<CVert>;
-    let poly: &[CVert] = if inside_all {
-        &verts
-    } else {
-        let mut poly = verts.to_vec();
-        let mut tmp = Vec::with_capacity(9);
+    // The polygon lives on the stack, clipped back and forth between two buffers.
+    let zero = CVert {
+        c: Vec3::ZERO,
+        uv: [0.0; 2],
+    };
+    let mut bufs = [[zero; MAX_POLY]; 2];
+    bufs[0][..3].copy_from_slice(&verts);
+    let (mut cur, mut len) = (0, 3);
+    if !inside_all {
         for k in 0..5 {
-            clip_plane(view, near, &poly, k, &mut tmp);
-            std::mem::swap(&mut poly, &mut tmp);
-            if poly.len() < 3 {
+            let [a, b] = &mut bufs;
+            let (src, dst) = if cur == 0 { (a, b) } else { (b, a) };
+            len = clip_plane(view, near, &src[..len], k, dst);
+            cur ^= 1;
+            if len < 3 {
                 return;
             }
         }
-        clipped = poly;
-        &clipped
-    };
+    }
+    let poly = &bufs[cur][..len];
     let (w, h) = (view.width as i32, view.height as i32);
-    // At most 8 vertices: a triangle clipped by five planes gains one per plane.
-    let mut snapped = [(0i64, 0i64, 0f32); 8];
+    let mut snapped = [(0i64, 0i64, 0f32); MAX_POLY];
     for (dst, v) in snapped.iter_mut().zip(poly) {
         *dst = {
             // In f64: the snap, not the projection, should be the only rounding that matters.
