@@ -308,14 +308,26 @@ fn raster_tile(
         let b1 = if top_left(cx, cy, ax, ay) { 0 } else { -1 };
         let b2 = if top_left(ax, ay, bx, by) { 0 } else { -1 };
         let inv_area = 1.0 / s.area as f64;
+        if bx0 > bx1 || by0 > by1 {
+            continue;
+        }
+        // Edge functions stepped across a row: one pixel to the right changes edge a→b by
+        // −(by − ay)·SUB, exactly (integers), so each pixel's values are the ones the
+        // direct formula gives.
+        let (d0, d1, d2) = ((cy - by) * SUB, (ay - cy) * SUB, (by - ay) * SUB);
+        pixel_tests += ((bx1 - bx0 + 1) * (by1 - by0 + 1)) as u64;
         for py in by0..=by1 {
             let sy = py as i64 * SUB + SUB / 2;
+            let sx0 = bx0 as i64 * SUB + SUB / 2;
+            let (mut e0, mut e1, mut e2) = (
+                edge(bx, by, cx, cy, sx0, sy) + d0,
+                edge(cx, cy, ax, ay, sx0, sy) + d1,
+                edge(ax, ay, bx, by, sx0, sy) + d2,
+            );
             for px in bx0..=bx1 {
-                let sx = px as i64 * SUB + SUB / 2;
-                pixel_tests += 1;
-                let e0 = edge(bx, by, cx, cy, sx, sy);
-                let e1 = edge(cx, cy, ax, ay, sx, sy);
-                let e2 = edge(ax, ay, bx, by, sx, sy);
+                e0 -= d0;
+                e1 -= d1;
+                e2 -= d2;
                 if e0 + b0 < 0 || e1 + b1 < 0 || e2 + b2 < 0 {
                     continue;
                 }
