@@ -140,6 +140,8 @@ pub struct Session {
     pub playing: bool,
     pub orbit: Orbit,
     opts: EngineOptions,
+    /// The CPU renderer's buffers, kept from one frame to the next.
+    arena: render::cpu::FrameArena,
     built: Option<(Engine, Backend, Built)>,
     /// The geometry moved since the engine was built (a GPU engine is rebuilt on its device
     /// at the next frame rather than made anew with a new device).
@@ -216,6 +218,7 @@ impl Session {
             playing: false,
             orbit,
             opts: EngineOptions::default(),
+            arena: Default::default(),
             built: None,
             moved: false,
             aux_grid: None,
@@ -398,11 +401,15 @@ impl Session {
                         let b = rec.into_batches().into_iter().map(|x| (x.0, x.1)).collect();
                         (out, b, Vec::new())
                     } else {
-                        (
-                            render(&self.scene, &self.geo, t.as_ref(), &opts, &()),
-                            Vec::new(),
-                            Vec::new(),
-                        )
+                        // The renderer's buffers are kept from frame to frame.
+                        let arena = std::mem::take(&mut self.arena);
+                        let mut backend =
+                            render::cpu::CpuBackend::new(&self.scene, &self.geo, t.as_ref())
+                                .with_arena(arena);
+                        let out =
+                            render::whitted::run(&mut backend, &self.scene, &self.geo, &opts, &());
+                        self.arena = backend.into_arena();
+                        (out, Vec::new(), Vec::new())
                     }
                 }
                 #[cfg(feature = "gpu")]
