@@ -702,12 +702,25 @@ fn frame<'py>(
         spp: 1,
     };
     let (png, line) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
-        let (out, row) =
-            rayspace::frames::frame(&sc, t, index, engine, &opts, &ropts).map_err(err)?;
+        // A worker renders its frames one after another on its thread: the geometry's and
+        // the renderer's buffers are kept from one frame to the next, as `--frames` keeps
+        // them.
+        let (out, row) = FRAME_BUFFERS
+            .with(|b| {
+                let mut b = b.borrow_mut();
+                rayspace::frames::frame_with(&mut b, &sc, t, index, engine, &opts, &ropts)
+            })
+            .map_err(err)?;
         let png = render::output::png_bytes(&out.pixels, width, height).map_err(err)?;
         Ok((png, row.csv_line()))
     })?;
     Ok((PyBytes::new(py, &png), line))
+}
+
+thread_local! {
+    /// The buffers of the frames rendered on this thread ([`rayspace::frames::FrameBuffers`]).
+    static FRAME_BUFFERS: std::cell::RefCell<rayspace::frames::FrameBuffers> =
+        std::cell::RefCell::new(Default::default());
 }
 
 /// The `--frame-csv` header line.
