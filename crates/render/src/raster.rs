@@ -313,18 +313,32 @@ fn raster_tile(
         }
         // Edge functions stepped across a row: one pixel to the right changes edge a→b by
         // −(by − ay)·SUB, exactly (integers), so each pixel's values are the ones the
-        // direct formula gives.
+        // direct formula gives. Each row visits only the span where all three can pass,
+        // found exactly by integer division (the pixels left out would fail a test).
         let (d0, d1, d2) = ((cy - by) * SUB, (ay - cy) * SUB, (by - ay) * SUB);
-        pixel_tests += ((bx1 - bx0 + 1) * (by1 - by0 + 1)) as u64;
+        let last = (bx1 - bx0) as i64;
         for py in by0..=by1 {
             let sy = py as i64 * SUB + SUB / 2;
             let sx0 = bx0 as i64 * SUB + SUB / 2;
+            let start = [
+                edge(bx, by, cx, cy, sx0, sy),
+                edge(cx, cy, ax, ay, sx0, sy),
+                edge(ax, ay, bx, by, sx0, sy),
+            ];
+            let Some((lo, hi)) = span(
+                [start[0] + b0, start[1] + b1, start[2] + b2],
+                [d0, d1, d2],
+                last,
+            ) else {
+                continue;
+            };
+            pixel_tests += (hi - lo + 1) as u64;
             let (mut e0, mut e1, mut e2) = (
-                edge(bx, by, cx, cy, sx0, sy) + d0,
-                edge(cx, cy, ax, ay, sx0, sy) + d1,
-                edge(ax, ay, bx, by, sx0, sy) + d2,
+                start[0] - (lo - 1) * d0,
+                start[1] - (lo - 1) * d1,
+                start[2] - (lo - 1) * d2,
             );
-            for px in bx0..=bx1 {
+            for px in bx0 + lo as i32..=bx0 + hi as i32 {
                 e0 -= d0;
                 e1 -= d1;
                 e2 -= d2;
@@ -362,6 +376,23 @@ fn raster_tile(
         }
     }
     (pixel_tests, fragments)
+}
+
+/// The pixels k ∈ 0..=last of a row where every edge value e_i − k·d_i (biased by its
+/// fill rule, `e`) is non-negative: exact integer bounds, `None` when there are none.
+#[inline]
+fn span(e: [i64; 3], d: [i64; 3], last: i64) -> Option<(i64, i64)> {
+    let (mut lo, mut hi) = (0i64, last);
+    for i in 0..3 {
+        match d[i].cmp(&0) {
+            std::cmp::Ordering::Greater => hi = hi.min(e[i].div_euclid(d[i])),
+            // k·(−d) ≥ −e: k ≥ ⌈−e / −d⌉.
+            std::cmp::Ordering::Less => lo = lo.max(-(e[i].div_euclid(-d[i]))),
+            std::cmp::Ordering::Equal if e[i] < 0 => return None,
+            std::cmp::Ordering::Equal => {}
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
 }
 
 /// Rasterize `geo` into a G-buffer. `near` is the near-plane distance (geometry closer to the
@@ -634,6 +665,23 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// A row's span holds exactly the pixels whose three edge values pass.
+    #[test]
+    fn spans_are_exact() {
+        let mut rng = geom::rng::Pcg32::new(7, 1);
+        for _ in 0..20_000 {
+            let mut r = |m: i64| (rng.next_u32() as i64 % (2 * m + 1)) - m;
+            let e = [r(1 << 20), r(1 << 20), r(1 << 20)];
+            let d = [r(1 << 16), r(1 << 16), r(4)];
+            let last = 31;
+            let want: Vec<i64> = (0..=last)
+                .filter(|&k| (0..3).all(|i| e[i] - k * d[i] >= 0))
+                .collect();
+            let got: Vec<i64> = span(e, d, last).map_or(Vec::new(), |(a, b)| (a..=b).collect());
+            assert_eq!(got, want, "e {e:?} d {d:?}");
         }
     }
 
