@@ -3,13 +3,19 @@
 //! Shaped like a hardware pipeline, one pass per function:
 //! 1. **setup** (parallel over triangles): camera space, clipping against the near plane and a
 //!    guard band (homogeneous Sutherland–Hodgman), projection, snapping to 12 sub-pixel bits;
-//! 2. **binning** into 32×32 tiles by count → exclusive scan → scatter (stable, so each tile
-//!    sees its triangles in id order);
-//! 3. **tile rasterization** (parallel over tiles): integer edge functions with the top-left
-//!    fill rule (no cracks, no double coverage on shared edges), perspective-correct
-//!    barycentrics, a z-buffer on 1/z (ties keep the smaller triangle id, like closest-hit);
+//! 2. **binning** into 32×32 tiles by count → exclusive scan → scatter, in parallel over
+//!    pieces of triangles (the scan runs in (tile, piece) order, so each tile still sees its
+//!    triangles in id order);
+//! 3. **tile rasterization** (parallel over rows of tiles, each writing its rows of the
+//!    G-buffer): integer edge functions with the top-left fill rule (no cracks, no double
+//!    coverage on shared edges), stepped across each row's exact span (integer bounds), then
+//!    perspective-correct barycentrics and a z-buffer on 1/z (ties keep the smaller triangle
+//!    id, like closest-hit);
 //! 4. **resolve** (parallel over pixels): position, normal, diffuse, specular/shininess from
 //!    triangle id and barycentrics.
+//!
+//! [`rasterize_into`] keeps the G-buffer and the scratch of the passes from one frame to the
+//! next, so a frame sequence allocates nothing here.
 
 use geom::{Vec3, NO_HIT};
 use rayon::prelude::*;
