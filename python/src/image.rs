@@ -1,0 +1,197 @@
+//! The bindings' images: `render` (one frame's image and `--stats`), `frame` (a frame of
+//! an animation as `render --frames` makes it, with the worker's buffers kept from one frame
+//! to the next), the `--frame-csv` header, PNG bytes and atomic writes.
+
+use crate::{err, parse_engine, Scene};
+use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use rayspace::engines;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// `rayspace render`'s image and `--stats` JSON (as a string) for one frame.
+#[pyfunction(name = "render")]
+#[pyo3(signature = (scene, engine = "crsh", width = 512, height = 512, bounces = 3, time = None, dynamic = false, spp = 1, **options))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn render_frame<'py>(
+    py: Python<'py>,
+    scene: &Scene,
+    engine: &str,
+    width: u32,
+    height: u32,
+    bounces: u32,
+    time: Option<f32>,
+    dynamic: bool,
+    spp: u32,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(Bound<'py, PyArray3<u8>>, String)> {
+    let (engine, mut opts) = parse_engine(engine, options, dynamic)?;
+    let (engine_kind, objects) = (engine, opts.objects);
+    check_image(width, height, bounces)?;
+    if !(1..=render::whitted::MAX_SPP).contains(&spp) {
+        return Err(err(format!(
+            "spp={spp}: must be 1..={}",
+            render::whitted::MAX_SPP
+        )));
+    }
+    let frame = match time {
+        Some(t) => Some(scene.at_time(py, t)?),
+        None => None,
+    };
+    let s = frame.as_ref().unwrap_or(scene);
+    opts.grid.max_bytes = render_memory(width, height, s.scene.lights.len())?;
+    let (sc, geo, load_seconds) = (s.scene.clone(), s.geo.clone(), s.load_seconds);
+    let ropts = render::whitted::RenderOptions {
+        width,
+        height,
+        bounces,
+        spp,
+    };
+    let (rgb, stats) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
+        let t1 = Instant::now();
+        let engine = engines::build(engine, &opts, &geo).map_err(err)?.tracer;
+        let build_s = t1.elapsed().as_secs_f64();
+        let mut out = render::whitted::render(&sc, &geo, engine.as_ref(), &ropts, &());
+        out.stats.put_build(build_s, engine.build_passes());
+        let rgb = render::output::to_rgb8(&out.pixels, width, height).into_raw();
+        let mut v = serde_json::to_value(&out.stats).map_err(err)?;
+        v["load_seconds"] = load_seconds.into();
+        v["degenerate_skipped"] = sc.report.degenerate_skipped.into();
+        v["raster_setup_triangles"] = out.raster.setup.into();
+        v["raster_fragments"] = out.raster.fragments.into();
+        // The object side CRSH/RAH ran with, as `render --stats` says it.
+        if let Some(o) = engines::object_hierarchy_name(engine_kind, objects, false) {
+            v["object_hierarchy"] = o.into();
+        }
+        Ok((rgb, v.to_string()))
+    })?;
+    let img = rgb
+        .into_pyarray(py)
+        .reshape([height as usize, width as usize, 3])?;
+    Ok((img, stats))
+}
+
+/// Frame `index` of an animated scene at time `t`, as `render --frames` makes it (the
+/// engine options of a frame: the grid's single expansion pass): the PNG bytes and the
+/// `--frame-csv` line.
+#[pyfunction]
+#[pyo3(signature = (scene, t, index, engine = "crsh", width = 512, height = 512, bounces = 3, **options))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn frame<'py>(
+    py: Python<'py>,
+    scene: &Scene,
+    t: f32,
+    index: u32,
+    engine: &str,
+    width: u32,
+    height: u32,
+    bounces: u32,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<(Bound<'py, PyBytes>, String)> {
+    let (engine, mut opts) = parse_engine(engine, options, true)?;
+    check_image(width, height, bounces)?;
+    if !t.is_finite() {
+        return Err(err(format!("t={t}: not a finite time")));
+    }
+    if scene.scene.animation.is_none() {
+        return Err(err(format!(
+            "frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
+            scene.scene.name
+        )));
+    }
+    opts.grid.max_bytes = render_memory(width, height, scene.scene.lights.len())?;
+    let sc = scene.scene.clone();
+    let ropts = render::whitted::RenderOptions {
+        width,
+        height,
+        bounces,
+        spp: 1,
+    };
+    let (png, line) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
+        // A worker renders its frames one after another on its thread: the geometry's and
+        // the renderer's buffers are kept from one frame to the next, as `--frames` keeps
+        // them.
+        let (out, row) = FRAME_BUFFERS
+            .with(|b| {
+                let mut b = b.borrow_mut();
+                rayspace::frames::frame_with(&mut b, &sc, t, index, engine, &opts, &ropts)
+            })
+            .map_err(err)?;
+        let png = render::output::png_bytes(&out.pixels, width, height).map_err(err)?;
+        Ok((png, row.csv_line()))
+    })?;
+    Ok((PyBytes::new(py, &png), line))
+}
+
+thread_local! {
+    /// The buffers of the frames rendered on this thread ([`rayspace::frames::FrameBuffers`]).
+    static FRAME_BUFFERS: std::cell::RefCell<rayspace::frames::FrameBuffers> =
+        std::cell::RefCell::new(Default::default());
+}
+
+/// The `--frame-csv` header line.
+#[pyfunction]
+pub(crate) fn frame_csv_header() -> String {
+    rayspace::frames::FrameRow::csv_header()
+}
+
+/// `--width`, `--height` and `--bounces` checked as the command line checks them.
+pub(crate) fn check_image(width: u32, height: u32, bounces: u32) -> PyResult<()> {
+    let max = render::whitted::MAX_SIDE;
+    for (opt, v) in [("width", width), ("height", height)] {
+        if !(1..=max).contains(&v) {
+            return Err(err(format!("{opt}={v}: expected 1..={max}")));
+        }
+    }
+    if bounces > render::whitted::MAX_BOUNCES {
+        return Err(err(format!(
+            "bounces={bounces}: expected 0..={}",
+            render::whitted::MAX_BOUNCES
+        )));
+    }
+    Ok(())
+}
+
+/// The memory a render needs, checked against the limit; returns what it leaves for the
+/// engine's structure (the grid checks its model against it).
+fn render_memory(width: u32, height: u32, lights: usize) -> PyResult<u64> {
+    let need = render::whitted::render_bytes(width, height, lights);
+    let limit = trace::memory::limit(None);
+    if need > limit {
+        return Err(err(format!(
+            "width/height: the render needs {}, more than the {} limit",
+            trace::memory::gib(need),
+            trace::memory::gib(limit)
+        )));
+    }
+    Ok(limit - need)
+}
+
+/// PNG bytes of an H×W×3 uint8 image, encoded as the command line encodes its images.
+#[pyfunction]
+pub(crate) fn png_bytes<'py>(
+    py: Python<'py>,
+    image: numpy::PyReadonlyArray3<'py, u8>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let sh = image.shape();
+    if sh[2] != 3 {
+        return Err(err(format!("image: expected shape (H, W, 3), got {sh:?}")));
+    }
+    let rgb = image
+        .as_slice()
+        .map_err(|_| err("image: expected a C-contiguous array"))?;
+    let (h, w) = (
+        u32::try_from(sh[0]).map_err(err)?,
+        u32::try_from(sh[1]).map_err(err)?,
+    );
+    let bytes = render::output::rgb8_png(rgb, w, h).map_err(err)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// Write bytes to `path` atomically (temp file + rename), as every rayspace output.
+#[pyfunction]
+pub(crate) fn write_atomic(path: PathBuf, data: &[u8]) -> PyResult<()> {
+    render::output::check_output(&path).map_err(|e| err(format!("path: {e}")))?;
+    render::output::write_atomic(&path, data).map_err(err)
+}
