@@ -111,17 +111,20 @@ impl LoadOptions {
 }
 
 /// The directory holding the shared real scenes: `$RAYSPACE_SCENES`, else `../shared/scenes`
-/// (relative to the current directory or to the workspace root) when it exists.
+/// (relative to the current directory or to the workspace root) when it exists. The path is
+/// made absolute, so that it still names the directory when handed to a process (or a
+/// file) that runs elsewhere.
 pub fn scenes_dir() -> Option<PathBuf> {
+    let absolute = |p: PathBuf| std::fs::canonicalize(&p).unwrap_or(p);
     if let Some(d) = std::env::var_os("RAYSPACE_SCENES") {
         let p = PathBuf::from(d);
-        return p.is_dir().then_some(p);
+        return p.is_dir().then(|| absolute(p));
     }
     let candidates = [
         PathBuf::from("../shared/scenes"),
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes"),
     ];
-    candidates.into_iter().find(|p| p.is_dir())
+    candidates.into_iter().find(|p| p.is_dir()).map(absolute)
 }
 
 /// The shared real scenes by name: the papers' benchmark views (`bench/scenes/*.toml`,
