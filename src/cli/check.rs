@@ -62,9 +62,13 @@ pub struct Outputs {
     pub temporary: Option<PathBuf>,
 }
 
-/// The name the scene goes by before it is loaded: a built-in's or shared scene's name,
-/// else the file's stem (`sponza.obj` → `sponza`).
+/// The name the scene goes by before it is loaded: a built-in's or shared scene's name, a
+/// generated scene's spec (`hairball:2M` → `hairball-2M`), else the file's stem
+/// (`sponza.obj` → `sponza`).
 pub fn scene_stem(spec: &str) -> String {
+    if let Some(Ok(_)) = scene::generate::Spec::parse(spec) {
+        return scene::generate::Spec::stem(spec);
+    }
     let p = Path::new(spec);
     if p.extension().is_some() {
         if let Some(s) = p.file_stem() {

@@ -1,6 +1,7 @@
-//! The library's renders: determinism, the rasterizer against traced primaries, real scenes:
+//! The library's renders: determinism, generated scenes, the rasterizer against traced primaries, real scenes:
 //! one test binary.
 
 mod determinism;
+mod generated;
 mod raster_agreement;
 mod real_scenes;

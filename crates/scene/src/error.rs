@@ -49,14 +49,24 @@ pub enum SceneError {
         detail: String,
     },
     /// Neither a file nor a built-in scene.
-    #[error("unknown scene '{name}': not a file and not a built-in scene ({builtins}) or a shared scene ({shared})")]
+    #[error("unknown scene '{name}': not a file and not a built-in scene ({builtins}), a generated scene ({generators}) or a shared scene ({shared})")]
     UnknownScene {
         /// The name given.
         name: String,
         /// The built-in scenes' names.
         builtins: String,
+        /// The generators' forms ([`crate::generate::NAMES`]).
+        generators: String,
         /// The shared real scenes' names ([`crate::SHARED`]).
         shared: String,
+    },
+    /// A generated scene's spec (`hairball:2M`) that names a generator but is malformed.
+    #[error("scene '{spec}': {msg}")]
+    Generator {
+        /// The spec given.
+        spec: String,
+        /// What is wrong with it.
+        msg: String,
     },
     /// A shared real scene by name, with no scenes directory to find it in.
     #[error("scene '{name}' is {file} in the shared scenes, and there is no scenes directory: set RAYSPACE_SCENES or provide ../shared/scenes")]

@@ -13,6 +13,7 @@ pub mod anim;
 pub mod autocam;
 pub mod builtin;
 pub mod error;
+pub mod generate;
 pub mod geometry;
 pub mod gltf_load;
 pub mod io;
@@ -228,6 +229,17 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
         Some("aff") | Some("nff") => aff::load_aff_scene_in(path, &sb)?,
         _ => match builtin::by_name(spec) {
             Some(s) => s,
+            None if !path.exists() && generate::Spec::parse(spec).is_some() => {
+                let g = generate::Spec::parse(spec)
+                    .expect("a generator")
+                    .map_err(|msg| SceneError::Generator {
+                        spec: spec.to_string(),
+                        msg,
+                    })?;
+                // The budget is checked before the triangles are made.
+                sb.admit_triangles(path, None, g.triangles)?;
+                g.generate()
+            }
             None if !path.exists() && SHARED.iter().any(|s| s.0 == spec) => {
                 let what = SHARED.iter().find(|s| s.0 == spec).expect("found").1;
                 return load_shared(spec, what, opts);
@@ -242,6 +254,7 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
                 return Err(SceneError::UnknownScene {
                     name: spec.to_string(),
                     builtins: builtin::NAMES.join(", "),
+                    generators: generate::NAMES.map(|g| format!("{g}:SIZE")).join(", "),
                     shared: SHARED.map(|s| s.0).join(", "),
                 })
             }

@@ -203,7 +203,7 @@ fn count_scan_emit(
 /// every reference offset and cell count within u32 with room to spare.
 const MAX_REFS: u64 = 1 << 28;
 /// Most voxel-map entries (octree nodes) one build makes, whatever the memory.
-const MAX_NODES: u64 = 1 << 25;
+const MAX_NODES: u64 = voxelmap::INDEX as u64;
 
 /// The grid's memory model: the peak bytes a reference costs while a level is built (node
 /// and triangle of the level's list, the count/scan/emit keys and values, the kept-cell
