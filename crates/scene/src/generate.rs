@@ -515,7 +515,7 @@ mod tests {
         assert!(e.contains("city:5x") && e.contains("SIZE"), "{e}");
         let small = crate::LoadOptions {
             max_triangles: 10_000,
-            ..opts.clone()
+            ..opts
         };
         // 40 M triangles would take seconds and gigabytes: refused before any is made.
         let e = crate::load("hairball:40M", &small).unwrap_err().to_string();
