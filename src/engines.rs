@@ -89,7 +89,16 @@ impl Engine {
         trace::by_name(&name.trim().to_ascii_lowercase(), "engine", &Self::NAMES)
     }
 
-    /// The ray-space hierarchy method, for the engines that are one.
+    /// A peer (obvhs, Embree): equal to brute force within the peers' stated tolerance,
+    /// not bit for bit.
+    pub fn is_peer(self) -> bool {
+        matches!(
+            self,
+            Engine::ObvhsCwbvh | Engine::ObvhsBvh2 | Engine::Embree | Engine::EmbreeStream
+        )
+    }
+
+    /// CRSH's and RAH's method; `None` for the other engines.
     pub fn rsh_method(self) -> Option<Method> {
         match self {
             Engine::Crsh => Some(Method::Crsh),

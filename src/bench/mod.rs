@@ -15,6 +15,7 @@ pub mod charts;
 pub mod gpu;
 pub mod grid;
 pub mod rsh;
+pub mod scale;
 
 use accel::oracle::Recorder;
 use anyhow::Result;

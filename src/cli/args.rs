@@ -157,6 +157,41 @@ pub enum BenchCommand {
     /// The irregular-grid paper's Table 4: AO samples per pixel that fit in a frame budget
     /// on an animated scene, per-frame rebuild included.
     Budget(BenchBudgetArgs),
+    /// Every engine on generated scenes (hairball, city, nested) from thousands to millions
+    /// of triangles: build time, structure bytes per triangle, MRays/s, tests per ray, a
+    /// render's whole-process peak memory, and each measure's log-log slope.
+    Scale(BenchScaleArgs),
+}
+
+#[derive(Args, Clone)]
+pub struct BenchScaleArgs {
+    /// Generators, comma-separated (hairball, city, nested).
+    #[arg(long, default_value = "hairball,city,nested")]
+    pub generators: String,
+    /// Sizes in triangles, comma-separated (10000, 250k, 2M).
+    #[arg(long, default_value = "10k,30k,100k,300k,1M")]
+    pub sizes: String,
+    /// Engines, comma-separated [default: crsh, rah, grid, grid2l, obvhs-cwbvh, brute, and
+    /// embree with `--features embree`].
+    #[arg(long)]
+    pub engines: Option<String>,
+    /// Brute force runs up to this many triangles (it stays the oracle where it runs).
+    #[arg(long = "brute-max", default_value_t = 20_000)]
+    pub brute_max: u64,
+    #[arg(long, default_value_t = 256, value_parser = side())]
+    pub width: u32,
+    #[arg(long, default_value_t = 256, value_parser = side())]
+    pub height: u32,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Timed runs per engine and ray kind (the best is reported).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub repeats: u32,
+    /// Skip the peak-memory renders (one child process per engine and size).
+    #[arg(long = "no-peak")]
+    pub no_peak: bool,
+    #[command(flatten)]
+    pub out: ReportArgs,
 }
 
 /// Image side in pixels: 1..=`MAX_SIDE`.

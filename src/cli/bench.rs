@@ -2,8 +2,8 @@
 //! `--md/--json/--csv/--charts` files), each report headed by the provenance line.
 
 use super::args::{
-    defaults, engine_options, BenchBudgetArgs, BenchGpuArgs, BenchGridArgs, BenchRshArgs, GridArgs,
-    RshArgs,
+    defaults, engine_options, BenchBudgetArgs, BenchGpuArgs, BenchGridArgs, BenchRshArgs,
+    BenchScaleArgs, GridArgs, RshArgs,
 };
 use super::progress::step_bar;
 use super::{check_dir, check_out_dir};
@@ -225,4 +225,135 @@ pub fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
         super::write_out("--csv", p, csv)?;
     }
     Ok(())
+}
+
+pub fn cmd_bench_scale(a: &BenchScaleArgs) -> Result<()> {
+    for p in [&a.out.json, &a.out.csv, &a.out.md].into_iter().flatten() {
+        check_out_dir("--json/--csv/--md", p)?;
+    }
+    if let Some(d) = &a.out.charts {
+        check_dir("--charts", d)?;
+    }
+    let generators: Vec<String> = a
+        .generators
+        .split(',')
+        .map(|g| g.trim().to_string())
+        .filter(|g| !g.is_empty())
+        .collect();
+    for g in &generators {
+        if !scene::generate::NAMES.contains(&g.as_str()) {
+            anyhow::bail!(
+                "--generators: '{g}' is not a generator ({})",
+                scene::generate::NAMES.join(", ")
+            );
+        }
+    }
+    let mut sizes = Vec::new();
+    for s in a.sizes.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        match scene::generate::Spec::parse(&format!("city:{s}")) {
+            Some(Ok(spec)) => sizes.push(spec.triangles),
+            Some(Err(e)) => anyhow::bail!("--sizes: {e}"),
+            None => unreachable!("city is a generator"),
+        }
+    }
+    if generators.is_empty() || sizes.is_empty() {
+        anyhow::bail!("--generators/--sizes: nothing to run");
+    }
+    let engines: Vec<Engine> = match &a.engines {
+        Some(list) => list
+            .split(',')
+            .map(|x| Engine::parse(x).context("--engines"))
+            .collect::<Result<_>>()?,
+        None => {
+            let mut v = vec![
+                Engine::Crsh,
+                Engine::Rah,
+                Engine::Grid,
+                Engine::Grid2l,
+                Engine::ObvhsCwbvh,
+                Engine::Brute,
+            ];
+            if cfg!(feature = "embree") {
+                v.push(Engine::Embree);
+            }
+            v
+        }
+    };
+    let spec = bench::scale::Spec {
+        generators,
+        sizes,
+        engines,
+        width: a.width,
+        height: a.height,
+        seed: a.seed,
+        repeats: a.repeats,
+        brute_max: a.brute_max,
+    };
+    let bar = step_bar(bench::scale::steps(&spec));
+    let tmp = std::env::temp_dir().join(format!("rayspace-scale-{}", std::process::id()));
+    let peak = |scene: &str, e: Engine| -> Result<Option<u64>> {
+        if a.no_peak {
+            return Ok(None);
+        }
+        peak_of_render(&tmp, scene, e, a.width, a.height)
+    };
+    let result = bench::scale::run(&spec, &peak, &|m| bar.step(m));
+    bar.0.finish_and_clear();
+    let _ = std::fs::remove_dir_all(&tmp);
+    let (rows, slopes) = result?;
+    if let Some(d) = &a.out.charts {
+        report_charts(bench::scale::charts(&spec, &rows, d));
+    }
+    let report = format!(
+        "# rayspace bench scale\n\n{}\n\n{}x{} pixels, seed {}, best of {} runs per ray kind.\n\n{}",
+        provenance(),
+        a.width,
+        a.height,
+        a.seed,
+        a.repeats,
+        bench::scale::markdown(&rows, &slopes)
+    );
+    say!("{report}");
+    if let Some(p) = &a.out.md {
+        super::write_out("--md", p, &report)?;
+    }
+    if let Some(p) = &a.out.json {
+        let j = serde_json::json!({ "rows": rows, "slopes": slopes });
+        super::write_out("--json", p, serde_json::to_string_pretty(&j)?)?;
+    }
+    if let Some(p) = &a.out.csv {
+        super::write_out("--csv", p, bench::scale::csv(&rows))?;
+    }
+    Ok(())
+}
+
+/// The whole-process peak memory of `render SCENE -e ENGINE -b 0` in a child process (this
+/// executable), read from its `--stats`; `None` where the system does not report it.
+fn peak_of_render(
+    tmp: &std::path::Path,
+    scene: &str,
+    e: Engine,
+    width: u32,
+    height: u32,
+) -> Result<Option<u64>> {
+    std::fs::create_dir_all(tmp).context("bench scale: a temporary folder")?;
+    let stats = tmp.join("stats.json");
+    let out = std::process::Command::new(std::env::current_exe()?)
+        .args(["render", scene, "-e", e.name(), "-b", "0"])
+        .args(["-W", &width.to_string(), "-H", &height.to_string()])
+        .arg("-o")
+        .arg(tmp.join("render.png"))
+        .arg("--stats")
+        .arg(&stats)
+        .output()
+        .context("bench scale: the peak-memory render")?;
+    if !out.status.success() {
+        anyhow::bail!(
+            "bench scale: render {scene} -e {} failed: {}",
+            e.name(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats)?)?;
+    Ok(v.get("peak_rss_bytes").and_then(|b| b.as_u64()))
 }

@@ -86,6 +86,7 @@ pub fn run() -> Result<()> {
             BenchCommand::Grid(a) => bench::cmd_bench_grid(&a),
             BenchCommand::Gpu(a) => bench::cmd_bench_gpu(&a),
             BenchCommand::Budget(a) => bench::cmd_bench_budget(&a),
+            BenchCommand::Scale(a) => bench::cmd_bench_scale(&a),
         },
         Some(Command::Report(a)) => report::cmd_report(&a),
         Some(Command::View(a)) => view::cmd_view(&a),

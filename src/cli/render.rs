@@ -28,6 +28,13 @@ struct StatsFile<'a> {
     /// CRSH/RAH: the object side the traversal used (`bvh` or `mesh-spheres`).
     #[serde(skip_serializing_if = "Option::is_none")]
     object_hierarchy: Option<&'static str>,
+    /// Bytes of the engine's structure (`Tracer::structure_bytes`; CPU engines that say).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    structure_bytes: Option<u64>,
+    /// The process's peak resident memory at the end of the render (whole process: scene,
+    /// structure, build scratch, frame buffers).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    peak_rss_bytes: Option<u64>,
 }
 
 /// The object hierarchy CRSH/RAH ran with (`engines::object_hierarchy_name`).
@@ -135,6 +142,7 @@ pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
         spp: a.spp,
     };
     let t1 = Instant::now();
+    let mut structure = None;
     let (out, gpu_phases, gpu_timer) = if a.backend == Backend::Gpu {
         render_on_gpu(a, &opts, &scene, &geo, &ropts, t1)?
     } else {
@@ -148,6 +156,7 @@ pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
         let mut out = render(&scene, &geo, engine.as_ref(), &ropts, &bar);
         bar.0.finish_and_clear();
         out.stats.put_build(build_s, engine.build_passes());
+        structure = engine.structure_bytes();
         (out, Vec::new(), "")
     };
     render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &outs.out)
@@ -170,6 +179,8 @@ pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
             raster_fragments: out.raster.fragments,
             gpu_phase_seconds: gpu_phases.clone(),
             object_hierarchy: object_hierarchy(a),
+            structure_bytes: structure,
+            peak_rss_bytes: trace::memory::peak_rss(),
         };
         let json = serde_json::to_string_pretty(&f)?;
         super::write_out("--stats", p, json)?;

@@ -5,4 +5,5 @@ mod cli;
 mod first_hour;
 mod readme;
 mod report;
+mod scale;
 mod view;

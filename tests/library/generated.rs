@@ -44,7 +44,10 @@ fn engines_match_brute_force_on_generated_scenes() {
             BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
             let hits = expect.iter().filter(|h| h.is_hit()).count();
             // (Nothing shadows the nested bowls, open to the light above.)
-            assert!(hits > 0 || kind != Kind::Primary, "{spec} {name}: something is hit");
+            assert!(
+                hits > 0 || kind != Kind::Primary,
+                "{spec} {name}: something is hit"
+            );
             for e in &ours {
                 let what = format!("{spec} {name} {}", e.name());
                 assert_same_hits(e.as_ref(), &rays, mode, &expect, &what);

@@ -44,6 +44,10 @@ impl BruteForce {
 }
 
 impl Tracer for BruteForce {
+    fn structure_bytes(&self) -> Option<u64> {
+        Some(0) // No structure: every ray tests every triangle.
+    }
+
     fn name(&self) -> &str {
         "brute"
     }

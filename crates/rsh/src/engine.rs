@@ -526,6 +526,15 @@ impl Tracer for RshEngine {
         }
     }
 
+    fn structure_bytes(&self) -> Option<u64> {
+        let spheres = std::mem::size_of_val(&self.tri_center[..])
+            + std::mem::size_of_val(&self.tri_radius[..])
+            + std::mem::size_of_val(&self.mesh_sphere[..])
+            + std::mem::size_of_val(&self.mesh_first[..]);
+        let tree = self.tree.as_ref().map_or(0, |(t, _)| t.bytes());
+        Some((spheres + tree) as u64)
+    }
+
     fn build_passes(&self) -> Vec<trace::PassTime> {
         match &self.tree {
             Some((_, secs)) => vec![trace::PassTime::new(

@@ -192,6 +192,19 @@ pub struct Bounds {
 }
 
 impl ObjectTree {
+    /// Bytes of the tree's arrays (what the traversal reads; the triangles not included).
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        size_of_val(&self.child[..])
+            + size_of_val(&self.node[..])
+            + size_of_val(&self.leaf[..])
+            + size_of_val(&self.child_box[..])
+            + size_of_val(&self.tri_order[..])
+            + size_of_val(&self.range[..])
+            + size_of_val(&self.wide[..])
+            + size_of_val(&self.wide_of[..])
+    }
+
     /// Internal nodes.
     pub fn len(&self) -> usize {
         self.child.len()

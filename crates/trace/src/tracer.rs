@@ -29,6 +29,13 @@ pub trait Tracer: Sync {
     fn build_passes(&self) -> Vec<PassTime> {
         Vec::new()
     }
+
+    /// Bytes of the engine's acceleration structure, as built: what traversal reads besides
+    /// the triangles (every engine keeps its own copy of those, 36 bytes each, not counted
+    /// here). `None` where the engine cannot say (a library's opaque structure).
+    fn structure_bytes(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// The per-ray engines' whole `trace`: `one(ray)` answers one ray with its record and the

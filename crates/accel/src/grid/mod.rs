@@ -562,6 +562,11 @@ impl trace::Tracer for GridEngine {
         self.grid.build.passes().to_vec()
     }
 
+    fn structure_bytes(&self) -> Option<u64> {
+        let (c, r, v) = self.grid.memory();
+        Some((c + r + v) as u64)
+    }
+
     fn trace(
         &self,
         rays: &trace::RayBatch,

@@ -154,6 +154,10 @@ impl ObvhsEngine {
 }
 
 impl Tracer for ObvhsEngine {
+    fn structure_bytes(&self) -> Option<u64> {
+        Some(self.memory_bytes() as u64)
+    }
+
     fn name(&self) -> &str {
         self.name
     }
