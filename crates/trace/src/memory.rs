@@ -69,6 +69,15 @@ pub fn gib(bytes: u64) -> String {
     }
 }
 
+/// The process's peak resident memory so far (`VmHWM` of `/proc/self/status`), in bytes;
+/// `None` where the system does not say.
+pub fn peak_rss() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let l = text.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = l.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib.saturating_mul(1024))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -82,13 +91,4 @@ mod tests {
         assert_eq!(gib(3 << 29), "1.5 GiB");
         assert_eq!(gib(64 << 20), "64 MiB");
     }
-}
-
-/// The process's peak resident memory so far (`VmHWM` of `/proc/self/status`), in bytes;
-/// `None` where the system does not say.
-pub fn peak_rss() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/self/status").ok()?;
-    let l = text.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: u64 = l.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib.saturating_mul(1024))
 }
