@@ -496,6 +496,11 @@ pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridErro
 /// The passes after the initial cells: merging and expansion as `cfg` asks, then the
 /// traversal records.
 pub fn complete(mut g: Grid, cfg: &GridConfig) -> Grid {
+    if !cfg.merge && g.exp_min.len() != g.cells() {
+        // Unmerged cells exit through their own boxes until expansion grows them.
+        g.exp_min = g.cell_min.clone();
+        g.exp_max = g.cell_max.clone();
+    }
     if cfg.merge {
         let t0 = std::time::Instant::now();
         g.build.merge_rounds = merge::merge(&mut g, cfg.alpha, cfg.empty_only, cfg.merge_rule);

@@ -19,40 +19,39 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, GridError> {
     let ntop = st.ntop;
     let t2 = Instant::now();
     let ncells = cell_coord.len();
+    let flat = voxelmap::flatten(&entries, ntop, ncells)?;
+    drop(entries); // The level-order map (shadowing would keep it to the end).
     let voxelmap::Flattened {
         entries,
         order,
         new_index,
-    } = voxelmap::flatten(&entries, ntop, ncells)?;
-    let cell_coord: Vec<[u32; 3]> = order
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&c| cell_coord[c as usize])
-        .collect();
-    let cell_level: Vec<u8> = order
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&c| cell_level[c as usize])
-        .collect();
-    let cell_count: Vec<u32> = order
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&c| cell_count[c as usize])
-        .collect();
-    kept_cell
-        .par_iter_mut()
-        .with_min_len(4096)
-        .for_each(|c| *c = new_index[*c as usize]);
+    } = flat;
+    // The cells in the map's order: footprints on the virtual grid and reference counts,
+    // gathered straight from the octrees' level-order arrays, which then go (the build's
+    // peak is here and in the merge).
     let shift = level;
-    let (cell_min, cell_max): (Vec<[u32; 3]>, Vec<[u32; 3]>) = (0..ncells)
-        .into_par_iter()
+    let (cell_min, cell_max): (Vec<[u32; 3]>, Vec<[u32; 3]>) = order
+        .par_iter()
         .with_min_len(4096)
-        .map(|c| {
+        .map(|&c| {
+            let c = c as usize;
             let s = shift - cell_level[c] as u32;
             let lo = cell_coord[c].map(|v| v << s);
             (lo, lo.map(|v| v + (1 << s)))
         })
         .unzip();
+    drop((cell_coord, cell_level));
+    let cell_count: Vec<u32> = order
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&c| cell_count[c as usize])
+        .collect();
+    drop(order);
+    kept_cell
+        .par_iter_mut()
+        .with_min_len(4096)
+        .for_each(|c| *c = new_index[*c as usize]);
+    drop(new_index);
     let mut ref_first = vec![0u32; ncells + 1];
     let total = exclusive_scan(&cell_count, &mut ref_first[..ncells]);
     ref_first[ncells] = total;
@@ -90,7 +89,8 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, GridError> {
                 s.sort_unstable();
             });
     }
-    let mut g = assemble(st, shift, entries, (cell_min, cell_max), ref_first, refs);
+    drop((cursor, kept_cell, kept_tri, cell_count));
+    let mut g = assemble_cells(st, shift, entries, (cell_min, cell_max), ref_first, refs);
     g.build.voxel_map_seconds = t2.elapsed().as_secs_f64();
     Ok(g)
 }
@@ -99,6 +99,23 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, GridError> {
 /// the cells' footprints on the virtual grid ([min, max)), their reference ranges and
 /// references (the GPU's cells pass hands in the same arrays).
 pub fn assemble(
+    st: &Setup,
+    shift: u32,
+    entries: Vec<u32>,
+    cells: (Vec<[u32; 3]>, Vec<[u32; 3]>),
+    ref_first: Vec<u32>,
+    refs: Vec<u32>,
+) -> Grid {
+    let mut g = assemble_cells(st, shift, entries, cells, ref_first, refs);
+    // Copied in parallel: the initial cells are the build's largest arrays.
+    g.exp_min = g.cell_min.par_iter().with_min_len(4096).copied().collect();
+    g.exp_max = g.cell_max.par_iter().with_min_len(4096).copied().collect();
+    g
+}
+
+/// [`assemble`] without the expanded boxes: the merge makes them from the merged cells, and
+/// `grid::complete` copies the cells' where nothing is merged.
+fn assemble_cells(
     st: &Setup,
     shift: u32,
     entries: Vec<u32>,
@@ -116,9 +133,8 @@ pub fn assemble(
         dims,
         voxel,
         inv_voxel: voxel.recip(),
-        // Copied in parallel: the initial cells are the build's largest arrays.
-        exp_min: cell_min.par_iter().with_min_len(4096).copied().collect(),
-        exp_max: cell_max.par_iter().with_min_len(4096).copied().collect(),
+        exp_min: Vec::new(),
+        exp_max: Vec::new(),
         cell_min,
         cell_max,
         trav: Vec::new(),
