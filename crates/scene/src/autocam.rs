@@ -46,8 +46,107 @@ struct Probe {
     front: bool,
 }
 
-/// Nearest hits of `rays` against every triangle of `tris` (None: a miss).
+/// Nearest hits of `rays` against every triangle of `tris` (None: a miss): by brute force
+/// below [`CULLED_FROM`] triangles, else through boxes of Morton-ordered triangle runs.
 fn probe(tris: &[[Vec3; 3]], rays: &[Ray]) -> Vec<Option<Probe>> {
+    if tris.len() < CULLED_FROM {
+        probe_all(tris, rays)
+    } else {
+        probe_culled(tris, rays)
+    }
+}
+
+/// From this many triangles the probes skip runs of triangles by their boxes: 180 rays
+/// against every triangle of a 2 M-triangle OBJ took 3.5 s of its load.
+const CULLED_FROM: usize = 1 << 16;
+/// Triangles per run.
+const RUN: usize = 32;
+
+/// [`probe_all`]'s answers, each ray testing only the runs (of [`RUN`] triangles, in Morton
+/// order of their centroids) whose box it enters before its nearest hit so far. A tie in t
+/// goes to the lower triangle index, as in the brute-force scan, so the answers are the same;
+/// the box test is conservative (robust slab test, boxes padded, the distance bound loosened
+/// by 1e-5), so no nearer hit is skipped.
+fn probe_culled(tris: &[[Vec3; 3]], rays: &[Ray]) -> Vec<Option<Probe>> {
+    let bounds = geom::Aabb::from_points(tris.iter().flatten().copied());
+    let ext = bounds.extent().max(Vec3::splat(1e-30));
+    let morton = |p: Vec3| -> u32 {
+        let q = ((p - bounds.min) / ext * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+        let spread = |v: u32| {
+            let mut x = v & 0x3ff;
+            x = (x | (x << 16)) & 0x030000ff;
+            x = (x | (x << 8)) & 0x0300f00f;
+            x = (x | (x << 4)) & 0x030c30c3;
+            (x | (x << 2)) & 0x09249249
+        };
+        spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2
+    };
+    let mut order: Vec<(u32, u32)> = tris
+        .par_iter()
+        .enumerate()
+        .map(|(i, t)| (morton((t[0] + t[1] + t[2]) / 3.0), i as u32))
+        .collect();
+    order.par_sort_unstable();
+    let pad = Vec3::splat(bounds.diagonal() * 1e-6);
+    // The triangles in that order (with their indices), so that a run is read in one go.
+    let sorted: Vec<([Vec3; 3], u32)> = order
+        .par_iter()
+        .map(|&(_, i)| (tris[i as usize], i))
+        .collect();
+    drop(order);
+    let boxes: Vec<geom::Aabb> = sorted
+        .par_chunks(RUN)
+        .map(|run| {
+            let b = geom::Aabb::from_points(run.iter().flat_map(|(t, _)| *t));
+            geom::Aabb::new(b.min - pad, b.max + pad)
+        })
+        .collect();
+    let pre: Vec<(RayPre, Vec3)> = rays
+        .iter()
+        .map(|r| (RayPre::new(r), r.dir.recip()))
+        .collect();
+    type Best = Option<(f32, u32, bool)>;
+    let nearer = |a: Best, b: Best| match (a, b) {
+        (Some(x), Some(y)) => Some(if (y.0, y.1) < (x.0, x.1) { y } else { x }),
+        (x, y) => x.or(y),
+    };
+    // Runs in parallel blocks (as the brute-force scan takes chunks), each ray skipping the
+    // runs whose box it does not enter before its nearest hit in the block so far.
+    let best = (0..boxes.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .fold(
+            || vec![None; rays.len()],
+            |mut acc: Vec<Best>, k| {
+                let run = &sorted[k * RUN..((k + 1) * RUN).min(sorted.len())];
+                for ((b, (p, inv)), ray) in acc.iter_mut().zip(&pre).zip(rays) {
+                    let bound = b.map_or(f32::INFINITY, |(t, _, _)| t * (1.0 + 1e-5));
+                    if boxes[k].intersect(ray.org, *inv, 0.0, bound).is_none() {
+                        continue;
+                    }
+                    for (t, i) in run {
+                        if let Some(h) = intersect(p, t[0], t[1], t[2]) {
+                            if b.is_none_or(|(bt, bi, _)| (h.t, *i) < (bt, bi)) {
+                                let n = geometric_normal(t[0], t[1], t[2]);
+                                *b = Some((h.t, *i, n.dot(ray.dir) < 0.0));
+                            }
+                        }
+                    }
+                }
+                acc
+            },
+        )
+        .reduce(
+            || vec![None; rays.len()],
+            |a, b| a.into_iter().zip(b).map(|(x, y)| nearer(x, y)).collect(),
+        );
+    best.into_iter()
+        .map(|b| b.map(|(t, _, front)| Probe { t, front }))
+        .collect()
+}
+
+/// Nearest hits of `rays` against every triangle of `tris` (None: a miss).
+fn probe_all(tris: &[[Vec3; 3]], rays: &[Ray]) -> Vec<Option<Probe>> {
     let pre: Vec<RayPre> = rays.iter().map(RayPre::new).collect();
     let best = |mut acc: Vec<Option<Probe>>, chunk: &[[Vec3; 3]]| {
         for (r, (p, ray)) in acc.iter_mut().zip(pre.iter().zip(rays)) {
@@ -252,6 +351,45 @@ mod tests {
             .iter()
             .map(|t| t.map(|i| m.positions[i as usize]))
             .collect()
+    }
+
+    #[test]
+    fn culled_probes_answer_as_brute_force() {
+        let mut rng = geom::Pcg32::new(5, 1);
+        // A soup of small triangles and a closed box around it (nearest hits at every
+        // distance), with duplicated triangles (ties in t).
+        let mut tris: Vec<[Vec3; 3]> = (0..20_000)
+            .map(|_| {
+                let c = Vec3::new(
+                    rng.range(-4.0, 4.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-4.0, 4.0),
+                );
+                [c, c + rng.unit_vector() * 0.2, c + rng.unit_vector() * 0.2]
+            })
+            .collect();
+        tris.extend(boxed(Vec3::splat(-5.0), Vec3::splat(5.0), true));
+        let dup: Vec<[Vec3; 3]> = tris[..500].iter().map(|t| [t[1], t[2], t[0]]).collect();
+        tris.extend(dup);
+        let rays: Vec<Ray> = (0..400)
+            .map(|_| {
+                let o = Vec3::new(
+                    rng.range(-4.5, 4.5),
+                    rng.range(-4.5, 4.5),
+                    rng.range(-4.5, 4.5),
+                );
+                Ray::new(o, rng.unit_vector(), 0.0, f32::INFINITY)
+            })
+            .collect();
+        let a = probe_all(&tris, &rays);
+        let b = probe_culled(&tris, &rays);
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(
+                x.map(|p| (p.t.to_bits(), p.front)),
+                y.map(|p| (p.t.to_bits(), p.front))
+            );
+        }
+        assert!(a.iter().filter(|p| p.is_some()).count() > 390);
     }
 
     #[test]

@@ -19,6 +19,7 @@ pub mod gltf_load;
 pub mod io;
 pub mod model;
 pub mod obj;
+pub mod objfast;
 pub mod scenefile;
 pub mod shapes;
 

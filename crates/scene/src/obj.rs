@@ -197,7 +197,12 @@ pub fn load_obj_meshes(
     sb: &crate::io::Sandbox,
 ) -> Result<(Vec<Mesh>, Vec<Material>), SceneError> {
     let text = crate::io::read_text(path)?;
-    validate_obj(&text, path, sb)?;
+    // Large files are checked and parsed in parallel (`objfast`, the same result); small
+    // ones by `validate_obj` and tobj.
+    let parallel = text.len() >= crate::objfast::PARALLEL_BYTES;
+    if !parallel {
+        validate_obj(&text, path, sb)?;
+    }
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
@@ -207,7 +212,7 @@ pub fn load_obj_meshes(
     let mtl_errors = std::cell::RefCell::new(Vec::new());
     let refused = std::cell::RefCell::new(None);
     let seen = std::cell::RefCell::new(std::collections::HashSet::new());
-    let (models, mats) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |p| {
+    let load_mtl = |p: &Path| {
         // Inside the sandbox and through our bounded reader: `mtllib /etc/passwd` is
         // refused unread, `mtllib /dev/zero` is refused, not read forever.
         // A missing library is common in real data (a note, defaults used); one outside
@@ -247,8 +252,13 @@ pub fn load_obj_meshes(
                 .push(format!("{}: {e}", full.display()));
         }
         r
-    })
-    .map_err(|e| SceneError::invalid(path, format!("OBJ parse error: {e}")))?;
+    };
+    let (models, mats) = if parallel {
+        crate::objfast::load(&text, path, sb, &load_mtl)?
+    } else {
+        tobj::load_obj_buf(&mut text.as_bytes(), &opts, load_mtl)
+            .map_err(|e| SceneError::invalid(path, format!("OBJ parse error: {e}")))?
+    };
     if let Some(e) = refused.into_inner() {
         return Err(e);
     }

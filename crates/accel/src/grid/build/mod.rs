@@ -199,9 +199,12 @@ fn count_scan_emit(
     emit_pairs(n, count, |total| lim.check_refs(total), emit)
 }
 
-/// Most references one build holds, per level and in all, whatever the memory: 2^28 keeps
-/// every reference offset and cell count within u32 with room to spare.
-const MAX_REFS: u64 = 1 << 28;
+/// Most references one build holds, per level and in all, whatever the memory: 2^30 keeps
+/// every reference offset and cell count within u32, and the merge's pool (compacted before
+/// it passes 4× the initial references or u32) too. (2^28 until a 10 M-triangle hairball
+/// needed 322 M references at its deepest level; memory, 24 bytes a reference, is checked
+/// first.)
+const MAX_REFS: u64 = 1 << 30;
 /// Most voxel-map entries (octree nodes) one build makes, whatever the memory.
 const MAX_NODES: u64 = voxelmap::INDEX as u64;
 
