@@ -163,8 +163,9 @@ const HAIR_LENGTH: f32 = 2.56;
 
 /// Thin tubes, each a smooth random walk steered back into the unit ball. The series is
 /// self-similar: a grid's cells shrink as n^(-1/3), so the segments along a hair grow as
-/// n^(1/3) (64 at 2 M) and the hairs as n^(2/3), which keeps each triangle's length in cells
-/// (and so references per triangle) the same at every size; the hairs' radius is fixed.
+/// n^(1/3) (64 at 2 M), the hairs as n^(2/3) and the tubes' radius shrinks as n^(-1/3)
+/// (0.003–0.005 at 2 M), which keeps each triangle's size in cells (and so references per
+/// triangle) the same at every size.
 /// Every hair has the same number of segments; the hair count meets the request.
 pub fn hairball(n: usize, seed: u64) -> Scene {
     let segments = hair_segments(n);
@@ -178,7 +179,7 @@ pub fn hairball(n: usize, seed: u64) -> Scene {
         .par_chunks_mut(verts)
         .zip(normals.par_chunks_mut(verts))
         .enumerate()
-        .for_each(|(h, (pos, nrm))| hair(seed, h as u64, segments, pos, nrm));
+        .for_each(|(h, (pos, nrm))| hair(seed, h as u64, segments, n, pos, nrm));
     let mut triangles = vec![[0u32; 3]; hairs * per_hair];
     triangles
         .par_chunks_mut(per_hair)
@@ -217,11 +218,11 @@ fn hair_segments(n: usize) -> usize {
 
 /// One hair: `segments + 1` rings of `HAIR_SIDES` vertices along a random walk, the rings'
 /// frames carried along the walk (so the tube never twists into a bow tie).
-fn hair(seed: u64, h: u64, segments: usize, pos: &mut [Vec3], nrm: &mut [Vec3]) {
+fn hair(seed: u64, h: u64, segments: usize, n: usize, pos: &mut [Vec3], nrm: &mut [Vec3]) {
     let mut rng = Pcg32::new(seed, h);
     let mut p = rng.unit_vector() * rng.next_f32().cbrt() * 0.9;
     let mut dir = rng.unit_vector();
-    let radius = 0.003 + 0.002 * rng.next_f32();
+    let radius = (0.003 + 0.002 * rng.next_f32()) * (2e6 / n as f32).cbrt();
     let step = HAIR_LENGTH / segments as f32;
     // The walk's turning per step, so that hairs of fewer segments curl as much per length.
     let wander = 0.45 * (HAIR_SEGMENTS as f32 / segments as f32).sqrt().min(2.0);
@@ -540,6 +541,7 @@ mod tests {
             .fold(0.0f32, f32::max);
         // A segment's length, plus the tube's diameter at most.
         let step = HAIR_LENGTH / hair_segments(20_000) as f32;
-        assert!(longest < step * 1.05 + 0.01, "{longest} against {step}");
+        let diameter = 0.01 * (2e6f32 / 20_000.0).cbrt();
+        assert!(longest < step * 1.05 + diameter, "{longest} against {step}");
     }
 }
