@@ -93,7 +93,7 @@ pub fn trace(
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::super::traverse::RayCounts;
-    use super::super::voxelmap::{INDEX, LOG_DIM_SHIFT};
+    use super::super::voxelmap::{INDEX, LOG_DIM_MASK, LOG_DIM_SHIFT};
     use super::super::{CellRec, Grid};
     use super::LANES;
     use geom::tri::{intersect, RayPre};
@@ -526,7 +526,7 @@ mod avx2 {
                 }
                 let k = _mm256_and_si256(
                     _mm256_srli_epi32::<{ LOG_DIM_SHIFT as i32 }>(e),
-                    _mm256_set1_epi32(0xf),
+                    _mm256_set1_epi32(LOG_DIM_MASK as i32),
                 );
                 let sh2 = _mm256_sub_epi32(sh, k);
                 let m = _mm256_sub_epi32(_mm256_sllv_epi32(one, k), one);

@@ -2,7 +2,7 @@
 //! brute-force engine's hits on built-in scenes and random scenes (closest-hit records bit
 //! for bit — same kernel, same tie rule — and any-hit booleans).
 
-use accel::grid::voxelmap::{INDEX, LOG_DIM_SHIFT};
+use accel::grid::voxelmap::{INDEX, LOG_DIM_MASK, LOG_DIM_SHIFT};
 use accel::grid::{build_grid, Grid, GridConfig, GridEngine, MergeRule, Subdivision, NODE};
 use accel::oracle::assert_same_hits;
 use accel::BruteForce;
@@ -84,7 +84,7 @@ fn check_voxel_map(g: &Grid) {
     }
     while let Some((e, lo, s)) = stack.pop() {
         if e & NODE != 0 {
-            let k = (e >> LOG_DIM_SHIFT) & 0xf;
+            let k = (e >> LOG_DIM_SHIFT) & LOG_DIM_MASK;
             assert!(k >= 1 && k <= s, "a block of {k} levels below level {s}");
             let n = 1u32 << k;
             let step = 1u32 << (s - k);

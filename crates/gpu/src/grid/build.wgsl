@@ -74,7 +74,7 @@ struct OctreeLevelParams {
 
 // voxelmap.rs: an inner entry is NODE | log2 of its block's resolution << 27 | first entry.
 const NODE: u32 = 0x80000000u;
-const LOG_DIM_SHIFT: u32 = 27u;
+const LOG_DIM_SHIFT: u32 = 28u; // voxelmap::LOG_DIM_SHIFT
 
 fn lin(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;

@@ -5,8 +5,8 @@
 
 // An entry is a cell, or NODE | log2 of the block's resolution << 27 | first.
 const NODE: u32 = 0x80000000u;
-const LOG_DIM_SHIFT: u32 = 27u;
-const INDEX: u32 = 0x07ffffffu;
+const LOG_DIM_SHIFT: u32 = 28u; // voxelmap::LOG_DIM_SHIFT
+const INDEX: u32 = 0x0fffffffu; // voxelmap::INDEX
 
 // The top cell's entry, then one entry per block below it.
 fn lookup(v: vec3<u32>, shift: u32, td: vec3<u32>) -> u32 {
@@ -14,7 +14,7 @@ fn lookup(v: vec3<u32>, shift: u32, td: vec3<u32>) -> u32 {
     let t = v >> vec3<u32>(s);
     var e = map_entry(t.x + td.x * (t.y + td.y * t.z));
     while (e & NODE) != 0u {
-        let k = (e >> LOG_DIM_SHIFT) & 0xfu;
+        let k = (e >> LOG_DIM_SHIFT) & 0x7u; // voxelmap::LOG_DIM_MASK
         s -= k;
         let m = (1u << k) - 1u;
         let i = ((v.x >> s) & m) | (((v.y >> s) & m) << k) | (((v.z >> s) & m) << (2u * k));

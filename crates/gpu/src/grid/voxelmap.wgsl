@@ -60,8 +60,8 @@ struct VmKeysParams {
 @group(0) @binding(22) var<storage, read> v_top_l: array<u32>;
 
 const NODE: u32 = 0x80000000u;
-const LOG_DIM_SHIFT: u32 = 27u;
-const INDEX: u32 = 0x07ffffffu;
+const LOG_DIM_SHIFT: u32 = 28u; // voxelmap::LOG_DIM_SHIFT
+const INDEX: u32 = 0x0fffffffu; // voxelmap::INDEX
 const MAX_BLOCK_LEVELS: u32 = 4u;
 
 fn lin(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {

@@ -199,14 +199,20 @@ fn count_scan_emit(
     emit_pairs(n, count, |total| lim.check_refs(total), emit)
 }
 
-/// Most references one build holds, per level and in all, whatever the memory: 2^30 keeps
-/// every reference offset and cell count within u32, and the merge's pool (compacted before
-/// it passes 4× the initial references or u32) too. (2^28 until a 10 M-triangle hairball
-/// needed 322 M references at its deepest level; memory, 24 bytes a reference, is checked
-/// first.)
-const MAX_REFS: u64 = 1 << 30;
-/// Most voxel-map entries (octree nodes) one build makes, whatever the memory.
-const MAX_NODES: u64 = voxelmap::INDEX as u64;
+/// Most references one build holds, per level and in all, whatever the memory: the larger
+/// of 2^28 and [`REFS_PER_TRIANGLE`] per triangle, at most 2^30 (which keeps every
+/// reference offset and cell count within u32, and the merge's pool, compacted before it
+/// passes 4× the initial references or u32, too).
+const MAX_REFS: [u64; 2] = [1 << 28, 1 << 30];
+/// Most voxel-map entries (octree nodes) one build makes, whatever the memory: the larger of
+/// 2^25 and [`NODES_PER_TRIANGLE`] per triangle, at most the voxel map's index range.
+const MAX_NODES: [u64; 2] = [1 << 25, voxelmap::INDEX as u64];
+/// The caps grow with the input past their floors: a 10 M-triangle hairball needs 135 M
+/// octree nodes and 322 M references at its deepest level, while absurd densities on a
+/// small scene are still refused at the floors, after a few GB at most, not most of the
+/// machine's memory.
+const REFS_PER_TRIANGLE: u64 = 64;
+const NODES_PER_TRIANGLE: u64 = 32;
 
 /// The grid's memory model: the peak bytes a reference costs while a level is built (node
 /// and triangle of the level's list, the count/scan/emit keys and values, the kept-cell
@@ -228,10 +234,13 @@ pub struct Limits {
 }
 
 impl Limits {
-    fn of(cfg: &GridConfig) -> Limits {
+    fn of(cfg: &GridConfig, ntris: usize) -> Limits {
+        let n = ntris as u64;
+        let refs = (REFS_PER_TRIANGLE * n).clamp(MAX_REFS[0], MAX_REFS[1]);
+        let nodes = (NODES_PER_TRIANGLE * n).clamp(MAX_NODES[0], MAX_NODES[1]);
         Limits {
-            refs: MAX_REFS.min(cfg.max_bytes / BYTES_PER_REF),
-            nodes: MAX_NODES.min(cfg.max_bytes / BYTES_PER_NODE),
+            refs: refs.min(cfg.max_bytes / BYTES_PER_REF),
+            nodes: nodes.min(cfg.max_bytes / BYTES_PER_NODE),
             max_bytes: cfg.max_bytes,
         }
     }
@@ -485,7 +494,7 @@ pub fn setup(tri_bounds: Aabb, ntris: usize, cfg: &GridConfig) -> Result<Setup, 
             cap: MAX_TOP,
         });
     }
-    let limits = Limits::of(cfg);
+    let limits = Limits::of(cfg, ntris);
     if ntop >= limits.nodes {
         return Err(limits.error("top cells", ntop, limits.nodes, BYTES_PER_NODE));
     }
