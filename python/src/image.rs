@@ -64,6 +64,13 @@ pub(crate) fn render_frame<'py>(
         if let Some(o) = engines::object_hierarchy_name(engine_kind, objects, false) {
             v["object_hierarchy"] = o.into();
         }
+        // The structure's bytes and the process's peak memory, as `render --stats` has them.
+        if let Some(b) = engine.structure_bytes() {
+            v["structure_bytes"] = b.into();
+        }
+        if let Some(b) = trace::memory::peak_rss() {
+            v["peak_rss_bytes"] = b.into();
+        }
         Ok((rgb, v.to_string()))
     })?;
     let img = rgb
