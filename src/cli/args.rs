@@ -70,7 +70,8 @@ pub enum Command {
 
 #[derive(Args, Clone)]
 pub struct ViewArgs {
-    /// A built-in scene, or an .obj, .gltf/.glb, .toml or BART .aff file.
+    /// A built-in, shared or generated scene (hairball:100k), or an .obj, .gltf/.glb, .toml
+    /// or BART .aff file.
     #[arg(default_value = "spheres")]
     pub scene: String,
     #[arg(long, value_enum, default_value_t = Engine::Grid)]
@@ -327,7 +328,8 @@ pub struct BenchGpuArgs {
 
 #[derive(Args, Clone)]
 pub struct RaysArgs {
-    /// A built-in scene, an .obj, .gltf/.glb or .toml file.
+    /// A built-in, shared or generated scene (hairball:100k), or an .obj, .gltf/.glb, .toml
+    /// or BART .aff file.
     pub scene: String,
     #[arg(long, value_enum, default_value_t = Kind::Primary)]
     pub kind: Kind,
@@ -402,7 +404,8 @@ pub enum Backend {
 #[derive(Args, Clone)]
 pub struct RenderArgs {
     /// A built-in scene (cornell, spheres, soup, stadium, office), a shared real scene by
-    /// name (sponza, conference, kitchen, museum; read from $RAYSPACE_SCENES), or an .obj,
+    /// name (sponza, conference, kitchen, museum; read from $RAYSPACE_SCENES), a generated
+    /// scene of any size (hairball:2M, city:500k, nested:10M, optionally :SEED), or an .obj,
     /// .gltf/.glb, .toml or BART .aff file. The default, `spheres`: mirror, glass and
     /// diffuse spheres on a reflective checkerboard under two lights.
     #[arg(default_value = "spheres")]
