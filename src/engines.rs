@@ -89,6 +89,22 @@ impl Engine {
         trace::by_name(&name.trim().to_ascii_lowercase(), "engine", &Self::NAMES)
     }
 
+    /// Every engine worth comparing except brute force: ours, then the peers this build has
+    /// (the viewer cycles through them, `bench scale` runs them).
+    pub fn all_but_brute() -> Vec<Engine> {
+        let mut v = vec![
+            Engine::Crsh,
+            Engine::Rah,
+            Engine::Grid,
+            Engine::Grid2l,
+            Engine::ObvhsCwbvh,
+        ];
+        if cfg!(feature = "embree") {
+            v.push(Engine::Embree);
+        }
+        v
+    }
+
     /// A peer (obvhs, Embree): equal to brute force within the peers' stated tolerance,
     /// not bit for bit.
     pub fn is_peer(self) -> bool {

@@ -172,8 +172,8 @@ pub struct BenchScaleArgs {
     /// Sizes in triangles, comma-separated (10000, 250k, 2M).
     #[arg(long, default_value = "10k,30k,100k,300k,1M")]
     pub sizes: String,
-    /// Engines, comma-separated [default: crsh, rah, grid, grid2l, obvhs-cwbvh, brute, and
-    /// embree with `--features embree`].
+    /// Engines, comma-separated [default: crsh, rah, grid, grid2l, obvhs-cwbvh, embree with
+    /// `--features embree`, then brute].
     #[arg(long)]
     pub engines: Option<String>,
     /// Brute force runs up to this many triangles (it stays the oracle where it runs).

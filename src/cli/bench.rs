@@ -265,17 +265,8 @@ pub fn cmd_bench_scale(a: &BenchScaleArgs) -> Result<()> {
             .map(|x| Engine::parse(x).context("--engines"))
             .collect::<Result<_>>()?,
         None => {
-            let mut v = vec![
-                Engine::Crsh,
-                Engine::Rah,
-                Engine::Grid,
-                Engine::Grid2l,
-                Engine::ObvhsCwbvh,
-                Engine::Brute,
-            ];
-            if cfg!(feature = "embree") {
-                v.push(Engine::Embree);
-            }
+            let mut v = Engine::all_but_brute();
+            v.push(Engine::Brute);
             v
         }
     };

@@ -153,16 +153,7 @@ pub struct Session {
 
 /// The engines the `e` key cycles through (brute force last: it is slow).
 pub fn engine_cycle() -> Vec<Engine> {
-    let mut v = vec![
-        Engine::Crsh,
-        Engine::Rah,
-        Engine::Grid,
-        Engine::Grid2l,
-        Engine::ObvhsCwbvh,
-    ];
-    if cfg!(feature = "embree") {
-        v.push(Engine::Embree);
-    }
+    let mut v = Engine::all_but_brute();
     v.push(Engine::Brute);
     v
 }

@@ -5,3 +5,4 @@ mod determinism;
 mod generated;
 mod raster_agreement;
 mod real_scenes;
+mod roster;

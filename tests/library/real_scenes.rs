@@ -56,8 +56,6 @@ fn real_scenes_render() {
 /// bit, and every peer agrees within `accel::oracle::Agreement`'s rule.
 #[test]
 fn engines_and_peers_agree_on_real_scene_ray_files() {
-    use accel::oracle::{assert_same_hits, Agreement};
-    use accel::peers::{BvhKind, ObvhsEngine};
     use render::rayfile::{read_rays, write_rays};
     use render::raygen::{generate, Kind, Options};
     use trace::{Hit, RayKind, TraceMode, TraceStats, Tracer};
@@ -78,28 +76,7 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
         }
         let s = load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();
         let geo = Geometry::from_scene(&s);
-        let mut ours: Vec<Box<dyn Tracer>> = vec![
-            Box::new(accel::GridEngine::new(&geo, &accel::GridConfig::default()).unwrap()),
-            Box::new(accel::GridEngine::new(&geo, &accel::GridConfig::two_level()).unwrap()),
-        ];
-        for cfg in [rsh::RshConfig::crsh(), rsh::RshConfig::rah()] {
-            ours.push(Box::new(rsh::RshEngine::new(&geo, cfg).unwrap()));
-        }
-        #[allow(unused_mut)] // pushed to only with the `embree` feature
-        let mut peers: Vec<(Box<dyn Tracer>, f32)> = vec![
-            (Box::new(ObvhsEngine::new(&geo, BvhKind::Bvh2)), 0.0),
-            (Box::new(ObvhsEngine::new(&geo, BvhKind::CwBvh)), 1e-4),
-        ];
-        #[cfg(feature = "embree")]
-        for m in [
-            accel::peers::EmbreeMode::Single,
-            accel::peers::EmbreeMode::Stream,
-        ] {
-            peers.push((
-                Box::new(accel::peers::EmbreeEngine::new(&geo, m).unwrap()),
-                0.0,
-            ));
-        }
+        let (ours, peers) = (crate::roster::ours(&geo), crate::roster::peers(&geo));
         let opts = Options {
             width: 32,
             height: 24,
@@ -118,23 +95,8 @@ fn engines_and_peers_agree_on_real_scene_ray_files() {
             let rays = read_rays(&file, RayKind::Reflection).unwrap();
             let mut expect = vec![Hit::MISS; rays.len()];
             BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
-            for e in &ours {
-                assert_same_hits(
-                    e.as_ref(),
-                    &rays,
-                    mode,
-                    &expect,
-                    &format!("{rel} {name} {}", e.name()),
-                );
-            }
-            for (p, floor) in &peers {
-                let mut got = vec![Hit::MISS; rays.len()];
-                p.trace(&rays, mode, &mut got, &mut TraceStats::default());
-                let mut a = Agreement::default();
-                a.check(&geo.tris, &rays, mode, &expect, &got, *floor);
-                assert_eq!(a.wrong, 0, "{rel} {name} {}: {a:?}", p.name());
-                eprintln!("{rel} {name} {}: {a:?}", p.name());
-            }
+            let what = format!("{rel} {name}");
+            crate::roster::check(&geo, &ours, &peers, &rays, mode, &expect, &what);
         }
     }
     let _ = std::fs::remove_dir_all(&tmp);

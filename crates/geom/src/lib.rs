@@ -12,6 +12,7 @@ pub mod aabb;
 pub mod cone;
 pub mod cone8;
 pub mod miniball;
+pub mod morton;
 pub mod pmath;
 pub mod polyhedra;
 pub mod ray;

@@ -69,22 +69,15 @@ const RUN: usize = 32;
 /// by 1e-5), so no nearer hit is skipped.
 fn probe_culled(tris: &[[Vec3; 3]], rays: &[Ray]) -> Vec<Option<Probe>> {
     let bounds = geom::Aabb::from_points(tris.iter().flatten().copied());
-    let ext = bounds.extent().max(Vec3::splat(1e-30));
-    let morton = |p: Vec3| -> u32 {
-        let q = ((p - bounds.min) / ext * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
-        let spread = |v: u32| {
-            let mut x = v & 0x3ff;
-            x = (x | (x << 16)) & 0x030000ff;
-            x = (x | (x << 8)) & 0x0300f00f;
-            x = (x | (x << 4)) & 0x030c30c3;
-            (x | (x << 2)) & 0x09249249
-        };
-        spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2
-    };
-    let mut order: Vec<(u32, u32)> = tris
+    let mut order: Vec<(u64, u32)> = tris
         .par_iter()
         .enumerate()
-        .map(|(i, t)| (morton((t[0] + t[1] + t[2]) / 3.0), i as u32))
+        .map(|(i, t)| {
+            (
+                geom::morton::morton((t[0] + t[1] + t[2]) / 3.0, &bounds, 10),
+                i as u32,
+            )
+        })
         .collect();
     order.par_sort_unstable();
     let pad = Vec3::splat(bounds.diagonal() * 1e-6);

@@ -85,6 +85,15 @@ pub fn validate_obj(text: &str, path: &Path, sb: &crate::io::Sandbox) -> Result<
     Ok(())
 }
 
+/// How tobj reads an OBJ here (and what `objfast` reproduces): polygons triangulated, one
+/// index per distinct `v/vt/vn` triple, points and lines left out.
+pub const TOBJ_OPTIONS: tobj::LoadOptions = tobj::LoadOptions {
+    triangulate: true,
+    single_index: true,
+    ignore_points: true,
+    ignore_lines: true,
+};
+
 /// Map an MTL material to ours. `illum` 3/5 → mirror; 4/6/7 → refractive with `Ni`
 /// (`Ni 0`, BART's convention for opaque, stays opaque).
 pub fn convert_material(m: &tobj::Material) -> Result<Material, Invalid> {
@@ -203,12 +212,6 @@ pub fn load_obj_meshes(
     if !parallel {
         validate_obj(&text, path, sb)?;
     }
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
     let mtl_errors = std::cell::RefCell::new(Vec::new());
     let refused = std::cell::RefCell::new(None);
     let seen = std::cell::RefCell::new(std::collections::HashSet::new());
@@ -256,7 +259,7 @@ pub fn load_obj_meshes(
     let (models, mats) = if parallel {
         crate::objfast::load(&text, path, sb, &load_mtl)?
     } else {
-        tobj::load_obj_buf(&mut text.as_bytes(), &opts, load_mtl)
+        tobj::load_obj_buf(&mut text.as_bytes(), &TOBJ_OPTIONS, load_mtl)
             .map_err(|e| SceneError::invalid(path, format!("OBJ parse error: {e}")))?
     };
     if let Some(e) = refused.into_inner() {

@@ -1,5 +1,6 @@
 //! Parallel OBJ parsing for large files (hundreds of MB: a 2 M-triangle hairball is 77 MB),
-//! with the same result as the sequential path (`tobj` after [`crate::obj::validate_obj`]):
+//! with the same result as the sequential path (`tobj` with [`crate::obj::TOBJ_OPTIONS`] after
+//! [`crate::obj::validate_obj`]):
 //! the same models (split at `o`/`g` and at material changes), the same vertices in the same
 //! order (one per distinct `v/vt/vn` triple of a model, in order of first use), the same fan
 //! triangulation, and the same first error with its line number.
@@ -503,12 +504,7 @@ mod tests {
         let path = Path::new("t.obj");
         let sb = crate::io::Sandbox::for_scene(path, false);
         let no_mtl = |_: &Path| -> tobj::MTLLoadResult { Err(tobj::LoadError::OpenFileFailed) };
-        let opts = tobj::LoadOptions {
-            triangulate: true,
-            single_index: true,
-            ignore_points: true,
-            ignore_lines: true,
-        };
+        let opts = crate::obj::TOBJ_OPTIONS;
         let (want, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, no_mtl).unwrap();
         for chunk in [7, 64, 1 << 20] {
             let (got, _) = load_in_chunks(text, path, &sb, &no_mtl, chunk).unwrap();
@@ -554,12 +550,7 @@ mod tests {
             let text = std::fs::read_to_string(&path).unwrap();
             let base = path.parent().unwrap().to_path_buf();
             let mtl = |p: &Path| tobj::load_mtl(base.join(p));
-            let opts = tobj::LoadOptions {
-                triangulate: true,
-                single_index: true,
-                ignore_points: true,
-                ignore_lines: true,
-            };
+            let opts = crate::obj::TOBJ_OPTIONS;
             let (want, wm) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, mtl).unwrap();
             let sb = crate::io::Sandbox::for_scene(&path, false);
             let (got, gm) = load_in_chunks(&text, &path, &sb, &mtl, 64 << 10).unwrap();

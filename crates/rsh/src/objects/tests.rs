@@ -2,6 +2,7 @@
 //! emission, the 8-wide collapse, and the Morton codes.
 
 use super::*;
+use geom::morton::spread;
 use geom::Pcg32;
 
 fn soup(n: usize, seed: u64) -> Vec<[Vec3; 3]> {
