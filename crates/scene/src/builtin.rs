@@ -322,18 +322,23 @@ pub fn soup(n: usize, seed: u64) -> Scene {
     )
 }
 
+/// The stadium's knot: glossy copper (also the nested stadium's, `generate::nested`).
+pub(crate) fn knot_material() -> Material {
+    Material {
+        name: "knot".into(),
+        diffuse: Vec3::new(0.7, 0.25, 0.1),
+        specular: Vec3::splat(0.6),
+        shininess: 64.0,
+        reflectivity: 0.3,
+        ..Default::default()
+    }
+}
+
 /// A dense knot (3,072 triangles) in a room 2,000 units wide: the "teapot in a stadium".
 pub fn stadium() -> Scene {
     let materials = vec![
         Material::diffuse("stadium", Vec3::new(0.5, 0.55, 0.5)),
-        Material {
-            name: "knot".into(),
-            diffuse: Vec3::new(0.7, 0.25, 0.1),
-            specular: Vec3::splat(0.6),
-            shininess: 64.0,
-            reflectivity: 0.3,
-            ..Default::default()
-        },
+        knot_material(),
         Material::mirror("floor", Vec3::splat(0.2), 0.4),
     ];
     let meshes = vec![

@@ -382,14 +382,7 @@ pub fn nested(n: usize, seed: u64) -> Scene {
     ));
     let materials = vec![
         Material::diffuse("stands", Vec3::new(0.55, 0.6, 0.55)),
-        Material {
-            name: "knot".into(),
-            diffuse: Vec3::new(0.7, 0.25, 0.1),
-            specular: Vec3::splat(0.6),
-            shininess: 64.0,
-            reflectivity: 0.3,
-            ..Default::default()
-        },
+        crate::builtin::knot_material(),
     ];
     let lights = vec![Light {
         position: Vec3::new(0.3, 1.2, 0.5) * BOWL_RADIUS,
