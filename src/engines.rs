@@ -7,7 +7,7 @@
 //! peers from `accel`.
 
 use accel::grid::{GridConfig, GridError};
-use rsh::{Method, ObjectHierarchy, RshConfig, RshError};
+use rsh::{Method, ObjectHierarchy, RayPath, RshConfig, RshError};
 use scene::Geometry;
 use trace::{NameError, OptionError, Tracer};
 
@@ -195,6 +195,9 @@ pub struct EngineOptions {
     /// The object side of CRSH and RAH (`None`: [`DEFAULT_OBJECTS`] on the CPU,
     /// mesh-spheres on the GPU, which has no other).
     pub objects: Option<ObjectHierarchy>,
+    /// How CRSH and RAH trace a batch over the object tree (`None`: each method's default,
+    /// auto for CRSH, bundles for RAH).
+    pub path: Option<RayPath>,
     /// Irregular-grid options (`grid2l` turns merging and expansion off).
     pub grid: GridConfig,
 }
@@ -205,6 +208,7 @@ impl Default for EngineOptions {
             rsh: RshConfig::crsh(),
             mesh_culling: None,
             objects: None,
+            path: None,
             grid: GridConfig::default(),
         }
     }
@@ -221,6 +225,7 @@ impl EngineOptions {
             method,
             mesh_culling: self.mesh_culling.unwrap_or(base.mesh_culling),
             objects: self.objects.unwrap_or(DEFAULT_OBJECTS),
+            path: self.path.unwrap_or(base.path),
             ..self.rsh.clone()
         }
     }

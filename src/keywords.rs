@@ -6,7 +6,10 @@
 
 use crate::engines::EngineOptions;
 use accel::grid::{GridConfig, MergeRule, Subdivision};
-use rsh::{Descent, HashBits, HashKind, NodeTest, ObjectHierarchy, RshConfig, Schedule, Union};
+use rsh::{
+    Descent, HashBits, HashKind, NodeTest, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig,
+    Schedule, Union,
+};
 use trace::{by_name, OptionError};
 
 /// A keyword's value, as a dynamic language passes it.
@@ -58,7 +61,7 @@ pub enum KeywordError {
 }
 
 /// Every engine option's keyword: CRSH/RAH's, then the grid's.
-pub const KEYWORDS: [&str; 19] = [
+pub const KEYWORDS: [&str; 21] = [
     "branching",
     "levels",
     "hash",
@@ -70,6 +73,8 @@ pub const KEYWORDS: [&str; 19] = [
     "object_hierarchy",
     "descent",
     "schedule",
+    "ray_path",
+    "object_builder",
     "grid_top_density",
     "grid_leaf_density",
     "grid_alpha",
@@ -93,6 +98,7 @@ pub fn engine_options(
         rsh: RshConfig::crsh(),
         mesh_culling: None,
         objects: None,
+        path: None,
         grid: GridConfig {
             expansion_passes: if dynamic { 1 } else { grid.expansion_passes },
             ..grid
@@ -176,6 +182,8 @@ fn set(o: &mut EngineOptions, key: &'static str, v: &Value) -> Result<(), Keywor
         "object_hierarchy" => o.objects = Some(named(key, v, &ObjectHierarchy::NAMES)?),
         "descent" => o.rsh.descent = named(key, v, &Descent::NAMES)?,
         "schedule" => o.rsh.schedule = named(key, v, &Schedule::NAMES)?,
+        "ray_path" => o.path = Some(named(key, v, &RayPath::NAMES)?),
+        "object_builder" => o.rsh.builder = named(key, v, &ObjectBuilder::NAMES)?,
         "grid_top_density" => o.grid.top_density = float()?,
         "grid_leaf_density" => o.grid.leaf_density = float()?,
         "grid_alpha" => o.grid.alpha = float()?,

@@ -7,7 +7,10 @@ use crate::engines::{Engine, EngineOptions};
 use accel::grid::{GridConfig, MergeRule, Subdivision};
 use clap::builder::TypedValueParser as _;
 use clap::{Args, Parser};
-use rsh::{Descent, HashBits, HashKind, NodeTest, ObjectHierarchy, RshConfig, Schedule, Union};
+use rsh::{
+    Descent, HashBits, HashKind, NodeTest, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig,
+    Schedule, Union,
+};
 use scene::MeshSplit;
 
 /// A command's options with every default, as if given no arguments.
@@ -184,6 +187,14 @@ pub struct RshArgs {
     /// the CPU), or level by level in data-parallel steps (the GPU's shape).
     #[arg(long, value_enum, default_value_t = RshConfig::crsh().schedule)]
     pub schedule: Schedule,
+    /// With `--object-hierarchy bvh`: trace each batch as the ray hierarchy's bundles, as
+    /// single rays through the object tree, or as its coherence says (default: auto for
+    /// crsh, bundles for rah).
+    #[arg(long = "ray-path", value_enum)]
+    pub path: Option<RayPath>,
+    /// With `--object-hierarchy bvh`: how the object tree is built per frame.
+    #[arg(long = "object-builder", value_enum, default_value_t = RshConfig::crsh().builder)]
+    pub builder: ObjectBuilder,
 }
 
 impl RshArgs {
@@ -200,6 +211,7 @@ impl RshArgs {
             pair_budget: self.pair_budget,
             descent: self.descent,
             schedule: self.schedule,
+            builder: self.builder,
             ..RshConfig::crsh()
         }
     }
@@ -212,6 +224,7 @@ pub fn engine_options(r: &RshArgs, g: &GridArgs, dynamic: bool) -> EngineOptions
         rsh: r.base(),
         mesh_culling: r.mesh_culling,
         objects: r.objects,
+        path: r.path,
         grid: g.config(dynamic),
     }
 }

@@ -141,7 +141,7 @@ pub fn render(a: &RenderArgs, m: &ArgMatches) -> Result<Outputs, UsageError> {
         a.backend == Backend::Gpu || a.rsh.objects == Some(rsh::ObjectHierarchy::MeshSpheres);
     if no_bvh && a.engine.rsh_method().is_some() {
         for (flag, kw) in given_engine_options(m) {
-            if kw == "descent" || kw == "schedule" {
+            if ["descent", "schedule", "ray_path", "object_builder"].contains(&kw.as_str()) {
                 return Err(UsageError(format!(
                     "{flag} applies to the object BVH (--object-hierarchy bvh, on the CPU backend), which this render does not use"
                 )));

@@ -23,7 +23,7 @@ pub mod tri8;
 
 pub use aabb::Aabb;
 pub use cone::Cone;
-pub use glam::{Mat3, Mat4, Quat, Vec3};
+pub use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
 pub use ray::Ray;
 pub use rng::Pcg32;
 pub use sphere::Sphere;

@@ -4,8 +4,9 @@
 use crate::build::{build, Union};
 use crate::dual::{Descent, RaySide, Schedule};
 use crate::hash::{HashBits, HashKind};
-use crate::objects::{self, ObjectTree};
+use crate::objects::{self, ObjectBuilder, ObjectTree};
 use crate::order::{leaf_order, Grouping};
+use crate::single::{self, RayPath};
 use crate::traverse::{unpack_uv, Counters, NodeTest, SceneData, Traversal};
 use geom::tri::RayPre;
 use geom::tri8::RayLanes;
@@ -85,6 +86,11 @@ pub struct RshConfig {
     pub descent: Descent,
     /// With [`ObjectHierarchy::Bvh`]: in which order the pairs are taken.
     pub schedule: Schedule,
+    /// With [`ObjectHierarchy::Bvh`]: bundles, single rays, or each batch as its coherence
+    /// says ([`crate::single`]).
+    pub path: RayPath,
+    /// With [`ObjectHierarchy::Bvh`]: how the object tree is built.
+    pub builder: ObjectBuilder,
 }
 
 /// Default pair budget: 2^24 pairs (128 MiB for the two u32 arrays of one buffer).
@@ -127,14 +133,18 @@ impl RshConfig {
             objects: ObjectHierarchy::MeshSpheres,
             descent: Descent::Size,
             schedule: Schedule::Depth,
+            path: RayPath::Single,
+            builder: ObjectBuilder::Sah,
         }
     }
 
-    /// RAH's defaults: CRSH's without mesh culling (the leaf order is RAH's screen order).
+    /// RAH's defaults: CRSH's without mesh culling (the leaf order is RAH's screen order),
+    /// always in bundles (RAH is the paper CRSH is measured against).
     pub fn rah() -> Self {
         RshConfig {
             method: Method::Rah,
             mesh_culling: false,
+            path: RayPath::Bundles,
             ..Self::crsh()
         }
     }
@@ -272,7 +282,7 @@ impl RshEngine {
         let tree = (cfg.objects == ObjectHierarchy::Bvh).then(|| {
             let t0 = Instant::now();
             let spheres = cfg.mesh_culling.then_some(&geo.mesh_sphere[..]);
-            let t = objects::build(&geo.tris, &geo.mesh_first, spheres);
+            let t = objects::build(&geo.tris, &geo.mesh_first, spheres, cfg.builder);
             (t, t0.elapsed().as_secs_f64())
         });
         Ok(RshEngine {
@@ -461,6 +471,32 @@ impl RshEngine {
         object_counters(&c, stats);
     }
 
+    /// The incoherent path ([`crate::single`]): every ray alone through the collapsed
+    /// object tree, no hashing, sorting or bundles; its slab and triangle tests are
+    /// reported as the dual traversal's (`ray-box tests`, final tests of level 1).
+    fn trace_single(
+        &self,
+        tree: &ObjectTree,
+        rays: &RayBatch,
+        mode: TraceMode,
+        hits: &mut [Hit],
+        stats: &mut TraceStats,
+    ) {
+        let t0 = Instant::now();
+        let c = single::trace(tree, &self.tris, rays, mode, hits, false);
+        stats.time(Phase::Traversal, t0.elapsed().as_secs_f64());
+        stats.hits += c.hits;
+        stats.levels.add(&LevelCounts {
+            tests: Vec::new(),
+            hits: Vec::new(),
+            final_tests: c.final_tests,
+        });
+        stats.ray_tri_tests += c.final_tests.iter().sum::<u64>();
+        stats.count(Counter::RayBoxTests, c.box_tests);
+        stats.count(Counter::RayBoxPasses, c.box_passes);
+        stats.node_tri_tests += c.box_tests;
+    }
+
     /// The traversal's view of the scene and of one trace's hierarchy, lanes and results.
     fn traversal<'a>(
         &'a self,
@@ -519,8 +555,21 @@ impl Tracer for RshEngine {
             Method::Crsh => Grouping::Hash(self.cfg.hash),
             Method::Rah => Grouping::Screen,
         };
+        let tree = self.tree.as_ref().filter(|_| !self.tris.is_empty());
+        if let Some((tree, _)) = tree {
+            let single = match self.cfg.path {
+                RayPath::Bundles => false,
+                RayPath::Single => true,
+                RayPath::Auto => single::coherence(rays) < single::COHERENT_SHARE,
+            };
+            if single {
+                stats.count(Counter::SingleRayBatches, 1);
+                return self.trace_single(tree, rays, mode, hits, stats);
+            }
+            stats.count(Counter::BundledBatches, 1);
+        }
         let order = leaf_order(rays, grouping, &self.bounds, &self.cfg.hash_bits, stats);
-        match self.tree.as_ref().filter(|_| !self.tris.is_empty()) {
+        match tree {
             Some((tree, _)) => self.trace_dual(tree, rays, order, mode, hits, stats),
             None => self.trace_mesh_spheres(rays, order, hits, stats),
         }

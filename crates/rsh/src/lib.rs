@@ -16,10 +16,13 @@ pub mod hash;
 pub mod node8;
 pub mod objects;
 pub mod order;
+pub mod single;
 pub mod traverse;
 
 pub use build::Union;
 pub use dual::{Descent, Schedule};
 pub use engine::{Method, ObjectHierarchy, RshConfig, RshEngine, RshError};
 pub use hash::{HashBits, HashBitsError, HashKind};
+pub use objects::ObjectBuilder;
+pub use single::RayPath;
 pub use traverse::NodeTest;

@@ -65,6 +65,31 @@ pub struct ObjectTree {
     /// Per binary inner node, its collapsed node in `wide` (`u32::MAX` where it has none:
     /// it lies inside some other node's frontier and is never expanded on its own).
     pub wide_of: Vec<u32>,
+    /// The collapsed nodes again, as the single-ray path reads them ([`BoxNode`]; same
+    /// indices as `wide`).
+    pub boxes: Vec<BoxNode>,
+    /// The triangles in leaf order (`leaf_tris[p]` is triangle `tri_order[p]`): a collapsed
+    /// node's triangles lie side by side, so the single-ray path reads a few cache lines
+    /// where it would gather one line per triangle.
+    pub leaf_tris: Vec<[Vec3; 3]>,
+}
+
+/// A collapsed node ([`WideNode`]) as the single-ray path ([`crate::single`]) reads it:
+/// only the children's grown boxes and references, an inner child given as the index of
+/// its own collapsed node (no lookup in `wide_of` between two nodes), in four cache lines.
+/// Lanes `count..8` repeat lane 0 and are masked off.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub struct BoxNode {
+    /// Grown boxes' minima (x, y, z lanes).
+    pub min: [[f32; 8]; 3],
+    /// Grown boxes' maxima.
+    pub max: [[f32; 8]; 3],
+    /// `LEAF | p` for the triangle at leaf position `p` (`tri_order[p]`, its vertices
+    /// `leaf_tris[p]`), or the index of the child's collapsed node.
+    pub child: [u32; 8],
+    /// Children in use.
+    pub count: u32,
 }
 
 /// Up to 8 descendants of one binary inner node, side by side as lanes (structure of arrays
@@ -204,6 +229,40 @@ impl ObjectTree {
             + size_of_val(&self.range[..])
             + size_of_val(&self.wide[..])
             + size_of_val(&self.wide_of[..])
+            + size_of_val(&self.boxes[..])
+            + size_of_val(&self.leaf_tris[..])
+    }
+
+    /// The surface-area metric of the tree (MacDonald & Booth 1990): for a ray that meets
+    /// the root's box, uniformly over such rays, the expected number of collapsed nodes
+    /// whose boxes it is tested against (Σ A(node) / A(root) over the collapsed nodes) and
+    /// of triangles whose boxes it meets (Σ A(triangle's box) / A(root)): the work of the
+    /// single-ray path, the lower the better. (0, 0) for a tree without inner nodes.
+    pub fn sah_metric(&self) -> (f64, f64) {
+        if self.is_empty() {
+            return (0.0, 0.0);
+        }
+        let area = |b: &Aabb| b.half_area() as f64;
+        let root = area(&self.node[0].bbox);
+        if root <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let nodes: f64 = self
+            .wide
+            .iter()
+            .map(|w| {
+                let mut b = Aabb::EMPTY;
+                for i in 0..w.count as usize {
+                    b = b.union(&Aabb::new(
+                        Vec3::new(w.min[0][i], w.min[1][i], w.min[2][i]),
+                        Vec3::new(w.max[0][i], w.max[1][i], w.max[2][i]),
+                    ));
+                }
+                area(&b)
+            })
+            .sum();
+        let leaves: f64 = self.leaf.iter().map(|l| area(&l.bbox)).sum();
+        (nodes / root, leaves / root)
     }
 
     /// Internal nodes.
@@ -408,12 +467,76 @@ fn grown(b: &Aabb, scene: &Aabb) -> Aabb {
     Aabb::new(b.min - pad, b.max + pad)
 }
 
-/// Build the tree over `tris` (meshes as `mesh_first` ranges). With `mesh_spheres`, the root
+/// The LBVH's tree over `n ≥ 2` triangles: keys (mesh index above the Morton code of the
+/// box centre in `centroid_box`), radix-sorted, and the radix tree over them; returns the
+/// tree and the triangles in leaf order.
+fn lbvh(boxes: &[Aabb], centroid_box: &Aabb, mesh_first: &[u32]) -> (RadixTree, Vec<u32>) {
+    let n = boxes.len();
+    // Keys: mesh index above the Morton code (triangles are stored mesh by mesh).
+    let nm = mesh_first.len().saturating_sub(1);
+    let mesh_bits = 64 - (nm.max(1) as u64 - 1).leading_zeros().min(63);
+    // Morton bits per axis: about 2^12 grid cells per triangle (⌈log2 n / 3⌉ + 4 bits), as
+    // many as the mesh index leaves room for and at most 21. Finer codes would only order
+    // triangles that share a cell (equal keys fall back to their index, which is file
+    // order), and each 8 bits more is one more pass of the radix sort: on Sponza, 10 bits
+    // instead of 21 give the same tree quality within 0.1 % of the tests, in 5 sort passes
+    // instead of 8.
+    let log_n = usize::BITS - (n - 1).leading_zeros();
+    let axis_bits = (log_n.div_ceil(3) + 4).min((64 - mesh_bits) / 3).min(21);
+    let code_bits = 3 * axis_bits;
+    let mut keys: Vec<u64> = boxes
+        .par_iter()
+        .enumerate()
+        .with_min_len(4096)
+        .map(|(t, bx)| {
+            let m = mesh_first
+                .partition_point(|&f| f as usize <= t)
+                .saturating_sub(1);
+            (m as u64) << code_bits | morton(bx.center(), centroid_box, axis_bits)
+        })
+        .collect();
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    sort_pairs(
+        &mut keys,
+        &mut order,
+        code_bits + mesh_bits,
+        &mut SortScratch::new(),
+    );
+    // The radix tree and its boxes in one bottom-up pass (Apetrei 2014).
+    (radix_tree(&keys, &order, boxes), order)
+}
+
+/// How the object tree is built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum ObjectBuilder {
+    /// Karras's linear BVH over Morton codes ([`build`]'s radix tree): the fastest build.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "linear BVH over Morton codes (Karras 2012): the fastest build")
+    )]
+    Lbvh,
+    /// Binned SAH, top down ([`sah`]): a better tree for a slower build.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "binned SAH, top down (Wald 2007): fewer tests per ray")
+    )]
+    Sah,
+}
+
+impl ObjectBuilder {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, ObjectBuilder); 2] =
+        [("lbvh", ObjectBuilder::Lbvh), ("sah", ObjectBuilder::Sah)];
+}
+
+/// Build the tree over `tris` (meshes as `mesh_first` ranges) with `builder`. With `mesh_spheres`, the root
 /// of mesh m's subtree is bounded by the smaller of its box sphere and `mesh_spheres[m]`.
 pub fn build(
     tris: &[[Vec3; 3]],
     mesh_first: &[u32],
     mesh_spheres: Option<&[Sphere]>,
+    builder: ObjectBuilder,
 ) -> ObjectTree {
     let n = tris.len();
     if n <= 1 {
@@ -457,64 +580,44 @@ pub fn build(
             |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
         );
     let grow = |b: &Aabb| grown(b, &scene_box);
-    // Keys: mesh index above the Morton code (triangles are stored mesh by mesh).
-    let nm = mesh_first.len().saturating_sub(1);
-    let mesh_bits = 64 - (nm.max(1) as u64 - 1).leading_zeros().min(63);
-    // Morton bits per axis: about 2^12 grid cells per triangle (⌈log2 n / 3⌉ + 4 bits), as
-    // many as the mesh index leaves room for and at most 21. Finer codes would only order
-    // triangles that share a cell (equal keys fall back to their index, which is file
-    // order), and each 8 bits more is one more pass of the radix sort: on Sponza, 10 bits
-    // instead of 21 give the same tree quality within 0.1 % of the tests, in 5 sort passes
-    // instead of 8.
-    let log_n = usize::BITS - (n - 1).leading_zeros();
-    let axis_bits = (log_n.div_ceil(3) + 4).min((64 - mesh_bits) / 3).min(21);
-    let code_bits = 3 * axis_bits;
-    let keys_of = |t: usize, bx: &Aabb| {
-        let m = mesh_first
-            .partition_point(|&f| f as usize <= t)
-            .saturating_sub(1);
-        (m as u64) << code_bits | morton(bx.center(), &centroid_box, axis_bits)
-    };
-    // Keys and the leaves' bounds in one pass.
-    let (mut keys, leaf): (Vec<u64>, Vec<Bounds>) = boxes
+    let leaf: Vec<Bounds> = boxes
         .par_iter()
-        .enumerate()
+        .zip(tris)
         .with_min_len(4096)
-        .map(|(t, bx)| {
-            let [a, b, c] = tris[t];
-            let leaf = Bounds {
-                sphere: Sphere::of_triangle(a, b, c),
-                bbox: grow(bx),
-            };
-            (keys_of(t, bx), leaf)
+        .map(|(bx, &[a, b, c])| Bounds {
+            sphere: Sphere::of_triangle(a, b, c),
+            bbox: grow(bx),
         })
-        .unzip();
-    let mut order: Vec<u32> = (0..n as u32).collect();
-    sort_pairs(
-        &mut keys,
-        &mut order,
-        code_bits + mesh_bits,
-        &mut SortScratch::new(),
-    );
-    // The radix tree and its boxes in one bottom-up pass (Apetrei 2014).
-    let RadixTree {
-        child,
-        range,
-        nbox,
-        depth,
-    } = radix_tree(&keys, &order, &boxes);
+        .collect();
+    let (
+        RadixTree {
+            child,
+            range,
+            nbox,
+            depth,
+        },
+        order,
+    ) = match builder {
+        ObjectBuilder::Lbvh => lbvh(&boxes, &centroid_box, mesh_first),
+        ObjectBuilder::Sah => sah::build(&boxes),
+    };
     let ni = n - 1;
-    let mesh_of_pos = |pos: u32| (keys[pos as usize] >> code_bits) as usize;
+    let mesh_of = |t: u32| mesh_first.partition_point(|&f| f <= t).saturating_sub(1);
     let node: Vec<Bounds> = (0..ni)
         .into_par_iter()
         .with_min_len(1024)
         .map(|i| {
             let mut s = Sphere::around_box(&nbox[i]);
             if let Some(ms) = mesh_spheres {
+                // A node holding exactly one mesh's triangles (as many as the mesh has,
+                // all of them in it) may take the mesh's sphere.
                 let [lo, hi] = range[i];
-                let m = mesh_of_pos(lo);
-                let whole_mesh =
-                    m == mesh_of_pos(hi) && lo == mesh_first[m] && hi + 1 == mesh_first[m + 1];
+                let m = mesh_of(order[lo as usize]);
+                let (first, end) = (mesh_first[m], mesh_first[m + 1]);
+                let whole_mesh = hi - lo + 1 == end - first
+                    && order[lo as usize..=hi as usize]
+                        .iter()
+                        .all(|&t| (first..end).contains(&t));
                 if whole_mesh && ms[m].radius < s.radius {
                     s = ms[m];
                 }
@@ -539,6 +642,13 @@ pub fn build(
         })
         .collect();
     let (wide, wide_of) = collapse(&child, &node, &leaf);
+    let pos = leaf_positions(&order);
+    let boxes = box_nodes(&wide, &wide_of, &pos);
+    let leaf_tris = order
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&t| tris[t as usize])
+        .collect();
     ObjectTree {
         root: 0,
         child,
@@ -550,8 +660,45 @@ pub fn build(
         depth,
         wide,
         wide_of,
+        boxes,
+        leaf_tris,
     }
 }
 
+/// Every triangle's position in the leaf order `order` (its inverse).
+fn leaf_positions(order: &[u32]) -> Vec<u32> {
+    let mut pos = vec![0u32; order.len()];
+    let out = SharedMut(pos.as_mut_ptr());
+    order
+        .par_iter()
+        .enumerate()
+        .with_min_len(4096)
+        .for_each(|(p, &t)| {
+            // SAFETY: `order` is a permutation: every triangle is written once.
+            unsafe { out.write(t as usize, p as u32) }
+        });
+    pos
+}
+
+/// The single-ray path's records of the collapsed nodes `wide` (see [`BoxNode`]).
+fn box_nodes(wide: &[WideNode], wide_of: &[u32], pos: &[u32]) -> Vec<BoxNode> {
+    wide.par_iter()
+        .with_min_len(1024)
+        .map(|w| BoxNode {
+            min: w.min,
+            max: w.max,
+            child: w.child.map(|x| {
+                if x & LEAF != 0 {
+                    LEAF | pos[(x & !LEAF) as usize]
+                } else {
+                    wide_of[x as usize]
+                }
+            }),
+            count: w.count,
+        })
+        .collect()
+}
+
+mod sah;
 #[cfg(test)]
 mod tests;

@@ -10,7 +10,10 @@ use accel::oracle::assert_same_hits;
 use accel::BruteForce;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
-use rsh::{Descent, HashKind, NodeTest, ObjectHierarchy, RshConfig, RshEngine, Schedule, Union};
+use rsh::{
+    Descent, HashKind, NodeTest, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, RshEngine,
+    Schedule, Union,
+};
 use scene::{builtin, Geometry};
 use testkit::record_render;
 use testkit::soup_case as random_case;
@@ -72,6 +75,13 @@ fn object_hierarchy_matches_brute_force() {
                             levels: d,
                             pair_budget: budget,
                             mesh_culling: base.mesh_culling ^ (k == 1),
+                            // The dual traversal itself, over either builder's tree.
+                            path: RayPath::Bundles,
+                            builder: if schedule == Schedule::Breadth {
+                                ObjectBuilder::Sah
+                            } else {
+                                ObjectBuilder::Lbvh
+                            },
                             ..base.clone()
                         };
                         let e = RshEngine::new(&geo, cfg.clone()).unwrap();
@@ -128,6 +138,7 @@ fn bvh(descent: Descent, schedule: Schedule) -> RshConfig {
         objects: ObjectHierarchy::Bvh,
         descent,
         schedule,
+        path: RayPath::Bundles,
         ..RshConfig::crsh()
     }
 }
@@ -268,13 +279,13 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
     #[test]
-    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4, breadth in any::<bool>()) {
+    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4, breadth in any::<bool>(), path in 0usize..3, sah in any::<bool>()) {
         let (geo, rays) = random_case(seed, ntri, nray);
         let base = if rah { RshConfig::rah() } else { RshConfig::crsh() };
         // 0: the thesis's mesh spheres; 1–3: the object hierarchy with each descent rule.
         let descents = [Descent::RayFirst, Descent::RayFirst, Descent::Size, Descent::ObjectFirst];
         let objects_kind = if objects == 0 { ObjectHierarchy::MeshSpheres } else { ObjectHierarchy::Bvh };
-        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, objects: objects_kind, descent: descents[objects], schedule: if breadth { Schedule::Breadth } else { Schedule::Depth }, ..base };
+        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, objects: objects_kind, descent: descents[objects], schedule: if breadth { Schedule::Breadth } else { Schedule::Depth }, path: RayPath::NAMES[path].1, builder: if sah { ObjectBuilder::Sah } else { ObjectBuilder::Lbvh }, ..base };
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];
         BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
@@ -333,7 +344,7 @@ proptest! {
     /// measures lengths in distance, the traversal's slab and beam tests in the rays' own
     /// parameter; hits stay brute force's for every object hierarchy and schedule.
     #[test]
-    fn unnormalised_directions_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..300, nray in 1usize..1200, scale_pow in -6i32..7, any_hit in any::<bool>(), objects in 0usize..3) {
+    fn unnormalised_directions_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..300, nray in 1usize..1200, scale_pow in -6i32..7, any_hit in any::<bool>(), objects in 0usize..4) {
         let (geo, mut rays) = random_case(seed, ntri, nray);
         let s = 2f32.powi(scale_pow);
         for i in 0..rays.len() {
@@ -347,13 +358,14 @@ proptest! {
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];
         BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
-        let (objects, schedule) = [
-            (ObjectHierarchy::MeshSpheres, Schedule::Depth),
-            (ObjectHierarchy::Bvh, Schedule::Depth),
-            (ObjectHierarchy::Bvh, Schedule::Breadth),
+        let (objects, schedule, path) = [
+            (ObjectHierarchy::MeshSpheres, Schedule::Depth, RayPath::Bundles),
+            (ObjectHierarchy::Bvh, Schedule::Depth, RayPath::Bundles),
+            (ObjectHierarchy::Bvh, Schedule::Breadth, RayPath::Bundles),
+            (ObjectHierarchy::Bvh, Schedule::Depth, RayPath::Single),
         ][objects];
         for base in [RshConfig::crsh(), RshConfig::rah()] {
-            let cfg = RshConfig { objects, schedule, ..base };
+            let cfg = RshConfig { objects, schedule, path, ..base };
             assert_same_hits(&RshEngine::new(&geo, cfg).unwrap(), &rays, mode, &expect, "unnormalised");
         }
     }
@@ -392,20 +404,123 @@ fn short_directions_reach_far_triangles() {
     assert!(expect.iter().all(|h| h.is_hit()));
     for objects in [ObjectHierarchy::MeshSpheres, ObjectHierarchy::Bvh] {
         for schedule in [Schedule::Depth, Schedule::Breadth] {
-            let cfg = RshConfig {
-                objects,
-                schedule,
-                mesh_culling: false,
-                ..RshConfig::crsh()
-            };
-            let e = RshEngine::new(&geo, cfg).unwrap();
-            assert_same_hits(
-                &e,
-                &rays,
-                TraceMode::Closest,
-                &expect,
-                &format!("{objects:?} {schedule:?}"),
-            );
+            for path in [RayPath::Bundles, RayPath::Single] {
+                let cfg = RshConfig {
+                    objects,
+                    schedule,
+                    mesh_culling: false,
+                    path,
+                    ..RshConfig::crsh()
+                };
+                let e = RshEngine::new(&geo, cfg).unwrap();
+                assert_same_hits(
+                    &e,
+                    &rays,
+                    TraceMode::Closest,
+                    &expect,
+                    &format!("{objects:?} {schedule:?} {path:?}"),
+                );
+            }
         }
+    }
+}
+
+/// The incoherent path (`rsh::single`) on every built-in scene's Whitted batches and on
+/// random rays, over both builders' trees: brute force's hits (closest hit bit for bit, the
+/// kernel's own records for any hit too), and the scalar slab test gives the 8-lane one's
+/// hits and counts exactly.
+#[test]
+fn single_rays_match_brute_force_and_the_scalar_path() {
+    type Batches = Vec<(RayBatch, TraceMode, Vec<Hit>)>;
+    let mut cases: Vec<(String, Geometry, Batches)> = Vec::new();
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let batches = record_render(&s, &geo, 40, 30, 2);
+        cases.push((name.to_string(), geo, batches));
+    }
+    for seed in 0..4u64 {
+        let (geo, rays) = random_case(seed, 300 + 200 * seed as usize, 3000);
+        let mut batches = Vec::new();
+        for mode in [TraceMode::Closest, TraceMode::Any] {
+            let mut expect = vec![Hit::MISS; rays.len()];
+            BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
+            batches.push((rays.clone(), mode, expect));
+        }
+        cases.push((format!("soup {seed}"), geo, batches));
+    }
+    for (name, geo, batches) in &cases {
+        for builder in [ObjectBuilder::Lbvh, ObjectBuilder::Sah] {
+            let tree = rsh::objects::build(&geo.tris, &geo.mesh_first, None, builder);
+            for (j, (rays, mode, expect)) in batches.iter().enumerate() {
+                let what = format!("{name} {builder:?} batch {j} {mode:?}");
+                let run = |scalar| {
+                    let mut got = vec![Hit::MISS; rays.len()];
+                    let c = rsh::single::trace(&tree, &geo.tris, rays, *mode, &mut got, scalar);
+                    (got, c)
+                };
+                let (lanes, lc) = run(false);
+                let (scalar, sc) = run(true);
+                assert_eq!(lc, sc, "{what}: counts");
+                for (i, ((l, s), e)) in lanes.iter().zip(&scalar).zip(expect).enumerate() {
+                    assert_eq!(l, s, "{what}: ray {i}, lanes against scalar");
+                    match mode {
+                        TraceMode::Closest => assert_eq!(l, e, "{what}: ray {i}"),
+                        TraceMode::Any => assert_eq!(l.is_hit(), e.is_hit(), "{what}: ray {i}"),
+                    }
+                    if l.is_hit() {
+                        let [a, b, c] = geo.tris[l.tri as usize];
+                        let k = geom::intersect(&geom::tri::RayPre::new(&rays.ray(i)), a, b, c)
+                            .expect("a recorded hit repeats");
+                        assert_eq!((l.t, l.u, l.v), (k.t, k.u, k.v), "{what}: ray {i} record");
+                    }
+                }
+                assert_eq!(lc.hits, lanes.iter().filter(|h| h.is_hit()).count() as u64);
+            }
+        }
+    }
+}
+
+/// `RayPath::Auto` takes the bundles for a batch of neighbouring, near-parallel rays
+/// (a view's shadow rays) and single rays for rays scattered at random, and says which
+/// in the counters; the hits are brute force's either way.
+#[test]
+fn auto_path_follows_the_batch_coherence() {
+    let s = builtin::office(7);
+    let geo = Geometry::from_scene(&s);
+    let batches = record_render(&s, &geo, 64, 48, 0);
+    let (primary, pmode, pexpect) = batches[0].clone();
+    let (_, random) = random_case(3, 10, 4000);
+    let mut rexpect = vec![Hit::MISS; random.len()];
+    BruteForce::new(&geo).trace(
+        &random,
+        TraceMode::Closest,
+        &mut rexpect,
+        &mut TraceStats::default(),
+    );
+    assert!(rsh::single::coherence(&primary) >= rsh::single::COHERENT_SHARE);
+    assert!(rsh::single::coherence(&random) < rsh::single::COHERENT_SHARE);
+    let cfg = RshConfig {
+        objects: ObjectHierarchy::Bvh,
+        path: RayPath::Auto,
+        ..RshConfig::crsh()
+    };
+    let e = RshEngine::new(&geo, cfg).unwrap();
+    for (rays, mode, expect, bundled) in [
+        (&primary, pmode, &pexpect, 1),
+        (&random, TraceMode::Closest, &rexpect, 0),
+    ] {
+        let mut st = TraceStats::default();
+        let mut got = vec![Hit::MISS; rays.len()];
+        e.trace(rays, mode, &mut got, &mut st);
+        for (g, x) in got.iter().zip(expect.iter()) {
+            match mode {
+                TraceMode::Closest => assert_eq!(g, x),
+                TraceMode::Any => assert_eq!(g.is_hit(), x.is_hit()),
+            }
+        }
+        let count = |c| st.counters.get(c).unwrap_or(0);
+        assert_eq!(count(trace::Counter::BundledBatches), bundled);
+        assert_eq!(count(trace::Counter::SingleRayBatches), 1 - bundled);
     }
 }

@@ -140,6 +140,9 @@ macro_rules! counters {
 counters! {
     /// Ray hierarchies: levels halved because their pairs exceeded the pair budget.
     BudgetSplits = "budget splits", Sum;
+    /// CRSH/RAH with an object hierarchy: trace calls whose rays went as the ray
+    /// hierarchy's bundles (the coherent path).
+    BundledBatches = "bundled batches", Sum;
     /// CRSH: runs of equal hashes after trimming (thesis §3.2.3).
     Chunks = "chunks", Sum;
     /// GPU backend: compute dispatches.
@@ -162,6 +165,9 @@ counters! {
     /// Ray hierarchies with an object hierarchy: slab tests of single rays against object
     /// nodes' boxes (in the total tests, not in the level tables).
     RayBoxTests = "ray-box tests", Sum;
+    /// CRSH/RAH with an object hierarchy: trace calls whose rays went one by one through the
+    /// object tree (the incoherent path).
+    SingleRayBatches = "single-ray batches", Sum;
     /// Ray hierarchies: nodes of the top level.
     TopNodes = "top nodes", Sum;
     /// Grids: cells visited per ray, summed (the paper's N_T).

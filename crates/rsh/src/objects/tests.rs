@@ -1,5 +1,6 @@
-//! The object tree: every triangle once under bounding boxes, the fused pass against Karras's
-//! emission, the 8-wide collapse, and the Morton codes.
+//! The object tree, from both builders: every triangle once under bounding boxes, the fused
+//! pass against Karras's emission, the 8-wide collapse and the single-ray path's copy of it,
+//! the SAH builder's quality, and the Morton codes.
 
 use super::*;
 use geom::morton::spread;
@@ -55,7 +56,40 @@ fn check(tris: &[[Vec3; 3]], t: &ObjectTree) {
     }
     check_ranges(t);
     check_wide(t);
+    check_boxes(tris, t);
 }
+
+/// The single-ray path's records: every collapsed node's boxes and children as `wide`'s
+/// (inner children as their collapsed nodes, triangles as leaf positions), and the
+/// triangles in leaf order.
+fn check_boxes(tris: &[[Vec3; 3]], t: &ObjectTree) {
+    assert_eq!(t.boxes.len(), t.wide.len());
+    for (w, b) in t.wide.iter().zip(&t.boxes) {
+        assert_eq!(b.count, w.count);
+        for i in 0..WIDTH {
+            for k in 0..3 {
+                assert_eq!(b.min[k][i].to_bits(), w.min[k][i].to_bits());
+                assert_eq!(b.max[k][i].to_bits(), w.max[k][i].to_bits());
+            }
+            let x = w.child[i];
+            if x & LEAF != 0 {
+                let p = (b.child[i] & !LEAF) as usize;
+                assert!(b.child[i] & LEAF != 0);
+                assert_eq!(t.tri_order[p], x & !LEAF);
+            } else {
+                assert_eq!(b.child[i], t.wide_of[x as usize]);
+            }
+        }
+    }
+    if !t.is_empty() {
+        for (p, &tri) in t.tri_order.iter().enumerate() {
+            assert_eq!(t.leaf_tris[p], tris[tri as usize]);
+        }
+    }
+}
+
+/// Both builders.
+const BUILDERS: [ObjectBuilder; 2] = [ObjectBuilder::Lbvh, ObjectBuilder::Sah];
 
 /// Every inner node's range of `tri_order` lists exactly its subtree's triangles, left to
 /// right.
@@ -148,8 +182,10 @@ fn check_wide(t: &ObjectTree) {
 fn trees_cover_every_triangle_once_and_bound_them() {
     for (n, seed) in [(1, 1), (2, 2), (3, 3), (17, 4), (1000, 5), (4097, 6)] {
         let tris = soup(n, seed);
-        let t = build(&tris, &[0, n as u32], None);
-        check(&tris, &t);
+        for b in BUILDERS {
+            let t = build(&tris, &[0, n as u32], None, b);
+            check(&tris, &t);
+        }
     }
 }
 
@@ -158,8 +194,10 @@ fn duplicate_keys_and_meshes_still_make_a_tree() {
     // All triangles at one point: every Morton key equal, ties broken by index.
     let one = [Vec3::ONE, Vec3::ONE, Vec3::ONE];
     let tris = vec![one; 100];
-    let t = build(&tris, &[0, 100], None);
-    check(&tris, &t);
+    for b in BUILDERS {
+        let t = build(&tris, &[0, 100], None, b);
+        check(&tris, &t);
+    }
     // Several meshes, each a subtree: with mesh spheres the mesh roots take them.
     let tris = soup(600, 9);
     let first = [0u32, 10, 11, 300, 600];
@@ -170,8 +208,55 @@ fn duplicate_keys_and_meshes_still_make_a_tree() {
             Sphere::around_box(&b)
         })
         .collect();
-    let t = build(&tris, &first, Some(&spheres));
-    check(&tris, &t);
+    for b in BUILDERS {
+        let t = build(&tris, &first, Some(&spheres), b);
+        check(&tris, &t);
+        // The nodes holding exactly one mesh's triangles bound them by the smaller sphere.
+        for (i, &[lo, hi]) in t.range.iter().enumerate() {
+            for (m, w) in first.windows(2).enumerate() {
+                let mut held: Vec<u32> = t.tri_order[lo as usize..=hi as usize].to_vec();
+                held.sort();
+                if held == (w[0]..w[1]).collect::<Vec<_>>() {
+                    let own = Sphere::around_box(&Aabb::from_points(
+                        held.iter().flat_map(|&x| tris[x as usize]),
+                    ));
+                    let want = own.radius.min(spheres[m].radius);
+                    assert_eq!(
+                        t.node[i].sphere.radius.to_bits(),
+                        want.to_bits(),
+                        "{b:?} node {i}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The SAH builder's tree costs less than the LBVH's by the surface-area metric (the
+/// work a single ray does) on clustered and uniform soups, and both builders give the
+/// same tree from run to run.
+#[test]
+fn sah_trees_beat_the_lbvh_and_repeat() {
+    let mut clustered = soup(3000, 11);
+    for (i, t) in clustered.iter_mut().enumerate() {
+        // A few dense clusters far apart (where Morton order's fixed grid splits badly).
+        let off = Vec3::new((i % 3) as f32 * 400.0, (i % 5) as f32 * 7.0, 0.0);
+        for v in t.iter_mut() {
+            *v = *v * 0.1 + off;
+        }
+    }
+    for tris in [soup(5000, 12), clustered] {
+        let n = tris.len() as u32;
+        let lbvh = build(&tris, &[0, n], None, ObjectBuilder::Lbvh);
+        let sah = build(&tris, &[0, n], None, ObjectBuilder::Sah);
+        let (l, s) = (lbvh.sah_metric().0, sah.sah_metric().0);
+        assert!(s < l, "SAH {s} against LBVH {l} collapsed nodes per ray");
+        for (b, t) in [(ObjectBuilder::Lbvh, &lbvh), (ObjectBuilder::Sah, &sah)] {
+            let again = build(&tris, &[0, n], None, b);
+            assert_eq!(again.child, t.child);
+            assert_eq!(again.tri_order, t.tri_order);
+        }
+    }
 }
 
 /// Karras's construction as it was built before the fused pass: every inner node

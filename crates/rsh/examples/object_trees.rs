@@ -1,0 +1,60 @@
+//! The object tree's builders side by side (issue 43): per scene, each builder's median
+//! build time over 11 builds (the whole `objects::build`: boxes, tree, spheres, collapse)
+//! and its surface-area metric (expected collapsed nodes and triangle boxes per ray).
+//!
+//! `cargo run --profile ci -p rsh --example object_trees -- SCENE...` (scene files or
+//! built-in names; default: the bench Sponza).
+
+use rsh::objects::{build, ObjectBuilder};
+use scene::{Geometry, LoadOptions};
+use std::time::Instant;
+
+fn main() {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    if args.is_empty() {
+        args.push(
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../bench/scenes/sponza.toml"
+            )
+            .into(),
+        );
+    }
+    println!(
+        "| scene | triangles | builder | build ms (median of 11) | nodes/ray | triangles/ray |"
+    );
+    println!("|---|---:|---|---:|---:|---:|");
+    for a in &args {
+        let s = match scene::load(a, &LoadOptions::default()) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("{a}: {e}");
+                std::process::exit(1);
+            }
+        };
+        let geo = Geometry::from_scene(&s);
+        for (name, b) in ObjectBuilder::NAMES {
+            let mut ms: Vec<f64> = (0..11)
+                .map(|_| {
+                    let t0 = Instant::now();
+                    std::hint::black_box(build(
+                        &geo.tris,
+                        &geo.mesh_first,
+                        Some(&geo.mesh_sphere),
+                        b,
+                    ));
+                    t0.elapsed().as_secs_f64() * 1e3
+                })
+                .collect();
+            ms.sort_by(f64::total_cmp);
+            let t = build(&geo.tris, &geo.mesh_first, Some(&geo.mesh_sphere), b);
+            let (nodes, tris) = t.sah_metric();
+            println!(
+                "| {} | {} | {name} | {:.1} | {nodes:.2} | {tris:.2} |",
+                s.name,
+                geo.tris.len(),
+                ms[5]
+            );
+        }
+    }
+}

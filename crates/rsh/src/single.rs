@@ -1,0 +1,418 @@
+//! CRSH's incoherent path: rays that do not bundle are traced one by one through the object
+//! tree's collapsed nodes ([`crate::objects::WideNode`], 8 children each), the way a wide
+//! BVH traces single rays (Wald et al. 2008, "Getting rid of packets"; Embree's BVH8).
+//!
+//! Why: the thesis's hierarchy (§3.2.5–3.2.7) pays for itself only when a level-1 node's
+//! rays share a cone narrow enough to cull objects for all of them. AO, diffuse and random
+//! rays spread over the sphere, their cones are wide, the node tests pass nearly everything
+//! and every ray ends up walking the tree alone anyway, after the hashing, sorting and
+//! bundling that bought nothing (Sponza random rays: 0.12× Embree). [`Coherence`] measures a
+//! batch before any of that work; the engine then takes this path or the bundles
+//! ([`crate::RayPath`]), and reports which in the stats.
+//!
+//! Per ray: a stack of (collapsed node, entry distance); each popped node's 8 boxes are
+//! slab-tested at once (AVX2 lanes, or the scalar [`Aabb::intersect`] on CPUs without it:
+//! the same answers, tested), its passing triangles get the shared kernel
+//! ([`geom::intersect`], so every hit is brute force's bit for bit), and its passing inner
+//! children are pushed farthest first. A popped node whose entry lies beyond the closest
+//! hit so far is skipped untested. The boxes are the tree's grown boxes and the slab test
+//! is Ize's robust one, so no triangle a ray reaches is ever culled; ties at equal t are
+//! kept (inclusive slabs), so the smallest triangle id wins as in brute force.
+
+use crate::objects::{BoxNode, ObjectTree, LEAF};
+use crate::traverse::pack;
+use geom::tri::RayPre;
+use geom::{intersect, Aabb, Vec3};
+use rayon::prelude::*;
+use trace::{Hit, RayBatch, TraceMode};
+
+/// Rays per parallel task (each task reuses one stack).
+const CHUNK: usize = 256;
+
+/// What the single-ray path did, per trace call.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SingleCounts {
+    /// Ray–triangle tests per ray kind.
+    pub final_tests: [u64; 4],
+    /// Slab tests of rays against children's boxes (8 per collapsed node visited, less
+    /// the unused lanes).
+    pub box_tests: u64,
+    /// Slab tests that passed.
+    pub box_passes: u64,
+    /// Rays that hit.
+    pub hits: u64,
+}
+
+impl SingleCounts {
+    fn add(mut self, o: SingleCounts) -> SingleCounts {
+        for k in 0..4 {
+            self.final_tests[k] += o.final_tests[k];
+        }
+        self.box_tests += o.box_tests;
+        self.box_passes += o.box_passes;
+        self.hits += o.hits;
+        self
+    }
+}
+
+/// Per lane of `node` (its first `count` children): whether the ray (origin `org`,
+/// reciprocal direction `inv`, interval `[t0, t1]`) meets the child's box, and its entry
+/// distance, by [`Aabb::intersect`] lane by lane. The scalar twin of [`avx2::boxes8`].
+pub fn boxes_scalar(node: &BoxNode, org: Vec3, inv: Vec3, t0: f32, t1: f32) -> (u8, [f32; 8]) {
+    let mut mask = 0u8;
+    let mut tn = [f32::INFINITY; 8];
+    for (i, t) in tn.iter_mut().enumerate().take(node.count as usize) {
+        let b = Aabb::new(
+            Vec3::new(node.min[0][i], node.min[1][i], node.min[2][i]),
+            Vec3::new(node.max[0][i], node.max[1][i], node.max[2][i]),
+        );
+        if let Some((a, _)) = b.intersect(org, inv, t0, t1) {
+            mask |= 1 << i;
+            *t = a;
+        }
+    }
+    (mask, tn)
+}
+
+#[cfg(target_arch = "x86_64")]
+pub mod avx2 {
+    //! The 8-lane slab test, and the walk compiled for AVX2 around it.
+    use super::{BoxNode, ObjectTree, SingleCounts};
+    use geom::aabb::SLAB_ROBUST;
+    use geom::Vec3;
+    use std::arch::x86_64::*;
+    use trace::{Hit, RayBatch};
+
+    /// [`super::boxes_scalar`] in AVX2 lanes: per axis `(min − o) · inv` and
+    /// `(max − o) · inv`, ordered; an axis where either is NaN (the origin on a slab plane
+    /// of a ray parallel to it, `0 · ∞`) does not restrict the lane, as in
+    /// [`geom::Aabb::intersect`]; the far distance is enlarged by `SLAB_ROBUST`. Entry
+    /// distances agree with the scalar test's except for the sign of a zero, which no
+    /// comparison sees, so the masks and every decision taken on the entries are the same.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn boxes8(node: &BoxNode, org: Vec3, inv: Vec3, t0: f32, t1: f32) -> (u8, [f32; 8]) {
+        let mut tn = _mm256_set1_ps(t0);
+        let mut tf = _mm256_set1_ps(t1);
+        let ninf = _mm256_set1_ps(f32::NEG_INFINITY);
+        let pinf = _mm256_set1_ps(f32::INFINITY);
+        let robust = _mm256_set1_ps(SLAB_ROBUST);
+        for k in 0..3 {
+            let o = _mm256_set1_ps(org[k]);
+            let i = _mm256_set1_ps(inv[k]);
+            let a = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.min[k].as_ptr()), o), i);
+            let b = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.max[k].as_ptr()), o), i);
+            let nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(a, b);
+            let lo = _mm256_blendv_ps(_mm256_min_ps(a, b), ninf, nan);
+            let hi = _mm256_blendv_ps(_mm256_max_ps(a, b), pinf, nan);
+            tn = _mm256_max_ps(tn, lo);
+            tf = _mm256_min_ps(tf, _mm256_mul_ps(hi, robust));
+        }
+        let pass = _mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf);
+        let used = (1u32 << node.count) - 1;
+        let mask = (_mm256_movemask_ps(pass) as u32 & used) as u8;
+        let mut out = [0f32; 8];
+        _mm256_storeu_ps(out.as_mut_ptr(), tn);
+        (mask, out)
+    }
+
+    /// Ask for the `lines` cache lines from `p` ahead of their use.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2 (a prefetch never faults, whatever the address).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn prefetch(p: *const u8, lines: usize) {
+        for line in 0..lines {
+            _mm_prefetch::<_MM_HINT_T0>(p.add(64 * line) as *const i8);
+        }
+    }
+
+    /// [`super::walk`] over rays `first..first + out.len()`, compiled for AVX2 (the slab
+    /// test inlined; the scalar triangle kernel compiles to the same IEEE operations: no
+    /// FMA is enabled).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn walk(
+        tree: &ObjectTree,
+        tris: &[[Vec3; 3]],
+        rays: &RayBatch,
+        first: usize,
+        out: &mut [Hit],
+        any: bool,
+        stack: &mut Vec<(u32, f32)>,
+    ) -> SingleCounts {
+        super::walk_rays(
+            tree,
+            tris,
+            rays,
+            first,
+            out,
+            any,
+            stack,
+            |n, o, i, t0, t1| unsafe { boxes8(n, o, i, t0, t1) },
+            |p, lines| unsafe { prefetch(p, lines) },
+        )
+    }
+}
+
+/// Whether this CPU runs the 8-lane slab test.
+fn have_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Trace every ray of `rays` through `tree` (over `tris`) one by one, writing its record
+/// into `hits` (closest hit: brute force's; any hit: the first found). `force_scalar` takes
+/// the scalar slab test even where AVX2 is present (the equality tests).
+pub fn trace(
+    tree: &ObjectTree,
+    tris: &[[Vec3; 3]],
+    rays: &RayBatch,
+    mode: TraceMode,
+    hits: &mut [Hit],
+    force_scalar: bool,
+) -> SingleCounts {
+    assert_eq!(hits.len(), rays.len(), "one hit record per ray");
+    let avx2 = !force_scalar && have_avx2();
+    let any = mode == TraceMode::Any;
+    hits.par_chunks_mut(CHUNK)
+        .enumerate()
+        .map_init(
+            || Vec::with_capacity(64),
+            |stack: &mut Vec<(u32, f32)>, (ci, out)| {
+                let first = ci * CHUNK;
+                #[cfg(target_arch = "x86_64")]
+                if avx2 {
+                    // SAFETY: AVX2 was detected at run time.
+                    return unsafe { avx2::walk(tree, tris, rays, first, out, any, stack) };
+                }
+                let _ = avx2;
+                walk_rays(
+                    tree,
+                    tris,
+                    rays,
+                    first,
+                    out,
+                    any,
+                    stack,
+                    boxes_scalar,
+                    |_, _| {},
+                )
+            },
+        )
+        .reduce(SingleCounts::default, SingleCounts::add)
+}
+
+/// Rays `first..first + out.len()` one by one (see the module doc), each node's boxes
+/// tested by `boxes` and each pushed node announced to `prefetch`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn walk_rays(
+    tree: &ObjectTree,
+    tris: &[[Vec3; 3]],
+    rays: &RayBatch,
+    first: usize,
+    out: &mut [Hit],
+    any: bool,
+    stack: &mut Vec<(u32, f32)>,
+    boxes: impl Fn(&BoxNode, Vec3, Vec3, f32, f32) -> (u8, [f32; 8]),
+    prefetch: impl Fn(*const u8, usize),
+) -> SingleCounts {
+    let mut c = SingleCounts::default();
+    for (j, h) in out.iter_mut().enumerate() {
+        *h = walk_ray(
+            tree,
+            tris,
+            rays,
+            first + j,
+            any,
+            stack,
+            &mut c,
+            &boxes,
+            &prefetch,
+        );
+        c.hits += h.is_hit() as u64;
+    }
+    c
+}
+
+/// One ray's walk (see the module doc).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn walk_ray(
+    tree: &ObjectTree,
+    tris: &[[Vec3; 3]],
+    rays: &RayBatch,
+    r: usize,
+    any: bool,
+    stack: &mut Vec<(u32, f32)>,
+    c: &mut SingleCounts,
+    boxes: &impl Fn(&BoxNode, Vec3, Vec3, f32, f32) -> (u8, [f32; 8]),
+    prefetch: &impl Fn(*const u8, usize),
+) -> Hit {
+    let pre = RayPre::new(&rays.ray(r));
+    let kind = rays.kind[r] as usize & 3;
+    let mut best = u64::MAX;
+    let mut uv = (0.0f32, 0.0f32);
+    // The triangle at leaf position `p`.
+    let test = |p: u32, best: &mut u64, uv: &mut (f32, f32), c: &mut SingleCounts| {
+        let [a, b, cc] = tree.leaf_tris[p as usize];
+        c.final_tests[kind] += 1;
+        if let Some(hit) = intersect(&pre, a, b, cc) {
+            let key = pack(hit.t, tree.tri_order[p as usize]);
+            if key < *best {
+                *best = key;
+                *uv = (hit.u, hit.v);
+            }
+        }
+    };
+    if tree.root & LEAF != 0 {
+        if let Some(&[a, b, cc]) = tris.first() {
+            // One triangle, no inner node (and no leaf order).
+            c.final_tests[kind] += 1;
+            if let Some(hit) = intersect(&pre, a, b, cc) {
+                best = pack(hit.t, 0);
+                uv = (hit.u, hit.v);
+            }
+        }
+    } else {
+        let inv = rays.dir[r].recip();
+        stack.clear();
+        stack.push((tree.wide_of[tree.root as usize], f32::NEG_INFINITY));
+        'walk: while let Some((w, entry)) = stack.pop() {
+            let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
+            if entry > far {
+                // Entered beyond the closest hit found since it was pushed.
+                continue;
+            }
+            let node = &tree.boxes[w as usize];
+            let (mask, tn) = boxes(node, pre.org, inv, pre.t_min, far);
+            c.box_tests += node.count as u64;
+            c.box_passes += mask.count_ones() as u64;
+            // Triangles first (they shorten the ray for the inner children), then the
+            // inner children, farthest pushed first so the nearest is popped next. The
+            // passing triangles are asked for before the first test (side by side in leaf
+            // order: their misses overlap).
+            let mut inner = [(0u32, 0f32); 8];
+            let mut ni = 0;
+            let mut m = mask;
+            while m != 0 {
+                let l = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let x = node.child[l];
+                if x & LEAF != 0 {
+                    test(x & !LEAF, &mut best, &mut uv, c);
+                    if any && best != u64::MAX {
+                        break 'walk;
+                    }
+                } else {
+                    inner[ni] = (x, tn[l]);
+                    ni += 1;
+                }
+            }
+            let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
+            let inner = &mut inner[..ni];
+            // Insertion sort by entry, farthest first (at most 8; stable, so equal
+            // entries keep lane order).
+            for i in 1..inner.len() {
+                let mut j = i;
+                while j > 0 && inner[j - 1].1 < inner[j].1 {
+                    inner.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+            for &(x, t) in inner.iter() {
+                if t <= far {
+                    prefetch(&tree.boxes[x as usize] as *const BoxNode as *const u8, 4);
+                    stack.push((x, t));
+                }
+            }
+        }
+    }
+    if best == u64::MAX {
+        Hit::MISS
+    } else {
+        Hit {
+            tri: best as u32,
+            t: f32::from_bits((best >> 32) as u32),
+            u: uv.0,
+            v: uv.1,
+        }
+    }
+}
+
+/// How CRSH and RAH trace a batch over the object tree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum RayPath {
+    /// Bundles when the batch is coherent ([`coherence`]), single rays when it is not.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "bundles for coherent batches, single rays for incoherent ones")
+    )]
+    Auto,
+    /// Always the ray hierarchy's bundles (the papers' method; RAH's default).
+    #[cfg_attr(feature = "clap", value(help = "always the ray hierarchy's bundles"))]
+    Bundles,
+    /// Always single rays through the object tree (CRSH's default: on this project's
+    /// measurements the bundles lose on every kind of batch, see `crate::single`).
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "always single rays through the object tree")
+    )]
+    Single,
+}
+
+impl RayPath {
+    /// Every value by its name (as options spell it).
+    pub const NAMES: [(&'static str, RayPath); 3] = [
+        ("auto", RayPath::Auto),
+        ("bundles", RayPath::Bundles),
+        ("single", RayPath::Single),
+    ];
+}
+
+/// Rays sampled by [`coherence`] (evenly spaced over the batch).
+const SAMPLES: usize = 4096;
+/// How many following rays of the batch a sampled ray looks among for a near-parallel one.
+const NEIGHBOURS: usize = 8;
+/// Near-parallel: directions within 2° (cos 2°).
+const COS_NEAR: f32 = 0.999_391_2;
+/// A batch is coherent when at least this share of its sampled rays has a near-parallel
+/// neighbour.
+pub const COHERENT_SHARE: f32 = 0.5;
+
+/// The share of a batch's rays (a deterministic sample of at most 4096) that have a
+/// near-parallel ray (within 2°) among the 8 rays that follow them in the batch: rays
+/// made pixel by pixel (primary rays, shadow rays to each light, mirror reflections) have
+/// one, rays scattered at random (AO, diffuse, random rays) do not. It costs a few
+/// microseconds, so the engine decides before it hashes anything.
+pub fn coherence(rays: &RayBatch) -> f32 {
+    let n = rays.len();
+    if n < 2 {
+        return 1.0;
+    }
+    let samples = n.min(SAMPLES);
+    let mut near = 0usize;
+    for s in 0..samples {
+        let i = s * n / samples;
+        let d = rays.dir[i].normalize_or_zero();
+        let end = (i + 1 + NEIGHBOURS).min(n);
+        near += rays.dir[i + 1..end]
+            .iter()
+            .any(|e| d.dot(e.normalize_or_zero()) >= COS_NEAR) as usize;
+    }
+    near as f32 / samples as f32
+}
