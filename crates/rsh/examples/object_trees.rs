@@ -1,11 +1,12 @@
 //! The object tree's builders side by side (issue 43): per scene, each builder's median
-//! build time over 11 builds (the whole `objects::build`: boxes, tree, spheres, collapse)
-//! and its surface-area metric (expected collapsed nodes and triangle boxes per ray).
+//! build time over 11 builds (the whole `objects::build`: boxes, tree and the single-ray
+//! path's records, or the dual traversal's as well) and the surface-area metric of its
+//! single-ray tree (expected nodes and triangle tests per ray).
 //!
 //! `cargo run --profile ci -p rsh --example object_trees -- SCENE...` (scene files or
 //! built-in names; default: the bench Sponza).
 
-use rsh::objects::{build, ObjectBuilder};
+use rsh::objects::{build, ObjectBuilder, Parts};
 use scene::{Geometry, LoadOptions};
 use std::time::Instant;
 
@@ -33,7 +34,20 @@ fn main() {
             }
         };
         let geo = Geometry::from_scene(&s);
-        for (name, b) in ObjectBuilder::NAMES {
+        for (name, b, parts, pname) in ObjectBuilder::NAMES.into_iter().flat_map(|(n, b)| {
+            [
+                (
+                    n,
+                    b,
+                    Parts {
+                        dual: false,
+                        single: true,
+                    },
+                    "single",
+                ),
+                (n, b, Parts::ALL, "both"),
+            ]
+        }) {
             let mut ms: Vec<f64> = (0..11)
                 .map(|_| {
                     let t0 = Instant::now();
@@ -42,15 +56,16 @@ fn main() {
                         &geo.mesh_first,
                         Some(&geo.mesh_sphere),
                         b,
+                        parts,
                     ));
                     t0.elapsed().as_secs_f64() * 1e3
                 })
                 .collect();
             ms.sort_by(f64::total_cmp);
-            let t = build(&geo.tris, &geo.mesh_first, Some(&geo.mesh_sphere), b);
+            let t = build(&geo.tris, &geo.mesh_first, Some(&geo.mesh_sphere), b, parts);
             let (nodes, tris) = t.sah_metric();
             println!(
-                "| {} | {} | {name} | {:.1} | {nodes:.2} | {tris:.2} |",
+                "| {} | {} | {name} | {pname} | {:.1} | {nodes:.2} | {tris:.2} |",
                 s.name,
                 geo.tris.len(),
                 ms[5]

@@ -282,7 +282,12 @@ impl RshEngine {
         let tree = (cfg.objects == ObjectHierarchy::Bvh).then(|| {
             let t0 = Instant::now();
             let spheres = cfg.mesh_culling.then_some(&geo.mesh_sphere[..]);
-            let t = objects::build(&geo.tris, &geo.mesh_first, spheres, cfg.builder);
+            // Only the records of the paths this configuration can take.
+            let parts = objects::Parts {
+                dual: cfg.path != RayPath::Single,
+                single: cfg.path != RayPath::Bundles,
+            };
+            let t = objects::build(&geo.tris, &geo.mesh_first, spheres, cfg.builder, parts);
             (t, t0.elapsed().as_secs_f64())
         });
         Ok(RshEngine {

@@ -65,31 +65,13 @@ pub struct ObjectTree {
     /// Per binary inner node, its collapsed node in `wide` (`u32::MAX` where it has none:
     /// it lies inside some other node's frontier and is never expanded on its own).
     pub wide_of: Vec<u32>,
-    /// The collapsed nodes again, as the single-ray path reads them ([`BoxNode`]; same
-    /// indices as `wide`).
+    /// The single-ray path's collapsed nodes ([`BoxNode`], node 0 the root's), made when
+    /// [`Parts::single`] is asked for.
     pub boxes: Vec<BoxNode>,
     /// The triangles in leaf order (`leaf_tris[p]` is triangle `tri_order[p]`): a collapsed
     /// node's triangles lie side by side, so the single-ray path reads a few cache lines
     /// where it would gather one line per triangle.
     pub leaf_tris: Vec<[Vec3; 3]>,
-}
-
-/// A collapsed node ([`WideNode`]) as the single-ray path ([`crate::single`]) reads it:
-/// only the children's grown boxes and references, an inner child given as the index of
-/// its own collapsed node (no lookup in `wide_of` between two nodes), in four cache lines.
-/// Lanes `count..8` repeat lane 0 and are masked off.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
-pub struct BoxNode {
-    /// Grown boxes' minima (x, y, z lanes).
-    pub min: [[f32; 8]; 3],
-    /// Grown boxes' maxima.
-    pub max: [[f32; 8]; 3],
-    /// `LEAF | p` for the triangle at leaf position `p` (`tri_order[p]`, its vertices
-    /// `leaf_tris[p]`), or the index of the child's collapsed node.
-    pub child: [u32; 8],
-    /// Children in use.
-    pub count: u32,
 }
 
 /// Up to 8 descendants of one binary inner node, side by side as lanes (structure of arrays
@@ -231,38 +213,6 @@ impl ObjectTree {
             + size_of_val(&self.wide_of[..])
             + size_of_val(&self.boxes[..])
             + size_of_val(&self.leaf_tris[..])
-    }
-
-    /// The surface-area metric of the tree (MacDonald & Booth 1990): for a ray that meets
-    /// the root's box, uniformly over such rays, the expected number of collapsed nodes
-    /// whose boxes it is tested against (Σ A(node) / A(root) over the collapsed nodes) and
-    /// of triangles whose boxes it meets (Σ A(triangle's box) / A(root)): the work of the
-    /// single-ray path, the lower the better. (0, 0) for a tree without inner nodes.
-    pub fn sah_metric(&self) -> (f64, f64) {
-        if self.is_empty() {
-            return (0.0, 0.0);
-        }
-        let area = |b: &Aabb| b.half_area() as f64;
-        let root = area(&self.node[0].bbox);
-        if root <= 0.0 {
-            return (0.0, 0.0);
-        }
-        let nodes: f64 = self
-            .wide
-            .iter()
-            .map(|w| {
-                let mut b = Aabb::EMPTY;
-                for i in 0..w.count as usize {
-                    b = b.union(&Aabb::new(
-                        Vec3::new(w.min[0][i], w.min[1][i], w.min[2][i]),
-                        Vec3::new(w.max[0][i], w.max[1][i], w.max[2][i]),
-                    ));
-                }
-                area(&b)
-            })
-            .sum();
-        let leaves: f64 = self.leaf.iter().map(|l| area(&l.bbox)).sum();
-        (nodes / root, leaves / root)
     }
 
     /// Internal nodes.
@@ -506,6 +456,26 @@ fn lbvh(boxes: &[Aabb], centroid_box: &Aabb, mesh_first: &[u32]) -> (RadixTree, 
     (radix_tree(&keys, &order, boxes), order)
 }
 
+/// Which traversals' records [`build`] makes (each costs build time; a tree is only
+/// walked by the ones it was built for).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Parts {
+    /// The dual traversal's ([`crate::dual`]): bounds with spheres, children's boxes,
+    /// [`WideNode`]s.
+    pub dual: bool,
+    /// The single-ray path's ([`crate::single`]): [`BoxNode`]s and the triangles in leaf
+    /// order.
+    pub single: bool,
+}
+
+impl Parts {
+    /// Both traversals' records.
+    pub const ALL: Parts = Parts {
+        dual: true,
+        single: true,
+    };
+}
+
 /// How the object tree is built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
@@ -537,6 +507,7 @@ pub fn build(
     mesh_first: &[u32],
     mesh_spheres: Option<&[Sphere]>,
     builder: ObjectBuilder,
+    parts: Parts,
 ) -> ObjectTree {
     let n = tris.len();
     if n <= 1 {
@@ -580,15 +551,6 @@ pub fn build(
             |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
         );
     let grow = |b: &Aabb| grown(b, &scene_box);
-    let leaf: Vec<Bounds> = boxes
-        .par_iter()
-        .zip(tris)
-        .with_min_len(4096)
-        .map(|(bx, &[a, b, c])| Bounds {
-            sphere: Sphere::of_triangle(a, b, c),
-            bbox: grow(bx),
-        })
-        .collect();
     let (
         RadixTree {
             child,
@@ -601,34 +563,104 @@ pub fn build(
         ObjectBuilder::Lbvh => lbvh(&boxes, &centroid_box, mesh_first),
         ObjectBuilder::Sah => sah::build(&boxes),
     };
-    let ni = n - 1;
+    let gbox: Vec<Aabb> = nbox.par_iter().with_min_len(4096).map(grow).collect();
+    let mut tree = ObjectTree {
+        root: 0,
+        child,
+        range,
+        depth,
+        ..Default::default()
+    };
+    if parts.dual {
+        let (leaf, node, child_box, wide, wide_of) = dual_parts(
+            tris,
+            mesh_first,
+            mesh_spheres,
+            &boxes,
+            &nbox,
+            &gbox,
+            &order,
+            &tree,
+            grow,
+        );
+        tree.leaf = leaf;
+        tree.node = node;
+        tree.child_box = child_box;
+        tree.wide = wide;
+        tree.wide_of = wide_of;
+    }
+    if parts.single {
+        let pos = leaf_positions(&order);
+        let leaf_box = |t: u32| grow(&boxes[t as usize]);
+        tree.boxes = collapse_boxes(&tree.child, &tree.range, &gbox, &leaf_box, &pos);
+        tree.leaf_tris = order
+            .par_iter()
+            .with_min_len(4096)
+            .map(|&t| tris[t as usize])
+            .collect();
+    }
+    tree.tri_order = order;
+    tree
+}
+
+/// The dual traversal's records of the tree `t` (its children and ranges made): the leaves'
+/// and inner nodes' bounds (with `mesh_spheres`, a node holding exactly one mesh's
+/// triangles takes the mesh's sphere when smaller), the children's boxes side by side, and
+/// the collapsed nodes.
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn dual_parts(
+    tris: &[[Vec3; 3]],
+    mesh_first: &[u32],
+    mesh_spheres: Option<&[Sphere]>,
+    boxes: &[Aabb],
+    nbox: &[Aabb],
+    gbox: &[Aabb],
+    order: &[u32],
+    t: &ObjectTree,
+    grow: impl Fn(&Aabb) -> Aabb + Sync,
+) -> (
+    Vec<Bounds>,
+    Vec<Bounds>,
+    Vec<[Aabb; 2]>,
+    Vec<WideNode>,
+    Vec<u32>,
+) {
+    let leaf: Vec<Bounds> = boxes
+        .par_iter()
+        .zip(tris)
+        .with_min_len(4096)
+        .map(|(bx, &[a, b, c])| Bounds {
+            sphere: Sphere::of_triangle(a, b, c),
+            bbox: grow(bx),
+        })
+        .collect();
     let mesh_of = |t: u32| mesh_first.partition_point(|&f| f <= t).saturating_sub(1);
-    let node: Vec<Bounds> = (0..ni)
+    let node: Vec<Bounds> = (0..t.child.len())
         .into_par_iter()
         .with_min_len(1024)
         .map(|i| {
+            // The sphere around the exact box (the grown one pads the slab tests only).
             let mut s = Sphere::around_box(&nbox[i]);
+            let [lo, hi] = t.range[i].map(|x| x as usize);
             if let Some(ms) = mesh_spheres {
                 // A node holding exactly one mesh's triangles (as many as the mesh has,
                 // all of them in it) may take the mesh's sphere.
-                let [lo, hi] = range[i];
-                let m = mesh_of(order[lo as usize]);
+                let m = mesh_of(order[lo]);
                 let (first, end) = (mesh_first[m], mesh_first[m + 1]);
-                let whole_mesh = hi - lo + 1 == end - first
-                    && order[lo as usize..=hi as usize]
-                        .iter()
-                        .all(|&t| (first..end).contains(&t));
+                let whole_mesh = (hi - lo + 1) as u32 == end - first
+                    && order[lo..=hi].iter().all(|&x| (first..end).contains(&x));
                 if whole_mesh && ms[m].radius < s.radius {
                     s = ms[m];
                 }
             }
             Bounds {
                 sphere: s,
-                bbox: grow(&nbox[i]),
+                bbox: gbox[i],
             }
         })
         .collect();
-    let child_box = child
+    let child_box = t
+        .child
         .par_iter()
         .with_min_len(4096)
         .map(|ch| {
@@ -641,64 +673,13 @@ pub fn build(
             })
         })
         .collect();
-    let (wide, wide_of) = collapse(&child, &node, &leaf);
-    let pos = leaf_positions(&order);
-    let boxes = box_nodes(&wide, &wide_of, &pos);
-    let leaf_tris = order
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&t| tris[t as usize])
-        .collect();
-    ObjectTree {
-        root: 0,
-        child,
-        node,
-        leaf,
-        child_box,
-        tri_order: order,
-        range,
-        depth,
-        wide,
-        wide_of,
-        boxes,
-        leaf_tris,
-    }
+    let (wide, wide_of) = collapse(&t.child, &node, &leaf);
+    (leaf, node, child_box, wide, wide_of)
 }
 
-/// Every triangle's position in the leaf order `order` (its inverse).
-fn leaf_positions(order: &[u32]) -> Vec<u32> {
-    let mut pos = vec![0u32; order.len()];
-    let out = SharedMut(pos.as_mut_ptr());
-    order
-        .par_iter()
-        .enumerate()
-        .with_min_len(4096)
-        .for_each(|(p, &t)| {
-            // SAFETY: `order` is a permutation: every triangle is written once.
-            unsafe { out.write(t as usize, p as u32) }
-        });
-    pos
-}
-
-/// The single-ray path's records of the collapsed nodes `wide` (see [`BoxNode`]).
-fn box_nodes(wide: &[WideNode], wide_of: &[u32], pos: &[u32]) -> Vec<BoxNode> {
-    wide.par_iter()
-        .with_min_len(1024)
-        .map(|w| BoxNode {
-            min: w.min,
-            max: w.max,
-            child: w.child.map(|x| {
-                if x & LEAF != 0 {
-                    LEAF | pos[(x & !LEAF) as usize]
-                } else {
-                    wide_of[x as usize]
-                }
-            }),
-            count: w.count,
-        })
-        .collect()
-}
-
+mod boxes;
 mod sah;
+use boxes::{collapse_boxes, leaf_positions};
+pub use boxes::{BoxNode, LANE_TRIS};
 #[cfg(test)]
 mod tests;

@@ -266,15 +266,17 @@ fn walk_ray(
     let kind = rays.kind[r] as usize & 3;
     let mut best = u64::MAX;
     let mut uv = (0.0f32, 0.0f32);
-    // The triangle at leaf position `p`.
-    let test = |p: u32, best: &mut u64, uv: &mut (f32, f32), c: &mut SingleCounts| {
-        let [a, b, cc] = tree.leaf_tris[p as usize];
-        c.final_tests[kind] += 1;
-        if let Some(hit) = intersect(&pre, a, b, cc) {
-            let key = pack(hit.t, tree.tri_order[p as usize]);
-            if key < *best {
-                *best = key;
-                *uv = (hit.u, hit.v);
+    // The triangles at leaf positions `p .. p + k`.
+    let test = |p: u32, k: u8, best: &mut u64, uv: &mut (f32, f32), c: &mut SingleCounts| {
+        let p = p as usize;
+        c.final_tests[kind] += k as u64;
+        for (j, &[a, b, cc]) in tree.leaf_tris[p..p + k as usize].iter().enumerate() {
+            if let Some(hit) = intersect(&pre, a, b, cc) {
+                let key = pack(hit.t, tree.tri_order[p + j]);
+                if key < *best {
+                    *best = key;
+                    *uv = (hit.u, hit.v);
+                }
             }
         }
     };
@@ -290,7 +292,7 @@ fn walk_ray(
     } else {
         let inv = rays.dir[r].recip();
         stack.clear();
-        stack.push((tree.wide_of[tree.root as usize], f32::NEG_INFINITY));
+        stack.push((0, f32::NEG_INFINITY));
         'walk: while let Some((w, entry)) = stack.pop() {
             let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
             if entry > far {
@@ -305,22 +307,23 @@ fn walk_ray(
             // inner children, farthest pushed first so the nearest is popped next. The
             // passing triangles are asked for before the first test (side by side in leaf
             // order: their misses overlap).
-            let mut inner = [(0u32, 0f32); 8];
-            let mut ni = 0;
-            let mut m = mask;
+            let mut m = mask & node.leaves as u8;
             while m != 0 {
                 let l = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let x = node.child[l];
-                if x & LEAF != 0 {
-                    test(x & !LEAF, &mut best, &mut uv, c);
-                    if any && best != u64::MAX {
-                        break 'walk;
-                    }
-                } else {
-                    inner[ni] = (x, tn[l]);
-                    ni += 1;
+                test(node.child[l] & !LEAF, node.ntri[l], &mut best, &mut uv, c);
+                if any && best != u64::MAX {
+                    break 'walk;
                 }
+            }
+            let mut inner = [(0u32, 0f32); 8];
+            let mut ni = 0;
+            let mut m = mask & !node.leaves as u8;
+            while m != 0 {
+                let l = m.trailing_zeros() as usize;
+                m &= m - 1;
+                inner[ni] = (node.child[l], tn[l]);
+                ni += 1;
             }
             let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
             let inner = &mut inner[..ni];

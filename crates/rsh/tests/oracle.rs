@@ -451,7 +451,13 @@ fn single_rays_match_brute_force_and_the_scalar_path() {
     }
     for (name, geo, batches) in &cases {
         for builder in [ObjectBuilder::Lbvh, ObjectBuilder::Sah] {
-            let tree = rsh::objects::build(&geo.tris, &geo.mesh_first, None, builder);
+            let tree = rsh::objects::build(
+                &geo.tris,
+                &geo.mesh_first,
+                None,
+                builder,
+                rsh::objects::Parts::ALL,
+            );
             for (j, (rays, mode, expect)) in batches.iter().enumerate() {
                 let what = format!("{name} {builder:?} batch {j} {mode:?}");
                 let run = |scalar| {

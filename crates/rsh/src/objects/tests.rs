@@ -59,33 +59,56 @@ fn check(tris: &[[Vec3; 3]], t: &ObjectTree) {
     check_boxes(tris, t);
 }
 
-/// The single-ray path's records: every collapsed node's boxes and children as `wide`'s
-/// (inner children as their collapsed nodes, triangles as leaf positions), and the
-/// triangles in leaf order.
+/// The single-ray path's records: every node's lanes cover its binary subtree's triangles
+/// once (node lanes by their own nodes, leaf lanes by at most `LANE_TRIS` triangles of the
+/// leaf order), each lane's box holds its triangles, masked lanes repeat lane 0, and the
+/// triangles are in leaf order.
 fn check_boxes(tris: &[[Vec3; 3]], t: &ObjectTree) {
-    assert_eq!(t.boxes.len(), t.wide.len());
-    for (w, b) in t.wide.iter().zip(&t.boxes) {
-        assert_eq!(b.count, w.count);
-        for i in 0..WIDTH {
-            for k in 0..3 {
-                assert_eq!(b.min[k][i].to_bits(), w.min[k][i].to_bits());
-                assert_eq!(b.max[k][i].to_bits(), w.max[k][i].to_bits());
-            }
-            let x = w.child[i];
-            if x & LEAF != 0 {
-                let p = (b.child[i] & !LEAF) as usize;
-                assert!(b.child[i] & LEAF != 0);
-                assert_eq!(t.tri_order[p], x & !LEAF);
+    if t.is_empty() {
+        assert!(t.boxes.is_empty());
+        return;
+    }
+    for (p, &tri) in t.tri_order.iter().enumerate() {
+        assert_eq!(t.leaf_tris[p], tris[tri as usize]);
+    }
+    // Leaf positions under node `b`, each lane's checked against its box.
+    fn cover(t: &ObjectTree, b: usize, seen: &mut Vec<u32>) {
+        let n = &t.boxes[b];
+        assert!((2..=8).contains(&n.count), "node {b}: {} children", n.count);
+        for i in 0..8 {
+            let l = if i < n.count as usize { i } else { 0 };
+            assert_eq!(n.child[i], n.child[l]);
+            assert_eq!(n.min[0][i].to_bits(), n.min[0][l].to_bits());
+        }
+        for i in 0..n.count as usize {
+            let bx = Aabb::new(
+                Vec3::new(n.min[0][i], n.min[1][i], n.min[2][i]),
+                Vec3::new(n.max[0][i], n.max[1][i], n.max[2][i]),
+            );
+            let mut below = Vec::new();
+            if n.leaves >> i & 1 != 0 {
+                assert!(n.child[i] & LEAF != 0);
+                let k = n.ntri[i] as u32;
+                assert!((1..=LANE_TRIS).contains(&k));
+                let p = n.child[i] & !LEAF;
+                below.extend(p..p + k);
             } else {
-                assert_eq!(b.child[i], t.wide_of[x as usize]);
+                let c = n.child[i] as usize;
+                assert!(c > b && c < t.boxes.len(), "children come after their node");
+                cover(t, c, &mut below);
             }
+            for &p in &below {
+                for v in t.leaf_tris[p as usize] {
+                    assert!(bx.contains(v), "node {b} lane {i} misses position {p}");
+                }
+            }
+            seen.extend(below);
         }
     }
-    if !t.is_empty() {
-        for (p, &tri) in t.tri_order.iter().enumerate() {
-            assert_eq!(t.leaf_tris[p], tris[tri as usize]);
-        }
-    }
+    let mut seen = Vec::new();
+    cover(t, 0, &mut seen);
+    seen.sort();
+    assert_eq!(seen, (0..t.tri_order.len() as u32).collect::<Vec<_>>());
 }
 
 /// Both builders.
@@ -183,7 +206,7 @@ fn trees_cover_every_triangle_once_and_bound_them() {
     for (n, seed) in [(1, 1), (2, 2), (3, 3), (17, 4), (1000, 5), (4097, 6)] {
         let tris = soup(n, seed);
         for b in BUILDERS {
-            let t = build(&tris, &[0, n as u32], None, b);
+            let t = build(&tris, &[0, n as u32], None, b, Parts::ALL);
             check(&tris, &t);
         }
     }
@@ -195,7 +218,7 @@ fn duplicate_keys_and_meshes_still_make_a_tree() {
     let one = [Vec3::ONE, Vec3::ONE, Vec3::ONE];
     let tris = vec![one; 100];
     for b in BUILDERS {
-        let t = build(&tris, &[0, 100], None, b);
+        let t = build(&tris, &[0, 100], None, b, Parts::ALL);
         check(&tris, &t);
     }
     // Several meshes, each a subtree: with mesh spheres the mesh roots take them.
@@ -209,7 +232,7 @@ fn duplicate_keys_and_meshes_still_make_a_tree() {
         })
         .collect();
     for b in BUILDERS {
-        let t = build(&tris, &first, Some(&spheres), b);
+        let t = build(&tris, &first, Some(&spheres), b, Parts::ALL);
         check(&tris, &t);
         // The nodes holding exactly one mesh's triangles bound them by the smaller sphere.
         for (i, &[lo, hi]) in t.range.iter().enumerate() {
@@ -247,12 +270,12 @@ fn sah_trees_beat_the_lbvh_and_repeat() {
     }
     for tris in [soup(5000, 12), clustered] {
         let n = tris.len() as u32;
-        let lbvh = build(&tris, &[0, n], None, ObjectBuilder::Lbvh);
-        let sah = build(&tris, &[0, n], None, ObjectBuilder::Sah);
+        let lbvh = build(&tris, &[0, n], None, ObjectBuilder::Lbvh, Parts::ALL);
+        let sah = build(&tris, &[0, n], None, ObjectBuilder::Sah, Parts::ALL);
         let (l, s) = (lbvh.sah_metric().0, sah.sah_metric().0);
         assert!(s < l, "SAH {s} against LBVH {l} collapsed nodes per ray");
         for (b, t) in [(ObjectBuilder::Lbvh, &lbvh), (ObjectBuilder::Sah, &sah)] {
-            let again = build(&tris, &[0, n], None, b);
+            let again = build(&tris, &[0, n], None, b, Parts::ALL);
             assert_eq!(again.child, t.child);
             assert_eq!(again.tri_order, t.tri_order);
         }
@@ -366,4 +389,25 @@ fn morton_codes_interleave_the_axes() {
     assert_eq!(morton(Vec3::new(3.0, 0.0, 0.0), &b, 10), 9);
     assert_eq!(morton(Vec3::splat(2000.0), &b, 10), (1 << 30) - 1);
     assert_eq!(morton(Vec3::splat(2000.0), &b, 21), (1 << 63) - 1);
+}
+
+/// A tree makes only the records it is asked for, and the same tree either way.
+#[test]
+fn parts_make_only_their_records() {
+    let tris = soup(500, 21);
+    let all = build(&tris, &[0, 500], None, ObjectBuilder::Sah, Parts::ALL);
+    for (dual, single) in [(true, false), (false, true)] {
+        let t = build(
+            &tris,
+            &[0, 500],
+            None,
+            ObjectBuilder::Sah,
+            Parts { dual, single },
+        );
+        assert_eq!(t.child, all.child);
+        assert_eq!(t.tri_order, all.tri_order);
+        assert_eq!(!t.wide.is_empty() && !t.node.is_empty(), dual);
+        assert_eq!(!t.boxes.is_empty() && !t.leaf_tris.is_empty(), single);
+        assert!(t.bytes() < all.bytes());
+    }
 }
