@@ -119,8 +119,9 @@ class Engine:
     ``name`` is any of :func:`engines`; ``options`` are the command line's engine options
     with ``_`` for ``-`` (``branching``, ``levels``, ``hash``, ``hash_bits``, ``union``,
     ``node_test``, ``mesh_culling``, ``pair_budget``, ``object_hierarchy``, ``descent``,
-    ``grid_top_density``, ``grid_leaf_density``, ``grid_alpha``, ``grid_merge``,
-    ``grid_expansion``, ``grid_max_depth``, ``grid_subdivision``, ``grid_merge_rule``);
+    ``schedule``, ``ray_path``, ``object_builder``, ``grid_top_density``,
+    ``grid_leaf_density``, ``grid_alpha``, ``grid_merge``, ``grid_expansion``,
+    ``grid_max_depth``, ``grid_subdivision``, ``grid_merge_rule``);
     booleans mean on/off.
     """
 

@@ -148,6 +148,23 @@ pub fn render(a: &RenderArgs, m: &ArgMatches) -> Result<Outputs, UsageError> {
             }
         }
     }
+    // The dual traversal's options do nothing where every batch goes as single rays.
+    if let Some(method) = a.engine.rsh_method() {
+        let default = match method {
+            rsh::Method::Crsh => rsh::RshConfig::crsh().path,
+            rsh::Method::Rah => rsh::RshConfig::rah().path,
+        };
+        if !no_bvh && a.rsh.path.unwrap_or(default) == rsh::RayPath::Single {
+            for (flag, kw) in given_engine_options(m) {
+                if kw == "descent" || kw == "schedule" {
+                    return Err(UsageError(format!(
+                        "{flag} applies to the ray hierarchy's bundles (--ray-path bundles or auto), and --engine {} traces single rays here",
+                        a.engine.name()
+                    )));
+                }
+            }
+        }
+    }
     if let Some(p) = &a.stats {
         extension("--stats", p, "json")?;
     }

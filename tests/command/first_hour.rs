@@ -202,6 +202,29 @@ fn options_that_do_not_apply_are_refused_before_loading() {
             ],
             "--schedule applies to the object BVH",
         ),
+        (
+            &["--object-hierarchy", "mesh-spheres", "--ray-path", "single"],
+            "--ray-path applies to the object BVH",
+        ),
+        (
+            &["--schedule", "breadth"],
+            "--schedule applies to the ray hierarchy's bundles",
+        ),
+        (
+            &[
+                "--ray-path",
+                "single",
+                "--engine",
+                "rah",
+                "--descent",
+                "size",
+            ],
+            "--descent applies to the ray hierarchy's bundles",
+        ),
+        (
+            &["--engine", "grid", "--object-builder", "lbvh"],
+            "--object-builder does not apply to --engine grid",
+        ),
         (&["--out", "x.jpg"], "must end in .png"),
         (&["--stats", "s.txt"], "must end in .json"),
         (&["--frames", "2", "--gif", "a.png"], "must end in .gif"),

@@ -3,6 +3,7 @@
 
 mod cli;
 mod first_hour;
+mod paths;
 mod readme;
 mod report;
 mod scale;
