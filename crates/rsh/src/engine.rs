@@ -488,7 +488,7 @@ impl RshEngine {
         stats: &mut TraceStats,
     ) {
         let t0 = Instant::now();
-        let c = single::trace(tree, &self.tris, rays, mode, hits, false);
+        let c = single::trace(tree, &self.tris, rays, mode, hits, single::Isa::best());
         stats.time(Phase::Traversal, t0.elapsed().as_secs_f64());
         stats.hits += c.hits;
         stats.levels.add(&LevelCounts {

@@ -131,14 +131,42 @@ pub mod avx2 {
         }
     }
 
-    /// [`super::walk`] over rays `first..first + out.len()`, compiled for AVX2 (the slab
-    /// test inlined; the scalar triangle kernel compiles to the same IEEE operations: no
-    /// FMA is enabled).
+    /// [`super::walk_rays`] over rays `first..first + out.len()`, compiled for AVX2 and
+    /// POPCNT (the slab test inlined; the scalar triangle kernel compiles to the same IEEE
+    /// operations: Rust never fuses a product and a sum).
     ///
     /// # Safety
-    /// The CPU must have AVX2.
-    #[target_feature(enable = "avx2")]
+    /// The CPU must have AVX2 and POPCNT.
+    #[target_feature(enable = "avx2,popcnt")]
     pub unsafe fn walk(
+        tree: &ObjectTree,
+        tris: &[[Vec3; 3]],
+        rays: &RayBatch,
+        first: usize,
+        out: &mut [Hit],
+        any: bool,
+        stack: &mut Vec<(u32, f32)>,
+    ) -> SingleCounts {
+        super::walk_rays(
+            tree,
+            tris,
+            rays,
+            first,
+            out,
+            any,
+            stack,
+            |n, o, i, t0, t1| unsafe { boxes8(n, o, i, t0, t1) },
+            |p, lines| unsafe { prefetch(p, lines) },
+        )
+    }
+
+    /// [`walk`] compiled for AVX-512 (F, VL): the same source and intrinsics, with 32 vector
+    /// registers.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F and VL, AVX2 and POPCNT.
+    #[target_feature(enable = "avx512f,avx512vl,avx2,popcnt")]
+    pub unsafe fn walk512(
         tree: &ObjectTree,
         tris: &[[Vec3; 3]],
         rays: &RayBatch,
@@ -161,31 +189,59 @@ pub mod avx2 {
     }
 }
 
-/// Whether this CPU runs the 8-lane slab test.
-fn have_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
+/// Which build of the walk runs: all three give the same hits and counts (tested).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    /// The scalar slab test, lane by lane.
+    Scalar,
+    /// The slab test in AVX2 lanes, the walk compiled for AVX2 (and POPCNT).
+    Avx2,
+    /// The same source compiled for AVX-512 (F, VL): 32 vector registers, so the ray's
+    /// broadcasts and bounds stay in registers across nodes; the lanes' operations are the
+    /// AVX2 intrinsics' IEEE operations, so the answers are the same.
+    Avx512,
+}
+
+impl Isa {
+    /// The widest this CPU runs.
+    pub fn best() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            if has!("avx512f") && has!("avx512vl") && has!("avx2") && has!("popcnt") {
+                return Isa::Avx512;
+            }
+            if has!("avx2") && has!("popcnt") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Scalar
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
+
+    /// Whether this CPU runs it.
+    pub fn available(self) -> bool {
+        match (self, Isa::best()) {
+            (Isa::Scalar, _) => true,
+            (Isa::Avx2, Isa::Avx2 | Isa::Avx512) => true,
+            (Isa::Avx512, Isa::Avx512) => true,
+            _ => false,
+        }
     }
 }
 
 /// Trace every ray of `rays` through `tree` (over `tris`) one by one, writing its record
-/// into `hits` (closest hit: brute force's; any hit: the first found). `force_scalar` takes
-/// the scalar slab test even where AVX2 is present (the equality tests).
+/// into `hits` (closest hit: brute force's; any hit: the first found), with the walk built
+/// for `isa` (which the CPU must run: [`Isa::available`]).
 pub fn trace(
     tree: &ObjectTree,
     tris: &[[Vec3; 3]],
     rays: &RayBatch,
     mode: TraceMode,
     hits: &mut [Hit],
-    force_scalar: bool,
+    isa: Isa,
 ) -> SingleCounts {
     assert_eq!(hits.len(), rays.len(), "one hit record per ray");
-    let avx2 = !force_scalar && have_avx2();
+    assert!(isa.available(), "{isa:?} on this CPU");
     let any = mode == TraceMode::Any;
     hits.par_chunks_mut(CHUNK)
         .enumerate()
@@ -193,23 +249,27 @@ pub fn trace(
             || Vec::with_capacity(64),
             |stack: &mut Vec<(u32, f32)>, (ci, out)| {
                 let first = ci * CHUNK;
-                #[cfg(target_arch = "x86_64")]
-                if avx2 {
-                    // SAFETY: AVX2 was detected at run time.
-                    return unsafe { avx2::walk(tree, tris, rays, first, out, any, stack) };
+                match isa {
+                    #[cfg(target_arch = "x86_64")]
+                    // SAFETY: checked by `available` above.
+                    Isa::Avx512 => unsafe {
+                        avx2::walk512(tree, tris, rays, first, out, any, stack)
+                    },
+                    #[cfg(target_arch = "x86_64")]
+                    // SAFETY: checked by `available` above.
+                    Isa::Avx2 => unsafe { avx2::walk(tree, tris, rays, first, out, any, stack) },
+                    _ => walk_rays(
+                        tree,
+                        tris,
+                        rays,
+                        first,
+                        out,
+                        any,
+                        stack,
+                        boxes_scalar,
+                        |_, _| {},
+                    ),
                 }
-                let _ = avx2;
-                walk_rays(
-                    tree,
-                    tris,
-                    rays,
-                    first,
-                    out,
-                    any,
-                    stack,
-                    boxes_scalar,
-                    |_, _| {},
-                )
             },
         )
         .reduce(SingleCounts::default, SingleCounts::add)
@@ -291,6 +351,8 @@ fn walk_ray(
         }
     } else {
         let inv = rays.dir[r].recip();
+        // Counted in registers, added once per ray.
+        let (mut box_tests, mut box_passes) = (0u64, 0u64);
         stack.clear();
         stack.push((0, f32::NEG_INFINITY));
         'walk: while let Some((w, entry)) = stack.pop() {
@@ -301,8 +363,8 @@ fn walk_ray(
             }
             let node = &tree.boxes[w as usize];
             let (mask, tn) = boxes(node, pre.org, inv, pre.t_min, far);
-            c.box_tests += node.count as u64;
-            c.box_passes += mask.count_ones() as u64;
+            box_tests += node.count as u64;
+            box_passes += mask.count_ones() as u64;
             // Triangles first (they shorten the ray for the inner children), then the
             // inner children, farthest pushed first so the nearest is popped next. The
             // passing triangles are asked for before the first test (side by side in leaf
@@ -343,6 +405,8 @@ fn walk_ray(
                 }
             }
         }
+        c.box_tests += box_tests;
+        c.box_passes += box_passes;
     }
     if best == u64::MAX {
         Hit::MISS

@@ -10,6 +10,7 @@ use accel::oracle::assert_same_hits;
 use accel::BruteForce;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
+use rsh::single::Isa;
 use rsh::{
     Descent, HashKind, NodeTest, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, RshEngine,
     Schedule, Union,
@@ -427,8 +428,8 @@ fn short_directions_reach_far_triangles() {
 
 /// The incoherent path (`rsh::single`) on every built-in scene's Whitted batches and on
 /// random rays, over both builders' trees: brute force's hits (closest hit bit for bit, the
-/// kernel's own records for any hit too), and the scalar slab test gives the 8-lane one's
-/// hits and counts exactly.
+/// kernel's own records for any hit too), and the AVX2 and AVX-512 builds give the scalar
+/// path's hits and counts exactly.
 #[test]
 fn single_rays_match_brute_force_and_the_scalar_path() {
     type Batches = Vec<(RayBatch, TraceMode, Vec<Hit>)>;
@@ -460,16 +461,27 @@ fn single_rays_match_brute_force_and_the_scalar_path() {
             );
             for (j, (rays, mode, expect)) in batches.iter().enumerate() {
                 let what = format!("{name} {builder:?} batch {j} {mode:?}");
-                let run = |scalar| {
+                let run = |isa| {
                     let mut got = vec![Hit::MISS; rays.len()];
-                    let c = rsh::single::trace(&tree, &geo.tris, rays, *mode, &mut got, scalar);
+                    let c = rsh::single::trace(&tree, &geo.tris, rays, *mode, &mut got, isa);
                     (got, c)
                 };
-                let (lanes, lc) = run(false);
-                let (scalar, sc) = run(true);
-                assert_eq!(lc, sc, "{what}: counts");
-                for (i, ((l, s), e)) in lanes.iter().zip(&scalar).zip(expect).enumerate() {
-                    assert_eq!(l, s, "{what}: ray {i}, lanes against scalar");
+                let (scalar, sc) = run(Isa::Scalar);
+                for isa in [Isa::Avx2, Isa::Avx512] {
+                    if !isa.available() {
+                        let need = if isa == Isa::Avx2 { "avx2" } else { "avx512" };
+                        testkit::skip(need, format!("{what}: this CPU lacks {isa:?}"));
+                        continue;
+                    }
+                    let (lanes, lc) = run(isa);
+                    assert_eq!(lc, sc, "{what}: {isa:?} counts");
+                    assert!(
+                        lanes == scalar,
+                        "{what}: {isa:?} hits against the scalar path's"
+                    );
+                }
+                let lc = sc;
+                for (i, (l, e)) in scalar.iter().zip(expect).enumerate() {
                     match mode {
                         TraceMode::Closest => assert_eq!(l, e, "{what}: ray {i}"),
                         TraceMode::Any => assert_eq!(l.is_hit(), e.is_hit(), "{what}: ray {i}"),
@@ -481,7 +493,7 @@ fn single_rays_match_brute_force_and_the_scalar_path() {
                         assert_eq!((l.t, l.u, l.v), (k.t, k.u, k.v), "{what}: ray {i} record");
                     }
                 }
-                assert_eq!(lc.hits, lanes.iter().filter(|h| h.is_hit()).count() as u64);
+                assert_eq!(lc.hits, scalar.iter().filter(|h| h.is_hit()).count() as u64);
             }
         }
     }
