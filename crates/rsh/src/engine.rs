@@ -39,9 +39,10 @@ pub enum ObjectHierarchy {
         value(help = "every triangle behind the per-mesh bounding spheres (the thesis)")
     )]
     MeshSpheres,
-    /// A linear BVH over the triangles, built per frame ([`crate::objects`]), descended
-    /// together with the ray hierarchy ([`crate::dual`]); the mesh spheres bound the meshes'
-    /// subtrees when mesh culling is on.
+    /// A BVH over the triangles, built per frame ([`crate::objects`]), traced by single rays
+    /// ([`crate::single`]) or descended together with the ray hierarchy ([`crate::dual`]),
+    /// as [`RayPath`] says; the mesh spheres bound the meshes' subtrees when mesh culling
+    /// is on.
     #[cfg_attr(
         feature = "clap",
         value(

@@ -1,30 +1,33 @@
-//! The object side of the dual traversal: a linear BVH over the scene's triangles, rebuilt
-//! per frame in data-parallel passes (the thesis's future work, §5.1: "combine our coherent
-//! ray hierarchy with a deeper object hierarchy").
+//! The object tree: a binary BVH over the scene's triangles, one triangle per leaf, rebuilt
+//! per frame (the thesis's future work, §5.1: "combine our coherent ray hierarchy with a
+//! deeper object hierarchy"), and the collapsed records each traversal reads.
 //!
-//! Build (Karras 2012, "Maximizing parallelism in the construction of BVHs, octrees and k-d
-//! trees", §3–4): each triangle gets a 64-bit key, its mesh index above the Morton code
-//! of its bounding-box centre in the scene box; the keys are radix-sorted (`par`); the
-//! binary radix tree over the sorted keys (Karras's, the index breaking ties between equal
-//! keys) and its boxes are made in one bottom-up pass (Apetrei 2014, "Fast and simple
-//! agglomerative LBVH construction"): one task per leaf, the second child to reach a node
-//! making it (the GPU's atomic-counter pass), numbered as Karras's emission (Figure 4)
-//! numbers it, which the tests check node for node.
+//! Two builders ([`ObjectBuilder`]) give the same layout (triangles in leaf order, every
+//! inner node's leaves a contiguous range of it, Karras's node numbering), so every
+//! traversal takes either:
+//! - `lbvh` (Karras 2012, "Maximizing parallelism in the construction of BVHs, octrees and
+//!   k-d trees", §3–4): each triangle gets a 64-bit key, its mesh index above the Morton
+//!   code of its bounding-box centre in the scene box; the keys are radix-sorted (`par`);
+//!   the binary radix tree over the sorted keys (Karras's, the index breaking ties between
+//!   equal keys) and its boxes are made in one bottom-up pass (Apetrei 2014, "Fast and
+//!   simple agglomerative LBVH construction"): one task per leaf, the second child to reach
+//!   a node making it (the GPU's atomic-counter pass), numbered as Karras's emission
+//!   (Figure 4) numbers it, which the tests check node for node. Every mesh's triangles
+//!   form one subtree (the mesh index is the key's top bits);
+//! - `sah` ([`sah`]): binned SAH, top down; fewer node visits per ray for a slower build.
 //!
-//! Because the mesh index is the key's top bits, every mesh's triangles form one subtree of
-//! the binary radix tree (keys with a common prefix are one subtree), so the thesis's
-//! per-mesh culling spheres (§3.2.2) stay the top of the object side: with mesh culling on,
-//! a mesh's root gets the smaller of its box sphere and the mesh's minimal sphere.
+//! With mesh culling on, a node holding exactly one mesh's triangles gets the smaller of its
+//! box sphere and the mesh's minimal sphere (the thesis's per-mesh culling spheres, §3.2.2).
 //!
-//! Every node is bounded by a sphere (the node tests of eq. 3.16 and the exact cone test take
-//! spheres), padded so that it contains its triangles; the leaves are the triangles with
-//! their own bounding spheres.
-//!
-//! The depth-first dual traversal reads the tree 8 children at a time ([`WideNode`]): each
-//! binary node it expands is *collapsed* into up to 8 descendants (the frontier grown by
-//! splitting its largest-sphere inner node, as Embree and Wald et al. 2008 collapse binary
-//! BVHs into wide ones), with exactly the binary nodes' bounds, so one ray node is tested
-//! against all 8 in AVX lanes and every lane's answer is the binary node's.
+//! The dual traversal ([`crate::dual`]) bounds every node by a sphere (the node tests of eq.
+//! 3.16 and the exact cone test take spheres), padded so that it contains its triangles, the
+//! leaves by their own; its depth-first schedule reads the tree 8 children at a time
+//! ([`WideNode`]): each binary node it expands is *collapsed* into up to 8 descendants (the
+//! frontier grown by splitting its largest-sphere inner node, as Embree and Wald et al. 2008
+//! collapse binary BVHs into wide ones), with exactly the binary nodes' bounds, so one ray
+//! node is tested against all 8 in AVX lanes and every lane's answer is the binary node's.
+//! The single-ray path ([`crate::single`]) reads its own collapse ([`BoxNode`], [`boxes`]).
+//! [`Parts`] says which of the two a tree is built with.
 
 use geom::morton::morton;
 use geom::{Aabb, Sphere, Vec3};
@@ -677,8 +680,8 @@ fn dual_parts(
     (leaf, node, child_box, wide, wide_of)
 }
 
-mod boxes;
-mod sah;
+pub mod boxes;
+pub mod sah;
 use boxes::{collapse_boxes, leaf_positions};
 pub use boxes::{BoxNode, LANE_TRIS};
 #[cfg(test)]
