@@ -6,7 +6,7 @@
 //! rays share a cone narrow enough to cull objects for all of them. AO, diffuse and random
 //! rays spread over the sphere, their cones are wide, the node tests pass nearly everything
 //! and every ray ends up walking the tree alone anyway, after the hashing, sorting and
-//! bundling that bought nothing (Sponza random rays: 0.12× Embree). [`Coherence`] measures a
+//! bundling that bought nothing (Sponza random rays: 0.12× Embree). [`coherence`] measures a
 //! batch before any of that work; the engine then takes this path or the bundles
 //! ([`crate::RayPath`]), and reports which in the stats.
 //!
@@ -131,7 +131,7 @@ pub mod avx2 {
         }
     }
 
-    /// [`super::walk_rays`] over rays `first..first + out.len()`, compiled for AVX2 and
+    /// The walk (`walk_rays`) over rays `first..first + out.len()`, compiled for AVX2 and
     /// POPCNT (the slab test inlined; the scalar triangle kernel compiles to the same IEEE
     /// operations: Rust never fuses a product and a sum).
     ///
@@ -220,12 +220,10 @@ impl Isa {
 
     /// Whether this CPU runs it.
     pub fn available(self) -> bool {
-        match (self, Isa::best()) {
-            (Isa::Scalar, _) => true,
-            (Isa::Avx2, Isa::Avx2 | Isa::Avx512) => true,
-            (Isa::Avx512, Isa::Avx512) => true,
-            _ => false,
-        }
+        matches!(
+            (self, Isa::best()),
+            (Isa::Scalar, _) | (Isa::Avx2, Isa::Avx2 | Isa::Avx512) | (Isa::Avx512, Isa::Avx512)
+        )
     }
 }
 

@@ -6,7 +6,7 @@
 //! build in parallel. The result is deterministic: bin counts and box unions (min, max) do
 //! not depend on how the work was split.
 //!
-//! The tree comes out in the layout [`super::radix_tree`] gives the LBVH, so everything
+//! The tree comes out in the layout the LBVH's radix tree has, so everything
 //! downstream (spheres, collapse, both traversals) is shared: triangles in leaf order, every
 //! inner node's leaves a contiguous range `[lo, hi]` of it, and inner nodes numbered as
 //! Karras numbers a radix tree — the root 0, a left child by its range's right end and a
