@@ -11,7 +11,7 @@
 //! ([`crate::RayPath`]), and reports which in the stats.
 //!
 //! Per ray: a stack of (collapsed node, entry distance); each popped node's 8 boxes are
-//! slab-tested at once (AVX2 lanes, or the scalar [`Aabb::intersect`] on CPUs without it:
+//! slab-tested at once (AVX2 lanes, or the scalar [`boxes_scalar`] on CPUs without it:
 //! the same answers, tested), its passing triangles get the shared kernel
 //! ([`geom::intersect`], so every hit is brute force's bit for bit), and its passing inner
 //! children are pushed farthest first. A popped node whose entry lies beyond the closest
@@ -22,7 +22,7 @@
 use crate::objects::{BoxNode, ObjectTree, LEAF};
 use crate::traverse::pack;
 use geom::tri::RayPre;
-use geom::{intersect, Aabb, Vec3};
+use geom::{intersect, Vec3};
 use rayon::prelude::*;
 use trace::{Hit, RayBatch, TraceMode};
 
@@ -55,20 +55,40 @@ impl SingleCounts {
     }
 }
 
+/// A ray's reciprocal direction for the slab tests: `1 / d` with an infinite component
+/// (a zero direction component) clamped to ±`f32::MAX`, so that `(plane − o) · inv` is
+/// never `0 · ∞` and no NaN enters the test. Still conservative: along such an axis the
+/// ray stays at its origin's coordinate, and a grown box ([`crate::objects`]: 8 ulps of the
+/// scene's largest coordinate beyond its triangles) whose slab holds that coordinate at a
+/// triangle's distance `δ` from a face gives the interval `[−δ·MAX, +δ·MAX]` around it,
+/// which holds every parameter a ray can reach a triangle at; an origin outside the slab
+/// gives an interval at ±`δ·MAX` or beyond, which no triangle inside needs.
+#[inline]
+pub fn slab_inverse(d: Vec3) -> Vec3 {
+    d.recip()
+        .clamp(Vec3::splat(-f32::MAX), Vec3::splat(f32::MAX))
+}
+
 /// Per lane of `node` (its first `count` children): whether the ray (origin `org`,
-/// reciprocal direction `inv`, interval `[t0, t1]`) meets the child's box, and its entry
-/// distance, by [`Aabb::intersect`] lane by lane. The scalar twin of [`avx2::boxes8`].
+/// reciprocal direction `inv` from [`slab_inverse`], interval `[t0, t1]`) meets the
+/// child's box, and its entry: per axis `(min − o) · inv` and `(max − o) · inv` ordered,
+/// the entry the largest of `t0` and the lower ends, the exit the smallest of the upper
+/// ends enlarged by `SLAB_ROBUST` (Ize 2013) and capped by `t1`; a hit when entry ≤ exit.
+/// The scalar twin of [`avx2::boxes8`] (the same operations in the same order).
 pub fn boxes_scalar(node: &BoxNode, org: Vec3, inv: Vec3, t0: f32, t1: f32) -> (u8, [f32; 8]) {
     let mut mask = 0u8;
     let mut tn = [f32::INFINITY; 8];
     for (i, t) in tn.iter_mut().enumerate().take(node.count as usize) {
-        let b = Aabb::new(
-            Vec3::new(node.min[0][i], node.min[1][i], node.min[2][i]),
-            Vec3::new(node.max[0][i], node.max[1][i], node.max[2][i]),
-        );
-        if let Some((a, _)) = b.intersect(org, inv, t0, t1) {
+        let (mut near, mut far) = (t0, f32::INFINITY);
+        for k in 0..3 {
+            let a = (node.min[k][i] - org[k]) * inv[k];
+            let b = (node.max[k][i] - org[k]) * inv[k];
+            near = near.max(a.min(b));
+            far = far.min(a.max(b));
+        }
+        if near <= t1.min(far * geom::aabb::SLAB_ROBUST) {
             mask |= 1 << i;
-            *t = a;
+            *t = near;
         }
     }
     (mask, tn)
@@ -83,39 +103,34 @@ pub mod avx2 {
     use std::arch::x86_64::*;
     use trace::{Hit, RayBatch};
 
-    /// [`super::boxes_scalar`] in AVX2 lanes: per axis `(min − o) · inv` and
-    /// `(max − o) · inv`, ordered; an axis where either is NaN (the origin on a slab plane
-    /// of a ray parallel to it, `0 · ∞`) does not restrict the lane, as in
-    /// [`geom::Aabb::intersect`]; the far distance is enlarged by `SLAB_ROBUST`. Entry
-    /// distances agree with the scalar test's except for the sign of a zero, which no
-    /// comparison sees, so the masks and every decision taken on the entries are the same.
+    /// [`super::boxes_scalar`] in AVX2 lanes, the same IEEE operations in the same order
+    /// (no NaN can arise: [`super::slab_inverse`]), so the masks are the scalar test's and
+    /// the entries differ at most in the sign of a zero, which no comparison sees.
     ///
     /// # Safety
     /// The CPU must have AVX2.
     #[inline]
     #[target_feature(enable = "avx2")]
     pub unsafe fn boxes8(node: &BoxNode, org: Vec3, inv: Vec3, t0: f32, t1: f32) -> (u8, [f32; 8]) {
-        let mut tn = _mm256_set1_ps(t0);
-        let mut tf = _mm256_set1_ps(t1);
-        let ninf = _mm256_set1_ps(f32::NEG_INFINITY);
-        let pinf = _mm256_set1_ps(f32::INFINITY);
-        let robust = _mm256_set1_ps(SLAB_ROBUST);
+        let mut near = _mm256_set1_ps(t0);
+        let mut far = _mm256_set1_ps(f32::INFINITY);
         for k in 0..3 {
             let o = _mm256_set1_ps(org[k]);
             let i = _mm256_set1_ps(inv[k]);
             let a = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.min[k].as_ptr()), o), i);
             let b = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(node.max[k].as_ptr()), o), i);
-            let nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(a, b);
-            let lo = _mm256_blendv_ps(_mm256_min_ps(a, b), ninf, nan);
-            let hi = _mm256_blendv_ps(_mm256_max_ps(a, b), pinf, nan);
-            tn = _mm256_max_ps(tn, lo);
-            tf = _mm256_min_ps(tf, _mm256_mul_ps(hi, robust));
+            near = _mm256_max_ps(near, _mm256_min_ps(a, b));
+            far = _mm256_min_ps(far, _mm256_max_ps(a, b));
         }
-        let pass = _mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf);
+        let exit = _mm256_min_ps(
+            _mm256_set1_ps(t1),
+            _mm256_mul_ps(far, _mm256_set1_ps(SLAB_ROBUST)),
+        );
+        let pass = _mm256_cmp_ps::<_CMP_LE_OQ>(near, exit);
         let used = (1u32 << node.count) - 1;
         let mask = (_mm256_movemask_ps(pass) as u32 & used) as u8;
         let mut out = [0f32; 8];
-        _mm256_storeu_ps(out.as_mut_ptr(), tn);
+        _mm256_storeu_ps(out.as_mut_ptr(), near);
         (mask, out)
     }
 
@@ -348,7 +363,7 @@ fn walk_ray(
             }
         }
     } else {
-        let inv = rays.dir[r].recip();
+        let inv = slab_inverse(rays.dir[r]);
         // Counted in registers, added once per ray.
         let (mut box_tests, mut box_passes) = (0u64, 0u64);
         stack.clear();
