@@ -22,9 +22,9 @@ fn main() {
         );
     }
     println!(
-        "| scene | triangles | builder | build ms (median of 11) | nodes/ray | triangles/ray |"
+        "| scene | triangles | builder | records | build ms (median of 11) | nodes/ray | triangles/ray |"
     );
-    println!("|---|---:|---|---:|---:|---:|");
+    println!("|---|---:|---|---|---:|---:|---:|");
     for a in &args {
         let s = match scene::load(a, &LoadOptions::default()) {
             Ok(s) => s,

@@ -501,6 +501,19 @@ impl RshEngine {
         stats.count(Counter::RayBoxTests, c.box_tests);
         stats.count(Counter::RayBoxPasses, c.box_passes);
         stats.node_tri_tests += c.box_tests;
+        // The bundles' counters, which this path has none of: reported as zeros, so that
+        // a CRSH render's stats name the same counters whichever path its batches took.
+        for k in [
+            Counter::BudgetSplits,
+            Counter::Chunks,
+            Counter::ObjectNodeTests,
+            Counter::PeakPairBytes,
+            Counter::PeakPairs,
+            Counter::TopNodes,
+            Counter::TriangleBatches,
+        ] {
+            stats.count(k, 0);
+        }
     }
 
     /// The traversal's view of the scene and of one trace's hierarchy, lanes and results.
@@ -568,11 +581,12 @@ impl Tracer for RshEngine {
                 RayPath::Single => true,
                 RayPath::Auto => single::coherence(rays) < single::COHERENT_SHARE,
             };
+            // Both paths' batch counters, every call (the reports keep one set of names).
+            stats.count(Counter::SingleRayBatches, single as u64);
+            stats.count(Counter::BundledBatches, !single as u64);
             if single {
-                stats.count(Counter::SingleRayBatches, 1);
                 return self.trace_single(tree, rays, mode, hits, stats);
             }
-            stats.count(Counter::BundledBatches, 1);
         }
         let order = leaf_order(rays, grouping, &self.bounds, &self.cfg.hash_bits, stats);
         match tree {
