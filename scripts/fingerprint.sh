@@ -31,7 +31,8 @@ for scene in cornell spheres soup stadium office; do
         echo "render $scene $e $(sha256sum <"$tmp/o.png" | cut -c1-16) $(strip_json "$tmp/o.json")"
     done
 done
-for args in "--branching 8 --levels 2 --hash morton64" "--union thesis --node-test exact" "--mesh-culling off --pair-budget 4096"; do
+# The ray hierarchy's own options (CRSH traces single rays unless its bundles are asked for).
+for args in "--ray-path bundles --branching 8 --levels 2 --hash morton64" "--ray-path bundles --union thesis --node-test exact" "--ray-path bundles --mesh-culling off --pair-budget 4096"; do
     # shellcheck disable=SC2086
     "$bin" render cornell --width 64 --height 48 $args --out "$tmp/o.png" --stats "$tmp/o.json" >/dev/null
     echo "render cornell $args $(sha256sum <"$tmp/o.png" | cut -c1-16) $(strip_json "$tmp/o.json")"

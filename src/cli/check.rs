@@ -34,6 +34,21 @@ pub fn given_engine_options(m: &ArgMatches) -> Vec<(String, String)> {
     v
 }
 
+/// The options of the ray hierarchy itself (its shape, hash, tests, budget, culling, and the
+/// bundles' traversal), which single rays never read.
+const RAY_HIERARCHY_OPTIONS: [&str; 10] = [
+    "branching",
+    "levels",
+    "hash",
+    "hash_bits",
+    "union",
+    "node_test",
+    "mesh_culling",
+    "pair_budget",
+    "descent",
+    "schedule",
+];
+
 /// Refuse engine options that `engine` does not take (`--levels` with a grid, a grid
 /// option with CRSH), naming the engines that do.
 pub fn engine_options_apply(m: &ArgMatches, engine: Engine) -> Result<(), UsageError> {
@@ -148,7 +163,8 @@ pub fn render(a: &RenderArgs, m: &ArgMatches) -> Result<Outputs, UsageError> {
             }
         }
     }
-    // The dual traversal's options do nothing where every batch goes as single rays.
+    // The ray hierarchy's options do nothing where every batch goes as single rays through
+    // the object tree.
     if let Some(method) = a.engine.rsh_method() {
         let default = match method {
             rsh::Method::Crsh => rsh::RshConfig::crsh().path,
@@ -156,9 +172,9 @@ pub fn render(a: &RenderArgs, m: &ArgMatches) -> Result<Outputs, UsageError> {
         };
         if !no_bvh && a.rsh.path.unwrap_or(default) == rsh::RayPath::Single {
             for (flag, kw) in given_engine_options(m) {
-                if kw == "descent" || kw == "schedule" {
+                if RAY_HIERARCHY_OPTIONS.contains(&kw.as_str()) {
                     return Err(UsageError(format!(
-                        "{flag} applies to the ray hierarchy's bundles (--ray-path bundles or auto), and --engine {} traces single rays here",
+                        "{flag} applies to the ray hierarchy (--ray-path bundles or auto, or --object-hierarchy mesh-spheres), and --engine {} traces single rays through its object tree here",
                         a.engine.name()
                     )));
                 }

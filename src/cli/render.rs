@@ -43,11 +43,12 @@ fn object_hierarchy(a: &RenderArgs) -> Option<&'static str> {
 }
 
 pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
-    // Options first, in one place, before anything is loaded (usage errors, exit 2).
-    let outs = check::render(a, m)?;
+    // Options first, in one place, before anything is loaded (usage errors, exit 2): their
+    // values, then whether they apply.
     let mut opts = engine_options(&a.rsh, &a.grid, a.anim.frames.is_some());
     opts.validate(a.engine)
         .map_err(|e| UsageError(super::spell::flags_in(&e.to_string())))?;
+    let outs = check::render(a, m)?;
     // Every output is checked before the work: its folder made, none an input, none
     // unwritable.
     let scene_file = std::path::Path::new(&a.scene);

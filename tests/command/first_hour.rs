@@ -208,8 +208,9 @@ fn options_that_do_not_apply_are_refused_before_loading() {
         ),
         (
             &["--schedule", "breadth"],
-            "--schedule applies to the ray hierarchy's bundles",
+            "--schedule applies to the ray hierarchy",
         ),
+        (&["--levels", "4"], "--levels applies to the ray hierarchy"),
         (
             &[
                 "--ray-path",
@@ -219,7 +220,7 @@ fn options_that_do_not_apply_are_refused_before_loading() {
                 "--descent",
                 "size",
             ],
-            "--descent applies to the ray hierarchy's bundles",
+            "--descent applies to the ray hierarchy",
         ),
         (
             &["--engine", "grid", "--object-builder", "lbvh"],
