@@ -69,6 +69,47 @@ pub fn engine_options_apply(m: &ArgMatches, engine: Engine) -> Result<(), UsageE
     Ok(())
 }
 
+/// Refuse CRSH/RAH options that the run would not read: the object tree's where there is
+/// none (`gpu`: the GPU backend, which has none yet; or `--object-hierarchy mesh-spheres`),
+/// and the ray hierarchy's where every batch goes as single rays through the tree. `what`
+/// names the command in the message.
+pub fn rsh_options_apply(
+    m: &ArgMatches,
+    engine: Engine,
+    r: &RshArgs,
+    gpu: bool,
+    what: &str,
+) -> Result<(), UsageError> {
+    let Some(method) = engine.rsh_method() else {
+        return Ok(());
+    };
+    let no_bvh = gpu || r.objects == Some(rsh::ObjectHierarchy::MeshSpheres);
+    for (flag, kw) in given_engine_options(m) {
+        if no_bvh && ["descent", "schedule", "ray_path", "object_builder"].contains(&kw.as_str()) {
+            return Err(UsageError(format!(
+                "{flag} applies to the object BVH (--object-hierarchy bvh, on the CPU backend), which this {what} does not use"
+            )));
+        }
+    }
+    let default = match method {
+        rsh::Method::Crsh => rsh::RshConfig::crsh().path,
+        rsh::Method::Rah => rsh::RshConfig::rah().path,
+    };
+    // The ray hierarchy's options do nothing where every batch goes as single rays through
+    // the object tree.
+    if !no_bvh && r.path.unwrap_or(default) == rsh::RayPath::Single {
+        for (flag, kw) in given_engine_options(m) {
+            if RAY_HIERARCHY_OPTIONS.contains(&kw.as_str()) {
+                return Err(UsageError(format!(
+                    "{flag} applies to the ray hierarchy (--ray-path bundles or auto, or --object-hierarchy mesh-spheres), and --engine {} traces single rays through its object tree here",
+                    engine.name()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Where `render` writes, settled before the scene loads.
 pub struct Outputs {
     /// The PNG, or with `--frames` the frame pattern (`%04d`).
@@ -151,36 +192,7 @@ pub fn render(a: &RenderArgs, m: &ArgMatches) -> Result<Outputs, UsageError> {
             return Err(UsageError("--object-hierarchy bvh: the GPU backend has no object tree yet (it runs mesh-spheres); use --backend cpu".into()));
         }
     }
-    // The BVH's traversal options do nothing where there is no BVH.
-    let no_bvh =
-        a.backend == Backend::Gpu || a.rsh.objects == Some(rsh::ObjectHierarchy::MeshSpheres);
-    if no_bvh && a.engine.rsh_method().is_some() {
-        for (flag, kw) in given_engine_options(m) {
-            if ["descent", "schedule", "ray_path", "object_builder"].contains(&kw.as_str()) {
-                return Err(UsageError(format!(
-                    "{flag} applies to the object BVH (--object-hierarchy bvh, on the CPU backend), which this render does not use"
-                )));
-            }
-        }
-    }
-    // The ray hierarchy's options do nothing where every batch goes as single rays through
-    // the object tree.
-    if let Some(method) = a.engine.rsh_method() {
-        let default = match method {
-            rsh::Method::Crsh => rsh::RshConfig::crsh().path,
-            rsh::Method::Rah => rsh::RshConfig::rah().path,
-        };
-        if !no_bvh && a.rsh.path.unwrap_or(default) == rsh::RayPath::Single {
-            for (flag, kw) in given_engine_options(m) {
-                if RAY_HIERARCHY_OPTIONS.contains(&kw.as_str()) {
-                    return Err(UsageError(format!(
-                        "{flag} applies to the ray hierarchy (--ray-path bundles or auto, or --object-hierarchy mesh-spheres), and --engine {} traces single rays through its object tree here",
-                        a.engine.name()
-                    )));
-                }
-            }
-        }
-    }
+    rsh_options_apply(m, a.engine, &a.rsh, a.backend == Backend::Gpu, "render")?;
     if let Some(p) = &a.stats {
         extension("--stats", p, "json")?;
     }

@@ -80,7 +80,7 @@ pub fn run() -> Result<()> {
     match cli.command {
         Some(Command::Render(a)) => render::cmd_render(&a, &sub("render")),
         Some(Command::Rays(a)) => trace::cmd_rays(&a),
-        Some(Command::Trace(a)) => trace::cmd_trace(&a),
+        Some(Command::Trace(a)) => trace::cmd_trace(&a, &sub("trace")),
         Some(Command::Bench { what }) => match what {
             BenchCommand::Rsh(a) => bench::cmd_bench_rsh(&a),
             BenchCommand::Grid(a) => bench::cmd_bench_grid(&a),

@@ -88,9 +88,12 @@ pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
+pub fn cmd_trace(a: &TraceArgs, m: &clap::ArgMatches) -> Result<()> {
     let opts = engine_options(&a.rsh, &a.grid, false);
     opts.validate(a.engine)?;
+    // Options the engine would not read are refused, as `render` refuses them.
+    check::engine_options_apply(m, a.engine)?;
+    check::rsh_options_apply(m, a.engine, &a.rsh, false, "trace")?;
     if let Some(o) = &a.out {
         check_out_dir("--out", o)?;
         check_not_input("--out", o, &[&a.rays, std::path::Path::new(&a.scene)])?;

@@ -132,3 +132,67 @@ fn auto_takes_single_rays_for_random_rays() {
         assert_eq!(counter(&stats, "bundled batches"), bundled, "{kind}: {out}");
     }
 }
+
+/// `trace` refuses, in one line and before tracing, the options its engine would not read:
+/// the ray hierarchy's where CRSH traces single rays, any CRSH option with a grid.
+#[test]
+fn trace_refuses_options_that_do_nothing() {
+    let d = tmp("refuse");
+    let rays = d.join("s.rays");
+    let s = |x: &str| x.to_string();
+    ok(&[
+        s("rays"),
+        s("office"),
+        s("--kind"),
+        s("shadow"),
+        s("-W"),
+        s("16"),
+        s("-H"),
+        s("16"),
+        s("-o"),
+        rays.display().to_string(),
+    ]);
+    for (extra, needle) in [
+        (
+            &["-e", "crsh", "--levels", "4"][..],
+            "--levels applies to the ray hierarchy",
+        ),
+        (
+            &["-e", "grid", "--levels", "4"],
+            "--levels does not apply to --engine grid",
+        ),
+        (
+            &[
+                "-e",
+                "crsh",
+                "--object-hierarchy",
+                "mesh-spheres",
+                "--ray-path",
+                "single",
+            ],
+            "--ray-path applies to the object BVH",
+        ),
+    ] {
+        let mut args = vec![
+            s("trace"),
+            rays.display().to_string(),
+            s("--scene"),
+            s("office"),
+        ];
+        args.extend(extra.iter().map(|x| s(x)));
+        let o = bin().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+    }
+    // With the bundles asked for, the ray hierarchy's options are read.
+    let mut args = vec![
+        s("trace"),
+        rays.display().to_string(),
+        s("--scene"),
+        s("office"),
+    ];
+    args.extend(["-e", "crsh", "--ray-path", "bundles", "--levels", "3"].map(s));
+    ok(&args);
+}
