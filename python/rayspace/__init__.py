@@ -3,7 +3,7 @@
 The engines are rayspace's own (Rust, through PyO3): CRSH and RAH (ray-space hierarchies),
 the irregular grid and its two-level baseline, brute force (the oracle) and the obvhs
 peers. Engine options are the command line's, spelled with ``_`` for ``-``
-(``Engine(scene, "crsh", object_hierarchy="bvh", pair_budget=1 << 20)``), and every result
+(``Engine(scene, "crsh", ray_path="bundles", pair_budget=1 << 20)``), and every result
 is the command line's: the same hits bit for bit, the same image bytes, the same counters.
 
 Arrays in and out are NumPy: rays as ``(N, 3)`` origins and directions of any real dtype
