@@ -85,6 +85,22 @@ pub const KEYWORDS: [&str; 21] = [
     "grid_subdivision",
 ];
 
+/// The keywords of [`KEYWORDS`] that shape the ray hierarchy itself (its nodes, hash, tests,
+/// budget and culling, and the bundles' traversal): single rays through the object tree
+/// read none of them.
+pub const RAY_HIERARCHY: [&str; 10] = [
+    "branching",
+    "levels",
+    "hash",
+    "hash_bits",
+    "union",
+    "node_test",
+    "mesh_culling",
+    "pair_budget",
+    "descent",
+    "schedule",
+];
+
 /// The engine options with the given keywords and every other option at its default, as
 /// the command line's defaults are (`dynamic`: a frame of an animation, whose grid expands
 /// once unless `grid_expansion` says otherwise). Values are checked for their kind here and
@@ -200,6 +216,13 @@ fn set(o: &mut EngineOptions, key: &'static str, v: &Value) -> Result<(), Keywor
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ray_hierarchy_keywords_are_keywords() {
+        for k in RAY_HIERARCHY {
+            assert!(KEYWORDS.contains(&k), "{k}");
+        }
+    }
 
     #[test]
     fn keywords_set_what_the_command_line_sets() {

@@ -8,6 +8,7 @@ use super::UsageError;
 use clap::parser::ValueSource;
 use clap::{ArgMatches, Args, Command};
 use rayspace::engines::Engine;
+use rayspace::keywords;
 use rayspace::options::{GridArgs, RshArgs};
 use std::path::{Path, PathBuf};
 
@@ -33,21 +34,6 @@ pub fn given_engine_options(m: &ArgMatches) -> Vec<(String, String)> {
     }
     v
 }
-
-/// The options of the ray hierarchy itself (its shape, hash, tests, budget, culling, and the
-/// bundles' traversal), which single rays never read.
-const RAY_HIERARCHY_OPTIONS: [&str; 10] = [
-    "branching",
-    "levels",
-    "hash",
-    "hash_bits",
-    "union",
-    "node_test",
-    "mesh_culling",
-    "pair_budget",
-    "descent",
-    "schedule",
-];
 
 /// Refuse engine options that `engine` does not take (`--levels` with a grid, a grid
 /// option with CRSH), naming the engines that do.
@@ -99,7 +85,7 @@ pub fn rsh_options_apply(
     // the object tree.
     if !no_bvh && r.path.unwrap_or(default) == rsh::RayPath::Single {
         for (flag, kw) in given_engine_options(m) {
-            if RAY_HIERARCHY_OPTIONS.contains(&kw.as_str()) {
+            if keywords::RAY_HIERARCHY.contains(&kw.as_str()) {
                 return Err(UsageError(format!(
                     "{flag} applies to the ray hierarchy (--ray-path bundles or auto, or --object-hierarchy mesh-spheres), and --engine {} traces single rays through its object tree here",
                     engine.name()

@@ -421,10 +421,20 @@ fn grown(b: &Aabb, scene: &Aabb) -> Aabb {
 }
 
 /// The LBVH's tree over `n ≥ 2` triangles: keys (mesh index above the Morton code of the
-/// box centre in `centroid_box`), radix-sorted, and the radix tree over them; returns the
-/// tree and the triangles in leaf order.
-fn lbvh(boxes: &[Aabb], centroid_box: &Aabb, mesh_first: &[u32]) -> (RadixTree, Vec<u32>) {
+/// box centre in the centroids' box), radix-sorted, and the radix tree over them; returns
+/// the tree and the triangles in leaf order.
+fn lbvh(boxes: &[Aabb], mesh_first: &[u32]) -> (RadixTree, Vec<u32>) {
     let n = boxes.len();
+    // The centroids' box: the Morton grid.
+    let centroid_box = boxes
+        .par_iter()
+        .with_min_len(4096)
+        .map(|b| {
+            let c = b.center();
+            Aabb::new(c, c)
+        })
+        .reduce(Aabb::default, |a, b| a.union(&b));
+    let centroid_box = &centroid_box;
     // Keys: mesh index above the Morton code (triangles are stored mesh by mesh).
     let nm = mesh_first.len().saturating_sub(1);
     let mesh_bits = 64 - (nm.max(1) as u64 - 1).leading_zeros().min(63);
@@ -540,19 +550,13 @@ pub fn build(
         .with_min_len(4096)
         .map(|t| Aabb::from_points(t.iter().copied()))
         .collect();
-    // The centroids' box (the Morton grid) and the scene's (the boxes' growth: the root's
-    // box, which min and max make exactly whatever the order) in one reduction.
-    let (centroid_box, scene_box) = boxes
+    // The scene's box (the boxes' growth: the root's box, which min and max make exactly
+    // whatever the order).
+    let scene_box = boxes
         .par_iter()
         .with_min_len(4096)
-        .map(|b| {
-            let c = b.center();
-            (Aabb::new(c, c), *b)
-        })
-        .reduce(
-            || (Aabb::default(), Aabb::default()),
-            |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
-        );
+        .copied()
+        .reduce(Aabb::default, |a, b| a.union(&b));
     let grow = |b: &Aabb| grown(b, &scene_box);
     let (
         RadixTree {
@@ -563,7 +567,7 @@ pub fn build(
         },
         order,
     ) = match builder {
-        ObjectBuilder::Lbvh => lbvh(&boxes, &centroid_box, mesh_first),
+        ObjectBuilder::Lbvh => lbvh(&boxes, mesh_first),
         ObjectBuilder::Sah => sah::build(&boxes),
     };
     let gbox: Vec<Aabb> = nbox.par_iter().with_min_len(4096).map(grow).collect();

@@ -146,62 +146,55 @@ pub mod avx2 {
         }
     }
 
-    /// The walk (`walk_rays`) over rays `first..first + out.len()`, compiled for AVX2 and
-    /// POPCNT (the slab test inlined; the scalar triangle kernel compiles to the same IEEE
-    /// operations: Rust never fuses a product and a sum).
-    ///
-    /// # Safety
-    /// The CPU must have AVX2 and POPCNT.
-    #[target_feature(enable = "avx2,popcnt")]
-    pub unsafe fn walk(
-        tree: &ObjectTree,
-        tris: &[[Vec3; 3]],
-        rays: &RayBatch,
-        first: usize,
-        out: &mut [Hit],
-        any: bool,
-        stack: &mut Vec<(u32, f32)>,
-    ) -> SingleCounts {
-        super::walk_rays(
-            tree,
-            tris,
-            rays,
-            first,
-            out,
-            any,
-            stack,
-            |n, o, i, t0, t1| unsafe { boxes8(n, o, i, t0, t1) },
-            |p, lines| unsafe { prefetch(p, lines) },
-        )
+    /// The walk (`walk_rays`) with the slab test inlined, compiled for the CPU features
+    /// `$features`. The scalar triangle kernel compiles to the same IEEE operations under
+    /// any of them: Rust never fuses a product and a sum.
+    macro_rules! walk_for {
+        ($(#[$doc:meta])* $name:ident, $features:literal) => {
+            $(#[$doc])*
+            #[target_feature(enable = $features)]
+            pub unsafe fn $name(
+                tree: &ObjectTree,
+                tris: &[[Vec3; 3]],
+                rays: &RayBatch,
+                first: usize,
+                out: &mut [Hit],
+                any: bool,
+                stack: &mut Vec<(u32, f32)>,
+            ) -> SingleCounts {
+                super::walk_rays(
+                    tree,
+                    tris,
+                    rays,
+                    first,
+                    out,
+                    any,
+                    stack,
+                    |n, o, i, t0, t1| unsafe { boxes8(n, o, i, t0, t1) },
+                    |p, lines| unsafe { prefetch(p, lines) },
+                )
+            }
+        };
     }
 
-    /// [`walk`] compiled for AVX-512 (F, VL): the same source and intrinsics, with 32 vector
-    /// registers.
-    ///
-    /// # Safety
-    /// The CPU must have AVX-512 F and VL, AVX2 and POPCNT.
-    #[target_feature(enable = "avx512f,avx512vl,avx2,popcnt")]
-    pub unsafe fn walk512(
-        tree: &ObjectTree,
-        tris: &[[Vec3; 3]],
-        rays: &RayBatch,
-        first: usize,
-        out: &mut [Hit],
-        any: bool,
-        stack: &mut Vec<(u32, f32)>,
-    ) -> SingleCounts {
-        super::walk_rays(
-            tree,
-            tris,
-            rays,
-            first,
-            out,
-            any,
-            stack,
-            |n, o, i, t0, t1| unsafe { boxes8(n, o, i, t0, t1) },
-            |p, lines| unsafe { prefetch(p, lines) },
-        )
-    }
+    walk_for!(
+        /// Rays `first..first + out.len()` compiled for AVX2 and POPCNT.
+        ///
+        /// # Safety
+        /// The CPU must have AVX2 and POPCNT.
+        walk,
+        "avx2,popcnt"
+    );
+
+    walk_for!(
+        /// [`walk`] compiled for AVX-512 (F, VL): the same source and intrinsics, with 32
+        /// vector registers.
+        ///
+        /// # Safety
+        /// The CPU must have AVX-512 F and VL, AVX2 and POPCNT.
+        walk512,
+        "avx512f,avx512vl,avx2,popcnt"
+    );
 }
 
 /// Which build of the walk runs: all three give the same hits and counts (tested).

@@ -480,7 +480,6 @@ fn single_rays_match_brute_force_and_the_scalar_path() {
                         "{what}: {isa:?} hits against the scalar path's"
                     );
                 }
-                let lc = sc;
                 for (i, (l, e)) in scalar.iter().zip(expect).enumerate() {
                     match mode {
                         TraceMode::Closest => assert_eq!(l, e, "{what}: ray {i}"),
@@ -493,7 +492,7 @@ fn single_rays_match_brute_force_and_the_scalar_path() {
                         assert_eq!((l.t, l.u, l.v), (k.t, k.u, k.v), "{what}: ray {i} record");
                     }
                 }
-                assert_eq!(lc.hits, scalar.iter().filter(|h| h.is_hit()).count() as u64);
+                assert_eq!(sc.hits, scalar.iter().filter(|h| h.is_hit()).count() as u64);
             }
         }
     }
