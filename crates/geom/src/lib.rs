@@ -11,6 +11,7 @@
 pub mod aabb;
 pub mod cone;
 pub mod cone8;
+pub mod isa;
 pub mod miniball;
 pub mod morton;
 pub mod pmath;
@@ -24,6 +25,7 @@ pub mod tri8;
 pub use aabb::Aabb;
 pub use cone::Cone;
 pub use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
+pub use isa::Isa;
 pub use ray::Ray;
 pub use rng::Pcg32;
 pub use sphere::Sphere;

@@ -197,43 +197,10 @@ pub mod avx2 {
     );
 }
 
-/// Which build of the walk runs: all three give the same hits and counts (tested).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Isa {
-    /// The scalar slab test, lane by lane.
-    Scalar,
-    /// The slab test in AVX2 lanes, the walk compiled for AVX2 (and POPCNT).
-    Avx2,
-    /// The same source compiled for AVX-512 (F, VL): 32 vector registers, so the ray's
-    /// broadcasts and bounds stay in registers across nodes; the lanes' operations are the
-    /// AVX2 intrinsics' IEEE operations, so the answers are the same.
-    Avx512,
-}
-
-impl Isa {
-    /// The widest this CPU runs.
-    pub fn best() -> Isa {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::is_x86_feature_detected as has;
-            if has!("avx512f") && has!("avx512vl") && has!("avx2") && has!("popcnt") {
-                return Isa::Avx512;
-            }
-            if has!("avx2") && has!("popcnt") {
-                return Isa::Avx2;
-            }
-        }
-        Isa::Scalar
-    }
-
-    /// Whether this CPU runs it.
-    pub fn available(self) -> bool {
-        matches!(
-            (self, Isa::best()),
-            (Isa::Scalar, _) | (Isa::Avx2, Isa::Avx2 | Isa::Avx512) | (Isa::Avx512, Isa::Avx512)
-        )
-    }
-}
+/// Which build of the walk runs ([`geom::Isa`]): scalar slab tests lane by lane, or AVX2
+/// slab tests compiled for AVX2 or AVX-512 (the same IEEE operations, so the same hits and
+/// counts: tested).
+pub use geom::Isa;
 
 /// Trace every ray of `rays` through `tree` (over `tris`) one by one, writing its record
 /// into `hits` (closest hit: brute force's; any hit: the first found), with the walk built
