@@ -104,24 +104,28 @@ pub fn local_shading(s: &Surfaces, scene: &Scene, occluded: &[bool]) -> Vec<Vec3
     out
 }
 
-/// [`local_shading`] into `out` (kept), in parallel, with `occluded(i · lights + l)`.
+/// [`local_shading`] into `out` (kept), in parallel over groups of surfaces shaded in
+/// lanes ([`shade::lanes`], the same bits as [`shade::local_with`]), with
+/// `occluded(i · lights + l)`.
 fn shade_into(
     s: &Surfaces,
     scene: &Scene,
     occluded: impl Fn(usize) -> bool + Sync,
     out: &mut Vec<Vec3>,
 ) {
-    let (materials, lights) = (&scene.materials, &scene.lights);
-    let nl = lights.len();
+    use shade::lanes::{material_lanes, shade_group, LANES};
+    let mats = material_lanes(&scene.materials, scene.ambient);
+    let isa = geom::Isa::best();
     out.clear();
-    (0..s.len())
-        .into_par_iter()
-        .map(|i| {
-            let m = &materials[s.material[i] as usize];
-            let visible = |l: usize| !occluded(i * nl + l);
-            shade::local_with(s, i, m, lights, visible, scene.ambient) * s.throughput[i]
-        })
-        .collect_into_vec(out);
+    out.resize(s.len(), Vec3::ZERO);
+    // Groups per task: enough work that a task's bookkeeping is noise.
+    const TASK: usize = 64 * LANES;
+    out.par_chunks_mut(TASK).enumerate().for_each(|(t, part)| {
+        for (g, o) in part.chunks_mut(LANES).enumerate() {
+            let first = t * TASK + g * LANES;
+            shade_group(s, first, &mats, &scene.lights, &occluded, o, isa);
+        }
+    });
 }
 
 impl Backend for CpuBackend<'_> {

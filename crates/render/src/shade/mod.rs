@@ -8,6 +8,8 @@
 //! k_a ⊙ L_a, added with the emission before the lights. A scene without an ambient light
 //! has L_a = 0, and adding that zero leaves every bit of eq. 3.19's result unchanged.
 
+pub mod lanes;
+
 use crate::secondary::Surfaces;
 use geom::Vec3;
 use scene::{Light, Material};
