@@ -5,7 +5,7 @@
 //! kernels serves every Whitted generation.
 
 use crate::raster::GBuffer;
-use geom::ray::offset_point;
+use geom::ray::{offset_point, OFFSET_REL};
 use geom::{Ray, Vec3, NO_HIT};
 use rayon::prelude::*;
 use scene::{Geometry, Light, Material};
@@ -288,39 +288,147 @@ pub fn shadow_rays(s: &Surfaces, lights: &[Light]) -> RayBatch {
 }
 
 /// [`shadow_rays`] into `b`'s buffers (kept: no allocation once they are large enough),
-/// written in parallel, surface-major as a serial loop makes them.
+/// written in parallel, surface-major as a serial loop makes them. Each light's rays of
+/// [`LANES`] surfaces are computed in one branch-free loop (vectorised: the
+/// multi-versioned builds of [`geom::Isa`]), the same IEEE operations as
+/// [`shadow_ray`] per ray, so the same bits (tested).
 pub fn shadow_rays_into(s: &Surfaces, lights: &[Light], b: &mut RayBatch) {
     let nl = lights.len();
+    let isa = geom::Isa::best();
     let (bounds, ranges) = scan_pieces(s.len(), PIECE, |r| r.len() * nl);
     b.refill(s.len() * nl, 0, &bounds, |piece, c| {
-        for i in ranges[piece].clone() {
-            let p = s.pos[i];
-            for (l, light) in lights.iter().enumerate() {
-                let lp = light.position;
-                let ng = if s.ng[i].dot(lp - p) >= 0.0 {
-                    s.ng[i]
-                } else {
-                    -s.ng[i]
-                };
-                let end = offset_point(p, ng, s.scale[i].max(lp.abs().max_element()));
-                let d = end - lp;
-                let dist = d.length();
-                let ray = if dist > 0.0 && dist.is_finite() {
-                    Ray::new(lp, d / dist, 0.0, dist)
-                } else {
-                    Ray::new(lp, Vec3::Z, 0.0, 0.0)
-                };
-                c.put(
-                    ray,
-                    RayKind::Shadow,
-                    s.pixel[i],
-                    l as u32,
-                    s.throughput[i],
-                    s.depth[i],
-                );
+        let r = ranges[piece].clone();
+        // A group's rays, light-major: one allocation per piece of PIECE surfaces.
+        let mut rays = vec![[0f32; 4]; LANES * nl];
+        let mut first = r.start;
+        while first < r.end {
+            let n = (r.end - first).min(LANES);
+            shadow_group(s, first, n, lights, &mut rays, isa);
+            for k in 0..n {
+                let i = first + k;
+                for (l, light) in lights.iter().enumerate() {
+                    let [x, y, z, t] = rays[l * LANES + k];
+                    let ray = Ray::new(light.position, Vec3::new(x, y, z), 0.0, t);
+                    let (px, w) = (s.pixel[i], s.throughput[i]);
+                    c.put(ray, RayKind::Shadow, px, l as u32, w, s.depth[i]);
+                }
             }
+            first += n;
         }
     });
+}
+
+/// The shadow ray from `light` to surface `i` (eqs. 3.1–3.2), as [`shadow_rays`] makes it:
+/// the reference the lanes are tested against.
+pub fn shadow_ray(s: &Surfaces, i: usize, light: &Light) -> Ray {
+    let p = s.pos[i];
+    let lp = light.position;
+    let ng = if s.ng[i].dot(lp - p) >= 0.0 {
+        s.ng[i]
+    } else {
+        -s.ng[i]
+    };
+    let end = offset_point(p, ng, s.scale[i].max(lp.abs().max_element()));
+    let d = end - lp;
+    let dist = d.length();
+    if dist > 0.0 && dist.is_finite() {
+        Ray::new(lp, d / dist, 0.0, dist)
+    } else {
+        Ray::new(lp, Vec3::Z, 0.0, 0.0)
+    }
+}
+
+/// Surfaces per group of the shadow rays' lanes.
+const LANES: usize = 16;
+
+/// Surfaces `first .. first + n` (n ≤ [`LANES`]): the direction and length of their rays
+/// to every light, in lanes, into `rays[l · LANES + k]` (x, y, z, t_max).
+fn shadow_group(
+    s: &Surfaces,
+    first: usize,
+    n: usize,
+    lights: &[Light],
+    rays: &mut [[f32; 4]],
+    isa: geom::Isa,
+) {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `Isa::best` said this CPU runs it.
+        geom::Isa::Avx512 => unsafe { shadow_group512(s, first, n, lights, rays) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        geom::Isa::Avx2 => unsafe { shadow_group256(s, first, n, lights, rays) },
+        _ => shadow_lanes(s, first, n, lights, rays),
+    }
+}
+
+/// [`shadow_lanes`] for AVX-512.
+///
+/// # Safety
+/// The CPU must have AVX-512 F and VL, AVX2 and POPCNT.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,popcnt")]
+unsafe fn shadow_group512(s: &Surfaces, first: usize, n: usize, l: &[Light], r: &mut [[f32; 4]]) {
+    shadow_lanes(s, first, n, l, r)
+}
+
+/// [`shadow_lanes`] for AVX2.
+///
+/// # Safety
+/// The CPU must have AVX2 and POPCNT.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt")]
+unsafe fn shadow_group256(s: &Surfaces, first: usize, n: usize, l: &[Light], r: &mut [[f32; 4]]) {
+    shadow_lanes(s, first, n, l, r)
+}
+
+/// The group's rays: per light one loop over the lanes with selects only, each lane the
+/// operations of [`shadow_ray`] in its order (lanes past `n` repeat the first surface).
+#[inline(always)]
+fn shadow_lanes(s: &Surfaces, first: usize, n: usize, lights: &[Light], rays: &mut [[f32; 4]]) {
+    let z = [[0f32; LANES]; 3];
+    let (mut p, mut ng) = (z, z);
+    let (mut pmax, mut scale) = ([0f32; LANES], [0f32; LANES]);
+    for k in 0..LANES {
+        let i = first + if k < n { k } else { 0 };
+        let (q, g) = (s.pos[i], s.ng[i]);
+        for a in 0..3 {
+            p[a][k] = q[a];
+            ng[a][k] = g[a];
+        }
+        // offset_point's |p| term, which depends on the surface only.
+        pmax[k] = q.abs().max_element();
+        scale[k] = s.scale[i];
+    }
+    for (l, light) in lights.iter().enumerate() {
+        let lp = light.position;
+        let lmax = lp.abs().max_element();
+        let out: &mut [[f32; 4]; LANES] = (&mut rays[l * LANES..(l + 1) * LANES])
+            .try_into()
+            .expect("LANES rays per light");
+        for k in 0..LANES {
+            // ng · (lp − p), in glam's order.
+            let t = [lp.x - p[0][k], lp.y - p[1][k], lp.z - p[2][k]];
+            let toward = ng[0][k] * t[0] + ng[1][k] * t[1] + ng[2][k] * t[2] >= 0.0;
+            let sign = if toward { 1.0f32 } else { -1.0 };
+            // offset_point(p, g, max(scale, |lp|)): p + g · (max(|p|, magnitude, 1e-30) · rel),
+            // g = ±ng (the sign's product is exact: a negation).
+            let m = pmax[k].max(scale[k].max(lmax)).max(1e-30) * OFFSET_REL;
+            let d = [
+                (p[0][k] + (sign * ng[0][k]) * m) - lp.x,
+                (p[1][k] + (sign * ng[1][k]) * m) - lp.y,
+                (p[2][k] + (sign * ng[2][k]) * m) - lp.z,
+            ];
+            let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let ok = dist > 0.0 && dist.is_finite();
+            out[k] = [
+                if ok { d[0] / dist } else { 0.0 },
+                if ok { d[1] / dist } else { 0.0 },
+                if ok { d[2] / dist } else { 1.0 },
+                if ok { dist } else { 0.0 },
+            ];
+        }
+    }
 }
 
 /// Mirror direction (eq. 3.4) of unit `i` about unit `n`.
@@ -409,6 +517,85 @@ pub fn bounce_rays_into(s: &Surfaces, materials: &[Material], b: &mut RayBatch) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lanes make [`shadow_ray`]'s rays bit for bit, in every build, for surfaces near
+    /// and far, on a light, and with the normal either way.
+    #[test]
+    fn shadow_lanes_equal_shadow_ray() {
+        let mut rng = geom::Pcg32::new(5, 77);
+        let lights: Vec<Light> = (0..5)
+            .map(|i| Light {
+                position: rng.unit_vector() * [1.0, 10.0, 1e4, 0.0, 3.0][i],
+                color: Vec3::ONE,
+                intensity: 1.0,
+                attenuation: [1.0, 0.0, 0.0],
+            })
+            .collect();
+        let mut s = Surfaces::default();
+        for i in 0..203 {
+            let pos = match i % 9 {
+                0 => lights[i % 5].position,
+                1 => Vec3::ZERO,
+                _ => rng.unit_vector() * rng.range(0.0, [1.0, 1e3, 1e6][i % 3]),
+            };
+            s.pixel.push(i as u32);
+            s.pos.push(pos);
+            s.ng.push(rng.unit_vector());
+            s.ns.push(rng.unit_vector());
+            s.incident.push(rng.unit_vector());
+            s.material.push(0);
+            s.throughput.push(Vec3::splat(rng.next_f32()));
+            s.depth.push((i % 3) as u8);
+            s.scale.push(rng.range(0.0, 10.0));
+        }
+        let bits = |r: &Ray| {
+            [r.org, r.dir]
+                .map(|v| v.to_array().map(f32::to_bits))
+                .concat()
+                .into_iter()
+                .chain([r.t_min.to_bits(), r.t_max.to_bits()])
+                .collect::<Vec<u32>>()
+        };
+        for isa in geom::Isa::all_available() {
+            let mut rays = vec![[0f32; 4]; LANES * lights.len()];
+            let mut first = 0;
+            while first < s.len() {
+                let n = (s.len() - first).min(LANES);
+                shadow_group(&s, first, n, &lights, &mut rays, isa);
+                for k in 0..n {
+                    for (l, light) in lights.iter().enumerate() {
+                        let [x, y, z, t] = rays[l * LANES + k];
+                        let got = Ray::new(light.position, Vec3::new(x, y, z), 0.0, t);
+                        let want = shadow_ray(&s, first + k, light);
+                        assert_eq!(
+                            bits(&got),
+                            bits(&want),
+                            "{isa:?} surface {} light {l}",
+                            first + k
+                        );
+                    }
+                }
+                first += n;
+            }
+        }
+        // The batch: surface-major, every column as the loop writes it.
+        let b = shadow_rays(&s, &lights);
+        assert_eq!(b.len(), s.len() * lights.len());
+        for i in 0..s.len() {
+            for (l, light) in lights.iter().enumerate() {
+                let k = i * lights.len() + l;
+                assert_eq!(bits(&b.ray(k)), bits(&shadow_ray(&s, i, light)));
+                assert_eq!(
+                    (b.pixel[k], b.light[k], b.depth[k]),
+                    (i as u32, l as u32, s.depth[i])
+                );
+                assert_eq!(
+                    (b.kind[k], b.throughput[k]),
+                    (RayKind::Shadow as u8, s.throughput[i])
+                );
+            }
+        }
+    }
 
     #[test]
     fn snell_and_tir() {
