@@ -23,6 +23,8 @@ use scene::{Geometry, Material};
 
 use crate::view::View;
 
+mod cull;
+
 /// Sub-pixel precision. With the guard band below, snapped coordinates stay under 2^28 for
 /// images up to 16384 pixels wide, so edge functions (differences of products of
 /// coordinate differences) stay under 2^58 and are exact in i64.
@@ -100,7 +102,7 @@ struct Setup {
 }
 
 /// Signed distances of a camera-space point to the five clip planes (inside ≥ 0).
-#[inline]
+#[inline(always)]
 fn plane_dist(view: &View, near: f32, c: Vec3, k: usize) -> f32 {
     match k {
         0 => c.z - near,
@@ -170,29 +172,30 @@ fn top_left(ax: i64, ay: i64, bx: i64, by: i64) -> bool {
     dy < 0 || (dy == 0 && dx > 0)
 }
 
-fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<Setup>) {
+/// Set up a triangle the clip test kept ([`cull::cull_group`]): camera-space vertices `c`,
+/// `inside_all` when no clip plane cuts it.
+fn setup_triangle(
+    view: &View,
+    near: f32,
+    id: u32,
+    c: [Vec3; 3],
+    inside_all: bool,
+    out: &mut Vec<Setup>,
+) {
     let verts = [
         CVert {
-            c: view.to_camera(t[0]),
+            c: c[0],
             uv: [0.0, 0.0],
         },
         CVert {
-            c: view.to_camera(t[1]),
+            c: c[1],
             uv: [1.0, 0.0],
         },
         CVert {
-            c: view.to_camera(t[2]),
+            c: c[2],
             uv: [0.0, 1.0],
         },
     ];
-    let mut inside_all = true;
-    for k in 0..5 {
-        let d = verts.map(|v| plane_dist(view, near, v.c, k));
-        if d.iter().all(|&x| x < 0.0) {
-            return; // Entirely outside one plane.
-        }
-        inside_all &= d.iter().all(|&x| x >= 0.0);
-    }
     // The polygon lives on the stack, clipped back and forth between two buffers.
     let zero = CVert {
         c: Vec3::ZERO,
@@ -242,8 +245,8 @@ fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<
             idx.swap(1, 2);
             area = -area;
         }
-        let x = idx.map(|j| snapped[j].0);
-        let y = idx.map(|j| snapped[j].1);
+        let x = [snapped[idx[0]].0, snapped[idx[1]].0, snapped[idx[2]].0];
+        let y = [snapped[idx[0]].1, snapped[idx[1]].1, snapped[idx[2]].1];
         // Pixel centres sit at k·SUB + SUB/2.
         let lo = |m: i64| (m - SUB / 2 + SUB - 1).div_euclid(SUB) as i32;
         let hi = |m: i64| (m - SUB / 2).div_euclid(SUB) as i32;
@@ -260,8 +263,8 @@ fn setup_triangle(view: &View, near: f32, id: u32, t: &[Vec3; 3], out: &mut Vec<
             tri: id,
             x,
             y,
-            inv_z: idx.map(|j| snapped[j].2),
-            uv: idx.map(|j| poly[j].uv),
+            inv_z: [snapped[idx[0]].2, snapped[idx[1]].2, snapped[idx[2]].2],
+            uv: [poly[idx[0]].uv, poly[idx[1]].uv, poly[idx[2]].uv],
             area,
             bbox,
         });
@@ -391,14 +394,38 @@ fn span(e: [i64; 3], d: [i64; 3], last: i64) -> Option<(i64, i64)> {
     let (mut lo, mut hi) = (0i64, last);
     for i in 0..3 {
         match d[i].cmp(&0) {
-            std::cmp::Ordering::Greater => hi = hi.min(e[i].div_euclid(d[i])),
-            // k·(−d) ≥ −e: k ≥ ⌈−e / −d⌉.
-            std::cmp::Ordering::Less => lo = lo.max(-(e[i].div_euclid(-d[i]))),
+            std::cmp::Ordering::Greater => hi = hi.min(floor_div_capped(e[i], d[i], last)),
+            // k·(−d) ≥ −e: k ≥ ⌈−e / −d⌉ = −⌊e / −d⌋.
+            std::cmp::Ordering::Less => lo = lo.max(-floor_div_capped(e[i], -d[i], last)),
             std::cmp::Ordering::Equal if e[i] < 0 => return None,
             std::cmp::Ordering::Equal => {}
         }
     }
     (lo <= hi).then_some((lo, hi))
+}
+
+/// ⌊e / d⌋ for d > 0, clamped to [−cap − 1, cap] (a span needs no more: its pixels are
+/// 0..=cap), exactly, without a 64-bit integer division (the row loop's costliest
+/// instruction): within the clamp the quotient is small, so f64's estimate is off by at
+/// most one near an integer, and the integer products correct it.
+#[inline]
+fn floor_div_capped(e: i64, d: i64, cap: i64) -> i64 {
+    debug_assert!(d > 0 && (0..=TILE as i64).contains(&cap));
+    // cap · d and (cap + 1) · d stay far inside i64: d < 2^59 / 2^5 by the snapping bound.
+    if e >= cap * d {
+        return cap;
+    }
+    if e < -(cap + 1) * d {
+        return -cap - 1;
+    }
+    let mut q = (e as f64 / d as f64) as i64;
+    while q * d > e {
+        q -= 1;
+    }
+    while (q + 1) * d <= e {
+        q += 1;
+    }
+    q
 }
 
 /// Rasterize `geo` into a G-buffer. `near` is the near-plane distance (geometry closer to the
@@ -433,7 +460,9 @@ pub fn rasterize_into(
     gb: &mut GBuffer,
     scratch: &mut RasterScratch,
 ) -> RasterStats {
-    // 1. Setup, in triangle order: each piece into its own kept vector, then gathered.
+    // 1. Setup, in triangle order: each piece into its own kept vector, then gathered; the
+    // clip planes' verdicts in lanes first, as most triangles of a view leave there.
+    let isa = geom::Isa::best();
     let npieces = geo.tris.len().div_ceil(SETUP_PIECE);
     scratch.pieces.resize_with(npieces, Vec::new);
     scratch
@@ -443,8 +472,14 @@ pub fn rasterize_into(
         .enumerate()
         .for_each(|(p, (out, tris))| {
             out.clear();
-            for (k, t) in tris.iter().enumerate() {
-                setup_triangle(view, near, (p * SETUP_PIECE + k) as u32, t, out);
+            for (g, group) in tris.chunks(cull::LANES).enumerate() {
+                let v = cull::cull_group(view, near, group, isa);
+                for k in 0..group.len() {
+                    if v.keep[k] {
+                        let id = (p * SETUP_PIECE + g * cull::LANES + k) as u32;
+                        setup_triangle(view, near, id, v.vertex(k), v.inside[k], out);
+                    }
+                }
             }
         });
     let setups = &mut scratch.setups;
@@ -618,143 +653,4 @@ pub fn default_near(geo: &Geometry) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use scene::Camera;
-
-    fn quad_scene(tris: Vec<[Vec3; 3]>) -> Geometry {
-        Geometry::soup(tris, Vec3::Z)
-    }
-
-    fn cam() -> Camera {
-        Camera {
-            eye: Vec3::new(0.0, 0.0, 5.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            vfov: 40.0,
-        }
-    }
-
-    /// Two triangles sharing a diagonal cover every pixel of their square exactly once: no
-    /// cracks, no double coverage (each covered pixel is written exactly once).
-    #[test]
-    fn shared_edges_no_cracks_no_overlap() {
-        let a = Vec3::new(-1.0, -1.0, 0.0);
-        let b = Vec3::new(1.0, -1.0, 0.0);
-        let c = Vec3::new(1.0, 1.0, 0.0);
-        let d = Vec3::new(-1.0, 1.0, 0.0);
-        // A fan of 8 triangles around an off-centre point, all sharing edges.
-        let m = Vec3::new(0.13, -0.07, 0.0);
-        let e = Vec3::new(0.0, -1.0, 0.0);
-        let f = Vec3::new(1.0, 0.0, 0.0);
-        let g = Vec3::new(0.0, 1.0, 0.0);
-        let h = Vec3::new(-1.0, 0.0, 0.0);
-        let ring = [a, e, b, f, c, g, d, h];
-        let tris: Vec<[Vec3; 3]> = (0..8).map(|i| [m, ring[i], ring[(i + 1) % 8]]).collect();
-        let geo = quad_scene(tris);
-        let view = View::new(&cam(), 97, 89);
-        let (gb, st) = rasterize(&geo, &[Material::default()], &view, 1e-3);
-        // Exactly one fragment per covered pixel: the fan has no overlaps.
-        assert_eq!(st.fragments as usize, gb.covered());
-        // Every pixel whose centre is strictly inside the square (by a margin) is covered.
-        for y in 0..view.height {
-            for x in 0..view.width {
-                let r = view.primary_ray(x, y);
-                let t = -r.org.z / r.dir.z;
-                let p = r.at(t);
-                let inside = p.x.abs() < 0.999 && p.y.abs() < 0.999;
-                if inside {
-                    assert_ne!(
-                        gb.tri[(y * view.width + x) as usize],
-                        NO_HIT,
-                        "crack at {x},{y}"
-                    );
-                }
-            }
-        }
-    }
-
-    /// A row's span holds exactly the pixels whose three edge values pass.
-    #[test]
-    fn spans_are_exact() {
-        let mut rng = geom::rng::Pcg32::new(7, 1);
-        for _ in 0..20_000 {
-            let mut r = |m: i64| (rng.next_u32() as i64 % (2 * m + 1)) - m;
-            let e = [r(1 << 20), r(1 << 20), r(1 << 20)];
-            let d = [r(1 << 16), r(1 << 16), r(4)];
-            let last = 31;
-            let want: Vec<i64> = (0..=last)
-                .filter(|&k| (0..3).all(|i| e[i] - k * d[i] >= 0))
-                .collect();
-            let got: Vec<i64> = span(e, d, last).map_or(Vec::new(), |(a, b)| (a..=b).collect());
-            assert_eq!(got, want, "e {e:?} d {d:?}");
-        }
-    }
-
-    /// Perspective-correct barycentrics reproduce the world point under the pixel centre.
-    #[test]
-    fn perspective_correct_positions() {
-        let tris = vec![[
-            Vec3::new(-2.0, -1.0, -3.0),
-            Vec3::new(2.0, -1.0, 1.0),
-            Vec3::new(0.0, 2.0, -1.0),
-        ]];
-        let geo = quad_scene(tris);
-        let view = View::new(&cam(), 64, 64);
-        let (gb, _) = rasterize(&geo, &[Material::default()], &view, 1e-3);
-        let mut n = 0;
-        for y in 0..64 {
-            for x in 0..64 {
-                let p = (y * 64 + x) as usize;
-                if gb.tri[p] == NO_HIT {
-                    continue;
-                }
-                n += 1;
-                // The G-buffer position lies on the pixel's primary ray.
-                let r = view.primary_ray(x, y);
-                let q = gb.position[p] - r.org;
-                let off_ray = (q - r.dir * q.dot(r.dir)).length();
-                assert!(off_ray < 2e-3, "pixel {x},{y}: {off_ray}");
-            }
-        }
-        assert!(n > 300);
-    }
-
-    /// Geometry crossing the near plane and far outside the guard band is clipped, not lost.
-    #[test]
-    fn clipping_keeps_visible_parts() {
-        // A huge floor under the camera, extending behind it and far to the sides.
-        let s = 1e4;
-        let tris = vec![
-            [
-                Vec3::new(-s, -1.0, s),
-                Vec3::new(s, -1.0, s),
-                Vec3::new(s, -1.0, -s),
-            ],
-            [
-                Vec3::new(-s, -1.0, s),
-                Vec3::new(s, -1.0, -s),
-                Vec3::new(-s, -1.0, -s),
-            ],
-        ];
-        let geo = quad_scene(tris);
-        let cam = Camera {
-            eye: Vec3::new(0.0, 0.0, 0.0),
-            target: Vec3::new(0.0, -0.3, -1.0),
-            up: Vec3::Y,
-            vfov: 60.0,
-        };
-        let view = View::new(&cam, 80, 60);
-        let (gb, st) = rasterize(&geo, &[Material::default()], &view, 1e-3);
-        assert!(st.setup > 2, "the floor was clipped into several pieces");
-        // Below the horizon every pixel sees the floor.
-        for y in 0..60 {
-            for x in 0..80 {
-                let r = view.primary_ray(x, y);
-                if r.dir.y < -0.01 {
-                    assert_ne!(gb.tri[(y * 80 + x) as usize], NO_HIT, "{x},{y}");
-                }
-            }
-        }
-    }
-}
+mod tests;
