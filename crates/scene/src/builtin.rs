@@ -36,6 +36,7 @@ fn scene(
     background: Vec3,
 ) -> Scene {
     Scene {
+        id: crate::model::SceneId::fresh(),
         name: name.into(),
         meshes,
         materials,

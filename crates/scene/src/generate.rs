@@ -124,6 +124,7 @@ fn generated(
     camera: Camera,
 ) -> Scene {
     Scene {
+        id: crate::model::SceneId::fresh(),
         name,
         meshes,
         materials,

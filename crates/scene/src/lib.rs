@@ -25,7 +25,7 @@ pub mod shapes;
 
 pub use error::{Invalid, SceneError};
 pub use geometry::Geometry;
-pub use model::{Camera, Light, LoadReport, Material, Mesh, Scene};
+pub use model::{Camera, Light, LoadReport, Material, Mesh, Scene, SceneId};
 
 use std::path::{Path, PathBuf};
 

@@ -299,9 +299,44 @@ pub struct LoadReport {
     pub warnings: Vec<String>,
 }
 
+/// A scene's identity, for what is kept from one use of its meshes to the next
+/// ([`crate::Geometry::refill_at`] leaves a mesh that did not move as the last fill wrote
+/// it). Every scene made gets a new one, and so does every clone (a clone may be changed
+/// apart from its original); code that changes a scene's meshes in place gives it a new
+/// one ([`SceneId::fresh`]).
+#[derive(Debug, PartialEq, Eq)]
+pub struct SceneId(u64);
+
+impl SceneId {
+    /// An identity no other scene of this process has.
+    pub fn fresh() -> SceneId {
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+        SceneId(NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed))
+    }
+
+    /// The number.
+    pub fn get(&self) -> u64 {
+        self.0
+    }
+}
+
+impl Default for SceneId {
+    fn default() -> Self {
+        SceneId::fresh()
+    }
+}
+
+impl Clone for SceneId {
+    fn clone(&self) -> Self {
+        SceneId::fresh()
+    }
+}
+
 /// A loaded scene: meshes with transforms, materials, lights, camera, and its animation.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// This scene's identity (see [`SceneId`]).
+    pub id: SceneId,
     /// Name (the file stem or the built-in's name).
     pub name: String,
     /// Meshes, each in its own object space.
@@ -333,6 +368,7 @@ impl Scene {
         report: LoadReport,
     ) -> Scene {
         Scene {
+            id: SceneId::fresh(),
             name: path
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
@@ -581,6 +617,7 @@ impl Scene {
     /// reads neither: its triangles are the geometry's).
     pub fn frame_at(&self, t: f32) -> Scene {
         Scene {
+            id: SceneId::fresh(),
             name: self.name.clone(),
             meshes: Vec::new(),
             materials: self.materials.clone(),
