@@ -47,3 +47,27 @@ impl Isa {
             .collect()
     }
 }
+
+/// For tests that compare every build with the scalar one (`what` names the test): the
+/// builds this CPU runs. A build it lacks is a comparison that did not happen: said on
+/// stderr as `SKIPPED: why`, or, where `RAYSPACE_REQUIRE` lists it (`avx2`, `avx512`; CI
+/// sets it from the CPU), a panic. This is `testkit::skip`'s rule, for the crates below
+/// `testkit` (which depends on them).
+#[doc(hidden)]
+pub fn builds_for_tests(what: &str) -> Vec<Isa> {
+    for (isa, need) in [(Isa::Avx2, "avx2"), (Isa::Avx512, "avx512")] {
+        if isa.available() {
+            continue;
+        }
+        let required = std::env::var("RAYSPACE_REQUIRE")
+            .unwrap_or_default()
+            .split(',')
+            .any(|r| r.trim() == need || r.trim() == "all");
+        let why = format!("{what}: this CPU lacks {isa:?}, so that build is not compared");
+        if required {
+            panic!("RAYSPACE_REQUIRE lists '{need}', but this test cannot run: {why}");
+        }
+        eprintln!("SKIPPED: {why}");
+    }
+    Isa::all_available()
+}

@@ -556,7 +556,7 @@ mod tests {
                 .chain([r.t_min.to_bits(), r.t_max.to_bits()])
                 .collect::<Vec<u32>>()
         };
-        for isa in geom::Isa::all_available() {
+        for isa in geom::isa::builds_for_tests("shadow-ray lanes") {
             let mut rays = vec![[0f32; 4]; LANES * lights.len()];
             let mut first = 0;
             while first < s.len() {
