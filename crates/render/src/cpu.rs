@@ -128,6 +128,55 @@ fn shade_into(
     });
 }
 
+/// `pixels[at[i]] += add[i]` for every i, each pixel's additions in the order of i, so the
+/// bytes do not depend on the threads. Every generation's surfaces are in pixel order (the
+/// G-buffer's are; a surface's rays carry its pixel, surface-major; the next surfaces are
+/// the hits in ray order), so pieces cut where the pixel changes own disjoint pixels and
+/// run in parallel; out of order, the additions run serially.
+fn add_in_order(pixels: &mut [Vec3], at: &[u32], add: &[Vec3]) {
+    const PIECE: usize = 1 << 14;
+    let sorted = at.par_windows(2).all(|w| w[0] <= w[1]);
+    if !sorted || at.len() < 2 * PIECE {
+        for (&p, c) in at.iter().zip(add) {
+            pixels[p as usize] += *c;
+        }
+        return;
+    }
+    // Cut after a whole pixel's run, about every PIECE additions.
+    let mut cuts = vec![0usize];
+    let mut k = PIECE;
+    while k < at.len() {
+        while k < at.len() && at[k] == at[k - 1] {
+            k += 1;
+        }
+        if k < at.len() {
+            cuts.push(k);
+        }
+        k += PIECE;
+    }
+    cuts.push(at.len());
+    // Each piece's pixels: from its first surface's pixel to the next piece's first.
+    let mut parts = Vec::with_capacity(cuts.len() - 1);
+    let mut rest = pixels;
+    let mut base = 0usize;
+    for w in cuts.windows(2) {
+        let end = if w[1] < at.len() {
+            at[w[1]] as usize
+        } else {
+            base + rest.len()
+        };
+        let (mine, tail) = std::mem::take(&mut rest).split_at_mut(end - base);
+        parts.push((mine, base, w[0]..w[1]));
+        rest = tail;
+        base = end;
+    }
+    parts.into_par_iter().for_each(|(mine, base, r)| {
+        for i in r {
+            mine[at[i] as usize - base] += add[i];
+        }
+    });
+}
+
 impl Backend for CpuBackend<'_> {
     type Surfaces = Surfaces;
     type Rays = RayBatch;
@@ -213,10 +262,7 @@ impl Backend for CpuBackend<'_> {
             Some((_, h)) => shade_into(s, self.scene, |k| h[k].is_hit(), &mut shaded),
             None => shade_into(s, self.scene, |_| false, &mut shaded),
         }
-        // Added in surface order, so the bytes do not depend on the threads.
-        for (&p, c) in s.pixel.iter().zip(&shaded) {
-            self.pixels[p as usize] += *c;
-        }
+        add_in_order(&mut self.pixels, &s.pixel, &shaded);
         self.arena.shaded = shaded;
     }
 
@@ -250,6 +296,39 @@ impl Backend for CpuBackend<'_> {
             gbuffer: std::mem::take(&mut self.gb),
             raster: std::mem::take(&mut self.raster),
             stats,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// In pixel order (with runs of a pixel, and pixels skipped) and out of it, the
+    /// additions give the serial loop's bits.
+    #[test]
+    fn additions_in_order_equal_the_serial_loop() {
+        let mut rng = geom::Pcg32::new(9, 4);
+        for case in 0..6 {
+            let n = [10, 40_000, 100_000, 70_001, 5, 90_000][case];
+            let mut at: Vec<u32> = (0..n).map(|_| rng.next_u32() % 50_000).collect();
+            if case != 5 {
+                at.sort_unstable();
+            }
+            let add: Vec<Vec3> = (0..n)
+                .map(|_| Vec3::new(rng.next_f32(), rng.next_f32() * 1e-3, rng.next_f32() * 7.0))
+                .collect();
+            let start: Vec<Vec3> = (0..50_000).map(|i| Vec3::splat(i as f32 * 0.1)).collect();
+            let mut want = start.clone();
+            for (&p, c) in at.iter().zip(&add) {
+                want[p as usize] += *c;
+            }
+            let mut got = start;
+            add_in_order(&mut got, &at, &add);
+            let bits = |v: &[Vec3]| -> Vec<[u32; 3]> {
+                v.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
+            };
+            assert!(bits(&got) == bits(&want), "case {case}");
         }
     }
 }
