@@ -289,7 +289,7 @@ pub fn shadow_rays(s: &Surfaces, lights: &[Light]) -> RayBatch {
 
 /// [`shadow_rays`] into `b`'s buffers (kept: no allocation once they are large enough),
 /// written in parallel, surface-major as a serial loop makes them. Each light's rays of
-/// [`LANES`] surfaces are computed in one branch-free loop (vectorised: the
+/// 16 surfaces are computed in one branch-free loop (vectorised: the
 /// multi-versioned builds of [`geom::Isa`]), the same IEEE operations as
 /// [`shadow_ray`] per ray, so the same bits (tested).
 pub fn shadow_rays_into(s: &Surfaces, lights: &[Light], b: &mut RayBatch) {

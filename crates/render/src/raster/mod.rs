@@ -577,8 +577,9 @@ pub fn rasterize_into(
         .zip(gb.inv_depth.par_chunks_mut(rows))
         .enumerate()
         .map(|(ty, ((tri, bary), inv_z))| {
-            let n = (TILE * TILE) as usize;
-            let (mut lt, mut lb, mut lz) = (vec![NO_HIT; n], vec![[0.0f32; 2]; n], vec![0.0f32; n]);
+            const N: usize = (TILE * TILE) as usize;
+            // The tile's own z-buffer, on the stack (no allocation per frame).
+            let (mut lt, mut lb, mut lz) = ([NO_HIT; N], [[0.0f32; 2]; N], [0.0f32; N]);
             let mut sum = (0, 0);
             for tx in 0..tiles_x {
                 let t = ty * tiles_x as usize + tx as usize;
