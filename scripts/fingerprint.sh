@@ -24,7 +24,7 @@ PY
 }
 engines="crsh rah grid grid2l brute obvhs-cwbvh obvhs-bvh2"
 # Builds with the Embree peer say so in --version (features: ..., embree).
-if "$bin" --version | grep -q embree; then engines="$engines embree embree-stream"; fi
+if "$bin" --version | grep embree >/dev/null; then engines="$engines embree embree-stream"; fi
 for scene in cornell spheres soup stadium office; do
     for e in $engines; do
         "$bin" render "$scene" --width 64 --height 48 --engine "$e" --out "$tmp/o.png" --stats "$tmp/o.json" >/dev/null
