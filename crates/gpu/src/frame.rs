@@ -463,16 +463,23 @@ impl Backend for GpuBackend<'_> {
         k
     }
 
+    fn hit_records(&mut self, _r: &Vec<DeviceBatch>) -> Vec<wgpu::Buffer> {
+        // The engine's trace makes its record buffers on the device.
+        Vec::new()
+    }
+
     fn trace(
         &mut self,
         r: &Vec<DeviceBatch>,
+        hits: &mut Vec<wgpu::Buffer>,
         mode: TraceMode,
         stats: &mut TraceStats,
-    ) -> Vec<wgpu::Buffer> {
+    ) {
         self.ex.finish();
-        r.iter()
+        *hits = r
+            .iter()
             .map(|b| trace_device(self.engine, &b.rays, mode, stats))
-            .collect()
+            .collect();
     }
 
     fn shade(

@@ -248,12 +248,21 @@ impl Backend for CpuBackend<'_> {
         r.count_by_kind()
     }
 
-    fn trace(&mut self, r: &RayBatch, mode: TraceMode, stats: &mut TraceStats) -> Vec<Hit> {
+    fn hit_records(&mut self, r: &RayBatch) -> Vec<Hit> {
         let mut hits = self.arena.hits.pop().unwrap_or_default();
         hits.clear();
         hits.resize(r.len(), Hit::MISS);
-        self.tracer.trace(r, mode, &mut hits, stats);
         hits
+    }
+
+    fn trace(
+        &mut self,
+        r: &RayBatch,
+        hits: &mut Vec<Hit>,
+        mode: TraceMode,
+        stats: &mut TraceStats,
+    ) {
+        self.tracer.trace(r, mode, hits, stats);
     }
 
     fn shade(&mut self, s: &Surfaces, shadows: Option<(&RayBatch, &Vec<Hit>)>) {

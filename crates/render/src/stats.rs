@@ -18,7 +18,8 @@ pub enum FramePhase {
     BuildPass(PassTime),
     /// Primary visibility into the G-buffer (§3.1).
     Rasterize,
-    /// Surfaces and rays of every generation (shadow, reflection, refraction; §3.1).
+    /// Surfaces and rays of every generation (shadow, reflection, refraction; §3.1), and
+    /// the hit records each batch's trace writes into, made ready before it.
     RayCreation,
     /// Inside the engine's trace calls.
     Trace,

@@ -141,8 +141,19 @@ pub trait Backend {
     fn rays_len(&self, r: &Self::Rays) -> u64;
     /// `r`'s rays by kind (primary, shadow, reflection, refraction).
     fn count_kinds(&mut self, r: &Self::Rays) -> [u64; 4];
-    /// Trace `r` with the backend's engine, counting into `stats`.
-    fn trace(&mut self, r: &Self::Rays, mode: TraceMode, stats: &mut TraceStats) -> Self::Hits;
+    /// The hit records `r`'s trace writes into, made ready before the trace is timed (the
+    /// CPU's: one miss record per ray, in buffers kept from earlier batches), so that the
+    /// trace phase is the engine's work only.
+    fn hit_records(&mut self, r: &Self::Rays) -> Self::Hits;
+    /// Trace `r` with the backend's engine into `hits` (from [`Backend::hit_records`]),
+    /// counting into `stats`.
+    fn trace(
+        &mut self,
+        r: &Self::Rays,
+        hits: &mut Self::Hits,
+        mode: TraceMode,
+        stats: &mut TraceStats,
+    );
     /// Local illumination of every surface times its throughput (eqs. 3.17–3.19), added to
     /// its pixel in surface order; `shadows` are the shadow rays and their any-hit results
     /// (`None`: no shadow ray, so no light is hidden).
@@ -176,15 +187,17 @@ fn timed<B: Backend, T>(
     r
 }
 
-/// `r` traced, timed and counted by kind.
+/// `r` traced, timed and counted by kind: its hit records made ready as part of the ray
+/// creation, then the engine's trace call alone timed as the trace.
 fn trace<B: Backend>(b: &mut B, r: &B::Rays, mode: TraceMode, stats: &mut RenderStats) -> B::Hits {
     let [p, s, rl, rf] = b.count_kinds(r);
     stats.rays_primary_traced += p;
     stats.rays_shadow += s;
     stats.rays_reflection += rl;
     stats.rays_refraction += rf;
+    let mut h = timed(b, stats, FramePhase::RayCreation, |b| b.hit_records(r));
     let t0 = Instant::now();
-    let h = b.trace(r, mode, &mut stats.trace);
+    b.trace(r, &mut h, mode, &mut stats.trace);
     b.sync();
     stats.add_phase(FramePhase::Trace, t0.elapsed().as_secs_f64());
     h
