@@ -15,7 +15,7 @@ for r in 1 2 3; do
   for b in base new; do
     bin=$NEW; [ $b = base ] && bin=$BASE
     for e in embree-stream crsh; do
-      $bin render kitchen --engine $e --frames 8 --out "$TMP/%04d.png" --frame-csv "$OUT/$b-$e-$r.csv" >/dev/null
+      $bin render kitchen --engine $e --frames 8 --out "$TMP/%04d.png" --frame-csv "$OUT/frames-2/$b-$e-$r.csv" >/dev/null
     done
   done
 done
