@@ -71,3 +71,40 @@ pub fn builds_for_tests(what: &str) -> Vec<Isa> {
     }
     Isa::all_available()
 }
+
+/// Run the kernel `$kernel` (an `#[inline(always)]` function written as branch-free lane
+/// loops) in the build `$isa` names: the macro declares the kernel's AVX-512 and AVX2
+/// builds (`#[target_feature]` wrappers with the parameters as listed) and calls the one
+/// asked for, or the portable build. It asserts that the CPU runs that build, which is what
+/// makes calling a `target_feature` function sound.
+///
+/// ```ignore
+/// geom::dispatch_isa!(isa, group(s: &Surfaces, first: usize, out: &mut [Vec3]))
+/// geom::dispatch_isa!(isa, cull(view: &View, tris: &[[Vec3; 3]]) -> Verdicts)
+/// ```
+#[macro_export]
+macro_rules! dispatch_isa {
+    ($isa:expr, $kernel:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)?) => {{
+        let isa: $crate::Isa = $isa;
+        assert!(isa.available(), "{isa:?} on this CPU");
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f,avx512vl,avx2,popcnt")]
+        unsafe fn avx512($($arg: $ty),*) $(-> $ret)? {
+            $kernel($($arg),*)
+        }
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,popcnt")]
+        unsafe fn avx2($($arg: $ty),*) $(-> $ret)? {
+            $kernel($($arg),*)
+        }
+        match isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: asserted above: the CPU has AVX-512 F and VL, AVX2 and POPCNT.
+            $crate::Isa::Avx512 => unsafe { avx512($($arg),*) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: asserted above: the CPU has AVX2 and POPCNT.
+            $crate::Isa::Avx2 => unsafe { avx2($($arg),*) },
+            _ => $kernel($($arg),*),
+        }
+    }};
+}

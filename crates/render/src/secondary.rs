@@ -351,35 +351,16 @@ fn shadow_group(
     rays: &mut [[f32; 4]],
     isa: geom::Isa,
 ) {
-    match isa {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `Isa::best` said this CPU runs it.
-        geom::Isa::Avx512 => unsafe { shadow_group512(s, first, n, lights, rays) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        geom::Isa::Avx2 => unsafe { shadow_group256(s, first, n, lights, rays) },
-        _ => shadow_lanes(s, first, n, lights, rays),
-    }
-}
-
-/// [`shadow_lanes`] for AVX-512.
-///
-/// # Safety
-/// The CPU must have AVX-512 F and VL, AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,popcnt")]
-unsafe fn shadow_group512(s: &Surfaces, first: usize, n: usize, l: &[Light], r: &mut [[f32; 4]]) {
-    shadow_lanes(s, first, n, l, r)
-}
-
-/// [`shadow_lanes`] for AVX2.
-///
-/// # Safety
-/// The CPU must have AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt")]
-unsafe fn shadow_group256(s: &Surfaces, first: usize, n: usize, l: &[Light], r: &mut [[f32; 4]]) {
-    shadow_lanes(s, first, n, l, r)
+    geom::dispatch_isa!(
+        isa,
+        shadow_lanes(
+            s: &Surfaces,
+            first: usize,
+            n: usize,
+            lights: &[Light],
+            rays: &mut [[f32; 4]],
+        )
+    )
 }
 
 /// The group's rays: per light one loop over the lanes with selects only, each lane the

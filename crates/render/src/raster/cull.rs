@@ -37,35 +37,7 @@ impl Verdicts {
 /// the build `isa` (which the CPU must run).
 pub fn cull_group(view: &View, near: f32, tris: &[[Vec3; 3]], isa: Isa) -> Verdicts {
     debug_assert!(tris.len() <= LANES && !tris.is_empty());
-    match isa {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: the caller passes an ISA the CPU runs (`Isa::best`).
-        Isa::Avx512 => unsafe { group512(view, near, tris) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        Isa::Avx2 => unsafe { group256(view, near, tris) },
-        _ => group(view, near, tris),
-    }
-}
-
-/// [`group`] for AVX-512.
-///
-/// # Safety
-/// The CPU must have AVX-512 F and VL, AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,popcnt")]
-unsafe fn group512(view: &View, near: f32, tris: &[[Vec3; 3]]) -> Verdicts {
-    group(view, near, tris)
-}
-
-/// [`group`] for AVX2.
-///
-/// # Safety
-/// The CPU must have AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt")]
-unsafe fn group256(view: &View, near: f32, tris: &[[Vec3; 3]]) -> Verdicts {
-    group(view, near, tris)
+    geom::dispatch_isa!(isa, group(view: &View, near: f32, tris: &[[Vec3; 3]]) -> Verdicts)
 }
 
 /// The group: gathered (lanes past the slice repeat its first triangle), then one loop

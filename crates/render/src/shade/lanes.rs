@@ -80,50 +80,18 @@ pub fn shade_group(
     out: &mut [Vec3],
     isa: Isa,
 ) {
-    debug_assert!(out.len() <= LANES && isa.available());
-    match isa {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: the caller checked that the CPU runs `isa`.
-        Isa::Avx512 => unsafe { group512(s, first, mats, lights, occluded, out) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        Isa::Avx2 => unsafe { group256(s, first, mats, lights, occluded, out) },
-        _ => group(s, first, mats, lights, occluded, out),
-    }
-}
-
-/// [`group`] compiled for AVX-512.
-///
-/// # Safety
-/// The CPU must have AVX-512 F and VL, AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,popcnt")]
-unsafe fn group512(
-    s: &Surfaces,
-    first: usize,
-    mats: &[MatLane],
-    lights: &[Light],
-    occluded: &(impl Fn(usize) -> bool + ?Sized),
-    out: &mut [Vec3],
-) {
-    group(s, first, mats, lights, occluded, out)
-}
-
-/// [`group`] compiled for AVX2.
-///
-/// # Safety
-/// The CPU must have AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt")]
-unsafe fn group256(
-    s: &Surfaces,
-    first: usize,
-    mats: &[MatLane],
-    lights: &[Light],
-    occluded: &(impl Fn(usize) -> bool + ?Sized),
-    out: &mut [Vec3],
-) {
-    group(s, first, mats, lights, occluded, out)
+    debug_assert!(out.len() <= LANES);
+    geom::dispatch_isa!(
+        isa,
+        group(
+            s: &Surfaces,
+            first: usize,
+            mats: &[MatLane],
+            lights: &[Light],
+            occluded: &(impl Fn(usize) -> bool + ?Sized),
+            out: &mut [Vec3],
+        )
+    )
 }
 
 /// Three lanes of coordinates.
@@ -136,7 +104,8 @@ fn dot(a: &V3, b: &V3, k: usize) -> f32 {
 }
 
 /// The group, written so that every loop over `k` is branch-free (selects only) and
-/// vectorises; `#[inline(always)]` so that each `target_feature` build gets its own copy.
+/// vectorises; `#[inline(always)]` so that each `target_feature` build
+/// ([`geom::dispatch_isa`]) gets its own copy.
 #[inline(always)]
 fn group(
     s: &Surfaces,
