@@ -25,9 +25,17 @@ pub fn icosahedron(scale: f32, offset: Vec3) -> Vec<[Vec3; 3]> {
 }
 
 /// A fresh scratch directory for one test (`tag` names it; the process id keeps parallel
-/// test runs apart).
+/// test runs apart). Emptied first: process ids come round again (32,768 of them on Linux
+/// by default), and a directory an earlier run left under the same id would hold its
+/// outputs, which tests that check a refused command wrote nothing would find.
 pub fn temp_dir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("rayspace-{tag}-{}", std::process::id()));
+    match std::fs::remove_dir_all(&d) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            panic!("cannot clear {}: {e}", d.display())
+        }
+        _ => {}
+    }
     std::fs::create_dir_all(&d).unwrap();
     d
 }
