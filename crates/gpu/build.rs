@@ -27,6 +27,7 @@ const MODULES: &[(&str, &[&str])] = &[
     ("Build", &["shaders/geom.wgsl", "rsh/build.wgsl"]),
     ("Traverse", &["shaders/geom.wgsl", "rsh/traverse.wgsl"]),
     ("Final", &["shaders/geom.wgsl", "rsh/final.wgsl"]),
+    ("Objects", &["shaders/geom.wgsl", "rsh/objects.wgsl"]),
     ("Stages", &["stages.wgsl"]),
     (
         "Grid",

@@ -6,6 +6,9 @@
 use crate::kernels::params::{CompactParams, PermuteParams, RunsParams, ScanParams, SortParams};
 use crate::kernels::{launch, Exec};
 
+/// A sort tile: 256 threads × 16 elements (sort.wgsl).
+const SORT_TILE: u64 = 256 * 16;
+
 impl Exec<'_> {
     /// Exclusive scan of `n` u32 of `input` into `out` (n + 1 entries: the total last).
     pub fn scan(&mut self, input: &wgpu::Buffer, out: &wgpu::Buffer, n: u64) {
@@ -59,13 +62,7 @@ impl Exec<'_> {
         if n <= 1 {
             return;
         }
-        // A tile is 256 threads × 16 elements (sort.wgsl).
-        const SORT_TILE: u64 = 256 * 16;
         let tiles = n.div_ceil(SORT_TILE);
-        let hist = self.g.storage("sort hist", 16 * tiles * 4);
-        let hist_s = self.g.storage("sort hist scanned", (16 * tiles + 1) * 4);
-        let k2 = self.g.storage("sort keys", n * 4);
-        let v2 = self.g.storage("sort vals", n * 4);
         // Digits that are equal in every key need no pass (as in `par::sort_pairs`).
         let kb = self.g.upload("key bits", &[0u32, u32::MAX]);
         self.run(
@@ -91,9 +88,30 @@ impl Exec<'_> {
         let digits: Vec<u32> = (0..bits.div_ceil(4))
             .filter(|&p| (varying >> (4 * p)) & 15 != 0)
             .collect();
+        self.sort_digits(keys, vals, n, &digits);
+    }
+
+    /// [`Exec::sort_pairs`] without its read-back: every 4-bit digit of the low `bits` gets
+    /// a pass (one whose digit is equal in every key is the identity, so the result is the
+    /// same), and nothing waits for the host.
+    pub fn sort_pairs_all(&mut self, keys: &wgpu::Buffer, vals: &wgpu::Buffer, n: u64, bits: u32) {
+        if n <= 1 {
+            return;
+        }
+        let digits: Vec<u32> = (0..bits.min(32).div_ceil(4)).collect();
+        self.sort_digits(keys, vals, n, &digits);
+    }
+
+    /// The radix passes of the sorts, one per digit in `digits` (low to high).
+    fn sort_digits(&mut self, keys: &wgpu::Buffer, vals: &wgpu::Buffer, n: u64, digits: &[u32]) {
+        let tiles = n.div_ceil(SORT_TILE);
+        let hist = self.g.storage("sort hist", 16 * tiles * 4);
+        let hist_s = self.g.storage("sort hist scanned", (16 * tiles + 1) * 4);
+        let k2 = self.g.storage("sort keys", n * 4);
+        let v2 = self.g.storage("sort vals", n * 4);
         let passes = digits.len() as u32;
         let (mut src, mut dst) = ((keys, vals), (&k2, &v2));
-        for &p in &digits {
+        for &p in digits {
             let prm = SortParams {
                 n: n as u32,
                 shift: 4 * p,

@@ -420,6 +420,38 @@ fn grown(b: &Aabb, scene: &Aabb) -> Aabb {
     Aabb::new(b.min - pad, b.max + pad)
 }
 
+/// The LBVH's key layout: a mesh index above a Morton code (the GPU's build, `gpu::rsh::
+/// objects`, lays its keys out by the same numbers).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KeyBits {
+    /// Morton bits per axis.
+    pub axis_bits: u32,
+    /// Bits of the Morton code (3 × `axis_bits`), the mesh index above them.
+    pub code_bits: u32,
+    /// Bits of the mesh index.
+    pub mesh_bits: u32,
+}
+
+impl KeyBits {
+    /// The layout for `n ≥ 2` triangles in `meshes` meshes.
+    pub fn new(n: usize, meshes: usize) -> KeyBits {
+        let mesh_bits = 64 - (meshes.max(1) as u64 - 1).leading_zeros().min(63);
+        // Morton bits per axis: about 2^12 grid cells per triangle (⌈log2 n / 3⌉ + 4 bits),
+        // as many as the mesh index leaves room for and at most 21. Finer codes would only
+        // order triangles that share a cell (equal keys fall back to their index, which is
+        // file order), and each 8 bits more is one more pass of the radix sort: on Sponza,
+        // 10 bits instead of 21 give the same tree quality within 0.1 % of the tests, in 5
+        // sort passes instead of 8.
+        let log_n = usize::BITS - (n.max(2) - 1).leading_zeros();
+        let axis_bits = (log_n.div_ceil(3) + 4).min((64 - mesh_bits) / 3).min(21);
+        KeyBits {
+            axis_bits,
+            code_bits: 3 * axis_bits,
+            mesh_bits,
+        }
+    }
+}
+
 /// The LBVH's tree over `n ≥ 2` triangles: keys (mesh index above the Morton code of the
 /// box centre in the centroids' box), radix-sorted, and the radix tree over them; returns
 /// the tree and the triangles in leaf order.
@@ -436,17 +468,11 @@ fn lbvh(boxes: &[Aabb], mesh_first: &[u32]) -> (RadixTree, Vec<u32>) {
         .reduce(Aabb::default, |a, b| a.union(&b));
     let centroid_box = &centroid_box;
     // Keys: mesh index above the Morton code (triangles are stored mesh by mesh).
-    let nm = mesh_first.len().saturating_sub(1);
-    let mesh_bits = 64 - (nm.max(1) as u64 - 1).leading_zeros().min(63);
-    // Morton bits per axis: about 2^12 grid cells per triangle (⌈log2 n / 3⌉ + 4 bits), as
-    // many as the mesh index leaves room for and at most 21. Finer codes would only order
-    // triangles that share a cell (equal keys fall back to their index, which is file
-    // order), and each 8 bits more is one more pass of the radix sort: on Sponza, 10 bits
-    // instead of 21 give the same tree quality within 0.1 % of the tests, in 5 sort passes
-    // instead of 8.
-    let log_n = usize::BITS - (n - 1).leading_zeros();
-    let axis_bits = (log_n.div_ceil(3) + 4).min((64 - mesh_bits) / 3).min(21);
-    let code_bits = 3 * axis_bits;
+    let KeyBits {
+        axis_bits,
+        code_bits,
+        mesh_bits,
+    } = KeyBits::new(n, mesh_first.len().saturating_sub(1));
     let mut keys: Vec<u64> = boxes
         .par_iter()
         .enumerate()

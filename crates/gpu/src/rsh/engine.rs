@@ -9,7 +9,7 @@
 //! the CPU's.
 
 use super::build::build;
-use super::device_scene::DeviceScene;
+use super::device_scene::{DeviceScene, SceneArrays};
 use super::order::leaf_order;
 use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
@@ -18,7 +18,7 @@ use crate::kernels::{launch, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
 use ::rsh::{HashKind, Method, ObjectHierarchy, RshConfig};
-use geom::{Pcg32, Sphere};
+use geom::Pcg32;
 use scene::Geometry;
 use std::sync::Mutex;
 use trace::{Counter, OptionError};
@@ -54,10 +54,6 @@ fn shuffle_table(b: u32) -> Vec<u32> {
     out
 }
 
-fn v4(s: &Sphere) -> [f32; 4] {
-    [s.center.x, s.center.y, s.center.z, s.radius]
-}
-
 /// What the engine uploads of one frame's scene.
 pub(super) struct SceneBuffers {
     tris: wgpu::Buffer,
@@ -80,24 +76,8 @@ impl SceneBuffers {
                 "{ntri} triangles exceed one binding ({max_tris} at most)"
             )));
         }
-        let tris: Vec<[f32; 4]> = geo
-            .tris
-            .iter()
-            .flat_map(|t| t.map(|v| [v.x, v.y, v.z, 0.0]))
-            .collect();
-        let spheres: Vec<[f32; 4]> = geo
-            .tris
-            .iter()
-            .map(|t| v4(&Sphere::of_triangle(t[0], t[1], t[2])))
-            .collect();
+        let a = SceneArrays::of(geo);
         let nm = geo.mesh_first.len() - 1;
-        let mut tri_mesh = vec![0u32; ntri];
-        for m in 0..nm {
-            for t in geo.mesh_first[m]..geo.mesh_first[m + 1] {
-                tri_mesh[t as usize] = m as u32;
-            }
-        }
-        let meshes: Vec<[f32; 4]> = geo.mesh_sphere.iter().map(v4).collect();
         let ext = geo.bounds.extent().max(geom::Vec3::splat(1e-30));
         let b = geo.bounds.min;
         // Rays: 16 bytes of origin and of direction per ray in one binding. The top level has
@@ -107,10 +87,10 @@ impl SceneBuffers {
         let by_pass = (bit_entries / nm.max(1) as u64).saturating_sub(4) * cfg.branching as u64;
         let max_rays = (gpu.max_binding() / 16).min(1 << 26).min(by_pass).max(1) as usize;
         Ok(SceneBuffers {
-            tris: gpu.upload("triangles", &tris),
-            tri_sphere: gpu.upload("triangle spheres", &spheres),
-            tri_mesh: gpu.upload("triangle meshes", &tri_mesh),
-            mesh_sphere: gpu.upload("mesh spheres", &meshes),
+            tris: gpu.upload("triangles", &a.tris),
+            tri_sphere: gpu.upload("triangle spheres", &a.spheres),
+            tri_mesh: gpu.upload("triangle meshes", &a.tri_mesh),
+            mesh_sphere: gpu.upload("mesh spheres", &a.meshes),
             mesh_first: geo.mesh_first.clone(),
             ntri: ntri as u32,
             box_min: [b.x, b.y, b.z],

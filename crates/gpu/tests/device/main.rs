@@ -7,5 +7,6 @@ mod common;
 mod frame;
 mod grid;
 mod grid_build;
+mod objects;
 mod primitives;
 mod raster;
