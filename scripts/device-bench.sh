@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # The GPU numbers of record in one run, for a session that is lent a real GPU (the `device`
 # tool): the grid built and traversed on the GPU (issue 17), whole frames and host↔device
-# traffic (issue 18), CRSH/RAH phases, and the GPU tests that compare against the CPU.
+# traffic (issue 18), CRSH/RAH phases, CRSH over the object tree on the device (issue 46),
+# and the GPU tests that compare against the CPU.
 #
 # Prepare on the dev machine (no GPU needed), then carry `dev-bin` and the scenes:
 #   cargo build --release && cargo test --release -p gpu --no-run 2>&1 | grep -o 'target/release/deps/[a-z_]*-[0-9a-f]*' > /tmp/tests.txt
 #   mkdir -p dev-bin && cp target/release/rayspace $(cat /tmp/tests.txt) dev-bin/
-#   mkdir -p dev-scenes && cp -r ../shared/scenes/{dabrovic-sponza,conference,cornell-box} dev-scenes/
-# (both ignored by git; about 52 MB together, within the device tool's 64 MiB carry), then
+#   mkdir -p dev-scenes && cp -r ../shared/scenes/{dabrovic-sponza,conference,cornell-box,bart-kitchen} dev-scenes/
+# (both ignored by git; about 62 MB together, within the device tool's 64 MiB carry), then
 # on the device: `scripts/device-bench.sh` (writes the reports and the log into $OUT).
 # Each step is bounded by `timeout`, so one slow step cannot eat the device time of the rest.
 set -uo pipefail
@@ -44,9 +45,20 @@ step 200 "bench gpu 512 shadows" "$R" bench gpu --scenes cornell,office,$S/sponz
     --width 512 --height 512 --bounces 0 --rah --md "$OUT/bench-gpu-512-shadows.md"
 step 200 "bench gpu 1024 b3" "$R" bench gpu --scenes office,$S/sponza.toml \
     --width 1024 --height 1024 --bounces 3 --md "$OUT/bench-gpu-1024-b3.md"
+# Issue 46: CRSH with the object tree built and walked on the device (the tree's build is
+# the stats' `build: object hierarchy`), against the thesis's bundles, Sponza 512² shadow
+# frames (target ≤ 2 ms); Kitchen 1024², 3 bounces, animated (target ≤ 16 ms a frame).
+for h in bvh mesh-spheres; do
+    step 120 "render sponza 512 shadows crsh $h" "$R" render $S/sponza.toml -W 512 -H 512 \
+        --bounces 0 --backend gpu --engine crsh --object-hierarchy $h \
+        --stats "$OUT/sponza-512-crsh-$h.json" --out "$OUT/sponza-512-crsh-$h.png"
+done
+step 150 "render kitchen 1024 b3 crsh frames" "$R" render kitchen -W 1024 -H 1024 --bounces 3 \
+    --backend gpu --engine crsh --frames 6 --frame-csv "$OUT/kitchen-1024-b3-crsh.csv" \
+    --out "$OUT/kitchen-%04d.png"
 # The GPU tests (the GPU frame against the CPU loop over its G-buffer, in parts; the minimal-ball
 # fix eb34266 is checked by hierarchies_match_the_cpu_node_for_node).
-for m in frame grid_build grid agreement; do
+for m in objects single frame grid_build grid agreement; do
     for t in "$BIN"/device-*; do
         [ -x "$t" ] && step 120 "test $m" "$t" "$m::" --test-threads 4
     done

@@ -47,6 +47,9 @@ if [ "${FINGERPRINT_GPU:-1}" = 1 ] && "$bin" render cornell --width 8 --height 8
         "$bin" render cornell --width 64 --height 48 --backend gpu --engine "$e" --out "$tmp/o.png" --stats "$tmp/o.json" >/dev/null
         echo "render-gpu cornell $e $(sha256sum <"$tmp/o.png" | cut -c1-16) $(strip_json "$tmp/o.json")"
     done
+    # CRSH's bundles on the device (the thesis's traversal; the default walks the object tree).
+    "$bin" render cornell --width 64 --height 48 --backend gpu --engine crsh --object-hierarchy mesh-spheres --out "$tmp/o.png" --stats "$tmp/o.json" >/dev/null
+    echo "render-gpu cornell crsh mesh-spheres $(sha256sum <"$tmp/o.png" | cut -c1-16) $(strip_json "$tmp/o.json")"
 else
     echo "SKIPPED: GPU backend (no Vulkan driver)" >&2
 fi

@@ -7,7 +7,7 @@
 //! peers from `accel`.
 
 use accel::grid::{GridConfig, GridError};
-use rsh::{Method, ObjectHierarchy, RayPath, RshConfig, RshError};
+use rsh::{Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, RshError};
 use scene::Geometry;
 use trace::{NameError, OptionError, Tracer};
 
@@ -161,21 +161,40 @@ impl Engine {
     }
 }
 
+/// How a method's batches go over the object tree unless `--ray-path` says otherwise.
+pub fn method_default_path(method: Method) -> RayPath {
+    match method {
+        Method::Crsh => RshConfig::crsh().path,
+        Method::Rah => RshConfig::rah().path,
+    }
+}
+
 /// The object side CRSH and RAH use on the CPU unless `--object-hierarchy` says otherwise.
 pub const DEFAULT_OBJECTS: ObjectHierarchy = ObjectHierarchy::Bvh;
 
+/// The object hierarchy the GPU backend gives `method` when none is asked for: the BVH
+/// where the method's batches go as single rays by default (CRSH: the device walks the tree
+/// ray by ray), else mesh spheres (RAH: the device's bundles have no object tree yet).
+pub fn gpu_default_objects(method: Method) -> ObjectHierarchy {
+    if method_default_path(method) == RayPath::Single {
+        ObjectHierarchy::Bvh
+    } else {
+        ObjectHierarchy::MeshSpheres
+    }
+}
+
 /// The object hierarchy `engine` runs with, by name (`bvh`, `mesh-spheres`), for the stats:
-/// the one asked for, else the backend's default (the CPU's BVH; the GPU backend has mesh
-/// spheres only); `None` for engines that are not ray-space hierarchies.
+/// the one asked for, else the backend's default (the CPU's BVH; on the GPU
+/// [`gpu_default_objects`]); `None` for engines that are not ray-space hierarchies.
 pub fn object_hierarchy_name(
     engine: Engine,
     asked: Option<ObjectHierarchy>,
     gpu: bool,
 ) -> Option<&'static str> {
-    engine.rsh_method()?;
+    let method = engine.rsh_method()?;
     let o = match (asked, gpu) {
         (Some(o), _) => o,
-        (None, true) => ObjectHierarchy::MeshSpheres,
+        (None, true) => gpu_default_objects(method),
         (None, false) => DEFAULT_OBJECTS,
     };
     Some(match o {
@@ -230,11 +249,12 @@ impl EngineOptions {
         }
     }
 
-    /// [`EngineOptions::rsh_config`] for the GPU backend: the object side defaults to the
-    /// only one it has.
+    /// [`EngineOptions::rsh_config`] for the GPU backend: the object side defaults to
+    /// [`gpu_default_objects`], and the object tree is the LBVH (the device's builder).
     pub fn gpu_rsh_config(&self, method: Method) -> RshConfig {
         RshConfig {
-            objects: self.objects.unwrap_or(ObjectHierarchy::MeshSpheres),
+            objects: self.objects.unwrap_or(gpu_default_objects(method)),
+            builder: ObjectBuilder::Lbvh,
             ..self.rsh_config(method)
         }
     }

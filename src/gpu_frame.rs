@@ -158,7 +158,11 @@ impl GpuFrame {
         })?;
         let stats = &mut out.stats;
         stats.put_build(build_seconds, self.engine.build_passes());
-        (stats.host_device_bytes, stats.host_read_backs) = (Some(moved[0]), Some(moved[1]));
+        (
+            stats.host_device_bytes,
+            stats.host_read_backs,
+            stats.gpu_dispatches,
+        ) = (Some(moved[0]), Some(moved[1]), Some(moved[2]));
         stats.gpu_frame = Some(
             if in_parts {
                 "device-resident, a generation in parts (it exceeded one binding)"
@@ -177,12 +181,20 @@ impl GpuFrame {
             .map_err(|e| anyhow!("`width`/`height` with `backend`=gpu: {e}"))
     }
 
-    /// `f`'s result with the host↔device bytes and the read-backs it caused.
-    fn traffic<T>(&self, f: impl FnOnce() -> Result<T>) -> Result<(T, [u64; 2])> {
+    /// `f`'s result with the host↔device bytes, the read-backs and the compute dispatches
+    /// it caused.
+    fn traffic<T>(&self, f: impl FnOnce() -> Result<T>) -> Result<(T, [u64; 3])> {
         let g = self.engine.gpu();
-        let (bytes, reads) = (g.bytes_moved(), g.read_backs());
+        let (bytes, reads, runs) = (g.bytes_moved(), g.read_backs(), g.dispatches());
         let r = f()?;
-        Ok((r, [g.bytes_moved() - bytes, g.read_backs() - reads]))
+        Ok((
+            r,
+            [
+                g.bytes_moved() - bytes,
+                g.read_backs() - reads,
+                g.dispatches() - runs,
+            ],
+        ))
     }
 
     /// GPU seconds per phase since the last frame: rasterize and the engine's.

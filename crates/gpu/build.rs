@@ -28,6 +28,7 @@ const MODULES: &[(&str, &[&str])] = &[
     ("Traverse", &["shaders/geom.wgsl", "rsh/traverse.wgsl"]),
     ("Final", &["shaders/geom.wgsl", "rsh/final.wgsl"]),
     ("Objects", &["shaders/geom.wgsl", "rsh/objects.wgsl"]),
+    ("Single", &["shaders/geom.wgsl", "rsh/single.wgsl"]),
     ("Stages", &["stages.wgsl"]),
     (
         "Grid",

@@ -7,7 +7,7 @@ use super::args::{Backend, RenderArgs};
 use super::UsageError;
 use clap::parser::ValueSource;
 use clap::{ArgMatches, Args, Command};
-use rayspace::engines::Engine;
+use rayspace::engines::{self, Engine};
 use rayspace::keywords;
 use rayspace::options::{GridArgs, RshArgs};
 use std::path::{Path, PathBuf};
@@ -56,9 +56,10 @@ pub fn engine_options_apply(m: &ArgMatches, engine: Engine) -> Result<(), UsageE
 }
 
 /// Refuse CRSH/RAH options that the run would not read: the object tree's where there is
-/// none (`gpu`: the GPU backend, which has none yet; or `--object-hierarchy mesh-spheres`),
-/// and the ray hierarchy's where every batch goes as single rays through the tree. `what`
-/// names the command in the message.
+/// none (`--object-hierarchy mesh-spheres`, or the GPU backend's default for bundles), the
+/// ones the GPU backend's tree does not have (the dual traversal's, the SAH builder, a
+/// path other than single rays), and the ray hierarchy's where every batch goes as single
+/// rays through the tree. `what` names the command in the message.
 pub fn rsh_options_apply(
     m: &ArgMatches,
     engine: Engine,
@@ -69,18 +70,41 @@ pub fn rsh_options_apply(
     let Some(method) = engine.rsh_method() else {
         return Ok(());
     };
-    let no_bvh = gpu || r.objects == Some(rsh::ObjectHierarchy::MeshSpheres);
+    let default = engines::method_default_path(method);
+    let objects = match (r.objects, gpu) {
+        (Some(o), _) => o,
+        (None, true) => engines::gpu_default_objects(method),
+        (None, false) => engines::DEFAULT_OBJECTS,
+    };
+    let no_bvh = objects == rsh::ObjectHierarchy::MeshSpheres;
     for (flag, kw) in given_engine_options(m) {
         if no_bvh && ["descent", "schedule", "ray_path", "object_builder"].contains(&kw.as_str()) {
             return Err(UsageError(format!(
-                "{flag} applies to the object BVH (--object-hierarchy bvh, on the CPU backend), which this {what} does not use"
+                "{flag} applies to the object BVH (--object-hierarchy bvh), which this {what} does not use"
             )));
         }
+        if gpu && !no_bvh {
+            let refuse = match kw.as_str() {
+                "descent" | "schedule" => Some("the dual traversal, which the GPU backend does not have"),
+                "object_builder" if r.builder != rsh::ObjectBuilder::Lbvh => {
+                    Some("the CPU backend: the GPU backend builds the LBVH only (--object-builder lbvh)")
+                }
+                "ray_path" if r.path != Some(rsh::RayPath::Single) => Some(
+                    "the CPU backend: the GPU backend walks the object BVH with single rays only (--ray-path single; for the ray hierarchy's bundles on the GPU, --object-hierarchy mesh-spheres)",
+                ),
+                _ => None,
+            };
+            if let Some(why) = refuse {
+                return Err(UsageError(format!("{flag} applies to {why}")));
+            }
+        }
     }
-    let default = match method {
-        rsh::Method::Crsh => rsh::RshConfig::crsh().path,
-        rsh::Method::Rah => rsh::RshConfig::rah().path,
-    };
+    if gpu && !no_bvh && r.path.unwrap_or(default) != rsh::RayPath::Single {
+        return Err(UsageError(format!(
+            "--object-hierarchy bvh on the GPU backend needs --ray-path single (the device walks the tree with single rays; --engine {}'s batches go as bundles)",
+            engine.name()
+        )));
+    }
     // The ray hierarchy's options do nothing where every batch goes as single rays through
     // the object tree.
     if !no_bvh && r.path.unwrap_or(default) == rsh::RayPath::Single {
@@ -166,17 +190,12 @@ pub fn render(a: &RenderArgs, m: &ArgMatches) -> Result<Outputs, UsageError> {
         }
     }
     engine_options_apply(m, a.engine)?;
-    if a.backend == Backend::Gpu {
-        if !a.engine.has_gpu() {
-            return Err(UsageError(format!(
-                "--backend gpu: --engine {} has no GPU path (the GPU runs {})",
-                a.engine.name(),
-                Engine::gpu_names().join(", ")
-            )));
-        }
-        if a.rsh.objects == Some(rsh::ObjectHierarchy::Bvh) {
-            return Err(UsageError("--object-hierarchy bvh: the GPU backend has no object tree yet (it runs mesh-spheres); use --backend cpu".into()));
-        }
+    if a.backend == Backend::Gpu && !a.engine.has_gpu() {
+        return Err(UsageError(format!(
+            "--backend gpu: --engine {} has no GPU path (the GPU runs {})",
+            a.engine.name(),
+            Engine::gpu_names().join(", ")
+        )));
     }
     rsh_options_apply(m, a.engine, &a.rsh, a.backend == Backend::Gpu, "render")?;
     if let Some(p) = &a.stats {

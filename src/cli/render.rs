@@ -117,10 +117,19 @@ pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
             format!(" ({})", r.notes.join("; "))
         },
     );
-    if a.backend == Backend::Gpu && a.engine.rsh_method().is_some() {
-        // Said, not silent: CRSH/RAH on the GPU push every triangle through the ray
-        // hierarchy behind the mesh spheres (the GPU has no object tree yet).
-        say!("GPU backend: {} with --object-hierarchy mesh-spheres (the GPU backend has no object BVH)", a.engine.name());
+    if a.backend == Backend::Gpu {
+        // Said, not silent: which object side CRSH/RAH take on the device.
+        match object_hierarchy(a) {
+            Some("bvh") => say!(
+                "GPU backend: {} walks the object BVH (LBVH, built on the device) with single rays",
+                a.engine.name()
+            ),
+            Some(o) => say!(
+                "GPU backend: {} with --object-hierarchy {o}",
+                a.engine.name()
+            ),
+            None => {}
+        }
     }
     if let Some(n) = a.anim.frames {
         return super::frames::render_frames(a, &opts, &scene, n, &outs);

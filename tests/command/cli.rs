@@ -809,8 +809,61 @@ fn gpu_backend_rejects_what_it_does_not_run() {
         &["--frames", "not animated"],
     );
     fails(
-        &words("render cornell --backend gpu --object-hierarchy bvh"),
-        &["--object-hierarchy bvh", "GPU"],
+        &words("render cornell --backend gpu --engine rah --object-hierarchy bvh"),
+        &["--object-hierarchy bvh", "GPU", "--ray-path single"],
+    );
+    fails(
+        &words("render cornell --backend gpu --object-builder sah"),
+        &["--object-builder", "LBVH only"],
+    );
+    fails(
+        &words("render cornell --backend gpu --ray-path bundles"),
+        &["--ray-path", "single rays only"],
+    );
+    fails(
+        &words("render cornell --backend gpu --schedule breadth"),
+        &["--schedule", "dual traversal"],
+    );
+}
+
+/// CRSH on the GPU walks the object tree built on the device: the stats say so (its build a
+/// pass, its ray-box tests counted), and the image is the thesis configuration's.
+#[test]
+fn gpu_crsh_walks_the_object_tree() {
+    let d = tmp("gpu-objects");
+    let mut images = Vec::new();
+    for (k, extra) in ["", "--object-hierarchy mesh-spheres"]
+        .into_iter()
+        .enumerate()
+    {
+        let (png, json) = (d.join(format!("g{k}.png")), d.join(format!("g{k}.json")));
+        let out = bin()
+            .args(words(&format!(
+                "render office --backend gpu --engine crsh --width 40 --height 30 {extra} --out {} --stats {}",
+                png.display(),
+                json.display()
+            )))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        if !out.status.success() && (err.contains("no GPU") || err.contains("lacks")) {
+            testkit::skip("gpu", &err);
+            return;
+        }
+        assert!(out.status.success(), "{err}");
+        let table = String::from_utf8_lossy(&out.stdout);
+        let stats = std::fs::read_to_string(&json).unwrap();
+        assert_eq!(table.contains("build: object hierarchy"), k == 0, "{table}");
+        let v: serde_json::Value = serde_json::from_str(&stats).unwrap();
+        let side = if k == 0 { "bvh" } else { "mesh-spheres" };
+        assert_eq!(v["object_hierarchy"], side, "{stats}");
+        assert_eq!(stats.contains("ray-box tests"), k == 0, "{stats}");
+        assert!(stats.contains("gpu_dispatches"), "{stats}");
+        images.push(std::fs::read(&png).unwrap());
+    }
+    assert_eq!(
+        images[0], images[1],
+        "the same image with either object side"
     );
 }
 

@@ -190,8 +190,8 @@ fn options_that_do_not_apply_are_refused_before_loading() {
         ),
         (&["--backend", "gpu", "--engine", "brute"], "no GPU path"),
         (
-            &["--backend", "gpu", "--object-hierarchy", "bvh"],
-            "no object tree",
+            &["--backend", "gpu", "--object-builder", "sah"],
+            "the GPU backend builds the LBVH only",
         ),
         (
             &[

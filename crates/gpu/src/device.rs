@@ -79,6 +79,9 @@ pub struct Gpu {
     /// Read-backs since the device was made: each one a wait for the device
     /// ([`Gpu::map_read`]).
     reads: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    /// Compute dispatches recorded since the device was made (every one goes through
+    /// `Exec::run`).
+    dispatches: std::sync::Arc<std::sync::atomic::AtomicU64>,
     /// The device's compiled kernels, made on first use and shared by every engine and
     /// handle of the device ([`Gpu::kernels`]).
     kernels: std::sync::Arc<std::sync::OnceLock<std::sync::Arc<crate::kernels::Kernels>>>,
@@ -177,6 +180,7 @@ impl Gpu {
             moved: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0)),
             kernels: Default::default(),
             reads: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0)),
+            dispatches: std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0)),
         })
     }
 
@@ -189,6 +193,16 @@ impl Gpu {
     /// host-sequencing cost a real GPU pays per read-back).
     pub fn read_backs(&self) -> u64 {
         self.reads.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Compute dispatches so far (see the field).
+    pub fn dispatches(&self) -> u64 {
+        self.dispatches.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    pub(crate) fn count_dispatch(&self) {
+        self.dispatches
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     }
 
     fn count_moved(&self, bytes: u64) {

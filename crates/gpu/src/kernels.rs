@@ -306,6 +306,7 @@ impl<'a> Exec<'a> {
             pass.dispatch_workgroups(gx, gy, 1);
         }
         self.launches += 1;
+        g.count_dispatch();
     }
 
     /// Copy `bytes` from `src` at `src_off` to the start of `dst`.

@@ -93,11 +93,12 @@ impl GpuEngine for GpuRsh {
     fn trace_device_part(
         &self,
         rays: &rays::DeviceRays,
-        _mode: trace::TraceMode,
+        mode: trace::TraceMode,
         stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer {
-        // The traversal finds the closest hit of every ray in either mode, as trace does.
-        GpuRsh::trace_device_part(self, rays, stats)
+        // The bundles find the closest hit of every ray in either mode, as trace does;
+        // single rays stop at their first hit in any-hit mode, as the CPU's.
+        GpuRsh::trace_device_part(self, rays, mode, stats)
     }
 }
 

@@ -126,6 +126,10 @@ pub struct RenderStats {
     /// next buffers, totals, the image).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub host_read_backs: Option<u64>,
+    /// GPU backend: compute dispatches during the frame (the frame's kernels and the
+    /// engine's traces; the engine's build, made before the frame, not counted).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu_dispatches: Option<u64>,
     /// GPU backend: how the frame ran, `device-resident` (everything between the G-buffer
     /// and the sRGB image stayed on the device), said with the reason when a generation was
     /// held in parts.
@@ -165,6 +169,7 @@ impl RenderStats {
         };
         add(&mut self.host_device_bytes, o.host_device_bytes);
         add(&mut self.host_read_backs, o.host_read_backs);
+        add(&mut self.gpu_dispatches, o.gpu_dispatches);
     }
 
     /// The four phase figures (`raster_ms`, `ray_creation_ms`, `trace_ms`, `shading_ms`)
@@ -255,6 +260,9 @@ impl RenderStats {
         }
         if let Some(r) = self.host_read_backs {
             s += &format!("| host read-backs (waits for the device) | {r} |\n");
+        }
+        if let Some(d) = self.gpu_dispatches {
+            s += &format!("| GPU compute dispatches | {d} |\n");
         }
         s += &format!("| total tests | {} |\n", self.total_tests);
         s += &format!(

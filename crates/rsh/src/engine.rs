@@ -226,6 +226,34 @@ pub fn report_counters(c: &Counters, mesh_culling: bool, top_nodes: u64, stats: 
     stats.count(Counter::TopNodes, top_nodes);
 }
 
+/// The single-ray path's counts into `stats` (the CPU engine and its GPU twin report them
+/// alike): hits, final tests, its slab tests as the dual traversal's `ray-box tests`.
+pub fn report_single(c: &single::SingleCounts, stats: &mut TraceStats) {
+    stats.hits += c.hits;
+    stats.levels.add(&LevelCounts {
+        tests: Vec::new(),
+        hits: Vec::new(),
+        final_tests: c.final_tests,
+    });
+    stats.ray_tri_tests += c.final_tests.iter().sum::<u64>();
+    stats.count(Counter::RayBoxTests, c.box_tests);
+    stats.count(Counter::RayBoxPasses, c.box_passes);
+    stats.node_tri_tests += c.box_tests;
+    // The bundles' counters, which this path has none of: reported as zeros, so that a
+    // CRSH render's stats name the same counters whichever path its batches took.
+    for k in [
+        Counter::BudgetSplits,
+        Counter::Chunks,
+        Counter::ObjectNodeTests,
+        Counter::PeakPairBytes,
+        Counter::PeakPairs,
+        Counter::TopNodes,
+        Counter::TriangleBatches,
+    ] {
+        stats.count(k, 0);
+    }
+}
+
 /// The object tree's counters into `stats` (every ray-box test counts towards the total
 /// tests, the thesis's % of brute force).
 fn object_counters(c: &Counters, stats: &mut TraceStats) {
@@ -491,29 +519,7 @@ impl RshEngine {
         let t0 = Instant::now();
         let c = single::trace(tree, &self.tris, rays, mode, hits, single::Isa::best());
         stats.time(Phase::Traversal, t0.elapsed().as_secs_f64());
-        stats.hits += c.hits;
-        stats.levels.add(&LevelCounts {
-            tests: Vec::new(),
-            hits: Vec::new(),
-            final_tests: c.final_tests,
-        });
-        stats.ray_tri_tests += c.final_tests.iter().sum::<u64>();
-        stats.count(Counter::RayBoxTests, c.box_tests);
-        stats.count(Counter::RayBoxPasses, c.box_passes);
-        stats.node_tri_tests += c.box_tests;
-        // The bundles' counters, which this path has none of: reported as zeros, so that
-        // a CRSH render's stats name the same counters whichever path its batches took.
-        for k in [
-            Counter::BudgetSplits,
-            Counter::Chunks,
-            Counter::ObjectNodeTests,
-            Counter::PeakPairBytes,
-            Counter::PeakPairs,
-            Counter::TopNodes,
-            Counter::TriangleBatches,
-        ] {
-            stats.count(k, 0);
-        }
+        report_single(&c, stats);
     }
 
     /// The traversal's view of the scene and of one trace's hierarchy, lanes and results.

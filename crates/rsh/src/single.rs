@@ -43,7 +43,9 @@ pub struct SingleCounts {
     pub hits: u64,
 }
 
-impl SingleCounts {
+/// The sum of two batches' counts.
+impl std::ops::Add for SingleCounts {
+    type Output = SingleCounts;
     fn add(mut self, o: SingleCounts) -> SingleCounts {
         for k in 0..4 {
             self.final_tests[k] += o.final_tests[k];
@@ -245,7 +247,7 @@ pub fn trace(
                 }
             },
         )
-        .reduce(SingleCounts::default, SingleCounts::add)
+        .reduce(SingleCounts::default, std::ops::Add::add)
 }
 
 /// Rays `first..first + out.len()` one by one (see the module doc), each node's boxes

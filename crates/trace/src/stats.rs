@@ -147,6 +147,9 @@ counters! {
     Chunks = "chunks", Sum;
     /// GPU backend: compute dispatches.
     GpuKernelLaunches = "gpu kernel launches", Sum;
+    /// GPU backend, single rays through the object tree: rays whose walk outgrew the
+    /// device's stack, traced on the host by the CPU twin instead.
+    GpuStackOverflows = "gpu stack overflows", Sum;
     /// Ray hierarchies: (top node, mesh) pairs that passed the mesh-sphere test.
     MeshSpherePasses = "mesh-sphere passes", Sum;
     /// Ray hierarchies: node–mesh-sphere tests at the top level (thesis §3.2.2).

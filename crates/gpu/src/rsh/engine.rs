@@ -10,14 +10,17 @@
 
 use super::build::build;
 use super::device_scene::{DeviceScene, SceneArrays};
+use super::objects::{self, DeviceTree, TreeInput};
 use super::order::leaf_order;
+use super::single;
 use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
 use crate::kernels::params::RecordsParams;
 use crate::kernels::{launch, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
+use ::rsh::objects::ObjectTree;
 use ::rsh::traverse::Counters;
-use ::rsh::{HashKind, Method, ObjectHierarchy, RshConfig};
+use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
 use geom::Pcg32;
 use scene::Geometry;
 use std::sync::Mutex;
@@ -32,10 +35,54 @@ pub struct GpuRsh {
     max_rays: usize,
     /// GPU seconds per phase of the last trace calls (drained by [`GpuRsh::take_times`]).
     times: Mutex<Vec<(Phase, f64)>>,
+    /// With [`ObjectHierarchy::Bvh`]: the object tree on the device (single rays).
+    tree: Option<TreeState>,
+    /// Stack entries a single ray's walk may use on the device ([`single::STACK`]).
+    stack: u32,
     /// Tests only: the value every 64-bit traversal counter starts from (its low word; 0
     /// in every real trace), so that a test can make the low words wrap.
     #[cfg(test)]
     counter_bias: std::sync::atomic::AtomicU32,
+}
+
+/// The object tree of the scene's current frame, built on the device.
+struct TreeState {
+    dev: DeviceTree,
+    /// Seconds of its build (kernels submitted and waited for).
+    secs: f64,
+    /// The tree read back (bit for bit the device's), once a walk overflowed the device's
+    /// stack: its rays are traced on the host with the CPU twin.
+    host: Mutex<Option<std::sync::Arc<ObjectTree>>>,
+}
+
+impl TreeState {
+    fn build(s: &DeviceScene) -> TreeState {
+        let mut ex = Exec::new(&s.gpu, &s.kernels);
+        ex.finish();
+        let t0 = std::time::Instant::now();
+        let inp = TreeInput {
+            tris: &s.tris,
+            tri_sphere: &s.tri_sphere,
+            tri_mesh: &s.tri_mesh,
+            mesh_sphere: s.cfg.mesh_culling.then_some(&s.mesh_sphere),
+            mesh_first: &s.mesh_first,
+        };
+        let dev = objects::build(&mut ex, &inp, s.ntri);
+        ex.finish();
+        TreeState {
+            dev,
+            secs: t0.elapsed().as_secs_f64(),
+            host: Mutex::new(None),
+        }
+    }
+
+    fn host(&self, s: &DeviceScene) -> std::sync::Arc<ObjectTree> {
+        let mut h = self.host.lock().unwrap();
+        h.get_or_insert_with(|| {
+            std::sync::Arc::new(self.dev.read(&mut Exec::new(&s.gpu, &s.kernels)))
+        })
+        .clone()
+    }
 }
 
 /// The CPU's fixed minimal-ball shuffle (`geom::miniball`) for every count 1..=b, as rows of
@@ -105,15 +152,30 @@ impl GpuRsh {
     /// pipeline does not implement (the 64-bit Morton hash).
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: RshConfig) -> Result<GpuRsh, GpuError> {
         cfg.validate()?;
-        if cfg.objects != ObjectHierarchy::MeshSpheres {
-            return Err(OptionError::new(
-                "object_hierarchy",
-                "bvh",
-                "the GPU backend implements mesh-spheres only",
-            )
-            .into());
-        }
-        if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
+        if cfg.objects == ObjectHierarchy::Bvh {
+            // The object tree is walked by single rays; the dual traversal (bundles) is
+            // not written for the device yet, nor the SAH builder.
+            if cfg.path != RayPath::Single {
+                return Err(OptionError::new(
+                    "ray_path",
+                    if cfg.path == RayPath::Auto {
+                        "auto"
+                    } else {
+                        "bundles"
+                    },
+                    "the GPU backend traces the object tree with single rays only",
+                )
+                .into());
+            }
+            if cfg.builder != ObjectBuilder::Lbvh {
+                return Err(OptionError::new(
+                    "object_builder",
+                    "sah",
+                    "the GPU backend builds the LBVH only",
+                )
+                .into());
+            }
+        } else if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
             return Err(OptionError::new(
                 "hash",
                 "morton64",
@@ -138,7 +200,7 @@ impl GpuRsh {
             .into());
         }
         let sb = SceneBuffers::new(&gpu, geo, &cfg)?;
-        Ok(GpuRsh {
+        let mut eng = GpuRsh {
             max_rays: sb.max_rays,
             s: DeviceScene {
                 tris: sb.tris,
@@ -155,9 +217,23 @@ impl GpuRsh {
                 cfg,
             },
             times: Mutex::new(Vec::new()),
+            tree: None,
+            stack: single::STACK,
             #[cfg(test)]
             counter_bias: Default::default(),
-        })
+        };
+        if eng.s.cfg.objects == ObjectHierarchy::Bvh {
+            eng.tree = Some(TreeState::build(&eng.s));
+        }
+        Ok(eng)
+    }
+
+    /// Tests only (public for the device tests): single rays' walks may use at most
+    /// `entries` stack entries on the device, so that walks overflow to the host's twin.
+    #[doc(hidden)]
+    pub fn with_stack(mut self, entries: u32) -> GpuRsh {
+        self.stack = entries.clamp(1, single::STACK);
+        self
     }
 
     /// The scene of a dynamic scene's next frame: its triangles, spheres and mesh spheres
@@ -175,6 +251,9 @@ impl GpuRsh {
         s.box_min = sb.box_min;
         s.box_ext = sb.box_ext;
         self.max_rays = sb.max_rays;
+        if self.tree.is_some() {
+            self.tree = Some(TreeState::build(&self.s));
+        }
         Ok(())
     }
 
@@ -291,11 +370,86 @@ impl GpuRsh {
         (rec, c, top)
     }
 
-    fn trace_part(&self, rays: &RayBatch, hits: &mut [Hit], stats: &mut TraceStats) {
+    /// Single rays `dr` through the object tree `t` (`single.wgsl`), their records made on
+    /// the device; rays that overflowed the device's stack are traced on the host with
+    /// the CPU twin over the same tree, and their records (host order, as `(ray, hit)`)
+    /// returned for the caller to put in place. Counters into `stats`.
+    fn records_single(
+        &self,
+        t: &TreeState,
+        ex: &mut Exec,
+        dr: &DeviceRays,
+        rays: Option<&RayBatch>,
+        mode: TraceMode,
+        stats: &mut TraceStats,
+    ) -> (wgpu::Buffer, Vec<(u32, Hit)>) {
+        let n = dr.len;
+        let g = &self.s.gpu;
+        ex.phase(Phase::Traversal);
+        let w = single::walk(ex, &t.dev, dr, mode == TraceMode::Any, self.stack);
+        let rec = g.storage("records", n * 16);
+        ex.run(
+            launch::Records {
+                f_org: &dr.org,
+                f_dir: &dr.dir,
+                f_pre: &dr.pre,
+                f_tris: &self.s.tris,
+                f_best_pair: &w.best,
+                f_rec: &rec,
+            },
+            RecordsParams { rays: n as u32 },
+            n,
+            256,
+        );
+        ex.phase(Phase::ReadBack);
+        let (mut c, over) = w.counts(ex);
+        let mut fixed = Vec::new();
+        if !over.is_empty() {
+            // The overflowed rays on the host, with the CPU walk over the device's tree.
+            let batch = match rays {
+                Some(r) => r.gather(&over),
+                None => crate::rays::read_rays(ex, dr, &over),
+            };
+            let tree = t.host(&self.s);
+            let mut out = vec![Hit::MISS; over.len()];
+            let hc = ::rsh::single::trace(
+                &tree,
+                &tree.leaf_tris,
+                &batch,
+                mode,
+                &mut out,
+                ::rsh::single::Isa::best(),
+            );
+            c = c + hc;
+            fixed = over.into_iter().zip(out).collect();
+        }
+        stats.count(Counter::SingleRayBatches, 1);
+        stats.count(Counter::BundledBatches, 0);
+        stats.count(Counter::GpuStackOverflows, fixed.len() as u64);
+        ::rsh::engine::report_single(&c, stats);
+        (rec, fixed)
+    }
+
+    fn trace_part(
+        &self,
+        rays: &RayBatch,
+        mode: TraceMode,
+        hits: &mut [Hit],
+        stats: &mut TraceStats,
+    ) {
         let n = rays.len();
         let g = &self.s.gpu;
         let mut ex = Exec::new(g, &self.s.kernels);
         let dr = DeviceRays::upload(g, rays);
+        if let Some(t) = &self.tree {
+            let (rec, fixed) = self.records_single(t, &mut ex, &dr, Some(rays), mode, stats);
+            records_to_hits(&ex.read(&rec, n), hits);
+            for (r, h) in fixed {
+                hits[r as usize] = h;
+            }
+            ex.report(stats, &self.times);
+            return;
+        }
         let (rec, c, top) = self.records(&mut ex, &dr, stats);
         ex.phase(Phase::ReadBack);
         records_to_hits(&ex.read(&rec, n), hits);
@@ -309,9 +463,20 @@ impl GpuRsh {
     pub(crate) fn trace_device_part(
         &self,
         dr: &DeviceRays,
+        mode: TraceMode,
         stats: &mut TraceStats,
     ) -> wgpu::Buffer {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
+        if let Some(t) = &self.tree {
+            let (rec, fixed) = self.records_single(t, &mut ex, dr, None, mode, stats);
+            for (r, h) in fixed {
+                let words = crate::rays::hit_record(&h);
+                ex.g.queue
+                    .write_buffer(&rec, r as u64 * 16, bytemuck::cast_slice(&words));
+            }
+            ex.report(stats, &self.times);
+            return rec;
+        }
         let (rec, c, top) = self.records(&mut ex, dr, stats);
         ex.phase(Phase::ReadBack);
         let t = crate::frame::totals(&mut ex, &rec, None, dr.len);
@@ -347,6 +512,7 @@ pub fn comparable_counters(s: &TraceStats) -> TraceStats {
     let mut c = s.clone();
     c.phases.clear();
     c.counters.remove(Counter::GpuKernelLaunches);
+    c.counters.remove(Counter::GpuStackOverflows);
     c
 }
 
@@ -358,21 +524,31 @@ impl Tracer for GpuRsh {
         }
     }
 
-    fn trace(&self, rays: &RayBatch, _mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
+    fn build_passes(&self) -> Vec<trace::PassTime> {
+        match &self.tree {
+            Some(t) => vec![trace::PassTime::new(
+                trace::BuildPass::ObjectHierarchy,
+                t.secs,
+            )],
+            None => Vec::new(),
+        }
+    }
+
+    fn trace(&self, rays: &RayBatch, mode: TraceMode, hits: &mut [Hit], stats: &mut TraceStats) {
         assert_eq!(hits.len(), rays.len(), "one hit record per ray");
         stats.rays += rays.len() as u64;
         if rays.is_empty() {
             return;
         }
         if rays.len() <= self.max_rays {
-            self.trace_part(rays, hits, stats);
+            self.trace_part(rays, mode, hits, stats);
             return;
         }
         // Larger than one binding: consecutive parts, each with its own hierarchy.
         for (p, out) in hits.chunks_mut(self.max_rays).enumerate() {
             let lo = p * self.max_rays;
             let part = rays.slice(lo..lo + out.len());
-            self.trace_part(&part, out, stats);
+            self.trace_part(&part, mode, out, stats);
         }
     }
 }

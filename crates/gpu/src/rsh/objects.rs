@@ -1,7 +1,7 @@
 //! The object tree built on the device, the twin of `crates/rsh/src/objects.rs`'s LBVH
 //! (Karras 2012, §3–4; boxes bottom up as Apetrei 2014): every pass a kernel of
 //! `objects.wgsl`, the keys sorted by [`Exec::sort_pairs_all`], and the result the CPU's
-//! [`::rsh::objects::build`] with [`ObjectBuilder::Lbvh`] bit for bit: children, key ranges,
+//! [`::rsh::objects::build`] with [`::rsh::ObjectBuilder::Lbvh`] bit for bit: children, key ranges,
 //! triangles in leaf order, depth, the inner nodes' and leaves' bounds (spheres and grown
 //! boxes) and the children's boxes side by side (tests compare every array).
 //!
@@ -198,7 +198,8 @@ pub fn build(ex: &mut Exec, inp: &TreeInput, n: u32) -> DeviceTree {
         inner,
         256,
     );
-    let arrived = ex.filled("object arrivals", inner, 0);
+    let arrived = g.storage("object arrivals", inner * 4);
+    ex.clear(&arrived);
     ex.run(
         launch::ObjClimb {
             o_tbox: &tbox,

@@ -10,3 +10,4 @@ mod grid_build;
 mod objects;
 mod primitives;
 mod raster;
+mod single;

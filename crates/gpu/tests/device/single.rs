@@ -1,0 +1,107 @@
+//! CRSH's single-ray path on the device (`gpu::rsh::single`, over the object tree built on
+//! the device) against the CPU engine with the same configuration (`--object-hierarchy bvh
+//! --ray-path single --object-builder lbvh`): hit records bit for bit (so brute force's for
+//! closest hits) and every counter (final tests per kind, ray-box tests and passes, hits),
+//! in both trace modes, on every built-in scene's recorded Whitted batches and on Sponza;
+//! and with a device stack too small for the walks, the rays that overflow it are traced
+//! by the host's twin with the same result.
+
+use gpu::rsh::engine::comparable_counters as counters;
+use gpu::{Gpu, GpuRsh};
+use rsh::{ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, RshEngine};
+use scene::{builtin, Geometry};
+use testkit::record_render;
+use trace::{Counter, Hit, RayBatch, TraceMode, TraceStats, Tracer};
+
+fn gpu() -> Option<Gpu> {
+    testkit::or_skip(Gpu::new(), "gpu")
+}
+
+fn single() -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::Bvh,
+        path: RayPath::Single,
+        builder: ObjectBuilder::Lbvh,
+        ..RshConfig::crsh()
+    }
+}
+
+/// Traces `rays` on both; returns the GPU's stack overflows.
+fn compare(cpu: &RshEngine, gpu: &GpuRsh, rays: &RayBatch, mode: TraceMode, what: &str) -> u64 {
+    let (mut hc, mut hg) = (vec![Hit::MISS; rays.len()], vec![Hit::MISS; rays.len()]);
+    let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
+    cpu.trace(rays, mode, &mut hc, &mut sc);
+    gpu.trace(rays, mode, &mut hg, &mut sg);
+    for i in 0..rays.len() {
+        assert_eq!(hg[i], hc[i], "{what}: ray {i} ({mode:?}) GPU vs CPU");
+    }
+    assert_eq!(counters(&sg), counters(&sc), "{what}: counters");
+    assert!(sc.node_tri_tests > 0 || rays.is_empty(), "{what}: walked");
+    sg.counters.get(Counter::GpuStackOverflows).unwrap_or(0)
+}
+
+#[test]
+fn single_rays_match_the_cpu_on_builtin_scenes() {
+    let Some(g) = gpu() else { return };
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let batches = record_render(&s, &geo, 48, 40, 2);
+        let cpu = RshEngine::new(&geo, single()).unwrap();
+        let dev = GpuRsh::new(g.clone(), &geo, single()).unwrap();
+        assert_eq!(dev.build_passes().len(), 1, "the tree's build is a pass");
+        for (k, (rays, mode, expect)) in batches.iter().enumerate() {
+            for m in [*mode, TraceMode::Closest, TraceMode::Any] {
+                compare(&cpu, &dev, rays, m, &format!("{name} batch {k}"));
+            }
+            // Closest hits are brute force's.
+            if *mode == TraceMode::Closest {
+                let mut h = vec![Hit::MISS; rays.len()];
+                dev.trace(rays, *mode, &mut h, &mut TraceStats::default());
+                assert_eq!(&h, expect, "{name} batch {k}: brute force");
+            }
+        }
+    }
+}
+
+#[test]
+fn overflowing_walks_are_finished_by_the_host() {
+    let Some(g) = gpu() else { return };
+    let s = builtin::by_name("office").unwrap();
+    let geo = Geometry::from_scene(&s);
+    let batches = record_render(&s, &geo, 64, 48, 1);
+    let cpu = RshEngine::new(&geo, single()).unwrap();
+    let dev = GpuRsh::new(g, &geo, single()).unwrap().with_stack(2);
+    let mut over = 0;
+    for (k, (rays, mode, _)) in batches.iter().enumerate() {
+        over += compare(
+            &cpu,
+            &dev,
+            rays,
+            *mode,
+            &format!("office batch {k}, stack 2"),
+        );
+    }
+    assert!(over > 0, "a stack of 2 overflows");
+}
+
+#[test]
+fn single_rays_match_the_cpu_on_sponza() {
+    let Some(dir) = testkit::scenes() else { return };
+    let Some(g) = gpu() else { return };
+    let path = dir.join("dabrovic-sponza/sponza.obj");
+    if !path.exists() {
+        testkit::skip("scenes", format!("{} not present", path.display()));
+        return;
+    }
+    let s = scene::load(path.to_str().unwrap(), &Default::default()).unwrap();
+    let geo = Geometry::from_scene(&s);
+    let batches = record_render(&s, &geo, 64, 48, 1);
+    let cpu = RshEngine::new(&geo, single()).unwrap();
+    let dev = GpuRsh::new(g, &geo, single()).unwrap();
+    let mut over = 0;
+    for (k, (rays, mode, _)) in batches.iter().enumerate() {
+        over += compare(&cpu, &dev, rays, *mode, &format!("sponza batch {k}"));
+    }
+    assert_eq!(over, 0, "Sponza's walks fit the device stack");
+}
