@@ -50,7 +50,7 @@ pub fn page(r: &Report) -> String {
     let mut h = String::new();
     let _ = write!(
         h,
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>rayspace report</title><link rel=\"icon\" href=\"data:,\"><style>{STYLE}</style></head><body>\n<h1>rayspace report{}</h1>\n<p id=\"provenance\">{}</p>\n<p class=\"note\">Made by <code>rayspace report{}</code> in {:.1} s. Every number here is in <a href=\"report.json\">report.json</a>. Published figures are shaded; ratios are ours ÷ published.</p>\n<nav><a href=\"#scenes\">Renders</a><a href=\"#thesis\">CRSH thesis, chapter 4</a><a href=\"#grid\">Irregular grids, Tables 1–5</a><a href=\"#scaling\">Scaling</a></nav>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>rayspace report</title><link rel=\"icon\" href=\"data:,\"><style>{STYLE}</style></head><body>\n<h1>rayspace report{}</h1>\n<p id=\"provenance\">{}</p>\n<p class=\"note\">Made by <code>rayspace report{}</code> in {:.1} s. Every number here is in <a href=\"report.json\">report.json</a>. Published figures are shaded; ratios are ours ÷ published.</p>\n<nav><a href=\"#scenes\">Renders</a><a href=\"#thesis\">CRSH thesis, chapter 4</a><a href=\"#grid\">Irregular grids, Tables 1–5</a><a href=\"#scaling\">Scaling</a><a href=\"#generated\">Generated scenes</a></nav>\n",
         if r.quick { " (quick)" } else { "" },
         esc(&r.provenance),
         if r.quick { " --quick" } else { "" },
@@ -63,6 +63,7 @@ pub fn page(r: &Report) -> String {
     thesis(&mut h, r);
     grid(&mut h, r);
     scaling(&mut h, r);
+    generated(&mut h, r);
     h.push_str("</body></html>\n");
     h
 }
@@ -364,6 +365,62 @@ fn scaling(h: &mut String, r: &Report) {
                 p.total_tests.map_or("—".into(), |t| t.to_string())
             );
         }
+    }
+    h.push_str("</table>\n");
+}
+
+/// `bench scale` on the generated scenes: per generator and size, each engine's build,
+/// structure, MRays/s and tests per ray, the rows whose hits disagree with the grid's, and
+/// the fitted slopes against the triangle count.
+fn generated(h: &mut String, r: &Report) {
+    let mut sizes: Vec<u64> = r.generated.iter().map(|x| x.triangles).collect();
+    sizes.sort_unstable();
+    let _ = writeln!(
+        h,
+        "<h2 id=\"generated\">Generated scenes: {} to {} triangles</h2>\n<p class=\"note\">The irregular-grid paper's scene classes made by <code>scene::generate</code> (a hairball of thin tangled tubes, a city of many mid-size objects, a scene nested in scaled copies of itself), as <code>rayspace bench scale</code> runs them: every engine built on the same scene and traced on the same primary, shadow (any hit) and random rays, one run each; hits checked against the irregular grid's (<em>wrong</em>: records beyond the peers' tolerance). Peak memory is <code>bench scale</code>'s (a child process per engine), not measured here. The slope k fits log y = k log triangles + c: 1 is linear growth.</p>",
+        sizes.first().copied().unwrap_or(0),
+        sizes.last().copied().unwrap_or(0)
+    );
+    charts(
+        h,
+        r,
+        "generated",
+        "build time and random rays against triangles",
+    );
+    h.push_str("<table><tr><th>scene</th><th>triangles</th><th>engine</th><th>build ms</th><th>structure B/triangle</th><th>primary MRays/s</th><th>shadow MRays/s</th><th>random MRays/s</th><th>tests/ray (random)</th><th>wrong</th></tr>\n");
+    for x in &r.generated {
+        let id = format!(
+            "generated-{}-{}-{}",
+            slug(&x.generator),
+            x.requested,
+            slug(&x.engine)
+        );
+        let opt = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.1}"));
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1}</td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:.2}</td><td>{}</td><td id=\"{id}-wrong\">{}</td></tr>",
+            esc(&x.generator),
+            x.triangles,
+            esc(&x.engine),
+            x.build_ms,
+            opt(x.structure_bytes_per_triangle),
+            x.primary_mrays,
+            x.shadow_mrays,
+            x.random_mrays,
+            opt(x.random_tests_per_ray),
+            x.wrong
+        );
+    }
+    h.push_str("</table>\n<h3>Slopes against the triangle count</h3><table><tr><th>scene</th><th>engine</th><th>measure</th><th>slope</th></tr>\n");
+    for x in &r.generated_slopes {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td></tr>",
+            esc(&x.generator),
+            esc(&x.engine),
+            esc(&x.measure),
+            x.slope
+        );
     }
     h.push_str("</table>\n");
 }

@@ -90,6 +90,43 @@ impl Spec {
         }
     }
 
+    /// The generated scenes' sweep (`bench scale`): the irregular-grid paper's scene classes
+    /// from 10 k to 1 M triangles (quick: two small sizes of two classes, two engines), every
+    /// report engine but RAH (its bundles on random rays cost minutes at 1 M triangles and
+    /// add nothing the other engines do not show), brute force at the smallest size only.
+    pub fn generated(&self) -> bench::scale::Spec {
+        let (generators, sizes, engines, side) = if self.quick {
+            (
+                vec!["hairball", "city"],
+                vec![2_000, 8_000],
+                vec![Engine::Crsh, Engine::Grid],
+                64,
+            )
+        } else {
+            let mut e = engine_list();
+            e.retain(|&x| x != Engine::Rah);
+            (
+                vec!["hairball", "city", "nested"],
+                vec![10_000, 100_000, 1_000_000],
+                e,
+                256,
+            )
+        };
+        let mut engines = engines;
+        engines.push(Engine::Brute);
+        bench::scale::Spec {
+            generators: generators.into_iter().map(String::from).collect(),
+            // The generators make about the size asked for (±10 %).
+            brute_max: sizes[0] + sizes[0] / 5,
+            sizes,
+            engines,
+            width: side,
+            height: side,
+            seed: 1,
+            repeats: 1,
+        }
+    }
+
     /// Steps `progress` is called with, for a progress bar.
     pub fn steps(&self) -> u64 {
         let ((levels, _), (_, sides)) = self.scaling();
@@ -97,6 +134,7 @@ impl Spec {
             + self.rsh_scenes.len() * 6 * 4
             + self.grid_scenes.len() * crate::bench::grid::STEPS_PER_SCENE as usize
             + (levels.len() + sides.len()) * engine_list().len()) as u64
+            + bench::scale::steps(&self.generated())
     }
 }
 
@@ -204,6 +242,10 @@ pub struct Report {
     pub grid_perf: Vec<bench::grid::PerfRow>,
     pub grid_builds: Vec<bench::grid::GridRow>,
     pub scaling: Scaling,
+    /// The generated scenes' sweep ([`Spec::generated`], `bench scale`'s rows and slopes;
+    /// no peak memory: `bench scale` measures it in child processes).
+    pub generated: Vec<bench::scale::Row>,
+    pub generated_slopes: Vec<bench::scale::Slope>,
     /// Chart files by section (relative paths), empty where charts could not be drawn.
     pub charts: Vec<(String, String)>,
     /// Why charts are missing, if they are (no usable font).
@@ -500,8 +542,8 @@ fn series(
 }
 
 /// Draw every chart; the error (no font) is returned for the page to say.
-fn draw_charts(r: &Report, dir: &Path) -> Result<Vec<(String, String)>> {
-    let cdir = dir.join("charts");
+fn draw_charts(r: &Report, spec: &Spec) -> Result<Vec<(String, String)>> {
+    let cdir = spec.out.join("charts");
     let rel = |p: &PathBuf| -> Option<String> {
         let name = p.file_name()?.to_string_lossy();
         (p.extension()? == "svg").then(|| format!("charts/{name}"))
@@ -546,6 +588,9 @@ fn draw_charts(r: &Report, dir: &Path) -> Result<Vec<(String, String)>> {
     }
     for p in bench::grid::charts(&r.grid_perf, &cdir)? {
         out.extend(rel(&p).map(|f| ("grid-mrays".to_string(), f)));
+    }
+    for p in bench::scale::charts(&spec.generated(), &r.generated, &cdir)? {
+        out.extend(rel(&p).map(|f| ("generated".to_string(), f)));
     }
     for axis in ["triangles", "pixels"] {
         let pts = if axis == "triangles" {
@@ -643,6 +688,8 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
         progress,
     )?;
     let scaling = scaling(spec, progress)?;
+    let (generated, generated_slopes) =
+        bench::scale::run(&spec.generated(), &|_, _| Ok(None), progress)?;
     let mut r = Report {
         provenance: bench::provenance(),
         commit: env!("RAYSPACE_BUILD_COMMIT").to_string(),
@@ -653,11 +700,13 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
         grid_perf: grid.perf,
         grid_builds: grid.grids,
         scaling,
+        generated,
+        generated_slopes,
         charts: Vec::new(),
         charts_note: None,
         seconds: 0.0,
     };
-    match draw_charts(&r, &spec.out) {
+    match draw_charts(&r, spec) {
         Ok(c) => r.charts = c,
         Err(e) => r.charts_note = Some(format!("charts were not drawn: {e}")),
     }

@@ -154,6 +154,24 @@ fn quick_report_is_complete_and_its_renders_agree() {
         let shown: f64 = cell(&html, &id).parse().unwrap();
         assert!((shown - x["slope"].as_f64().unwrap()).abs() <= 0.005 + 1e-9);
     }
+
+    // Generated scenes (bench scale): two classes at two sizes, CRSH and the grid at both,
+    // brute force at the smallest; no engine's hits disagree with the grid's, and the page
+    // shows every row.
+    let rows = json["generated"].as_array().unwrap();
+    assert_eq!(rows.len(), 2 * (2 * 2 + 1), "{rows:?}");
+    for x in rows {
+        assert_eq!(x["wrong"], 0, "{x}");
+        assert!(x["random_mrays"].as_f64().unwrap() > 0.0, "{x}");
+        let id = format!(
+            "generated-{}-{}-{}-wrong",
+            slug(x["generator"].as_str().unwrap()),
+            x["requested"],
+            slug(x["engine"].as_str().unwrap())
+        );
+        assert_eq!(cell(&html, &id), "0");
+    }
+    assert!(!json["generated_slopes"].as_array().unwrap().is_empty());
     std::fs::remove_dir_all(&dir).ok();
 }
 
