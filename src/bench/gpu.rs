@@ -101,6 +101,9 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
         } else {
             &[rsh::Method::Crsh]
         };
+        // The thesis's configurations (bundles behind the mesh spheres), then CRSH's
+        // default on the GPU: single rays through the object tree built on the device.
+        let mut runs: Vec<(String, rsh::RshConfig)> = Vec::new();
         for &(b, d) in &spec.configs {
             for &method in methods {
                 let cfg = rsh::RshConfig {
@@ -111,86 +114,98 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
                         rsh::Method::Rah => rsh::RshConfig::rah(),
                     }
                 };
-                progress(&format!("{name}: {method:?} {b}/{d} on the CPU"));
-                let cpu = rsh::RshEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?;
-                let g = device()?;
-                let hash_bits = cfg.hash_bits;
-                let gpu = gpu::GpuRsh::new(g, &geo, cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
-                // Warm-up on the first batch: drivers compile pipelines at first use (lavapipe
-                // JIT-compiles every kernel), which is not the pipeline's cost.
-                if let Some((rays, mode, _)) = batches.first() {
-                    let mut h = vec![Hit::MISS; rays.len()];
-                    cpu.trace(rays, *mode, &mut h, &mut TraceStats::default());
-                    gpu.trace(rays, *mode, &mut h, &mut TraceStats::default());
-                    gpu.take_times();
-                }
-                let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
-                let (mut wc, mut wg) = (0.0, 0.0);
-                let mut same_hits = true;
-                for (rays, mode, _) in &batches {
-                    let mut hc = vec![Hit::MISS; rays.len()];
-                    let t0 = Instant::now();
-                    cpu.trace(rays, *mode, &mut hc, &mut sc);
-                    wc += t0.elapsed().as_secs_f64();
-                    progress(&format!("{name}: {method:?} {b}/{d} on the GPU"));
-                    let mut hg = vec![Hit::MISS; rays.len()];
-                    let t0 = Instant::now();
-                    gpu.trace(rays, *mode, &mut hg, &mut sg);
-                    wg += t0.elapsed().as_secs_f64();
-                    same_hits &= hc == hg;
-                }
-                let same_counts = counters(&sc) == counters(&sg);
-                let gt = gpu.take_times();
-                md += &format!(
-                    "\n### {method:?} {b}/{d}: hits {} the CPU's, counters {} ({} node–triangle + {} ray–triangle tests, {:.3} % of brute force)\n\n",
+                runs.push((format!("{method:?} {b}/{d}"), cfg));
+            }
+        }
+        runs.push((
+            "Crsh, object BVH (LBVH), single rays".into(),
+            rsh::RshConfig {
+                objects: rsh::ObjectHierarchy::Bvh,
+                path: rsh::RayPath::Single,
+                builder: rsh::ObjectBuilder::Lbvh,
+                ..rsh::RshConfig::crsh()
+            },
+        ));
+        for (label, cfg) in runs {
+            let method = cfg.method;
+            progress(&format!("{name}: {label} on the CPU"));
+            let cpu = rsh::RshEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?;
+            let g = device()?;
+            let hash_bits = cfg.hash_bits;
+            let gpu = gpu::GpuRsh::new(g, &geo, cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
+            // Warm-up on the first batch: drivers compile pipelines at first use (lavapipe
+            // JIT-compiles every kernel), which is not the pipeline's cost.
+            if let Some((rays, mode, _)) = batches.first() {
+                let mut h = vec![Hit::MISS; rays.len()];
+                cpu.trace(rays, *mode, &mut h, &mut TraceStats::default());
+                gpu.trace(rays, *mode, &mut h, &mut TraceStats::default());
+                gpu.take_times();
+            }
+            let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
+            let (mut wc, mut wg) = (0.0, 0.0);
+            let mut same_hits = true;
+            for (rays, mode, _) in &batches {
+                let mut hc = vec![Hit::MISS; rays.len()];
+                let t0 = Instant::now();
+                cpu.trace(rays, *mode, &mut hc, &mut sc);
+                wc += t0.elapsed().as_secs_f64();
+                progress(&format!("{name}: {label} on the GPU"));
+                let mut hg = vec![Hit::MISS; rays.len()];
+                let t0 = Instant::now();
+                gpu.trace(rays, *mode, &mut hg, &mut sg);
+                wg += t0.elapsed().as_secs_f64();
+                same_hits &= hc == hg;
+            }
+            let same_counts = counters(&sc) == counters(&sg);
+            let gt = gpu.take_times();
+            md += &format!(
+                    "\n### {label}: hits {} the CPU's, counters {} ({} node–triangle + {} ray–triangle tests, {:.3} % of brute force)\n\n",
                     if same_hits { "equal" } else { "DIFFER from" },
                     if same_counts { "equal" } else { "DIFFER" },
                     sg.node_tri_tests,
                     sg.ray_tri_tests,
                     100.0 * sg.total_tests() as f64 / (nrays * geo.len() as u64).max(1) as f64
                 );
-                if !same_counts {
-                    md += &format!(
-                        "Counters that differ (CPU → GPU): {}.\n\n",
-                        counter_differences(&counters(&sc), &counters(&sg)).join("; ")
-                    );
-                    if method == rsh::Method::Crsh {
-                        md += &hash_agreement(&gpu, &batches, &geo, &hash_bits);
-                    }
-                }
-                md += "| phase | CPU ms | GPU ms | GPU / CPU |\n|---|---:|---:|---:|\n";
-                let mut shown = Vec::new();
-                for p in Phase::ALL.into_iter().chain(gt.iter().map(|x| x.0)) {
-                    if shown.contains(&p) {
-                        continue;
-                    }
-                    shown.push(p);
-                    let c = sc.phases.get(&p).copied();
-                    let gp = gt.iter().find(|x| x.0 == p).map(|x| x.1);
-                    if c.is_none() && gp.is_none() {
-                        continue;
-                    }
-                    let f =
-                        |x: Option<f64>| x.map(|v| format!("{:.1}", v * 1e3)).unwrap_or("—".into());
-                    let ratio = match (c, gp) {
-                        (Some(c), Some(g)) if c > 0.0 => format!("{:.2}", g / c),
-                        _ => "—".into(),
-                    };
-                    md += &format!("| {p} | {} | {} | {ratio} |\n", f(c), f(gp));
-                }
+            if !same_counts {
                 md += &format!(
-                    "| **trace call, wall** | **{:.1}** | **{:.1}** | **{:.2}** |\n",
-                    wc * 1e3,
-                    wg * 1e3,
-                    wg / wc.max(1e-12)
+                    "Counters that differ (CPU → GPU): {}.\n\n",
+                    counter_differences(&counters(&sc), &counters(&sg)).join("; ")
                 );
-                md += &format!(
-                    "\nGPU kernel launches: {}; chunks {}; top nodes {}.\n",
-                    sg.counters.get(Counter::GpuKernelLaunches).unwrap_or(0),
-                    sg.counters.get(Counter::Chunks).unwrap_or(0),
-                    sg.counters.get(Counter::TopNodes).unwrap_or(0)
-                );
+                if method == rsh::Method::Crsh {
+                    md += &hash_agreement(&gpu, &batches, &geo, &hash_bits);
+                }
             }
+            md += "| phase | CPU ms | GPU ms | GPU / CPU |\n|---|---:|---:|---:|\n";
+            let mut shown = Vec::new();
+            for p in Phase::ALL.into_iter().chain(gt.iter().map(|x| x.0)) {
+                if shown.contains(&p) {
+                    continue;
+                }
+                shown.push(p);
+                let c = sc.phases.get(&p).copied();
+                let gp = gt.iter().find(|x| x.0 == p).map(|x| x.1);
+                if c.is_none() && gp.is_none() {
+                    continue;
+                }
+                let f = |x: Option<f64>| x.map(|v| format!("{:.1}", v * 1e3)).unwrap_or("—".into());
+                let ratio = match (c, gp) {
+                    (Some(c), Some(g)) if c > 0.0 => format!("{:.2}", g / c),
+                    _ => "—".into(),
+                };
+                md += &format!("| {p} | {} | {} | {ratio} |\n", f(c), f(gp));
+            }
+            md += &format!(
+                "| **trace call, wall** | **{:.1}** | **{:.1}** | **{:.2}** |\n",
+                wc * 1e3,
+                wg * 1e3,
+                wg / wc.max(1e-12)
+            );
+            md += &format!(
+                "\nGPU kernel launches: {}; chunks {}; top nodes {}.\n",
+                sg.counters.get(Counter::GpuKernelLaunches).unwrap_or(0),
+                sg.counters.get(Counter::Chunks).unwrap_or(0),
+                sg.counters.get(Counter::TopNodes).unwrap_or(0)
+            );
         }
         progress(&format!("{name}: irregular grid"));
         md += &grid_section(&s, &geo, spec)?;
