@@ -15,10 +15,12 @@
 //! binding of the device however many surfaces the bounces spawn; parts are processed in
 //! order, so the sums are the same as in one part. A frame of ordinary size is one part.
 //!
-//! What the host reads back per frame: the sRGB image (3 bytes per pixel), the sizes that
-//! allocate the next buffers (4 bytes each), the engines' totals (hits, and the grid's step
-//! and test sums: 20 bytes per 1024 rays) and the launches' parameter blocks going the other
-//! way; [`crate::Gpu::bytes_moved`] counts every one of them.
+//! What the host reads back per frame: the sizes that allocate the next buffers (4 bytes
+//! each), and at the end, in one read-back, the sRGB image (3 bytes per pixel) with the
+//! engine's counts of every trace of the frame, which stayed on the device until then
+//! ([`GpuEngine::take_pending`]: CRSH's single-ray counter blocks, the grid's step and test
+//! sums, 20 bytes per 1024 rays); the launches' parameter blocks go the other way.
+//! [`crate::Gpu::bytes_moved`] counts every one of them.
 //!
 //! The pixel accumulation is order-independent of scheduling: one thread per run of equal
 //! pixels adds that pixel's colours in surface order, which is the CPU loop's order, so a
@@ -61,8 +63,21 @@ pub(crate) fn totals(
     cnt: Option<&wgpu::Buffer>,
     n: u64,
 ) -> Totals {
+    match totals_on_device(ex, rec, cnt, n) {
+        Some((out, words)) => sum_totals(&ex.read::<u32>(&out, words as usize)),
+        None => Totals::default(),
+    }
+}
+
+/// [`totals`]' per-chunk sums left on the device: (buffer, words), none for no rays.
+pub(crate) fn totals_on_device(
+    ex: &mut Exec,
+    rec: &wgpu::Buffer,
+    cnt: Option<&wgpu::Buffer>,
+    n: u64,
+) -> Option<(wgpu::Buffer, u64)> {
     if n == 0 {
-        return Totals::default();
+        return None;
     }
     let chunks = n.div_ceil(TOTALS_CHUNK);
     let out = ex.g.storage("trace totals", chunks * 20);
@@ -87,19 +102,48 @@ pub(crate) fn totals(
         chunks,
         256,
     );
-    let v: Vec<[u32; 5]> = ex.read(&out, chunks as usize);
+    Some((out, chunks * 5))
+}
+
+/// The sum of per-chunk totals (5 words each: hits, steps low/high, tests low/high), of one
+/// trace or of several laid end to end.
+pub(crate) fn sum_totals(words: &[u32]) -> Totals {
     let w = |lo: u32, hi: u32| lo as u64 | (hi as u64) << 32;
-    v.iter().fold(Totals::default(), |t, c| Totals {
-        hits: t.hits + c[0] as u64,
-        steps: t.steps + w(c[1], c[2]),
-        tests: t.tests + w(c[3], c[4]),
-    })
+    words
+        .chunks_exact(5)
+        .fold(Totals::default(), |t, c| Totals {
+            hits: t.hits + c[0] as u64,
+            steps: t.steps + w(c[1], c[2]),
+            tests: t.tests + w(c[3], c[4]),
+        })
+}
+
+/// The counts `engine`'s traces on the device left there ([`GpuEngine::take_pending`]) read
+/// back, in one read-back, into `stats`: for a caller of [`trace_device`] outside a frame
+/// (a frame reads them with its image).
+pub fn settle(engine: &dyn GpuEngine, stats: &mut TraceStats) {
+    let pending = engine.take_pending();
+    let words: u64 = pending.iter().map(|p| p.1).sum();
+    if words == 0 {
+        return;
+    }
+    let g = engine.gpu();
+    let mut ex = Exec::new(g, engine.kernels());
+    let all = g.storage("pending counters", words * 4);
+    let mut at = 0;
+    for (b, w) in &pending {
+        ex.copy_at(b, 0, &all, at, w * 4);
+        at += w * 4;
+    }
+    let raw: Vec<u32> = ex.read(&all, words as usize);
+    engine.settle(&raw, stats);
 }
 
 /// Trace rays `rays` on the device with `engine`, in parts of at most its
 /// [`GpuEngine::max_rays`] (each part's rays copied out on the device, its records copied
-/// back), counting into `stats` as [`trace::Tracer::trace`] does; the records (triangle, t,
-/// u, v bits) stay on the device.
+/// back), counting into `stats` as [`trace::Tracer::trace`] does, less the counts the engine
+/// keeps on the device until [`settle`] (or the frame's image) reads them; the records
+/// (triangle, t, u, v bits) stay on the device.
 pub fn trace_device(
     engine: &dyn GpuEngine,
     rays: &DeviceRays,
@@ -234,6 +278,8 @@ impl<'a> GpuBackend<'a> {
         if let Some(why) = too_big(g, opts) {
             return Err(GpuError::Limits(why));
         }
+        // Counts a frame that stopped short left behind are not this frame's.
+        drop(engine.take_pending());
         Ok(GpuBackend {
             engine,
             raster,
@@ -261,6 +307,32 @@ impl<'a> GpuBackend<'a> {
         let cap = g.max_binding().min(g.limits.max_buffer_size);
         let per = scene.lights.len().max(2) as u64;
         (cap / (16 * per)).min(u32::MAX as u64 / per).max(1)
+    }
+
+    /// `words` of `buf` read back, and with them, in the same read-back, the counter blocks
+    /// the engine left on the device ([`GpuEngine::take_pending`]), whose counts go into
+    /// `stats`.
+    fn read_with_counts<T: bytemuck::Pod>(
+        &mut self,
+        buf: &wgpu::Buffer,
+        words: u64,
+        stats: &mut RenderStats,
+    ) -> Vec<T> {
+        let pending = self.engine.take_pending();
+        let extra: u64 = pending.iter().map(|p| p.1).sum();
+        if extra == 0 {
+            return self.ex.read(buf, words as usize);
+        }
+        let all = self.g.storage("image and counters", (words + extra) * 4);
+        self.ex.copy(buf, 0, &all, words * 4);
+        let mut at = words * 4;
+        for (b, w) in &pending {
+            self.ex.copy_at(b, 0, &all, at, w * 4);
+            at += w * 4;
+        }
+        let raw: Vec<u32> = self.ex.read(&all, (words + extra) as usize);
+        self.engine.settle(&raw[words as usize..], &mut stats.trace);
+        bytemuck::cast_slice(&raw[..words as usize]).to_vec()
     }
 
     /// The `n` surfaces a kernel places, as (first, count) parts.
@@ -612,7 +684,7 @@ impl Backend for GpuBackend<'_> {
         let img = self.img.clone().expect("primary surfaces first");
         let (pixels, srgb8) = if linear {
             // The linear image out (antialiasing averages the samples' pixels on the host).
-            let raw: Vec<f32> = self.ex.read(&img, 4 * npix as usize);
+            let raw: Vec<f32> = self.read_with_counts(&img, 4 * npix, &mut stats);
             let px = raw
                 .chunks_exact(4)
                 .map(|c| geom::Vec3::new(c[0], c[1], c[2]))
@@ -634,7 +706,7 @@ impl Backend for GpuBackend<'_> {
                 words,
                 256,
             );
-            let raw: Vec<u32> = self.ex.read(&enc, words as usize);
+            let raw: Vec<u32> = self.read_with_counts(&enc, words, &mut stats);
             let mut srgb8: Vec<u8> = raw.iter().flat_map(|w| w.to_le_bytes()).collect();
             srgb8.truncate(3 * npix as usize);
             (Vec::new(), Some(srgb8))

@@ -69,6 +69,15 @@ pub trait GpuEngine: trace::Tracer {
         mode: trace::TraceMode,
         stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer;
+    /// The counter blocks (buffer, words) that [`GpuEngine::trace_device_part`] left on the
+    /// device instead of reading them back, drained: the frame reads them with its image, in
+    /// one read-back, and hands their words to [`GpuEngine::settle`].
+    fn take_pending(&self) -> Vec<(wgpu::Buffer, u64)> {
+        Vec::new()
+    }
+    /// The words of [`GpuEngine::take_pending`]'s blocks (in its order, concatenated) into
+    /// `stats`: the counts those traces did not report.
+    fn settle(&self, _words: &[u32], _stats: &mut trace::TraceStats) {}
 }
 
 impl GpuEngine for GpuRsh {
@@ -100,6 +109,12 @@ impl GpuEngine for GpuRsh {
         // single rays stop at their first hit in any-hit mode, as the CPU's.
         GpuRsh::trace_device_part(self, rays, mode, stats)
     }
+    fn take_pending(&self) -> Vec<(wgpu::Buffer, u64)> {
+        GpuRsh::take_pending(self)
+    }
+    fn settle(&self, words: &[u32], stats: &mut trace::TraceStats) {
+        GpuRsh::settle(self, words, stats)
+    }
 }
 
 impl GpuEngine for GpuGrid {
@@ -128,6 +143,12 @@ impl GpuEngine for GpuGrid {
         stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer {
         grid::traverse::trace_device_part(self, rays, mode, stats)
+    }
+    fn take_pending(&self) -> Vec<(wgpu::Buffer, u64)> {
+        std::mem::take(&mut *self.pending.lock().unwrap())
+    }
+    fn settle(&self, words: &[u32], stats: &mut trace::TraceStats) {
+        grid::traverse::settle(words, stats)
     }
 }
 pub use stages::GpuStages;

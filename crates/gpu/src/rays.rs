@@ -95,35 +95,3 @@ pub(crate) fn records_to_hits(recs: &[[u32; 4]], hits: &mut [Hit]) {
         };
     }
 }
-
-/// A hit as the records kernels write it (triangle, t, u, v bits; a miss `NO_HIT`).
-pub(crate) fn hit_record(h: &Hit) -> [u32; 4] {
-    if h.is_hit() {
-        [h.tri, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()]
-    } else {
-        [geom::NO_HIT, f32::INFINITY.to_bits(), 0, 0]
-    }
-}
-
-/// The rays `idx` of `dr` read back (origin, direction, t range and kind: what a traversal
-/// reads), for the host to trace a few of a device batch's rays.
-pub(crate) fn read_rays(ex: &mut crate::kernels::Exec, dr: &DeviceRays, idx: &[u32]) -> RayBatch {
-    let n = dr.len as usize;
-    let org: Vec<[f32; 4]> = ex.read(&dr.org, n);
-    let dir: Vec<[f32; 4]> = ex.read(&dr.dir, n);
-    let kl: Vec<u32> = ex.read(&dr.kl, n);
-    let v = |a: [f32; 4]| geom::Vec3::new(a[0], a[1], a[2]);
-    let mut b = RayBatch {
-        width: dr.width,
-        ..RayBatch::default()
-    };
-    for &i in idx {
-        let i = i as usize;
-        b.org.push(v(org[i]));
-        b.t_min.push(org[i][3]);
-        b.dir.push(v(dir[i]));
-        b.t_max.push(dir[i][3]);
-        b.kind.push((kl[i] & 3) as u8);
-    }
-    b
-}

@@ -168,8 +168,9 @@ pub trait Backend {
     fn recycle_surfaces(&mut self, _s: Self::Surfaces) {}
     /// Wait for the work queued so far (a device backend; the CPU's is done already).
     fn sync(&mut self);
-    /// The image and the G-buffer as the render's result, with `stats`; `linear`: the
-    /// caller needs the linear pixels (it averages samples), not only the sRGB bytes.
+    /// The image and the G-buffer as the render's result, with `stats` (to whose `trace` a
+    /// backend adds the counts it kept on its device until now); `linear`: the caller needs
+    /// the linear pixels (it averages samples), not only the sRGB bytes.
     fn finish(&mut self, stats: RenderStats, linear: bool) -> Rendered;
 }
 
@@ -351,9 +352,10 @@ fn frame<B: Backend>(
         generation += 1;
     }
     backend.recycle_surfaces(surfaces);
-    stats.total_tests = stats.trace.total_tests();
     stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
     let mut out = backend.finish(stats, linear);
+    // After `finish`: a backend may add counts it held on the device until then.
+    out.stats.total_tests = out.stats.trace.total_tests();
     out.stats.set_phase_ms();
     out
 }

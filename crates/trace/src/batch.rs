@@ -169,28 +169,6 @@ impl RayBatch {
         }
     }
 
-    /// The rays at `idx`, in that order (every field).
-    pub fn gather(&self, idx: &[u32]) -> RayBatch {
-        fn pick<T: Copy>(v: &[T], idx: &[u32]) -> Vec<T> {
-            if v.is_empty() {
-                return Vec::new();
-            }
-            idx.iter().map(|&i| v[i as usize]).collect()
-        }
-        RayBatch {
-            org: pick(&self.org, idx),
-            dir: pick(&self.dir, idx),
-            t_min: pick(&self.t_min, idx),
-            t_max: pick(&self.t_max, idx),
-            kind: pick(&self.kind, idx),
-            pixel: pick(&self.pixel, idx),
-            light: pick(&self.light, idx),
-            throughput: pick(&self.throughput, idx),
-            depth: pick(&self.depth, idx),
-            width: self.width,
-        }
-    }
-
     /// Ray `i` as a [`Ray`].
     #[inline]
     pub fn ray(&self, i: usize) -> Ray {

@@ -148,7 +148,7 @@ counters! {
     /// GPU backend: compute dispatches.
     GpuKernelLaunches = "gpu kernel launches", Sum;
     /// GPU backend, single rays through the object tree: rays whose walk outgrew the
-    /// device's stack, traced on the host by the CPU twin instead.
+    /// private stack, walked again by the second pass with its stack in storage memory.
     GpuStackOverflows = "gpu stack overflows", Sum;
     /// Ray hierarchies: (top node, mesh) pairs that passed the mesh-sphere test.
     MeshSpherePasses = "mesh-sphere passes", Sum;

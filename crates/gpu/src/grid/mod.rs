@@ -116,6 +116,8 @@ pub struct GpuGrid {
     built_on_gpu: bool,
     /// GPU seconds per phase of the last trace calls (drained by [`crate::GpuEngine::take_times`]).
     pub(crate) times: Mutex<Vec<(Phase, f64)>>,
+    /// Totals of traces on the device not yet read ([`crate::GpuEngine::settle`]).
+    pub(crate) pending: Mutex<Vec<(wgpu::Buffer, u64)>>,
 }
 
 impl GpuGrid {
@@ -149,6 +151,7 @@ impl GpuGrid {
             upload_seconds: 0.0,
             built_on_gpu: true,
             times: Mutex::new(Vec::new()),
+            pending: Mutex::new(Vec::new()),
             kernels,
             gpu,
         })
@@ -221,6 +224,7 @@ impl GpuGrid {
             upload_seconds: 0.0,
             built_on_gpu: false,
             times: Mutex::new(Vec::new()),
+            pending: Mutex::new(Vec::new()),
             kernels,
             gpu,
         };

@@ -112,11 +112,17 @@ pub(crate) fn trace_device_part(
 ) -> wgpu::Buffer {
     let mut ex = Exec::new(&grid.gpu, &grid.kernels);
     let (rec, cnt) = records(grid, &mut ex, &dr.org, &dr.dir, dr.len, mode);
-    ex.phase(Phase::ReadBack);
-    let t = crate::frame::totals(&mut ex, &rec, Some(&cnt), dr.len);
+    // The totals stay on the device until the frame's end (`GpuEngine::settle`).
+    let sums = crate::frame::totals_on_device(&mut ex, &rec, Some(&cnt), dr.len);
+    grid.pending.lock().unwrap().extend(sums);
     ex.report(stats, &grid.times);
+    rec
+}
+
+/// [`crate::GpuEngine::settle`]: the pending totals' words into `stats`.
+pub(crate) fn settle(words: &[u32], stats: &mut TraceStats) {
+    let t = crate::frame::sum_totals(words);
     stats.ray_tri_tests += t.tests;
     stats.hits += t.hits;
     stats.count(Counter::TraversalSteps, t.steps);
-    rec
 }

@@ -18,7 +18,6 @@ use crate::device::{Gpu, GpuError};
 use crate::kernels::params::RecordsParams;
 use crate::kernels::{launch, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
-use ::rsh::objects::ObjectTree;
 use ::rsh::traverse::Counters;
 use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
 use geom::Pcg32;
@@ -37,8 +36,12 @@ pub struct GpuRsh {
     times: Mutex<Vec<(Phase, f64)>>,
     /// With [`ObjectHierarchy::Bvh`]: the object tree on the device (single rays).
     tree: Option<TreeState>,
-    /// Stack entries a single ray's walk may use on the device ([`single::STACK`]).
+    /// Stack entries a single ray's walk may use in private memory ([`single::STACK`]).
     stack: u32,
+    /// The single-ray walks' second-pass stacks ([`single::deep_stacks`]).
+    deep: wgpu::Buffer,
+    /// Counter blocks of traces on the device not yet read ([`crate::GpuEngine::settle`]).
+    pending: Mutex<Vec<wgpu::Buffer>>,
     /// Tests only: the value every 64-bit traversal counter starts from (its low word; 0
     /// in every real trace), so that a test can make the low words wrap.
     #[cfg(test)]
@@ -50,9 +53,6 @@ struct TreeState {
     dev: DeviceTree,
     /// Seconds of its build (kernels submitted and waited for).
     secs: f64,
-    /// The tree read back (bit for bit the device's), once a walk overflowed the device's
-    /// stack: its rays are traced on the host with the CPU twin.
-    host: Mutex<Option<std::sync::Arc<ObjectTree>>>,
 }
 
 impl TreeState {
@@ -72,16 +72,7 @@ impl TreeState {
         TreeState {
             dev,
             secs: t0.elapsed().as_secs_f64(),
-            host: Mutex::new(None),
         }
-    }
-
-    fn host(&self, s: &DeviceScene) -> std::sync::Arc<ObjectTree> {
-        let mut h = self.host.lock().unwrap();
-        h.get_or_insert_with(|| {
-            std::sync::Arc::new(self.dev.read(&mut Exec::new(&s.gpu, &s.kernels)))
-        })
-        .clone()
     }
 }
 
@@ -200,6 +191,11 @@ impl GpuRsh {
             .into());
         }
         let sb = SceneBuffers::new(&gpu, geo, &cfg)?;
+        let gpu_deep = if cfg.objects == ObjectHierarchy::Bvh {
+            single::deep_stacks(&gpu)
+        } else {
+            gpu.storage("unused", 4)
+        };
         let mut eng = GpuRsh {
             max_rays: sb.max_rays,
             s: DeviceScene {
@@ -219,6 +215,8 @@ impl GpuRsh {
             times: Mutex::new(Vec::new()),
             tree: None,
             stack: single::STACK,
+            deep: gpu_deep,
+            pending: Mutex::new(Vec::new()),
             #[cfg(test)]
             counter_bias: Default::default(),
         };
@@ -371,22 +369,27 @@ impl GpuRsh {
     }
 
     /// Single rays `dr` through the object tree `t` (`single.wgsl`), their records made on
-    /// the device; rays that overflowed the device's stack are traced on the host with
-    /// the CPU twin over the same tree, and their records (host order, as `(ray, hit)`)
-    /// returned for the caller to put in place. Counters into `stats`.
+    /// the device; nothing is read back. Returns the records and the walk (its counters
+    /// still on the device); the batch counters go into `stats` now.
     fn records_single(
         &self,
         t: &TreeState,
         ex: &mut Exec,
         dr: &DeviceRays,
-        rays: Option<&RayBatch>,
         mode: TraceMode,
         stats: &mut TraceStats,
-    ) -> (wgpu::Buffer, Vec<(u32, Hit)>) {
+    ) -> (wgpu::Buffer, single::Walked) {
         let n = dr.len;
         let g = &self.s.gpu;
         ex.phase(Phase::Traversal);
-        let w = single::walk(ex, &t.dev, dr, mode == TraceMode::Any, self.stack);
+        let w = single::walk(
+            ex,
+            &t.dev,
+            dr,
+            mode == TraceMode::Any,
+            self.stack,
+            &self.deep,
+        );
         let rec = g.storage("records", n * 16);
         ex.run(
             launch::Records {
@@ -401,33 +404,16 @@ impl GpuRsh {
             n,
             256,
         );
-        ex.phase(Phase::ReadBack);
-        let (mut c, over) = w.counts(ex);
-        let mut fixed = Vec::new();
-        if !over.is_empty() {
-            // The overflowed rays on the host, with the CPU walk over the device's tree.
-            let batch = match rays {
-                Some(r) => r.gather(&over),
-                None => crate::rays::read_rays(ex, dr, &over),
-            };
-            let tree = t.host(&self.s);
-            let mut out = vec![Hit::MISS; over.len()];
-            let hc = ::rsh::single::trace(
-                &tree,
-                &tree.leaf_tris,
-                &batch,
-                mode,
-                &mut out,
-                ::rsh::single::Isa::best(),
-            );
-            c = c + hc;
-            fixed = over.into_iter().zip(out).collect();
-        }
         stats.count(Counter::SingleRayBatches, 1);
         stats.count(Counter::BundledBatches, 0);
-        stats.count(Counter::GpuStackOverflows, fixed.len() as u64);
+        (rec, w)
+    }
+
+    /// A single-ray walk's counter block's words into `stats`.
+    fn settle_single(head: &[u32], stats: &mut TraceStats) {
+        let (c, deep) = single::counts_of(head);
+        stats.count(Counter::GpuStackOverflows, deep);
         ::rsh::engine::report_single(&c, stats);
-        (rec, fixed)
     }
 
     fn trace_part(
@@ -442,11 +428,17 @@ impl GpuRsh {
         let mut ex = Exec::new(g, &self.s.kernels);
         let dr = DeviceRays::upload(g, rays);
         if let Some(t) = &self.tree {
-            let (rec, fixed) = self.records_single(t, &mut ex, &dr, Some(rays), mode, stats);
-            records_to_hits(&ex.read(&rec, n), hits);
-            for (r, h) in fixed {
-                hits[r as usize] = h;
-            }
+            let (rec, w) = self.records_single(t, &mut ex, &dr, mode, stats);
+            // The records and the counters in one read-back.
+            ex.phase(Phase::ReadBack);
+            let (head, bytes) = (single::HEAD as u64 * 4, n as u64 * 16);
+            let both = g.storage("records and counters", bytes + head);
+            ex.copy(&rec, 0, &both, bytes);
+            ex.copy_at(&w.cnt, 0, &both, bytes, head);
+            let words: Vec<u32> = ex.read(&both, 4 * n + single::HEAD);
+            let recs: &[[u32; 4]] = bytemuck::cast_slice(&words[..4 * n]);
+            records_to_hits(recs, hits);
+            Self::settle_single(&words[4 * n..], stats);
             ex.report(stats, &self.times);
             return;
         }
@@ -468,12 +460,9 @@ impl GpuRsh {
     ) -> wgpu::Buffer {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
         if let Some(t) = &self.tree {
-            let (rec, fixed) = self.records_single(t, &mut ex, dr, None, mode, stats);
-            for (r, h) in fixed {
-                let words = crate::rays::hit_record(&h);
-                ex.g.queue
-                    .write_buffer(&rec, r as u64 * 16, bytemuck::cast_slice(&words));
-            }
+            // The counts stay on the device until the frame's end (`GpuEngine::settle`).
+            let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats);
+            self.pending.lock().unwrap().push(w.cnt);
             ex.report(stats, &self.times);
             return rec;
         }
@@ -483,6 +472,22 @@ impl GpuRsh {
         ex.report(stats, &self.times);
         self.report(&c, top, t.hits, stats);
         rec
+    }
+
+    /// [`crate::GpuEngine::take_pending`].
+    pub(crate) fn take_pending(&self) -> Vec<(wgpu::Buffer, u64)> {
+        let words = single::HEAD as u64;
+        std::mem::take(&mut *self.pending.lock().unwrap())
+            .into_iter()
+            .map(|b| (b, words))
+            .collect()
+    }
+
+    /// [`crate::GpuEngine::settle`].
+    pub(crate) fn settle(&self, words: &[u32], stats: &mut TraceStats) {
+        for head in words.chunks(single::HEAD) {
+            Self::settle_single(head, stats);
+        }
     }
 
     /// The scene's triangles on the device (3 × vec4 per triangle).

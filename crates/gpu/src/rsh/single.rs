@@ -4,12 +4,13 @@
 //! counts are the CPU's. One launch per batch: no hashing, sorting or bundles, no size to
 //! read back before the next launch; the counters come back in one small read-back.
 //!
-//! A ray's stack lives in registers and holds [`STACK`] entries (a node test pushes at
-//! most 7 more than it pops, so a tree 9 box levels deep never fills it). A ray that would
-//! overflow it stops on the device, adds none of its counts and is listed; the host then
-//! traces the listed rays with the CPU twin ([`::rsh::single::trace`]) over the same tree
-//! read back once (bit for bit the device's), so no ray is dropped and the counts stay the
-//! CPU's.
+//! A ray's stack lives in private memory and holds [`STACK`] entries. A ray that would
+//! overflow it stops, adds none of its counts and is listed; a second pass walks the listed
+//! rays again with [`DEEP`] entries each in storage memory, a pool of [`POOL`] threads taking
+//! the list in turn, which no LBVH can exceed (`single.wgsl` gives the bound). Both passes
+//! are always dispatched, so nothing waits for the host, no ray is dropped and the counts
+//! stay the CPU's; the stats count the rays that took the second pass
+//! (`gpu stack overflows`).
 
 use super::objects::DeviceTree;
 use crate::kernels::params::SingleWalkParams;
@@ -17,17 +18,30 @@ use crate::kernels::{launch, Exec};
 use crate::rays::DeviceRays;
 use ::rsh::single::SingleCounts;
 
-/// Most stack entries a ray's walk holds on the device (`single.wgsl`'s `STACK`).
+/// Most stack entries a ray's walk holds in private memory (`single.wgsl`'s `STACK`).
 pub const STACK: u32 = 64;
 
-/// Counter words before the overflow list: 7 64-bit counters, then the overflow count.
-const HEAD: usize = 15;
+/// Stack entries per ray of the second pass (`single.wgsl`'s `DEEP`).
+pub const DEEP: u64 = 1024;
+
+/// Threads of the second pass.
+pub const POOL: u64 = 1024;
+
+/// Counter words before the overflow list: 7 64-bit counters, the second pass's failures,
+/// the overflow count.
+pub(crate) const HEAD: usize = 16;
+
+/// The second pass's stacks ([`POOL`] × [`DEEP`] entries of 8 bytes), made once per engine.
+pub(crate) fn deep_stacks(g: &crate::device::Gpu) -> wgpu::Buffer {
+    g.storage("single-ray deep stacks", POOL * DEEP * 8)
+}
 
 /// One batch walked on the device: every ray's best (triangle, t bits; the records kernel's
 /// input) and the counter block.
 pub(crate) struct Walked {
     pub best: wgpu::Buffer,
-    cnt: wgpu::Buffer,
+    /// The counter block ([`HEAD`] words, then the second pass's list).
+    pub cnt: wgpu::Buffer,
 }
 
 /// Walk rays `dr` through `tree` (`any`: stop at a ray's first hit), each with at most
@@ -38,6 +52,7 @@ pub(crate) fn walk(
     dr: &DeviceRays,
     any: bool,
     stack: u32,
+    deep: &wgpu::Buffer,
 ) -> Walked {
     let n = dr.len;
     let g = ex.g;
@@ -45,6 +60,13 @@ pub(crate) fn walk(
     // Zeroed by a clear command, not a dispatch.
     let cnt = g.storage("single-ray counters", (HEAD as u64 + n) * 4);
     ex.clear(&cnt);
+    let prm = SingleWalkParams {
+        rays: n as u32,
+        leaves: tree.leaves,
+        any: any as u32,
+        stack: stack.min(STACK),
+        pool: POOL.min(n) as u32,
+    };
     ex.run(
         launch::SingleWalk {
             s_org: &dr.org,
@@ -56,37 +78,46 @@ pub(crate) fn walk(
             s_best: &best,
             s_cnt: &cnt,
             s_pre: &dr.pre,
+            s_stack: deep,
         },
-        SingleWalkParams {
-            rays: n as u32,
-            leaves: tree.leaves,
-            any: any as u32,
-            stack: stack.min(STACK),
-        },
+        prm,
         n,
+        256,
+    );
+    ex.run(
+        launch::SingleWalkDeep {
+            s_org: &dr.org,
+            s_dir: &dr.dir,
+            s_kl: &dr.kl,
+            s_boxes: &tree.boxes,
+            s_leaf_tris: &tree.leaf_tris,
+            s_order: &tree.order,
+            s_best: &best,
+            s_cnt: &cnt,
+            s_pre: &dr.pre,
+            s_stack: deep,
+        },
+        prm,
+        POOL.min(n),
         256,
     );
     Walked { best, cnt }
 }
 
-impl Walked {
-    /// The counts of the rays that finished on the device, and the rays that overflowed
-    /// (ascending): one read-back, and a second only when some ray overflowed.
-    pub(crate) fn counts(&self, ex: &mut Exec) -> (SingleCounts, Vec<u32>) {
-        let head: Vec<u32> = ex.read(&self.cnt, HEAD);
-        let c = |i: usize| head[2 * i] as u64 | (head[2 * i + 1] as u64) << 32;
-        let counts = SingleCounts {
-            final_tests: [c(0), c(1), c(2), c(3)],
-            box_tests: c(4),
-            box_passes: c(5),
-            hits: c(6),
-        };
-        let over = head[HEAD - 1] as usize;
-        let mut list = Vec::new();
-        if over > 0 {
-            list = ex.read::<u32>(&self.cnt, HEAD + over)[HEAD..].to_vec();
-            list.sort_unstable();
-        }
-        (counts, list)
-    }
+/// The counts and second-pass rays of a counter block's first [`HEAD`] words.
+pub(crate) fn counts_of(head: &[u32]) -> (SingleCounts, u64) {
+    let c = |i: usize| head[2 * i] as u64 | (head[2 * i + 1] as u64) << 32;
+    // The bound in `single.wgsl` makes this impossible for an LBVH: a failure is a bug.
+    assert_eq!(
+        head[HEAD - 2],
+        0,
+        "a single ray outgrew the device's deep stack"
+    );
+    let counts = SingleCounts {
+        final_tests: [c(0), c(1), c(2), c(3)],
+        box_tests: c(4),
+        box_passes: c(5),
+        hits: c(6),
+    };
+    (counts, head[HEAD - 1] as u64)
 }

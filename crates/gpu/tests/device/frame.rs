@@ -162,6 +162,7 @@ fn device_traces_in_parts_equal_the_cpu() {
     for mode in [TraceMode::Closest, TraceMode::Any] {
         let mut st = TraceStats::default();
         let rec = gpu::frame::trace_device(&dev, &dr, mode, &mut st);
+        gpu::frame::settle(&dev, &mut st);
         let recs: Vec<[u32; 4]> = full.read(&rec, n);
         let mut want = vec![Hit::MISS; n];
         let mut cst = TraceStats::default();

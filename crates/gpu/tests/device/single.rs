@@ -3,8 +3,8 @@
 //! --ray-path single --object-builder lbvh`): hit records bit for bit (so brute force's for
 //! closest hits) and every counter (final tests per kind, ray-box tests and passes, hits),
 //! in both trace modes, on every built-in scene's recorded Whitted batches and on Sponza;
-//! and with a device stack too small for the walks, the rays that overflow it are traced
-//! by the host's twin with the same result.
+//! and with a private stack too small for the walks, the rays that overflow it are walked
+//! again by the second pass (its stack in storage memory) with the same result.
 
 use gpu::rsh::engine::comparable_counters as counters;
 use gpu::{Gpu, GpuRsh};
@@ -65,7 +65,7 @@ fn single_rays_match_the_cpu_on_builtin_scenes() {
 }
 
 #[test]
-fn overflowing_walks_are_finished_by_the_host() {
+fn overflowing_walks_are_finished_by_the_second_pass() {
     let Some(g) = gpu() else { return };
     let s = builtin::by_name("office").unwrap();
     let geo = Geometry::from_scene(&s);
