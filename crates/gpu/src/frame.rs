@@ -212,6 +212,8 @@ impl DeviceSurfaces {
 pub struct DeviceBatch {
     rays: DeviceRays,
     weight: Option<wgpu::Buffer>,
+    /// A bounce batch's refraction rays (counted on the device as it was made).
+    refractions: u64,
 }
 
 /// `n` in parts of at most `per` (one empty part when `n` is 0, so that a launch that
@@ -452,7 +454,11 @@ impl Backend for GpuBackend<'_> {
                 m,
                 256,
             );
-            out.push(DeviceBatch { rays, weight: None });
+            out.push(DeviceBatch {
+                rays,
+                weight: None,
+                refractions: 0,
+            });
         }
         out
     }
@@ -485,7 +491,28 @@ impl Backend for GpuBackend<'_> {
                 256,
             );
             ex.scan(&flags, &offs, slots);
-            let r = ex.read_at(&offs, slots as usize) as u64;
+            // The batch's size and its refraction count in one read-back.
+            let chunks = slots.div_ceil(TOTALS_CHUNK);
+            let kinds = g.storage("slot kind counts", chunks * 4);
+            ex.run(
+                launch::FrSlotKindCount {
+                    flags: &flags,
+                    col: &b_w,
+                    out_u: &kinds,
+                },
+                KindCountParams {
+                    rays: slots as u32,
+                    kind: trace::RayKind::Refraction as u32,
+                },
+                chunks,
+                256,
+            );
+            let both = g.storage("slot totals", (1 + chunks) * 4);
+            ex.copy_at(&offs, slots * 4, &both, 0, 4);
+            ex.copy_at(&kinds, 0, &both, 4, chunks * 4);
+            let words: Vec<u32> = ex.read(&both, 1 + chunks as usize);
+            let r = words[0] as u64;
+            let refractions: u64 = words[1..].iter().map(|&c| c as u64).sum();
             if r == 0 {
                 continue;
             }
@@ -512,6 +539,7 @@ impl Backend for GpuBackend<'_> {
             out.push(DeviceBatch {
                 rays,
                 weight: Some(weight),
+                refractions,
             });
         }
         out
@@ -527,9 +555,8 @@ impl Backend for GpuBackend<'_> {
             if b.weight.is_none() {
                 k[1] += b.rays.len;
             } else {
-                let refractions = kind_count(&mut self.ex, &b.rays.kl, b.rays.len);
-                k[3] += refractions;
-                k[2] += b.rays.len - refractions;
+                k[3] += b.refractions;
+                k[2] += b.rays.len - b.refractions;
             }
         }
         k
@@ -724,24 +751,4 @@ impl Backend for GpuBackend<'_> {
             stats,
         }
     }
-}
-
-/// Refraction rays (kind 3) among the `n` rays of `kl`, counted per chunk on the device.
-fn kind_count(ex: &mut Exec, kl: &wgpu::Buffer, n: u64) -> u64 {
-    let chunks = n.div_ceil(TOTALS_CHUNK);
-    let out = ex.g.storage("kind counts", chunks * 4);
-    ex.run(
-        launch::FrKindCount {
-            r_kl: kl,
-            out_u: &out,
-        },
-        KindCountParams {
-            rays: n as u32,
-            kind: 3,
-        },
-        chunks,
-        256,
-    );
-    let v: Vec<u32> = ex.read(&out, chunks as usize);
-    v.iter().map(|&c| c as u64).sum()
 }

@@ -101,7 +101,7 @@ struct TotalsParams {
     counters: u32, // 1: per-ray (steps, tests) counters are bound and summed
 }
 
-// Parameters of fr_kind_count.
+// Parameters of fr_slot_kind_count.
 struct KindCountParams {
     rays: u32, // rays of the batch
     kind: u32, // the kind counted (RayKind's number)
@@ -413,10 +413,10 @@ fn fr_totals(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     out_u[5u * c + 4u] = s.w;
 }
 
-// Rays of one kind per chunk of 1024 (the bounce batch's
-// refraction count).
+// Flagged bounce slots of one kind per chunk of 1024 (the bounce batch's refraction count,
+// before its rays are emitted: read back with the batch's size, in one read-back).
 @compute @workgroup_size(256)
-fn fr_kind_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+fn fr_slot_kind_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let prm = kind_count_params();
     let c = fid(gid, nwg);
     let n = prm.rays;
@@ -426,7 +426,7 @@ fn fr_kind_count(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     }
     var k = 0u;
     for (var i = lo; i < min(lo + 1024u, n); i++) {
-        k += u32((r_kl[i] & 3u) == prm.kind);
+        k += u32(flags[i] != 0u && (u32(col[i].w) & 3u) == prm.kind);
     }
     out_u[c] = k;
 }
