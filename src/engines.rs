@@ -183,21 +183,24 @@ pub fn gpu_default_objects(method: Method) -> ObjectHierarchy {
     }
 }
 
-/// The object hierarchy `engine` runs with, by name (`bvh`, `mesh-spheres`), for the stats:
-/// the one asked for, else the backend's default (the CPU's BVH; on the GPU
-/// [`gpu_default_objects`]); `None` for engines that are not ray-space hierarchies.
+/// The object hierarchy `method` runs with: the one asked for, else the backend's default
+/// (the CPU's [`DEFAULT_OBJECTS`]; on the GPU [`gpu_default_objects`]).
+pub fn objects_for(method: Method, asked: Option<ObjectHierarchy>, gpu: bool) -> ObjectHierarchy {
+    match (asked, gpu) {
+        (Some(o), _) => o,
+        (None, true) => gpu_default_objects(method),
+        (None, false) => DEFAULT_OBJECTS,
+    }
+}
+
+/// [`objects_for`] of `engine` by name (`bvh`, `mesh-spheres`), for the stats; `None` for
+/// engines that are not ray-space hierarchies.
 pub fn object_hierarchy_name(
     engine: Engine,
     asked: Option<ObjectHierarchy>,
     gpu: bool,
 ) -> Option<&'static str> {
-    let method = engine.rsh_method()?;
-    let o = match (asked, gpu) {
-        (Some(o), _) => o,
-        (None, true) => gpu_default_objects(method),
-        (None, false) => DEFAULT_OBJECTS,
-    };
-    Some(match o {
+    Some(match objects_for(engine.rsh_method()?, asked, gpu) {
         ObjectHierarchy::Bvh => "bvh",
         ObjectHierarchy::MeshSpheres => "mesh-spheres",
     })
@@ -253,7 +256,7 @@ impl EngineOptions {
     /// [`gpu_default_objects`], and the object tree is the LBVH (the device's builder).
     pub fn gpu_rsh_config(&self, method: Method) -> RshConfig {
         RshConfig {
-            objects: self.objects.unwrap_or(gpu_default_objects(method)),
+            objects: objects_for(method, self.objects, true),
             builder: ObjectBuilder::Lbvh,
             ..self.rsh_config(method)
         }

@@ -71,12 +71,7 @@ pub fn rsh_options_apply(
         return Ok(());
     };
     let default = engines::method_default_path(method);
-    let objects = match (r.objects, gpu) {
-        (Some(o), _) => o,
-        (None, true) => engines::gpu_default_objects(method),
-        (None, false) => engines::DEFAULT_OBJECTS,
-    };
-    let no_bvh = objects == rsh::ObjectHierarchy::MeshSpheres;
+    let no_bvh = engines::objects_for(method, r.objects, gpu) == rsh::ObjectHierarchy::MeshSpheres;
     for (flag, kw) in given_engine_options(m) {
         if no_bvh && ["descent", "schedule", "ray_path", "object_builder"].contains(&kw.as_str()) {
             return Err(UsageError(format!(

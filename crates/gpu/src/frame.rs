@@ -130,13 +130,18 @@ pub fn settle(engine: &dyn GpuEngine, stats: &mut TraceStats) {
     let g = engine.gpu();
     let mut ex = Exec::new(g, engine.kernels());
     let all = g.storage("pending counters", words * 4);
-    let mut at = 0;
-    for (b, w) in &pending {
-        ex.copy_at(b, 0, &all, at, w * 4);
-        at += w * 4;
-    }
+    copy_pending(&mut ex, &pending, &all, 0);
     let raw: Vec<u32> = ex.read(&all, words as usize);
     engine.settle(&raw, stats);
+}
+
+/// The pending counter blocks laid end to end into `all` from byte `at`.
+fn copy_pending(ex: &mut Exec, pending: &[(wgpu::Buffer, u64)], all: &wgpu::Buffer, at: u64) {
+    let mut at = at;
+    for (b, w) in pending {
+        ex.copy_at(b, 0, all, at, w * 4);
+        at += w * 4;
+    }
 }
 
 /// Trace rays `rays` on the device with `engine`, in parts of at most its
@@ -327,11 +332,7 @@ impl<'a> GpuBackend<'a> {
         }
         let all = self.g.storage("image and counters", (words + extra) * 4);
         self.ex.copy(buf, 0, &all, words * 4);
-        let mut at = words * 4;
-        for (b, w) in &pending {
-            self.ex.copy_at(b, 0, &all, at, w * 4);
-            at += w * 4;
-        }
+        copy_pending(&mut self.ex, &pending, &all, words * 4);
         let raw: Vec<u32> = self.ex.read(&all, (words + extra) as usize);
         self.engine.settle(&raw[words as usize..], &mut stats.trace);
         bytemuck::cast_slice(&raw[..words as usize]).to_vec()

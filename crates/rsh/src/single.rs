@@ -43,9 +43,7 @@ pub struct SingleCounts {
     pub hits: u64,
 }
 
-/// The sum of two batches' counts.
-impl std::ops::Add for SingleCounts {
-    type Output = SingleCounts;
+impl SingleCounts {
     fn add(mut self, o: SingleCounts) -> SingleCounts {
         for k in 0..4 {
             self.final_tests[k] += o.final_tests[k];
@@ -247,7 +245,7 @@ pub fn trace(
                 }
             },
         )
-        .reduce(SingleCounts::default, std::ops::Add::add)
+        .reduce(SingleCounts::default, SingleCounts::add)
 }
 
 /// Rays `first..first + out.len()` one by one (see the module doc), each node's boxes

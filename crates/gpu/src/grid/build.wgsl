@@ -190,15 +190,7 @@ fn tri_box_max(t: u32) -> vec3<f32> {
 }
 
 // ------------------------------------------------------------ triangle boxes, scene box
-// f32 → u32 keys whose unsigned order is the floats' order (for atomicMin / atomicMax).
-fn order_key(x: f32) -> u32 {
-    let b = bitcast<u32>(x);
-    if (b & 0x80000000u) != 0u {
-        return ~b;
-    }
-    return b | 0x80000000u;
-}
-
+// (the bounds as `order_key`s, common.wgsl)
 var<workgroup> w_bounds: array<atomic<u32>, 6>;
 
 // Bounds (6 keys: min xyz, max xyz) start at (u32::MAX, 0).

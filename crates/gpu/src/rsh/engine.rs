@@ -350,22 +350,30 @@ impl GpuRsh {
         }
         // Records: the winner's hit recomputed with the shared kernel, as on the CPU.
         ex.phase(Phase::FinalTests);
-        let rec = g.storage("records", n * 16);
+        let rec = self.hit_records(ex, dr, &best);
+        let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
+        (rec, c, top)
+    }
+
+    /// One record per ray of `dr` from its best (triangle, t bits) in `best`: the winner's
+    /// hit recomputed with the shared kernel, as on the CPU (`final.wgsl`'s `records`).
+    fn hit_records(&self, ex: &mut Exec, dr: &DeviceRays, best: &wgpu::Buffer) -> wgpu::Buffer {
+        let n = dr.len;
+        let rec = self.s.gpu.storage("records", n * 16);
         ex.run(
             launch::Records {
                 f_org: &dr.org,
                 f_dir: &dr.dir,
                 f_pre: &dr.pre,
                 f_tris: &self.s.tris,
-                f_best_pair: &best,
+                f_best_pair: best,
                 f_rec: &rec,
             },
             RecordsParams { rays: n as u32 },
             n,
             256,
         );
-        let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
-        (rec, c, top)
+        rec
     }
 
     /// Single rays `dr` through the object tree `t` (`single.wgsl`), their records made on
@@ -379,8 +387,6 @@ impl GpuRsh {
         mode: TraceMode,
         stats: &mut TraceStats,
     ) -> (wgpu::Buffer, single::Walked) {
-        let n = dr.len;
-        let g = &self.s.gpu;
         ex.phase(Phase::Traversal);
         let w = single::walk(
             ex,
@@ -390,20 +396,7 @@ impl GpuRsh {
             self.stack,
             &self.deep,
         );
-        let rec = g.storage("records", n * 16);
-        ex.run(
-            launch::Records {
-                f_org: &dr.org,
-                f_dir: &dr.dir,
-                f_pre: &dr.pre,
-                f_tris: &self.s.tris,
-                f_best_pair: &w.best,
-                f_rec: &rec,
-            },
-            RecordsParams { rays: n as u32 },
-            n,
-            256,
-        );
+        let rec = self.hit_records(ex, dr, &w.best);
         stats.count(Counter::SingleRayBatches, 1);
         stats.count(Counter::BundledBatches, 0);
         (rec, w)

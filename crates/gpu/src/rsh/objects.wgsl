@@ -86,24 +86,9 @@ fn gmax3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
     return select(b, a, a > b);
 }
 
-// f32 → u32 keys whose unsigned order is the floats' order (for atomicMin / atomicMax).
-fn order_key(x: f32) -> u32 {
-    let b = bitcast<u32>(x);
-    if (b & 0x80000000u) != 0u {
-        return ~b;
-    }
-    return b | 0x80000000u;
-}
-
-fn unkey(k: u32) -> f32 {
-    if (k & 0x80000000u) != 0u {
-        return bitcast<f32>(k & 0x7fffffffu);
-    }
-    return bitcast<f32>(~k);
-}
-
+// A box corner from the bounds' ordered keys (`order_key`, common.wgsl) at word k.
 fn bound(k: u32) -> vec3<f32> {
-    return vec3<f32>(unkey(atomicLoad(&o_bounds[k])), unkey(atomicLoad(&o_bounds[k + 1u])), unkey(atomicLoad(&o_bounds[k + 2u])));
+    return vec3<f32>(unorder_key(atomicLoad(&o_bounds[k])), unorder_key(atomicLoad(&o_bounds[k + 1u])), unorder_key(atomicLoad(&o_bounds[k + 2u])));
 }
 
 // Aabb::center.

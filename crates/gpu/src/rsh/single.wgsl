@@ -235,8 +235,18 @@ fn finished(r: u32, w: Walk) {
     atomicAdd(&wcnt[6], u32(w.best != miss64()));
 }
 
-// The workgroup's counts into the 64-bit (low, high) counters, as traverse.wgsl's add64.
+// The workgroup's counts from zero (every invocation calls it, before any count).
+fn start_counts(li: u32) {
+    if li < COUNTERS {
+        atomicStore(&wcnt[li], 0u);
+    }
+    workgroupBarrier();
+}
+
+// The workgroup's counts into the 64-bit (low, high) counters, as traverse.wgsl's add64
+// (every invocation calls it, after its counts).
 fn flush_counts(li: u32) {
+    workgroupBarrier();
     if li < COUNTERS {
         let v = atomicLoad(&wcnt[li]);
         if v > 0u {
@@ -251,10 +261,7 @@ fn flush_counts(li: u32) {
 // One ray's walk over the tree, its stack private.
 @compute @workgroup_size(256)
 fn single_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
-    if li < COUNTERS {
-        atomicStore(&wcnt[li], 0u);
-    }
-    workgroupBarrier();
+    start_counts(li);
     let prm = single_walk_params();
     let r = gid.x + gid.y * nwg.x * 256u;
     if r < prm.rays {
@@ -267,7 +274,6 @@ fn single_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_inv
             finished(r, w);
         }
     }
-    workgroupBarrier();
     flush_counts(li);
 }
 
@@ -275,10 +281,7 @@ fn single_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_inv
 // storage memory: `pool` threads take the list in turn.
 @compute @workgroup_size(256)
 fn single_walk_deep(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
-    if li < COUNTERS {
-        atomicStore(&wcnt[li], 0u);
-    }
-    workgroupBarrier();
+    start_counts(li);
     let prm = single_walk_params();
     let tid = gid.x + gid.y * nwg.x * 256u;
     let listed = atomicLoad(&s_cnt[OVER]);
@@ -294,6 +297,5 @@ fn single_walk_deep(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(loca
             }
         }
     }
-    workgroupBarrier();
     flush_counts(li);
 }

@@ -29,6 +29,23 @@ fn wg_linear(wid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return wid.x + wid.y * nwg.x;
 }
 
+// f32 → u32 keys whose unsigned order is the floats' order (for atomicMin / atomicMax of
+// floats), and back.
+fn order_key(x: f32) -> u32 {
+    let b = bitcast<u32>(x);
+    if (b & 0x80000000u) != 0u {
+        return ~b;
+    }
+    return b | 0x80000000u;
+}
+
+fn unorder_key(k: u32) -> f32 {
+    if (k & 0x80000000u) != 0u {
+        return bitcast<f32>(k & 0x7fffffffu);
+    }
+    return bitcast<f32>(~k);
+}
+
 // --- values kept as written ---
 // keep(x): x computed as written before it is used. OR-ing in a zero the compiler cannot see
 // (P.f1.w, set to 0 by the host for every launch) makes x a value of its own, so that:
