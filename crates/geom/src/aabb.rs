@@ -314,7 +314,13 @@ impl TriBoxSat {
         }
         let (mut lo, mut hi) = ([0f32; 13], [0f32; 13]);
         for (i, a) in axis.iter().enumerate() {
-            let p = t.map(|v| project(i, *a, v));
+            // Three calls, not `t.map`: the array map of a 13-step loop is not inlined (a
+            // tenth of the grid's octree pass went to its iterator adapters).
+            let p = [
+                project(i, *a, t[0]),
+                project(i, *a, t[1]),
+                project(i, *a, t[2]),
+            ];
             lo[i] = p[0].min(p[1]).min(p[2]);
             hi[i] = p[0].max(p[1]).max(p[2]);
         }
@@ -325,8 +331,11 @@ impl TriBoxSat {
     /// that size).
     #[inline]
     pub fn radii(&self, h: Vec3) -> [f32; 13] {
-        self.axis
-            .map(|a| h.x * a.x.abs() + h.y * a.y.abs() + h.z * a.z.abs())
+        let mut r = [0f32; 13];
+        for (r, a) in r.iter_mut().zip(&self.axis) {
+            *r = h.x * a.x.abs() + h.y * a.y.abs() + h.z * a.z.abs();
+        }
+        r
     }
 
     /// Does the triangle overlap the box of centre `c` whose radii are `r` (from

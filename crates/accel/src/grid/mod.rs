@@ -306,6 +306,8 @@ pub struct BuildStats {
 
 /// The build's passes in order, as reports name them: top-level references and octrees
 /// ([`build::subdivide`]), cells and voxel map ([`build::finish`]), [`merge`], [`expand`].
+/// (The CPU makes the first three top cell by top cell, [`build::initial`], with the same
+/// result; the GPU runs them level by level.)
 /// The GPU build (`gpu::grid`) states where it runs each one against this list, so a pass
 /// added here and not there fails its test.
 pub const PASSES: [trace::BuildPass; 5] = trace::BuildPass::GRID;

@@ -118,6 +118,32 @@ fn paint(sparse: &[u32], e: u32, lo: [u32; 3], lk: [u32; 2], start: usize, out: 
     }
 }
 
+/// Flatten one top cell's sparse octree (node entry `root` of `sparse`, every node a 2×2×2
+/// block) into blocks appended to `blocks`, as [`flatten`] does for each top cell; returns
+/// the root's entry (block indices relative to `blocks`). The cell ids in `sparse` are kept:
+/// the top-cell builder numbers its leaves depth first in Morton order from `first_cell`,
+/// which is the map's order (checked in debug builds).
+pub(crate) fn flatten_top(
+    sparse: &[u32],
+    root: u32,
+    blocks: &mut Vec<u32>,
+    first_cell: u32,
+) -> u32 {
+    let mut out = Out {
+        entries: std::mem::take(blocks),
+        cells: Vec::new(),
+    };
+    let e = flatten_node(sparse, root, &mut out);
+    debug_assert!(out
+        .cells
+        .iter()
+        .enumerate()
+        .all(|(k, &c)| c == first_cell + k as u32));
+    let _ = first_cell;
+    *blocks = out.entries;
+    e
+}
+
 /// A flattened map of `total` entries fits the entries' index bits, or the error naming the
 /// options that shrink it (the GPU's cells pass checks its total with the same line).
 pub fn check_total(total: u64) -> Result<(), GridError> {

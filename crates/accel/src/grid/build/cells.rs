@@ -115,7 +115,7 @@ pub fn assemble(
 
 /// [`assemble`] without the expanded boxes: the merge makes them from the merged cells, and
 /// `grid::complete` copies the cells' where nothing is merged.
-fn assemble_cells(
+pub(super) fn assemble_cells(
     st: &Setup,
     shift: u32,
     entries: Vec<u32>,

@@ -26,6 +26,11 @@
 //!
 //! Robustness: node boxes are grown by [`ref_padding`] for every reference test, so a triangle
 //! within rounding distance of a boundary is referenced on both sides.
+//!
+//! Two schedules make the same grid bit for bit (tested): level by level ([`subdivide`],
+//! then [`finish`]; the GPU's passes mirror it) and top cell by top cell ([`initial`], the
+//! CPU's: each octree depth first in cache, the cells written once in map order; see
+//! `topcells.rs`).
 
 use super::voxelmap::{self, INDEX};
 use super::{BuildStats, Grid, GridConfig, GridError, Subdivision};
@@ -38,8 +43,10 @@ use std::time::Instant;
 
 mod cells;
 mod octrees;
+mod topcells;
 pub use cells::{assemble, finish};
 pub use octrees::subdivide;
+pub use topcells::initial;
 
 /// Cleary's resolution (paper eq. 1): R = d · cbrt(λ N / V), at least 1 per axis.
 pub fn resolution(extent: Vec3, n: usize, density: f32) -> [u32; 3] {
@@ -134,19 +141,7 @@ impl Frame<'_> {
     /// triangle order, so a triangle spanning many nodes is prepared once per run of them
     /// (the prepared values are the same however often they are made).
     fn child_mask(&self, c: [u32; 3], level: u32, t: usize, prep: &mut Prepared) -> u8 {
-        let size = self.tsize / (1u32 << (level + 1)) as f32;
-        let tb = &self.tri_box[t];
-        let mut mask = 0xffu8;
-        const LOW: [u8; 3] = [0x55, 0x33, 0x0f];
-        for k in 0..3 {
-            let mid = self.bounds.min[k] + (2 * c[k] + 1) as f32 * size[k];
-            if tb.min[k] > mid + self.pad {
-                mask &= !LOW[k];
-            }
-            if tb.max[k] < mid - self.pad {
-                mask &= LOW[k];
-            }
-        }
+        let mask = self.half_space_mask(c, level, t);
         if mask.count_ones() <= 1 {
             return mask;
         }
@@ -158,7 +153,35 @@ impl Frame<'_> {
                 sat,
             };
         }
-        // The children's centres as `node_centre` computes them, one lane each.
+        prep.sat
+            .overlaps8(&self.child_centres(c, level), &prep.radii)
+            & mask
+    }
+
+    /// The children of node `c` (level `level`) whose half-spaces triangle `t`'s box reaches
+    /// (all 8 bits where the box straddles every mid-plane).
+    #[inline]
+    fn half_space_mask(&self, c: [u32; 3], level: u32, t: usize) -> u8 {
+        self.mid_planes(c, level).mask(&self.tri_box[t])
+    }
+
+    /// Node `c`'s (level `level`) mid-planes, padded to both sides.
+    #[inline]
+    fn mid_planes(&self, c: [u32; 3], level: u32) -> MidPlanes {
+        let size = self.tsize / (1u32 << (level + 1)) as f32;
+        let mid: [f32; 3] =
+            std::array::from_fn(|k| self.bounds.min[k] + (2 * c[k] + 1) as f32 * size[k]);
+        MidPlanes {
+            above: mid.map(|m| m + self.pad),
+            below: mid.map(|m| m - self.pad),
+        }
+    }
+
+    /// The centres of node `c`'s 8 children (level `level` + 1) as `node_centre` computes
+    /// them, one lane each.
+    #[inline]
+    fn child_centres(&self, c: [u32; 3], level: u32) -> [[f32; 8]; 3] {
+        let size = self.tsize / (1u32 << (level + 1)) as f32;
         let mut centres = [[0f32; 8]; 3];
         for (k, axis) in centres.iter_mut().enumerate() {
             for (lane, v) in axis.iter_mut().enumerate() {
@@ -166,7 +189,33 @@ impl Frame<'_> {
                 *v = self.bounds.min[k] + (cc as f32 + 0.5) * size[k];
             }
         }
-        prep.sat.overlaps8(&centres, &prep.radii) & mask
+        centres
+    }
+}
+
+/// A node's mid-planes per axis, padded up (`above`) and down (`below`): a box wholly above
+/// `above[k]` misses the low children along k, one wholly below `below[k]` the high ones.
+struct MidPlanes {
+    above: [f32; 3],
+    below: [f32; 3],
+}
+
+impl MidPlanes {
+    /// The children (bit k: child k, at (k & 1, (k >> 1) & 1, k >> 2)) whose half-spaces
+    /// box `tb` reaches.
+    #[inline]
+    fn mask(&self, tb: &Aabb) -> u8 {
+        const LOW: [u8; 3] = [0x55, 0x33, 0x0f];
+        let mut mask = 0xffu8;
+        for (k, low) in LOW.iter().enumerate() {
+            if tb.min[k] > self.above[k] {
+                mask &= !low;
+            }
+            if tb.max[k] < self.below[k] {
+                mask &= low;
+            }
+        }
+        mask
     }
 }
 
@@ -564,8 +613,9 @@ pub struct Octrees {
     pub levels: u32,
 }
 
-/// The initial structure: top grid, octrees, voxel map, sorted references.
-pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridError> {
+/// The initial structure level by level ([`subdivide`], then [`finish`]): the passes the GPU
+/// mirrors, and the reference [`initial`] (top cell by top cell) is tested against.
+pub fn initial_by_levels(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridError> {
     let (setup, oct, [top_refs_seconds, octree_seconds]) = subdivide(tris, cfg)?;
     let mut g = finish(&setup, oct)?;
     g.build.top_refs_seconds = top_refs_seconds;

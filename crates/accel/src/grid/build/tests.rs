@@ -33,3 +33,104 @@ fn depth_table_equals_the_paper_rule() {
         assert_eq!(by_table(0), 0);
     }
 }
+
+/// The top-cell builder makes the level-by-level passes' grid bit for bit (voxel map, cells,
+/// references), on scenes from one object to a dense object in a huge cell, under both
+/// subdivision rules, deep and shallow octrees, and a top grid of one cell.
+#[test]
+fn top_cell_build_equals_the_level_passes() {
+    use scene::{builtin, generate::Spec, Geometry};
+    let hairball = Spec::parse("hairball:6k").unwrap().unwrap().generate();
+    let scenes = [
+        ("cornell", builtin::cornell()),
+        ("office", builtin::office(1)),
+        ("spheres", builtin::spheres()),
+        ("stadium", builtin::stadium()),
+        ("soup", builtin::soup(3000, 7)),
+        ("hairball", hairball),
+    ];
+    let configs = [
+        ("paper", GridConfig::default()),
+        (
+            "adaptive",
+            GridConfig {
+                subdivision: Subdivision::Adaptive,
+                ..GridConfig::default()
+            },
+        ),
+        (
+            "deep",
+            GridConfig {
+                top_density: 0.02,
+                leaf_density: 9.0,
+                max_depth: 12,
+                ..GridConfig::default()
+            },
+        ),
+        (
+            "one top cell",
+            GridConfig {
+                top_density: 1e-6,
+                ..GridConfig::default()
+            },
+        ),
+        (
+            "flat",
+            GridConfig {
+                max_depth: 0,
+                ..GridConfig::default()
+            },
+        ),
+    ];
+    let mut nested = 0;
+    for (name, sc) in &scenes {
+        let geo = Geometry::from_scene(sc);
+        for (what, cfg) in &configs {
+            let a = initial(&geo.tris, cfg).unwrap();
+            let b = initial_by_levels(&geo.tris, cfg).unwrap();
+            let at = format!("{name}, {what}");
+            assert_eq!(a.shift, b.shift, "{at}: levels");
+            assert_eq!(a.top_dims, b.top_dims, "{at}: top grid");
+            same(&a.entries, &b.entries, &format!("{at}: voxel map"));
+            same(&a.cell_min, &b.cell_min, &format!("{at}: cell minima"));
+            same(&a.cell_max, &b.cell_max, &format!("{at}: cell maxima"));
+            same(
+                &a.ref_first,
+                &b.ref_first,
+                &format!("{at}: reference ranges"),
+            );
+            same(&a.refs, &b.refs, &format!("{at}: references"));
+            assert_eq!(a.build.initial_cells, b.build.initial_cells, "{at}");
+            let top = a.top_dims.iter().product::<u32>() as usize;
+            nested += a.entries[top..]
+                .iter()
+                .filter(|&&e| e & voxelmap::NODE != 0)
+                .count();
+        }
+    }
+    assert!(nested > 0, "some octree is deeper than one block");
+}
+
+/// The top-cell builder's caps refuse what the level passes refuse, with the same kind of
+/// error naming the memory limit.
+#[test]
+fn top_cell_build_keeps_the_caps() {
+    let geo = scene::Geometry::from_scene(&scene::builtin::soup(20_000, 1));
+    let cfg = GridConfig {
+        max_bytes: 200_000,
+        ..GridConfig::default()
+    };
+    let a = initial(&geo.tris, &cfg).expect_err("refused");
+    assert!(matches!(a, GridError::TooBig { .. }), "{a}");
+    assert!(a.to_string().contains("`max_memory`"), "{a}");
+    let b = initial_by_levels(&geo.tris, &cfg).expect_err("refused");
+    assert!(matches!(b, GridError::TooBig { .. }), "{b}");
+}
+
+/// `a == b`, or a failure naming the first index where they differ.
+fn same<T: PartialEq + std::fmt::Debug>(a: &[T], b: &[T], what: &str) {
+    if let Some(i) = (0..a.len().min(b.len())).find(|&i| a[i] != b[i]) {
+        panic!("{what}: differ first at {i}: {:?} against {:?}", a[i], b[i]);
+    }
+    assert_eq!(a.len(), b.len(), "{what}: lengths");
+}

@@ -1,0 +1,478 @@
+//! The CPU's initial grid (paper §4.1) built top cell by top cell: the same cells, references
+//! and voxel map as the level-by-level passes ([`subdivide`] then [`finish`], which the GPU
+//! mirrors and its tests compare with), in a fraction of the memory traffic.
+//!
+//! Why: every decision of the level-by-level build is local to one node (its reference count,
+//! its references' child masks, its top cell's depth), but a level's passes visit nodes in
+//! the order of their references, so at a million triangles each pass is a random walk over
+//! arrays of tens of MB (histograms, split flags, coordinates, scans), ten passes per level,
+//! and the cells pass then sorts the leaves' references into map order with another random
+//! scatter. Here the references are grouped by top cell once (a counting sort), and each top
+//! cell's octree is subdivided depth first on a few KB that stay in cache:
+//! - a node decides exactly as [`subdivide`] does (eq. 1's depth of its top cell, the
+//!   adaptive rule, "a node whose every reference overlaps all 8 children stays a leaf");
+//! - its children's lists are cut from its own (child k in Morton order, references kept in
+//!   ascending triangle order, so a leaf's list is already sorted);
+//! - the leaves come out depth first in Morton order, which is the voxel map's cell order
+//!   ([`voxelmap::flatten_top`] writes the top cell's blocks), so cells, their references and
+//!   the map are written once, in place, by a scan over chunks of top cells.
+//!
+//! The caps ([`Limits`]) hold as before: every leaf's references and every split's 8 nodes
+//! are counted against them (shared atomic tallies) before they are stored, and the first
+//! build to pass one stops every task with the same kind of error.
+
+use super::cells::assemble_cells;
+use super::*;
+use std::sync::atomic::AtomicU64;
+
+/// Top cells per task: enough work to amortise a task, few enough to balance 2–16 threads.
+const TOP_CELLS_PER_TASK: usize = 32;
+
+/// One task's top cells: their map entries (root entries, then the blocks), and their cells
+/// in map order with their references. Cell ids and block indices are relative to the task.
+#[derive(Default)]
+struct Part {
+    roots: Vec<u32>,
+    blocks: Vec<u32>,
+    coord: Vec<[u32; 3]>,
+    level: Vec<u8>,
+    count: Vec<u32>,
+    refs: Vec<u32>,
+    deepest: u32,
+}
+
+/// A thread's working memory, reused from top cell to top cell: the top cell's triangles
+/// (the nodes' lists hold positions in it), the lists of the nodes on the current path (each
+/// node's children's lists appended after it), their child masks, the top cell's sparse map,
+/// and each triangle's prepared separating-axis test.
+struct Scratch {
+    tris: Vec<u32>,
+    lists: Vec<u32>,
+    masks: Vec<u8>,
+    sparse: Vec<u32>,
+    prepared: Vec<Local>,
+    /// The references and nodes this top cell made so far (added to the tallies after it).
+    held: (u64, u64),
+}
+
+/// A top cell's triangle's prepared test (made when first needed: most references are
+/// placed by the half-space tests alone) and its radii for one level's children (a
+/// triangle meets its sibling nodes at one level, so the radii are mostly reused).
+#[derive(Clone, Copy)]
+struct Local {
+    sat: Option<TriBoxSat>,
+    radii: [f32; 13],
+    /// The level of `radii` (`u32::MAX`: none).
+    level: u32,
+}
+
+/// Running totals of what the build holds, against the caps (checked before each store).
+struct Tally {
+    refs: AtomicU64,
+    nodes: AtomicU64,
+    failed: AtomicBool,
+}
+
+/// What every node of one top cell's octree reads.
+struct Tree<'a, 'b> {
+    f: &'a Frame<'b>,
+    cfg: &'a GridConfig,
+    lim: &'a Limits,
+    /// What every task held (references, nodes) when this top cell started.
+    held: (u64, u64),
+    max_depth: u32,
+    /// Eq. 1's depth of this top cell.
+    depth: u32,
+    adaptive: bool,
+}
+
+impl Tree<'_, '_> {
+    /// Subdivide the node at coordinates `c` of level `level` whose references are the top
+    /// cell's triangles at positions `s.lists[lo..hi]`; returns its sparse map entry (a cell id relative to `out`, or a
+    /// block of 8 children in `s.sparse`).
+    fn node(
+        &self,
+        s: &mut Scratch,
+        out: &mut Part,
+        c: [u32; 3],
+        level: u32,
+        (lo, hi): (usize, usize),
+    ) -> Result<u32, GridError> {
+        let n = hi - lo;
+        // The same decision as one node of `subdivide`'s level.
+        let small = if !self.adaptive || level == 0 {
+            n
+        } else {
+            let half = (self.f.tsize / (1u32 << (level + 1)) as f32).min_element();
+            s.lists[lo..hi]
+                .iter()
+                .filter(|&&l| {
+                    let t = s.tris[l as usize] as usize;
+                    self.f.tri_box[t].extent().max_element() <= half
+                })
+                .count()
+        };
+        let wants = n > 0
+            && level < self.max_depth
+            && (level < self.depth
+                || (self.adaptive && self.cfg.leaf_density * small as f32 >= ADAPTIVE_SPLIT));
+        let split = wants && {
+            s.masks.clear();
+            let (mut separates, mut copies) = (false, 0u32);
+            let node = (self.f.mid_planes(c, level), self.f.child_centres(c, level));
+            for i in lo..hi {
+                let m = self.child_mask(s, level, s.lists[i] as usize, &node);
+                separates |= m != 0xff;
+                copies += m.count_ones();
+                s.masks.push(m);
+            }
+            let beyond = self.adaptive && level >= self.depth;
+            separates && (!beyond || (copies as f32) < ADAPTIVE_COPIES * n as f32)
+        };
+        if !split {
+            s.held.0 += n as u64;
+            self.lim.check_refs(self.held.0 + s.held.0)?;
+            let id = out.coord.len() as u32;
+            out.coord.push(c);
+            out.level.push(level as u8);
+            out.count.push(n as u32);
+            out.refs
+                .extend(s.lists[lo..hi].iter().map(|&l| s.tris[l as usize]));
+            out.deepest = out.deepest.max(level);
+            return Ok(id);
+        }
+        s.held.1 += 8;
+        self.lim.check_nodes(self.held.1 + s.held.1, level)?;
+        // The children's lists, child k's after child k − 1's, each in its parent's order:
+        // their sizes from the masks, then one pass placing each reference.
+        let base = s.lists.len();
+        let mut at = [0usize; 8];
+        for &m in &s.masks {
+            for (k, a) in at.iter_mut().enumerate() {
+                *a += (m >> k & 1) as usize;
+            }
+        }
+        let mut ends = [0usize; 8];
+        let mut end = base;
+        for k in 0..8 {
+            let size = at[k];
+            at[k] = end;
+            end += size;
+            ends[k] = end;
+        }
+        s.lists.resize(end, 0);
+        for i in 0..n {
+            let (t, mut m) = (s.lists[lo + i], s.masks[i]);
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                s.lists[at[k]] = t;
+                at[k] += 1;
+            }
+        }
+        let first = s.sparse.len();
+        s.sparse.extend_from_slice(&[0; 8]);
+        let mut from = base;
+        for (k, &end) in ends.iter().enumerate() {
+            let k = k as u32;
+            let cc = [
+                2 * c[0] + (k & 1),
+                2 * c[1] + ((k >> 1) & 1),
+                2 * c[2] + (k >> 2),
+            ];
+            let e = self.node(s, out, cc, level + 1, (from, end))?;
+            s.sparse[first + k as usize] = e;
+            from = end;
+        }
+        s.lists.truncate(base);
+        Ok(voxelmap::node(first as u32, 1))
+    }
+}
+
+impl Tree<'_, '_> {
+    /// [`Frame::child_mask`] of the top cell's triangle at position `l`, its prepared test
+    /// and radii kept in `s.prepared` (the same values as made afresh).
+    #[inline]
+    fn child_mask(
+        &self,
+        s: &mut Scratch,
+        level: u32,
+        l: usize,
+        (planes, centres): &(MidPlanes, [[f32; 8]; 3]),
+    ) -> u8 {
+        let t = s.tris[l] as usize;
+        let mask = planes.mask(&self.f.tri_box[t]);
+        if mask.count_ones() <= 1 {
+            return mask;
+        }
+        let p = &mut s.prepared[l];
+        let sat = p.sat.get_or_insert_with(|| TriBoxSat::new(&self.f.tris[t]));
+        if p.level != level {
+            p.radii = sat.radii(self.f.node_half(level + 1));
+            p.level = level;
+        }
+        sat.overlaps8(centres, &p.radii) & mask
+    }
+}
+
+/// The initial structure (§4.1), top cell by top cell: the same [`Grid`] as [`subdivide`]
+/// followed by [`finish`].
+pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridError> {
+    let t0 = Instant::now();
+    let tri_box: Vec<Aabb> = tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|t| Aabb::from_points(t.iter().copied()))
+        .collect();
+    let tb = tri_box
+        .par_iter()
+        .with_min_len(4096)
+        .copied()
+        .reduce(Aabb::default, |a, b| a.union(&b));
+    let st = setup(tb, tris.len(), cfg)?;
+    let frame = Frame {
+        tris,
+        tri_box,
+        bounds: st.bounds,
+        tsize: st.tsize,
+        pad: st.pad,
+    };
+    let (ref_top, ref_tri) = top_refs(&frame, st.top_dims, &st.limits)?;
+    let top_refs_seconds = t0.elapsed().as_secs_f64();
+
+    // The top cells' lists: a counting sort by top cell, each list then ascending.
+    let t1 = Instant::now();
+    let ntop = st.ntop;
+    let count = histogram(&ref_top, ntop);
+    let mut first = vec![0u32; ntop + 1];
+    let total = exclusive_scan(&count, &mut first[..ntop]);
+    first[ntop] = total;
+    let grouped = group(&first, &ref_top, &ref_tri);
+    drop((ref_top, ref_tri));
+    let depth: Vec<u32> = count
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&n| paper_depth(frame.tsize, n, cfg.leaf_density, st.max_depth))
+        .collect();
+    drop(count);
+
+    let tally = Tally {
+        refs: AtomicU64::new(0),
+        nodes: AtomicU64::new(ntop as u64),
+        failed: AtomicBool::new(false),
+    };
+    let tasks = ntop.div_ceil(TOP_CELLS_PER_TASK);
+    let parts: Result<Vec<Part>, GridError> = (0..tasks)
+        .into_par_iter()
+        .map_init(
+            || Scratch {
+                tris: Vec::new(),
+                lists: Vec::new(),
+                masks: Vec::new(),
+                sparse: Vec::new(),
+                prepared: Vec::new(),
+                held: (0, 0),
+            },
+            |s, task| {
+                let tops = task * TOP_CELLS_PER_TASK..((task + 1) * TOP_CELLS_PER_TASK).min(ntop);
+                // Room for what the top cells will likely make (a hairball's references
+                // grow ~12× from top cell to leaf): pages never written cost nothing, and a
+                // list that grows by copying costs twice.
+                let top_refs = (first[tops.end] - first[tops.start]) as usize;
+                let mut out = Part {
+                    roots: Vec::with_capacity(tops.len()),
+                    blocks: Vec::with_capacity(4 * top_refs),
+                    coord: Vec::with_capacity(8 * top_refs),
+                    level: Vec::with_capacity(8 * top_refs),
+                    count: Vec::with_capacity(8 * top_refs),
+                    refs: Vec::with_capacity(16 * top_refs),
+                    deepest: 0,
+                };
+                for t in tops {
+                    if tally.failed.load(Ordering::Relaxed) {
+                        break; // Another task passed a cap: its error is returned.
+                    }
+                    let tree = Tree {
+                        f: &frame,
+                        cfg,
+                        lim: &st.limits,
+                        held: (
+                            tally.refs.load(Ordering::Relaxed),
+                            tally.nodes.load(Ordering::Relaxed),
+                        ),
+                        max_depth: st.max_depth,
+                        depth: depth[t],
+                        adaptive: cfg.subdivision == Subdivision::Adaptive,
+                    };
+                    s.tris.clear();
+                    s.tris
+                        .extend_from_slice(&grouped[first[t] as usize..first[t + 1] as usize]);
+                    s.lists.clear();
+                    s.lists.extend(0..s.tris.len() as u32);
+                    s.prepared.clear();
+                    s.prepared.resize(
+                        s.tris.len(),
+                        Local {
+                            sat: None,
+                            radii: [0.0; 13],
+                            level: u32::MAX,
+                        },
+                    );
+                    s.sparse.clear();
+                    let c = [
+                        t as u32 % st.top_dims[0],
+                        (t as u32 / st.top_dims[0]) % st.top_dims[1],
+                        t as u32 / (st.top_dims[0] * st.top_dims[1]),
+                    ];
+                    let cells_before = out.coord.len() as u32;
+                    s.held = (0, 0);
+                    let root = tree.node(s, &mut out, c, 0, (0, s.lists.len()));
+                    tally.refs.fetch_add(s.held.0, Ordering::Relaxed);
+                    tally.nodes.fetch_add(s.held.1, Ordering::Relaxed);
+                    let root = match root {
+                        Ok(e) => e,
+                        Err(e) => {
+                            tally.failed.store(true, Ordering::Relaxed);
+                            return Err(e);
+                        }
+                    };
+                    let root = if root & voxelmap::NODE == 0 {
+                        root
+                    } else {
+                        voxelmap::flatten_top(&s.sparse, root, &mut out.blocks, cells_before)
+                    };
+                    out.roots.push(root);
+                }
+                Ok(out)
+            },
+        )
+        .collect();
+    drop((grouped, first, depth));
+    let parts = parts?;
+    let octree_seconds = t1.elapsed().as_secs_f64();
+
+    let t2 = Instant::now();
+    let mut g = place(&st, parts)?;
+    g.build.top_refs_seconds = top_refs_seconds;
+    g.build.octree_seconds = octree_seconds;
+    g.build.voxel_map_seconds = t2.elapsed().as_secs_f64();
+    Ok(g)
+}
+
+/// The triangles of `ref_tri` grouped by their top cell (`ref_top`), each top cell's at
+/// `first[t]..first[t + 1]` in ascending order.
+fn group(first: &[u32], ref_top: &[u32], ref_tri: &[u32]) -> Vec<u32> {
+    let ntop = first.len() - 1;
+    let cursor: Vec<AtomicU32> = first[..ntop]
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&f| AtomicU32::new(f))
+        .collect();
+    let mut grouped = vec![0u32; first[ntop] as usize];
+    {
+        let gp = SharedMut(grouped.as_mut_ptr());
+        ref_top
+            .par_iter()
+            .zip(ref_tri.par_iter())
+            .with_min_len(4096)
+            .for_each(|(&t, &tri)| {
+                let at = cursor[t as usize].fetch_add(1, Ordering::Relaxed);
+                let gp = &gp;
+                // SAFETY: each cursor hands out distinct slots of its top cell's range.
+                unsafe { gp.write(at as usize, tri) };
+            });
+    }
+    {
+        let gp = SharedMut(grouped.as_mut_ptr());
+        (0..ntop).into_par_iter().with_min_len(256).for_each(|t| {
+            let (a, b) = (first[t] as usize, first[t + 1] as usize);
+            let whole = &gp;
+            // SAFETY: top cells' ranges are disjoint.
+            unsafe { std::slice::from_raw_parts_mut(whole.0.add(a), b - a) }.sort_unstable();
+        });
+    }
+    grouped
+}
+
+/// The tasks' parts placed one after another (top cells in index order): the voxel map (top
+/// entries, then each top cell's blocks), the cells on the virtual grid and their references.
+fn place(st: &Setup, parts: Vec<Part>) -> Result<Grid, GridError> {
+    let ntop = st.ntop;
+    let shift = parts.iter().map(|p| p.deepest).max().unwrap_or(0);
+    let scan = |f: &dyn Fn(&Part) -> usize| {
+        let mut at = 0u64;
+        let bases: Vec<u64> = parts
+            .iter()
+            .map(|p| {
+                let b = at;
+                at += f(p) as u64;
+                b
+            })
+            .collect();
+        (bases, at)
+    };
+    let (cell_base, ncells) = scan(&|p| p.coord.len());
+    let (block_base, nblocks) = scan(&|p| p.blocks.len());
+    let (ref_base, nrefs) = scan(&|p| p.refs.len());
+    voxelmap::check_total(ntop as u64 + nblocks)?;
+    let (ncells, nrefs) = (ncells as usize, nrefs as usize);
+    let mut entries = vec![0u32; ntop + nblocks as usize];
+    let mut cell_min = vec![[0u32; 3]; ncells];
+    let mut cell_max = vec![[0u32; 3]; ncells];
+    let mut ref_first = vec![0u32; ncells + 1];
+    ref_first[ncells] = nrefs as u32;
+    let mut refs = vec![0u32; nrefs];
+    {
+        let (ep, lp, hp, fp, rp) = (
+            SharedMut(entries.as_mut_ptr()),
+            SharedMut(cell_min.as_mut_ptr()),
+            SharedMut(cell_max.as_mut_ptr()),
+            SharedMut(ref_first.as_mut_ptr()),
+            SharedMut(refs.as_mut_ptr()),
+        );
+        parts.into_par_iter().enumerate().for_each(|(task, p)| {
+            let (ep, lp, hp, fp, rp) = (&ep, &lp, &hp, &fp, &rp);
+            let (cb, bb, rb) = (
+                cell_base[task] as u32,
+                ntop as u32 + block_base[task] as u32,
+                ref_base[task] as usize,
+            );
+            // Blocks move by their base, cells by theirs (as `voxelmap::flatten` rebases).
+            let rebase = |e: u32| {
+                if e & voxelmap::NODE == 0 {
+                    e + cb
+                } else {
+                    e + bb
+                }
+            };
+            // SAFETY: task `task` owns its top cells' entries, [bb, + its blocks), cells
+            // [cb, + its cells) and references [rb, + its references), by the scans.
+            unsafe {
+                for (k, &e) in p.roots.iter().enumerate() {
+                    ep.write(task * TOP_CELLS_PER_TASK + k, rebase(e));
+                }
+                for (k, &e) in p.blocks.iter().enumerate() {
+                    ep.write(bb as usize + k, rebase(e));
+                }
+                let mut r = rb as u32;
+                for (k, (&c, &l)) in p.coord.iter().zip(&p.level).enumerate() {
+                    let s = shift - l as u32;
+                    let lo = c.map(|v| v << s);
+                    lp.write(cb as usize + k, lo);
+                    hp.write(cb as usize + k, lo.map(|v| v + (1 << s)));
+                    fp.write(cb as usize + k, r);
+                    r += p.count[k];
+                }
+                std::ptr::copy_nonoverlapping(p.refs.as_ptr(), rp.0.add(rb), p.refs.len());
+            }
+        });
+    }
+    Ok(assemble_cells(
+        st,
+        shift,
+        entries,
+        (cell_min, cell_max),
+        ref_first,
+        refs,
+    ))
+}
