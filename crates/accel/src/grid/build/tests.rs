@@ -86,26 +86,29 @@ fn top_cell_build_equals_the_level_passes() {
     for (name, sc) in &scenes {
         let geo = Geometry::from_scene(sc);
         for (what, cfg) in &configs {
-            let a = initial(&geo.tris, cfg).unwrap();
             let b = initial_by_levels(&geo.tris, cfg).unwrap();
-            let at = format!("{name}, {what}");
-            assert_eq!(a.shift, b.shift, "{at}: levels");
-            assert_eq!(a.top_dims, b.top_dims, "{at}: top grid");
-            same(&a.entries, &b.entries, &format!("{at}: voxel map"));
-            same(&a.cell_min, &b.cell_min, &format!("{at}: cell minima"));
-            same(&a.cell_max, &b.cell_max, &format!("{at}: cell maxima"));
-            same(
-                &a.ref_first,
-                &b.ref_first,
-                &format!("{at}: reference ranges"),
-            );
-            same(&a.refs, &b.refs, &format!("{at}: references"));
-            assert_eq!(a.build.initial_cells, b.build.initial_cells, "{at}");
-            let top = a.top_dims.iter().product::<u32>() as usize;
-            nested += a.entries[top..]
-                .iter()
-                .filter(|&&e| e & voxelmap::NODE != 0)
-                .count();
+            // One wave, and waves of a few top cells each (the parts appended in turn).
+            for wave in [u64::MAX, 1, 97] {
+                let a = topcells::initial_in_waves(&geo.tris, cfg, wave).unwrap();
+                let at = format!("{name}, {what}, waves of {wave} references");
+                assert_eq!(a.shift, b.shift, "{at}: levels");
+                assert_eq!(a.top_dims, b.top_dims, "{at}: top grid");
+                same(&a.entries, &b.entries, &format!("{at}: voxel map"));
+                same(&a.cell_min, &b.cell_min, &format!("{at}: cell minima"));
+                same(&a.cell_max, &b.cell_max, &format!("{at}: cell maxima"));
+                same(
+                    &a.ref_first,
+                    &b.ref_first,
+                    &format!("{at}: reference ranges"),
+                );
+                same(&a.refs, &b.refs, &format!("{at}: references"));
+                assert_eq!(a.build.initial_cells, b.build.initial_cells, "{at}");
+                let top = a.top_dims.iter().product::<u32>() as usize;
+                nested += a.entries[top..]
+                    .iter()
+                    .filter(|&&e| e & voxelmap::NODE != 0)
+                    .count();
+            }
         }
     }
     assert!(nested > 0, "some octree is deeper than one block");
@@ -133,4 +136,26 @@ fn same<T: PartialEq + std::fmt::Debug>(a: &[T], b: &[T], what: &str) {
         panic!("{what}: differ first at {i}: {:?} against {:?}", a[i], b[i]);
     }
     assert_eq!(a.len(), b.len(), "{what}: lengths");
+}
+
+/// Waves cover the top cells in order, each at least one top cell and, past its first top
+/// cell, below the wave's reference budget.
+#[test]
+fn waves_split_the_top_cells_by_references() {
+    let first = [0u32, 5, 5, 9, 30, 31, 31, 40];
+    for budget in [1u64, 4, 10, 100] {
+        let w = topcells::waves(&first, budget);
+        assert_eq!(w.first().map(|r| r.start), Some(0));
+        assert_eq!(w.last().map(|r| r.end), Some(first.len() - 1));
+        for pair in w.windows(2) {
+            assert_eq!(pair[0].end, pair[1].start);
+        }
+        for r in &w {
+            assert!(!r.is_empty());
+            let refs = (first[r.end - 1] - first[r.start]) as u64;
+            assert!(refs < budget.max(1), "{r:?} with budget {budget}");
+        }
+    }
+    // A budget of one reference: one wave per non-empty top cell, empty ones riding along.
+    assert_eq!(topcells::waves(&first, 1), [0..1, 1..3, 3..4, 4..5, 5..7]);
 }

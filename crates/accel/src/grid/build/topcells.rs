@@ -15,7 +15,9 @@
 //!   ascending triangle order, so a leaf's list is already sorted);
 //! - the leaves come out depth first in Morton order, which is the voxel map's cell order
 //!   ([`voxelmap::flatten_top`] writes the top cell's blocks), so cells, their references and
-//!   the map are written once, in place, by a scan over chunks of top cells.
+//!   the map are appended once, in order: top cells go in waves of about a million
+//!   references, each wave's tasks build parts that are then appended (placed by scans) and
+//!   reused by the next wave, so the build holds one wave's parts beside the grid.
 //!
 //! The caps ([`Limits`]) hold as before: every leaf's references and every split's 8 nodes
 //! are counted against them (shared atomic tallies) before they are stored, and the first
@@ -24,6 +26,7 @@
 use super::cells::assemble_cells;
 use super::*;
 use std::sync::atomic::AtomicU64;
+use std::sync::Mutex;
 
 /// Top cells per task: enough work to amortise a task, few enough to balance 2–16 threads.
 const TOP_CELLS_PER_TASK: usize = 32;
@@ -39,6 +42,19 @@ struct Part {
     count: Vec<u32>,
     refs: Vec<u32>,
     deepest: u32,
+}
+
+impl Part {
+    /// Empty, keeping the buffers (parts are reused from wave to wave).
+    fn clear(&mut self) {
+        self.roots.clear();
+        self.blocks.clear();
+        self.coord.clear();
+        self.level.clear();
+        self.count.clear();
+        self.refs.clear();
+        self.deepest = 0;
+    }
 }
 
 /// A thread's working memory, reused from top cell to top cell: the top cell's triangles
@@ -218,6 +234,15 @@ impl Tree<'_, '_> {
 /// The initial structure (§4.1), top cell by top cell: the same [`Grid`] as [`subdivide`]
 /// followed by [`finish`].
 pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridError> {
+    initial_in_waves(tris, cfg, WAVE_REFS)
+}
+
+/// [`initial`] in waves of about `wave_refs` top-cell references (tests use small waves).
+pub(super) fn initial_in_waves(
+    tris: &[[Vec3; 3]],
+    cfg: &GridConfig,
+    wave_refs: u64,
+) -> Result<Grid, GridError> {
     let t0 = Instant::now();
     let tri_box: Vec<Aabb> = tris
         .par_iter()
@@ -261,102 +286,133 @@ pub fn initial(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridError> 
         nodes: AtomicU64::new(ntop as u64),
         failed: AtomicBool::new(false),
     };
-    let tasks = ntop.div_ceil(TOP_CELLS_PER_TASK);
-    let parts: Result<Vec<Part>, GridError> = (0..tasks)
-        .into_par_iter()
-        .map_init(
-            || Scratch {
-                tris: Vec::new(),
-                lists: Vec::new(),
-                masks: Vec::new(),
-                sparse: Vec::new(),
-                prepared: Vec::new(),
-                held: (0, 0),
-            },
-            |s, task| {
-                let tops = task * TOP_CELLS_PER_TASK..((task + 1) * TOP_CELLS_PER_TASK).min(ntop);
-                // Room for what the top cells will likely make (a hairball's references
-                // grow ~12× from top cell to leaf): pages never written cost nothing, and a
-                // list that grows by copying costs twice.
-                let top_refs = (first[tops.end] - first[tops.start]) as usize;
-                let mut out = Part {
-                    roots: Vec::with_capacity(tops.len()),
-                    blocks: Vec::with_capacity(4 * top_refs),
-                    coord: Vec::with_capacity(8 * top_refs),
-                    level: Vec::with_capacity(8 * top_refs),
-                    count: Vec::with_capacity(8 * top_refs),
-                    refs: Vec::with_capacity(16 * top_refs),
-                    deepest: 0,
-                };
-                for t in tops {
-                    if tally.failed.load(Ordering::Relaxed) {
-                        break; // Another task passed a cap: its error is returned.
-                    }
-                    let tree = Tree {
-                        f: &frame,
-                        cfg,
-                        lim: &st.limits,
-                        held: (
-                            tally.refs.load(Ordering::Relaxed),
-                            tally.nodes.load(Ordering::Relaxed),
-                        ),
-                        max_depth: st.max_depth,
-                        depth: depth[t],
-                        adaptive: cfg.subdivision == Subdivision::Adaptive,
-                    };
-                    s.tris.clear();
-                    s.tris
-                        .extend_from_slice(&grouped[first[t] as usize..first[t + 1] as usize]);
-                    s.lists.clear();
-                    s.lists.extend(0..s.tris.len() as u32);
-                    s.prepared.clear();
-                    s.prepared.resize(
-                        s.tris.len(),
-                        Local {
-                            sat: None,
-                            radii: [0.0; 13],
-                            level: u32::MAX,
-                        },
-                    );
-                    s.sparse.clear();
-                    let c = [
-                        t as u32 % st.top_dims[0],
-                        (t as u32 / st.top_dims[0]) % st.top_dims[1],
-                        t as u32 / (st.top_dims[0] * st.top_dims[1]),
-                    ];
-                    let cells_before = out.coord.len() as u32;
-                    s.held = (0, 0);
-                    let root = tree.node(s, &mut out, c, 0, (0, s.lists.len()));
-                    tally.refs.fetch_add(s.held.0, Ordering::Relaxed);
-                    tally.nodes.fetch_add(s.held.1, Ordering::Relaxed);
-                    let root = match root {
-                        Ok(e) => e,
-                        Err(e) => {
-                            tally.failed.store(true, Ordering::Relaxed);
-                            return Err(e);
+    // Waves of top cells, a few million references each: a wave's parts are placed (appended
+    // to the grid's arrays) before the next wave is built, and their buffers are reused, so
+    // the build holds one wave's parts on top of the grid, not a second copy of it.
+    let waves = waves(&first, wave_refs);
+    let pool: Mutex<Vec<Part>> = Mutex::new(Vec::new());
+    let mut placed = Placed::new(ntop);
+    let mut build_seconds = t1.elapsed().as_secs_f64();
+    for wave in waves {
+        let tw = Instant::now();
+        let tasks = wave.len().div_ceil(TOP_CELLS_PER_TASK);
+        let parts: Result<Vec<Part>, GridError> = (0..tasks)
+            .into_par_iter()
+            .map_init(
+                || Scratch {
+                    tris: Vec::new(),
+                    lists: Vec::new(),
+                    masks: Vec::new(),
+                    sparse: Vec::new(),
+                    prepared: Vec::new(),
+                    held: (0, 0),
+                },
+                |s, task| {
+                    let at = wave.start + task * TOP_CELLS_PER_TASK;
+                    let tops = at..(at + TOP_CELLS_PER_TASK).min(wave.end);
+                    let mut out = pool
+                        .lock()
+                        .ok()
+                        .and_then(|mut p| p.pop())
+                        .unwrap_or_default();
+                    out.clear();
+                    for t in tops {
+                        if tally.failed.load(Ordering::Relaxed) {
+                            break; // Another task passed a cap: its error is returned.
                         }
-                    };
-                    let root = if root & voxelmap::NODE == 0 {
-                        root
-                    } else {
-                        voxelmap::flatten_top(&s.sparse, root, &mut out.blocks, cells_before)
-                    };
-                    out.roots.push(root);
-                }
-                Ok(out)
-            },
-        )
-        .collect();
-    drop((grouped, first, depth));
-    let parts = parts?;
-    let octree_seconds = t1.elapsed().as_secs_f64();
+                        let tree = Tree {
+                            f: &frame,
+                            cfg,
+                            lim: &st.limits,
+                            held: (
+                                tally.refs.load(Ordering::Relaxed),
+                                tally.nodes.load(Ordering::Relaxed),
+                            ),
+                            max_depth: st.max_depth,
+                            depth: depth[t],
+                            adaptive: cfg.subdivision == Subdivision::Adaptive,
+                        };
+                        s.tris.clear();
+                        s.tris
+                            .extend_from_slice(&grouped[first[t] as usize..first[t + 1] as usize]);
+                        s.lists.clear();
+                        s.lists.extend(0..s.tris.len() as u32);
+                        s.prepared.clear();
+                        s.prepared.resize(
+                            s.tris.len(),
+                            Local {
+                                sat: None,
+                                radii: [0.0; 13],
+                                level: u32::MAX,
+                            },
+                        );
+                        s.sparse.clear();
+                        let c = [
+                            t as u32 % st.top_dims[0],
+                            (t as u32 / st.top_dims[0]) % st.top_dims[1],
+                            t as u32 / (st.top_dims[0] * st.top_dims[1]),
+                        ];
+                        let cells_before = out.coord.len() as u32;
+                        s.held = (0, 0);
+                        let root = tree.node(s, &mut out, c, 0, (0, s.lists.len()));
+                        tally.refs.fetch_add(s.held.0, Ordering::Relaxed);
+                        tally.nodes.fetch_add(s.held.1, Ordering::Relaxed);
+                        let root = match root {
+                            Ok(e) => e,
+                            Err(e) => {
+                                tally.failed.store(true, Ordering::Relaxed);
+                                return Err(e);
+                            }
+                        };
+                        let root = if root & voxelmap::NODE == 0 {
+                            root
+                        } else {
+                            voxelmap::flatten_top(&s.sparse, root, &mut out.blocks, cells_before)
+                        };
+                        out.roots.push(root);
+                    }
+                    Ok(out)
+                },
+            )
+            .collect();
+        let parts = parts?;
+        build_seconds += tw.elapsed().as_secs_f64();
+        placed.append(wave.start, &parts)?;
+        if let Ok(mut p) = pool.lock() {
+            p.extend(parts); // (A poisoned pool only follows a panic, which rayon re-raises.)
+        }
+    }
+    drop((grouped, first, depth, pool));
+    let octree_seconds = build_seconds;
 
-    let t2 = Instant::now();
-    let mut g = place(&st, parts)?;
+    let mut g = placed.finish(&st);
     g.build.top_refs_seconds = top_refs_seconds;
+    // The octrees' time is the waves' builds (and the grouping before them); the cells'
+    // is their placement and the footprints.
     g.build.octree_seconds = octree_seconds;
-    g.build.voxel_map_seconds = t2.elapsed().as_secs_f64();
+    g.build.voxel_map_seconds = t1.elapsed().as_secs_f64() - octree_seconds;
     Ok(g)
+}
+
+/// References per wave of top cells (the parts one wave holds are about 16× this in bytes).
+const WAVE_REFS: u64 = 1 << 20;
+
+/// Consecutive ranges of top cells with about `refs` references each (by `first`, the top
+/// cells' reference offsets); every top cell in one range.
+pub(super) fn waves(first: &[u32], refs: u64) -> Vec<std::ops::Range<usize>> {
+    let ntop = first.len() - 1;
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < ntop {
+        let target = (first[start] as u64 + refs).min(first[ntop] as u64) as u32;
+        // The first boundary past `start` at or beyond the target: the wave holds at least
+        // top cell `start`.
+        let end = start + 1 + first[start + 1..=ntop].partition_point(|&f| f < target);
+        let end = end.min(ntop);
+        out.push(start..end);
+        start = end;
+    }
+    out
 }
 
 /// The triangles of `ref_tri` grouped by their top cell (`ref_top`), each top cell's at
@@ -394,85 +450,132 @@ fn group(first: &[u32], ref_top: &[u32], ref_tri: &[u32]) -> Vec<u32> {
     grouped
 }
 
-/// The tasks' parts placed one after another (top cells in index order): the voxel map (top
-/// entries, then each top cell's blocks), the cells on the virtual grid and their references.
-fn place(st: &Setup, parts: Vec<Part>) -> Result<Grid, GridError> {
-    let ntop = st.ntop;
-    let shift = parts.iter().map(|p| p.deepest).max().unwrap_or(0);
-    let scan = |f: &dyn Fn(&Part) -> usize| {
-        let mut at = 0u64;
-        let bases: Vec<u64> = parts
-            .iter()
-            .map(|p| {
-                let b = at;
-                at += f(p) as u64;
-                b
-            })
-            .collect();
-        (bases, at)
-    };
-    let (cell_base, ncells) = scan(&|p| p.coord.len());
-    let (block_base, nblocks) = scan(&|p| p.blocks.len());
-    let (ref_base, nrefs) = scan(&|p| p.refs.len());
-    voxelmap::check_total(ntop as u64 + nblocks)?;
-    let (ncells, nrefs) = (ncells as usize, nrefs as usize);
-    let mut entries = vec![0u32; ntop + nblocks as usize];
-    let mut cell_min = vec![[0u32; 3]; ncells];
-    let mut cell_max = vec![[0u32; 3]; ncells];
-    let mut ref_first = vec![0u32; ncells + 1];
-    ref_first[ncells] = nrefs as u32;
-    let mut refs = vec![0u32; nrefs];
-    {
-        let (ep, lp, hp, fp, rp) = (
-            SharedMut(entries.as_mut_ptr()),
-            SharedMut(cell_min.as_mut_ptr()),
-            SharedMut(cell_max.as_mut_ptr()),
-            SharedMut(ref_first.as_mut_ptr()),
-            SharedMut(refs.as_mut_ptr()),
+/// The grid's arrays as the waves append to them (top cells in index order): the voxel map
+/// (top entries, then each top cell's blocks), the cells (octree coordinates and level until
+/// the deepest level is known) and their references.
+struct Placed {
+    entries: Vec<u32>,
+    coord: Vec<[u32; 3]>,
+    level: Vec<u8>,
+    ref_first: Vec<u32>,
+    refs: Vec<u32>,
+    deepest: u32,
+}
+
+impl Placed {
+    fn new(ntop: usize) -> Placed {
+        Placed {
+            entries: vec![0; ntop],
+            coord: Vec::new(),
+            level: Vec::new(),
+            ref_first: Vec::new(),
+            refs: Vec::new(),
+            deepest: 0,
+        }
+    }
+
+    /// Append one wave's parts (its first top cell `top`), in order: each part's blocks,
+    /// cells and references after the previous part's, its top entries rebased.
+    fn append(&mut self, top: usize, parts: &[Part]) -> Result<(), GridError> {
+        let scan = |f: &dyn Fn(&Part) -> usize, from: usize| {
+            let mut at = from;
+            let bases: Vec<usize> = parts
+                .iter()
+                .map(|p| {
+                    let b = at;
+                    at += f(p);
+                    b
+                })
+                .collect();
+            (bases, at)
+        };
+        let (cell_base, ncells) = scan(&|p| p.coord.len(), self.coord.len());
+        let (block_base, nentries) = scan(&|p| p.blocks.len(), self.entries.len());
+        let (ref_base, nrefs) = scan(&|p| p.refs.len(), self.refs.len());
+        voxelmap::check_total(nentries as u64)?;
+        // Room, not zeros: the parts write every new slot (a zero fill would be one more
+        // pass over the grid's largest arrays).
+        self.entries.reserve(nentries - self.entries.len());
+        self.coord.reserve(ncells - self.coord.len());
+        self.level.reserve(ncells - self.level.len());
+        self.ref_first.reserve(ncells - self.ref_first.len());
+        self.refs.reserve(nrefs - self.refs.len());
+        self.deepest = parts.iter().map(|p| p.deepest).fold(self.deepest, u32::max);
+        let (ep, cp, lp, fp, rp) = (
+            SharedMut(self.entries.as_mut_ptr()),
+            SharedMut(self.coord.as_mut_ptr()),
+            SharedMut(self.level.as_mut_ptr()),
+            SharedMut(self.ref_first.as_mut_ptr()),
+            SharedMut(self.refs.as_mut_ptr()),
         );
-        parts.into_par_iter().enumerate().for_each(|(task, p)| {
-            let (ep, lp, hp, fp, rp) = (&ep, &lp, &hp, &fp, &rp);
-            let (cb, bb, rb) = (
-                cell_base[task] as u32,
-                ntop as u32 + block_base[task] as u32,
-                ref_base[task] as usize,
-            );
+        parts.par_iter().enumerate().for_each(|(task, p)| {
+            let (ep, cp, lp, fp, rp) = (&ep, &cp, &lp, &fp, &rp);
+            let (cb, bb, rb) = (cell_base[task], block_base[task], ref_base[task]);
             // Blocks move by their base, cells by theirs (as `voxelmap::flatten` rebases).
             let rebase = |e: u32| {
                 if e & voxelmap::NODE == 0 {
-                    e + cb
+                    e + cb as u32
                 } else {
-                    e + bb
+                    e + bb as u32
                 }
             };
-            // SAFETY: task `task` owns its top cells' entries, [bb, + its blocks), cells
-            // [cb, + its cells) and references [rb, + its references), by the scans.
+            // SAFETY: part `task` owns its top cells' entries, the entries [bb, + its
+            // blocks), the cells [cb, + its cells) and the references [rb, + its
+            // references), by the scans; the arrays were sized for all of them.
             unsafe {
                 for (k, &e) in p.roots.iter().enumerate() {
-                    ep.write(task * TOP_CELLS_PER_TASK + k, rebase(e));
+                    ep.write(top + task * TOP_CELLS_PER_TASK + k, rebase(e));
                 }
                 for (k, &e) in p.blocks.iter().enumerate() {
-                    ep.write(bb as usize + k, rebase(e));
+                    ep.write(bb + k, rebase(e));
                 }
+                std::ptr::copy_nonoverlapping(p.coord.as_ptr(), cp.0.add(cb), p.coord.len());
+                std::ptr::copy_nonoverlapping(p.level.as_ptr(), lp.0.add(cb), p.level.len());
                 let mut r = rb as u32;
-                for (k, (&c, &l)) in p.coord.iter().zip(&p.level).enumerate() {
-                    let s = shift - l as u32;
-                    let lo = c.map(|v| v << s);
-                    lp.write(cb as usize + k, lo);
-                    hp.write(cb as usize + k, lo.map(|v| v + (1 << s)));
-                    fp.write(cb as usize + k, r);
-                    r += p.count[k];
+                for (k, &n) in p.count.iter().enumerate() {
+                    fp.write(cb + k, r);
+                    r += n;
                 }
                 std::ptr::copy_nonoverlapping(p.refs.as_ptr(), rp.0.add(rb), p.refs.len());
             }
         });
+        // SAFETY: the parts wrote every slot up to the new lengths (their ranges tile them),
+        // within the capacity reserved above.
+        unsafe {
+            self.entries.set_len(nentries);
+            self.coord.set_len(ncells);
+            self.level.set_len(ncells);
+            self.ref_first.set_len(ncells);
+            self.refs.set_len(nrefs);
+        }
+        Ok(())
     }
-    Ok(assemble_cells(
-        st,
-        shift,
-        entries,
-        (cell_min, cell_max),
-        ref_first,
-        refs,
-    ))
+
+    /// The [`Grid`] of the initial cells: each cell's footprint on the virtual grid from its
+    /// octree coordinates once the deepest level (the virtual grid's shift) is known.
+    fn finish(self, st: &Setup) -> Grid {
+        let Placed {
+            entries,
+            coord,
+            level,
+            mut ref_first,
+            refs,
+            deepest: shift,
+        } = self;
+        ref_first.push(refs.len() as u32);
+        // The coordinates become the minima in place; the maxima are the one new array.
+        let mut cell_min = coord;
+        let cell_max: Vec<[u32; 3]> = cell_min
+            .par_iter_mut()
+            .zip(level.par_iter())
+            .with_min_len(4096)
+            .map(|(c, &l)| {
+                let s = shift - l as u32;
+                *c = c.map(|v| v << s);
+                c.map(|v| v + (1 << s))
+            })
+            .collect();
+        drop(level);
+        assemble_cells(st, shift, entries, (cell_min, cell_max), ref_first, refs)
+    }
 }
