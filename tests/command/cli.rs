@@ -540,7 +540,7 @@ fn absurd_sizes_are_refused_before_allocating() {
         String::from_utf8_lossy(&o.stdout)
     );
     // The grid's memory model gets what the render leaves: densities in range but beyond
-    // 64 MiB are refused level by level before allocating (the bunny at λ = 10⁴ used to
+    // 64 MiB are refused as the cells are made, before storing (the bunny at λ = 10⁴ used to
     // take 7 GB and abort), and the message names the options on both sides.
     for g in [
         "--grid-top-density 1000",
