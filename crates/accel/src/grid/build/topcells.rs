@@ -15,7 +15,7 @@
 //!   ascending triangle order, so a leaf's list is already sorted);
 //! - the leaves come out depth first in Morton order, which is the voxel map's cell order
 //!   ([`voxelmap::flatten_top`] writes the top cell's blocks), so cells, their references and
-//!   the map are appended once, in order: top cells go in waves of about a million
+//!   the map are appended once, in order: top cells go in waves of about 2^18 top-cell
 //!   references, each wave's tasks build parts that are then appended (placed by scans) and
 //!   reused by the next wave, so the build holds one wave's parts beside the grid.
 //!
@@ -394,8 +394,12 @@ pub(super) fn initial_in_waves(
     Ok(g)
 }
 
-/// References per wave of top cells (the parts one wave holds are about 16× this in bytes).
-const WAVE_REFS: u64 = 1 << 20;
+/// Top-cell references per wave. A wave's parts hold about 16× this many leaf references
+/// (a hairball's growth from top cell to leaf) plus their cells, ~50 MB here, and stay
+/// resident once freed (the binaries keep freed buffers below 32 MB for reuse,
+/// `trace::memory::keep_freed_memory`): waves of 2^20 raised hairball:1M's whole-process peak
+/// from 1.62 to 1.78 GB.
+const WAVE_REFS: u64 = 1 << 18;
 
 /// Consecutive ranges of top cells with about `refs` references each (by `first`, the top
 /// cells' reference offsets); every top cell in one range.
