@@ -56,40 +56,9 @@ pub fn finish(st: &Setup, oct: Octrees) -> Result<Grid, GridError> {
     let total = exclusive_scan(&cell_count, &mut ref_first[..ncells]);
     ref_first[ncells] = total;
     debug_assert_eq!(total as usize, kept_tri.len());
-    // Scatter by cell with one cursor per cell, then order each cell's few references (the
-    // slots a cell gets are fixed, so the result does not depend on scheduling).
-    let cursor: Vec<AtomicU32> = ref_first[..ncells]
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&f| AtomicU32::new(f))
-        .collect();
-    let mut refs = vec![0u32; total as usize];
-    {
-        let rp = SharedMut(refs.as_mut_ptr());
-        (0..kept_tri.len())
-            .into_par_iter()
-            .with_min_len(4096)
-            .for_each(|r| {
-                let at = cursor[kept_cell[r] as usize].fetch_add(1, Ordering::Relaxed);
-                // SAFETY: each cursor hands out distinct slots of its cell's range.
-                unsafe { rp.write(at as usize, kept_tri[r]) };
-            });
-    }
-    {
-        let rp = SharedMut(refs.as_mut_ptr());
-        (0..ncells)
-            .into_par_iter()
-            .with_min_len(1024)
-            .for_each(|c| {
-                let (a, b) = (ref_first[c] as usize, ref_first[c + 1] as usize);
-                // The wrapper, not its raw field, crosses threads.
-                let whole = &rp;
-                // SAFETY: cell ranges are disjoint.
-                let s = unsafe { std::slice::from_raw_parts_mut(whole.0.add(a), b - a) };
-                s.sort_unstable();
-            });
-    }
-    drop((cursor, kept_cell, kept_tri, cell_count));
+    // Each cell's references, ascending.
+    let refs = group_sorted(&ref_first, &kept_cell, &kept_tri);
+    drop((kept_cell, kept_tri, cell_count));
     let mut g = assemble_cells(st, shift, entries, (cell_min, cell_max), ref_first, refs);
     g.build.voxel_map_seconds = t2.elapsed().as_secs_f64();
     Ok(g)

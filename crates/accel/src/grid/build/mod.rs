@@ -115,6 +115,32 @@ struct Frame<'a> {
     pad: f32,
 }
 
+impl<'a> Frame<'a> {
+    /// The build's [`Setup`] and frame for `tris` (both schedules of the initial cells start
+    /// here): the triangles' boxes, their union, and every check before the first pass.
+    fn of(tris: &'a [[Vec3; 3]], cfg: &GridConfig) -> Result<(Setup, Frame<'a>), GridError> {
+        let tri_box: Vec<Aabb> = tris
+            .par_iter()
+            .with_min_len(4096)
+            .map(|t| Aabb::from_points(t.iter().copied()))
+            .collect();
+        let tb = tri_box
+            .par_iter()
+            .with_min_len(4096)
+            .copied()
+            .reduce(Aabb::default, |a, b| a.union(&b));
+        let st = setup(tb, tris.len(), cfg)?;
+        let frame = Frame {
+            tris,
+            tri_box,
+            bounds: st.bounds,
+            tsize: st.tsize,
+            pad: st.pad,
+        };
+        Ok((st, frame))
+    }
+}
+
 impl Frame<'_> {
     /// The centre of the node at integer coordinates `c` of octree level `level`.
     #[inline]
@@ -452,6 +478,42 @@ fn top_refs(
             }
         },
     )
+}
+
+/// `vals` grouped by `keys` into the ranges `first[k]..first[k + 1]` (the exclusive scan of
+/// the keys' counts, its total last), each range then ascending: one cursor per key scatters
+/// in parallel, and the sort makes the result independent of the scheduling.
+fn group_sorted(first: &[u32], keys: &[u32], vals: &[u32]) -> Vec<u32> {
+    let n = first.len() - 1;
+    let cursor: Vec<AtomicU32> = first[..n]
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&f| AtomicU32::new(f))
+        .collect();
+    let mut out = vec![0u32; first[n] as usize];
+    {
+        let op = SharedMut(out.as_mut_ptr());
+        keys.par_iter()
+            .zip(vals.par_iter())
+            .with_min_len(4096)
+            .for_each(|(&k, &v)| {
+                let at = cursor[k as usize].fetch_add(1, Ordering::Relaxed);
+                let op = &op;
+                // SAFETY: each cursor hands out distinct slots of its key's range.
+                unsafe { op.write(at as usize, v) };
+            });
+    }
+    {
+        let op = SharedMut(out.as_mut_ptr());
+        (0..n).into_par_iter().with_min_len(256).for_each(|k| {
+            let (a, b) = (first[k] as usize, first[k + 1] as usize);
+            // The wrapper, not its raw field, crosses threads.
+            let whole = &op;
+            // SAFETY: the keys' ranges are disjoint.
+            unsafe { std::slice::from_raw_parts_mut(whole.0.add(a), b - a) }.sort_unstable();
+        });
+    }
+    out
 }
 
 /// Below the paper's depth, an adaptive node splits while λ₂ · (its references to triangles

@@ -10,24 +10,7 @@ pub fn subdivide(
     cfg: &GridConfig,
 ) -> Result<(Setup, Octrees, [f64; 2]), GridError> {
     let t0 = Instant::now();
-    let tri_box: Vec<Aabb> = tris
-        .par_iter()
-        .with_min_len(4096)
-        .map(|t| Aabb::from_points(t.iter().copied()))
-        .collect();
-    let tb = tri_box
-        .par_iter()
-        .with_min_len(4096)
-        .copied()
-        .reduce(Aabb::default, |a, b| a.union(&b));
-    let st = setup(tb, tris.len(), cfg)?;
-    let frame = Frame {
-        tris,
-        tri_box,
-        bounds: st.bounds,
-        tsize: st.tsize,
-        pad: st.pad,
-    };
+    let (st, frame) = Frame::of(tris, cfg)?;
     let (top_dims, ntop, lim) = (st.top_dims, st.ntop, st.limits);
     let (mut ref_node, mut ref_tri) = top_refs(&frame, top_dims, &lim)?;
     let top_refs_seconds = t0.elapsed().as_secs_f64();

@@ -71,6 +71,28 @@ struct Scratch {
     held: (u64, u64),
 }
 
+impl Scratch {
+    /// Ready for a top cell whose references are `tris`: the root's list holds them all,
+    /// nothing is prepared, the map and the counts are empty.
+    fn start(&mut self, tris: &[u32]) {
+        self.tris.clear();
+        self.tris.extend_from_slice(tris);
+        self.lists.clear();
+        self.lists.extend(0..tris.len() as u32);
+        self.prepared.clear();
+        self.prepared.resize(
+            tris.len(),
+            Local {
+                sat: None,
+                radii: [0.0; 13],
+                level: u32::MAX,
+            },
+        );
+        self.sparse.clear();
+        self.held = (0, 0);
+    }
+}
+
 /// A top cell's triangle's prepared test (made when first needed: most references are
 /// placed by the half-space tests alone) and its radii for one level's children (a
 /// triangle meets its sibling nodes at one level, so the radii are mostly reused).
@@ -104,8 +126,8 @@ struct Tree<'a, 'b> {
 
 impl Tree<'_, '_> {
     /// Subdivide the node at coordinates `c` of level `level` whose references are the top
-    /// cell's triangles at positions `s.lists[lo..hi]`; returns its sparse map entry (a cell id relative to `out`, or a
-    /// block of 8 children in `s.sparse`).
+    /// cell's triangles at positions `s.lists[lo..hi]`; returns its sparse map entry (a cell
+    /// id relative to `out`, or a block of 8 children in `s.sparse`).
     fn node(
         &self,
         s: &mut Scratch,
@@ -203,9 +225,7 @@ impl Tree<'_, '_> {
         s.lists.truncate(base);
         Ok(voxelmap::node(first as u32, 1))
     }
-}
 
-impl Tree<'_, '_> {
     /// [`Frame::child_mask`] of the top cell's triangle at position `l`, its prepared test
     /// and radii kept in `s.prepared` (the same values as made afresh).
     #[inline]
@@ -244,24 +264,7 @@ pub(super) fn initial_in_waves(
     wave_refs: u64,
 ) -> Result<Grid, GridError> {
     let t0 = Instant::now();
-    let tri_box: Vec<Aabb> = tris
-        .par_iter()
-        .with_min_len(4096)
-        .map(|t| Aabb::from_points(t.iter().copied()))
-        .collect();
-    let tb = tri_box
-        .par_iter()
-        .with_min_len(4096)
-        .copied()
-        .reduce(Aabb::default, |a, b| a.union(&b));
-    let st = setup(tb, tris.len(), cfg)?;
-    let frame = Frame {
-        tris,
-        tri_box,
-        bounds: st.bounds,
-        tsize: st.tsize,
-        pad: st.pad,
-    };
+    let (st, frame) = Frame::of(tris, cfg)?;
     let (ref_top, ref_tri) = top_refs(&frame, st.top_dims, &st.limits)?;
     let top_refs_seconds = t0.elapsed().as_secs_f64();
 
@@ -272,7 +275,7 @@ pub(super) fn initial_in_waves(
     let mut first = vec![0u32; ntop + 1];
     let total = exclusive_scan(&count, &mut first[..ntop]);
     first[ntop] = total;
-    let grouped = group(&first, &ref_top, &ref_tri);
+    let grouped = group_sorted(&first, &ref_top, &ref_tri);
     drop((ref_top, ref_tri));
     let depth: Vec<u32> = count
         .par_iter()
@@ -286,13 +289,13 @@ pub(super) fn initial_in_waves(
         nodes: AtomicU64::new(ntop as u64),
         failed: AtomicBool::new(false),
     };
-    // Waves of top cells, a few million references each: a wave's parts are placed (appended
-    // to the grid's arrays) before the next wave is built, and their buffers are reused, so
+    // Waves of top cells ([`WAVE_REFS`] top-cell references each): a wave's parts are placed
+    // (appended to the grid's arrays) before the next wave is built, and their buffers are reused, so
     // the build holds one wave's parts on top of the grid, not a second copy of it.
     let waves = waves(&first, wave_refs);
     let pool: Mutex<Vec<Part>> = Mutex::new(Vec::new());
     let mut placed = Placed::new(ntop);
-    let mut build_seconds = t1.elapsed().as_secs_f64();
+    let mut octree_seconds = t1.elapsed().as_secs_f64();
     for wave in waves {
         let tw = Instant::now();
         let tasks = wave.len().div_ceil(TOP_CELLS_PER_TASK);
@@ -332,28 +335,13 @@ pub(super) fn initial_in_waves(
                             depth: depth[t],
                             adaptive: cfg.subdivision == Subdivision::Adaptive,
                         };
-                        s.tris.clear();
-                        s.tris
-                            .extend_from_slice(&grouped[first[t] as usize..first[t + 1] as usize]);
-                        s.lists.clear();
-                        s.lists.extend(0..s.tris.len() as u32);
-                        s.prepared.clear();
-                        s.prepared.resize(
-                            s.tris.len(),
-                            Local {
-                                sat: None,
-                                radii: [0.0; 13],
-                                level: u32::MAX,
-                            },
-                        );
-                        s.sparse.clear();
+                        s.start(&grouped[first[t] as usize..first[t + 1] as usize]);
                         let c = [
                             t as u32 % st.top_dims[0],
                             (t as u32 / st.top_dims[0]) % st.top_dims[1],
                             t as u32 / (st.top_dims[0] * st.top_dims[1]),
                         ];
                         let cells_before = out.coord.len() as u32;
-                        s.held = (0, 0);
                         let root = tree.node(s, &mut out, c, 0, (0, s.lists.len()));
                         tally.refs.fetch_add(s.held.0, Ordering::Relaxed);
                         tally.nodes.fetch_add(s.held.1, Ordering::Relaxed);
@@ -376,14 +364,13 @@ pub(super) fn initial_in_waves(
             )
             .collect();
         let parts = parts?;
-        build_seconds += tw.elapsed().as_secs_f64();
+        octree_seconds += tw.elapsed().as_secs_f64();
         placed.append(wave.start, &parts)?;
         if let Ok(mut p) = pool.lock() {
             p.extend(parts); // (A poisoned pool only follows a panic, which rayon re-raises.)
         }
     }
     drop((grouped, first, depth, pool));
-    let octree_seconds = build_seconds;
 
     let mut g = placed.finish(&st);
     g.build.top_refs_seconds = top_refs_seconds;
@@ -417,41 +404,6 @@ pub(super) fn waves(first: &[u32], refs: u64) -> Vec<std::ops::Range<usize>> {
         start = end;
     }
     out
-}
-
-/// The triangles of `ref_tri` grouped by their top cell (`ref_top`), each top cell's at
-/// `first[t]..first[t + 1]` in ascending order.
-fn group(first: &[u32], ref_top: &[u32], ref_tri: &[u32]) -> Vec<u32> {
-    let ntop = first.len() - 1;
-    let cursor: Vec<AtomicU32> = first[..ntop]
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&f| AtomicU32::new(f))
-        .collect();
-    let mut grouped = vec![0u32; first[ntop] as usize];
-    {
-        let gp = SharedMut(grouped.as_mut_ptr());
-        ref_top
-            .par_iter()
-            .zip(ref_tri.par_iter())
-            .with_min_len(4096)
-            .for_each(|(&t, &tri)| {
-                let at = cursor[t as usize].fetch_add(1, Ordering::Relaxed);
-                let gp = &gp;
-                // SAFETY: each cursor hands out distinct slots of its top cell's range.
-                unsafe { gp.write(at as usize, tri) };
-            });
-    }
-    {
-        let gp = SharedMut(grouped.as_mut_ptr());
-        (0..ntop).into_par_iter().with_min_len(256).for_each(|t| {
-            let (a, b) = (first[t] as usize, first[t + 1] as usize);
-            let whole = &gp;
-            // SAFETY: top cells' ranges are disjoint.
-            unsafe { std::slice::from_raw_parts_mut(whole.0.add(a), b - a) }.sort_unstable();
-        });
-    }
-    grouped
 }
 
 /// The grid's arrays as the waves append to them (top cells in index order): the voxel map
