@@ -35,6 +35,18 @@ impl Aabb {
         Aabb { min, max }
     }
 
+    /// The box of a triangle: [`Aabb::from_points`] of its three vertices (the same
+    /// minima and maxima in the same order), inlined: the builders make one per triangle
+    /// per frame, and the iterator version was not inlined there.
+    #[inline]
+    pub fn of_triangle(t: &[Vec3; 3]) -> Self {
+        let e = Self::EMPTY;
+        Aabb {
+            min: e.min.min(t[0]).min(t[1]).min(t[2]),
+            max: e.max.max(t[0]).max(t[1]).max(t[2]),
+        }
+    }
+
     /// The smallest box containing `pts` ([`Aabb::EMPTY`] for none).
     pub fn from_points(pts: impl IntoIterator<Item = Vec3>) -> Self {
         let mut b = Self::EMPTY;
@@ -206,6 +218,30 @@ mod tests {
         assert!(b
             .intersect_ray(&Ray::new(Vec3::new(0.5, 0.5, 1.5), Vec3::Z, 0.0, 1.0))
             .is_none());
+    }
+
+    #[test]
+    fn a_triangles_box_is_its_points_box() {
+        let mut rng = crate::rng::Pcg32::new(7, 1);
+        let mut f = || (rng.next_f32() - 0.5) * 100.0;
+        for _ in 0..1000 {
+            let t = [0; 3].map(|_| Vec3::new(f(), f(), f()));
+            let a = Aabb::of_triangle(&t);
+            let b = Aabb::from_points(t);
+            assert_eq!(
+                a.min.to_array().map(f32::to_bits),
+                b.min.to_array().map(f32::to_bits)
+            );
+            assert_eq!(
+                a.max.to_array().map(f32::to_bits),
+                b.max.to_array().map(f32::to_bits)
+            );
+        }
+        let odd = [Vec3::new(-0.0, 0.0, f32::NAN), Vec3::ZERO, Vec3::INFINITY];
+        assert_eq!(
+            format!("{:?}", Aabb::of_triangle(&odd)),
+            format!("{:?}", Aabb::from_points(odd))
+        );
     }
 
     #[test]

@@ -554,7 +554,7 @@ pub fn build(
         let leaf = tris
             .iter()
             .map(|t| {
-                let b = Aabb::from_points(t.iter().copied());
+                let b = Aabb::of_triangle(t);
                 Bounds {
                     sphere: Sphere::of_triangle(t[0], t[1], t[2]),
                     bbox: grown(&b, &b),
@@ -574,7 +574,7 @@ pub fn build(
     let boxes: Vec<Aabb> = tris
         .par_iter()
         .with_min_len(4096)
-        .map(|t| Aabb::from_points(t.iter().copied()))
+        .map(Aabb::of_triangle)
         .collect();
     // The scene's box (the boxes' growth: the root's box, which min and max make exactly
     // whatever the order).

@@ -62,7 +62,7 @@ pub fn padded_bounds(tris: &[[Vec3; 3]]) -> Aabb {
     let b = tris
         .par_iter()
         .with_min_len(4096)
-        .map(|t| Aabb::from_points(t.iter().copied()))
+        .map(Aabb::of_triangle)
         .reduce(Aabb::default, |a, b| a.union(&b));
     pad_bounds(b)
 }
@@ -122,7 +122,7 @@ impl<'a> Frame<'a> {
         let tri_box: Vec<Aabb> = tris
             .par_iter()
             .with_min_len(4096)
-            .map(|t| Aabb::from_points(t.iter().copied()))
+            .map(Aabb::of_triangle)
             .collect();
         let tb = tri_box
             .par_iter()
