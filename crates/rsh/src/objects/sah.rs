@@ -133,7 +133,10 @@ const EMPTY_BIN: Bin = Bin {
 #[inline]
 fn half_area(min: Vec3A, max: Vec3A) -> f32 {
     let e = (max - min).max(Vec3A::ZERO);
-    e.x * e.y + e.y * e.z + e.z * e.x
+    // (x·y + y·z) + z·x, its three products in one vector multiply (the same roundings
+    // in the same order as the scalar sum: the sweeps evaluate this for every bin).
+    let p = e * Vec3A::new(e.y, e.z, e.x);
+    (p.x + p.y) + p.z
 }
 
 /// Maps doubled centroids to `nb` bins per axis.
@@ -185,7 +188,9 @@ fn fold(bins: &mut Bins, prims: &[Prim], by: &Binner) {
     for p in prims {
         let i = by.bins(p.min + p.max);
         for k in 0..3 {
-            let b = &mut bins[k][i[k]];
+            // `bins` clamps to nb − 1 < BINS: the mask changes nothing and spares the
+            // bounds check.
+            let b = &mut bins[k][i[k] & (BINS - 1)];
             b.n += 1;
             b.min = b.min.min(p.min);
             b.max = b.max.max(p.max);
@@ -299,35 +304,53 @@ fn node(
 /// in one bin on every axis. Costs compare as `A(left)·N(left) + A(right)·N(right)`; ties
 /// keep the lower axis, then the lower bin.
 fn best_split(bins: &Bins, nb: usize) -> Option<(usize, usize)> {
-    let mut best: Option<(f32, usize, usize)> = None;
-    for (k, bins) in bins.iter().enumerate() {
-        let bins = &bins[..nb];
-        // Right-to-left sweep: the right side's area times count for every split.
-        let mut right_cost = [f32::INFINITY; BINS];
-        let (mut rmin, mut rmax, mut rn) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
-        for i in (1..nb).rev() {
-            rmin = rmin.min(bins[i].min);
-            rmax = rmax.max(bins[i].max);
-            rn += bins[i].n;
-            if rn > 0 {
-                right_cost[i] = half_area(rmin, rmax) * rn as f32;
-            }
-        }
-        let (mut lmin, mut lmax, mut ln) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
-        for i in 1..nb {
-            lmin = lmin.min(bins[i - 1].min);
-            lmax = lmax.max(bins[i - 1].max);
-            ln += bins[i - 1].n;
-            if ln == 0 || right_cost[i].is_infinite() {
-                continue;
-            }
-            let cost = half_area(lmin, lmax) * ln as f32 + right_cost[i];
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, k, i));
+    // The three axes' sweeps are independent chains of min/max: run side by side (bin by
+    // bin, axis by axis within), they overlap instead of waiting on each other; each axis
+    // still sees the same operations in the same order.
+    // Right-to-left: the right side's area times count for every split.
+    let mut right_cost = [[f32::INFINITY; BINS]; 3];
+    let mut rmin = [Vec3A::INFINITY; 3];
+    let mut rmax = [Vec3A::NEG_INFINITY; 3];
+    let mut rn = [0u32; 3];
+    for i in (1..nb).rev() {
+        for k in 0..3 {
+            let b = &bins[k][i];
+            rmin[k] = rmin[k].min(b.min);
+            rmax[k] = rmax[k].max(b.max);
+            rn[k] += b.n;
+            if rn[k] > 0 {
+                right_cost[k][i] = half_area(rmin[k], rmax[k]) * rn[k] as f32;
             }
         }
     }
-    best.map(|(_, k, i)| (k, i))
+    // Left-to-right: each split's cost, the least per axis (ties: the lower bin).
+    let mut lmin = [Vec3A::INFINITY; 3];
+    let mut lmax = [Vec3A::NEG_INFINITY; 3];
+    let mut ln = [0u32; 3];
+    let mut best = [(f32::INFINITY, usize::MAX); 3];
+    for i in 1..nb {
+        for k in 0..3 {
+            let b = &bins[k][i - 1];
+            lmin[k] = lmin[k].min(b.min);
+            lmax[k] = lmax[k].max(b.max);
+            ln[k] += b.n;
+            if ln[k] == 0 || right_cost[k][i].is_infinite() {
+                continue;
+            }
+            let cost = half_area(lmin[k], lmax[k]) * ln[k] as f32 + right_cost[k][i];
+            if best[k].1 == usize::MAX || cost < best[k].0 {
+                best[k] = (cost, i);
+            }
+        }
+    }
+    // Across axes: ties keep the lower axis.
+    let mut out: Option<(f32, usize, usize)> = None;
+    for (k, &(cost, i)) in best.iter().enumerate() {
+        if i != usize::MAX && out.is_none_or(|(c, _, _)| cost < c) {
+            out = Some((cost, k, i));
+        }
+    }
+    out.map(|(_, k, i)| (k, i))
 }
 
 /// Move the prims (and their ids) whose doubled centroid `left` accepts to the front, in a
