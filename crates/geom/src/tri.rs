@@ -101,6 +101,13 @@ impl RayPre {
 /// Intersect a ray with the triangle (a, b, c). Returns the hit when `t_min < t < t_max`.
 #[inline]
 pub fn intersect(r: &RayPre, a0: Vec3, b0: Vec3, c0: Vec3) -> Option<TriHit> {
+    intersect_inlined(r, a0, b0, c0)
+}
+
+/// [`intersect`], always inlined: for the hot loops of traversals whose other work is
+/// small per triangle (a call, its spills and reloads cost there what the test does).
+#[inline(always)]
+pub fn intersect_inlined(r: &RayPre, a0: Vec3, b0: Vec3, c0: Vec3) -> Option<TriHit> {
     let a = a0 - r.org;
     let b = b0 - r.org;
     let c = c0 - r.org;

@@ -10,17 +10,20 @@
 //! batch before any of that work; the engine then takes this path or the bundles
 //! ([`crate::RayPath`]), and reports which in the stats.
 //!
-//! Per ray: a stack of (collapsed node, entry distance); each popped node's 8 boxes are
-//! slab-tested at once (AVX2 lanes, or the scalar [`boxes_scalar`] on CPUs without it:
-//! the same answers, tested), its passing triangles get the shared kernel
-//! ([`geom::intersect`], so every hit is brute force's bit for bit), and its passing inner
-//! children are pushed farthest first. A popped node whose entry lies beyond the closest
-//! hit so far is skipped untested. The boxes are the tree's grown boxes and the slab test
+//! Per ray: the node being visited, and a stack of (collapsed node, entry distance) to
+//! come back to; each visited node's 8 boxes are slab-tested at once (AVX2 lanes, or the
+//! scalar [`boxes_scalar`] on CPUs without it: the same answers, tested), its passing
+//! triangles get the shared kernel ([`geom::intersect`], inlined: so every hit is brute
+//! force's bit for bit), and of its passing inner children entered before the closest hit
+//! so far the nearest is visited next and the others are pushed farthest first, so a node
+//! with one such child (the common case) touches no stack. A popped node whose entry lies
+//! beyond the closest hit so far is skipped untested. The boxes are the tree's grown boxes and the slab test
 //! is Ize's robust one, so no triangle a ray reaches is ever culled; ties at equal t are
 //! kept (inclusive slabs), so the smallest triangle id wins as in brute force.
 
 use crate::objects::{BoxNode, ObjectTree, LEAF};
 use crate::traverse::pack;
+use geom::tri::intersect_inlined;
 use geom::tri::RayPre;
 use geom::{intersect, Vec3};
 use rayon::prelude::*;
@@ -304,7 +307,7 @@ fn walk_ray(
         let p = p as usize;
         c.final_tests[kind] += k as u64;
         for (j, &[a, b, cc]) in tree.leaf_tris[p..p + k as usize].iter().enumerate() {
-            if let Some(hit) = intersect(&pre, a, b, cc) {
+            if let Some(hit) = intersect_inlined(&pre, a, b, cc) {
                 let key = pack(hit.t, tree.tri_order[p + j]);
                 if key < *best {
                     *best = key;
@@ -327,22 +330,28 @@ fn walk_ray(
         // Counted in registers, added once per ray.
         let (mut box_tests, mut box_passes) = (0u64, 0u64);
         stack.clear();
-        stack.push((0, f32::NEG_INFINITY));
-        'walk: while let Some((w, entry)) = stack.pop() {
+        // The node being visited stays out of the stack: a node with one passing inner
+        // child goes straight on to it, one with several pushes all but the nearest
+        // (Embree's BVH8 single-ray loop does the same), so most steps touch no stack.
+        let mut w = 0u32;
+        'walk: loop {
             let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
-            if entry > far {
-                // Entered beyond the closest hit found since it was pushed.
-                continue;
-            }
             let node = &tree.boxes[w as usize];
             let (mask, tn) = boxes(node, pre.org, inv, pre.t_min, far);
             box_tests += node.count as u64;
             box_passes += mask.count_ones() as u64;
             // Triangles first (they shorten the ray for the inner children), then the
-            // inner children, farthest pushed first so the nearest is popped next. The
-            // passing triangles are asked for before the first test (side by side in leaf
-            // order: their misses overlap).
+            // inner children.
             let mut m = mask & node.leaves as u8;
+            // The passing lanes' triangles are asked for before the first test (side by
+            // side in leaf order: their misses overlap).
+            let mut f = m;
+            while f != 0 {
+                let l = f.trailing_zeros() as usize;
+                f &= f - 1;
+                let p = (node.child[l] & !LEAF) as usize;
+                prefetch(tree.leaf_tris.as_ptr().wrapping_add(p) as *const u8, 2);
+            }
             while m != 0 {
                 let l = m.trailing_zeros() as usize;
                 m &= m - 1;
@@ -351,32 +360,50 @@ fn walk_ray(
                     break 'walk;
                 }
             }
+            let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
+            // The inner children the ray enters before its closest hit so far.
+            let mut m = mask & !node.leaves as u8;
             let mut inner = [(0u32, 0f32); 8];
             let mut ni = 0;
-            let mut m = mask & !node.leaves as u8;
             while m != 0 {
                 let l = m.trailing_zeros() as usize;
                 m &= m - 1;
                 inner[ni] = (node.child[l], tn[l]);
-                ni += 1;
+                ni += (tn[l] <= far) as usize;
             }
-            let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
-            let inner = &mut inner[..ni];
-            // Insertion sort by entry, farthest first (at most 8; stable, so equal
-            // entries keep lane order).
-            for i in 1..inner.len() {
-                let mut j = i;
-                while j > 0 && inner[j - 1].1 < inner[j].1 {
-                    inner.swap(j - 1, j);
-                    j -= 1;
+            let next = match ni {
+                0 => None,
+                1 => Some(inner[0].0),
+                _ => {
+                    // Insertion sort by entry, farthest first (at most 8; stable, so equal
+                    // entries keep lane order), all but the nearest pushed.
+                    let inner = &mut inner[..ni];
+                    for i in 1..inner.len() {
+                        let mut j = i;
+                        while j > 0 && inner[j - 1].1 < inner[j].1 {
+                            inner.swap(j - 1, j);
+                            j -= 1;
+                        }
+                    }
+                    for &(x, t) in &inner[..ni - 1] {
+                        prefetch(&tree.boxes[x as usize] as *const BoxNode as *const u8, 4);
+                        stack.push((x, t));
+                    }
+                    Some(inner[ni - 1].0)
                 }
-            }
-            for &(x, t) in inner.iter() {
-                if t <= far {
-                    prefetch(&tree.boxes[x as usize] as *const BoxNode as *const u8, 4);
-                    stack.push((x, t));
-                }
-            }
+            };
+            w = match next {
+                Some(x) => x,
+                None => loop {
+                    let Some((x, entry)) = stack.pop() else {
+                        break 'walk;
+                    };
+                    // Entered beyond the closest hit found since it was pushed: skipped.
+                    if entry <= pre.t_max.min(f32::from_bits((best >> 32) as u32)) {
+                        break x;
+                    }
+                },
+            };
         }
         c.box_tests += box_tests;
         c.box_passes += box_passes;
