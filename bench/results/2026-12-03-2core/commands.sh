@@ -48,3 +48,14 @@ for s in sponza conference kitchen; do
   done
 done
 } > $OUT/counts.txt
+# BART Kitchen 512², 3 bounces, 8 frames (frame CSVs; medians of frames 1-7 of build_ms,
+# trace_ms and their sum in the README), two rounds: kitchen-{base,new}-*.csv, then
+# kitchen-2-*.csv (the second round ran NEW first).
+K=$RAYSPACE_SCENES/bart-kitchen/aff/kitchen.aff
+for round in "" "2-"; do
+  for run in "base crsh" "new crsh" "new embree-stream"; do
+    set -- $run; bin=$NEW; [ $1 = base ] && bin=$BASE
+    rm -rf /tmp/kframes
+    $bin render "$K" -W 512 -H 512 -b 3 --frames 8 --engine $2 --out /tmp/kframes/%04d.png --frame-csv "$OUT/kitchen-$round$1-$2.csv" >/dev/null
+  done
+done
