@@ -254,6 +254,24 @@ mod tests {
     }
 }
 
+/// Every triangle's box ([`Aabb::of_triangle`], in parallel) and their union, the scene's
+/// box (min and max make it exactly, whatever the order of the reduction): where the
+/// builders (the object tree, the grid) start each frame.
+pub fn triangle_boxes(tris: &[[Vec3; 3]]) -> (Vec<Aabb>, Aabb) {
+    use rayon::prelude::*;
+    let boxes: Vec<Aabb> = tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(Aabb::of_triangle)
+        .collect();
+    let all = boxes
+        .par_iter()
+        .with_min_len(4096)
+        .copied()
+        .reduce(Aabb::default, |a, b| a.union(&b));
+    (boxes, all)
+}
+
 /// Exact triangle–box overlap by the separating axis theorem (Akenine-Möller 2001): the box
 /// axes, the triangle normal and the 9 edge cross products. Touching counts as overlapping.
 pub fn tri_overlaps_box(b: &Aabb, t: &[Vec3; 3]) -> bool {

@@ -571,18 +571,8 @@ pub fn build(
         n < LEAF as usize,
         "checked by RshEngine::new: fewer than 2^31 triangles"
     );
-    let boxes: Vec<Aabb> = tris
-        .par_iter()
-        .with_min_len(4096)
-        .map(Aabb::of_triangle)
-        .collect();
-    // The scene's box (the boxes' growth: the root's box, which min and max make exactly
-    // whatever the order).
-    let scene_box = boxes
-        .par_iter()
-        .with_min_len(4096)
-        .copied()
-        .reduce(Aabb::default, |a, b| a.union(&b));
+    // The triangles' boxes and the scene's box (the boxes' growth: the root's box).
+    let (boxes, scene_box) = geom::aabb::triangle_boxes(tris);
     let grow = |b: &Aabb| grown(b, &scene_box);
     let (
         RadixTree {

@@ -17,9 +17,10 @@
 //! force's bit for bit), and of its passing inner children entered before the closest hit
 //! so far the nearest is visited next and the others are pushed farthest first, so a node
 //! with one such child (the common case) touches no stack. A popped node whose entry lies
-//! beyond the closest hit so far is skipped untested. The boxes are the tree's grown boxes and the slab test
-//! is Ize's robust one, so no triangle a ray reaches is ever culled; ties at equal t are
-//! kept (inclusive slabs), so the smallest triangle id wins as in brute force.
+//! beyond the closest hit so far is skipped untested. The boxes are the tree's grown
+//! boxes and the slab test is Ize's robust one, so no triangle a ray reaches is ever
+//! culled; ties at equal t are kept (inclusive slabs), so the smallest triangle id wins as
+//! in brute force.
 
 use crate::objects::{BoxNode, ObjectTree, LEAF};
 use crate::traverse::pack;
@@ -326,6 +327,8 @@ fn walk_ray(
             }
         }
     } else {
+        // How far the ray still looks: its t_max, or the closest hit so far.
+        let reach = |best: u64| pre.t_max.min(f32::from_bits((best >> 32) as u32));
         let inv = slab_inverse(rays.dir[r]);
         // Counted in registers, added once per ray.
         let (mut box_tests, mut box_passes) = (0u64, 0u64);
@@ -335,7 +338,7 @@ fn walk_ray(
         // (Embree's BVH8 single-ray loop does the same), so most steps touch no stack.
         let mut w = 0u32;
         'walk: loop {
-            let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
+            let far = reach(best);
             let node = &tree.boxes[w as usize];
             let (mask, tn) = boxes(node, pre.org, inv, pre.t_min, far);
             box_tests += node.count as u64;
@@ -360,7 +363,7 @@ fn walk_ray(
                     break 'walk;
                 }
             }
-            let far = pre.t_max.min(f32::from_bits((best >> 32) as u32));
+            let far = reach(best);
             // The inner children the ray enters before its closest hit so far.
             let mut m = mask & !node.leaves as u8;
             let mut inner = [(0u32, 0f32); 8];
@@ -399,7 +402,7 @@ fn walk_ray(
                         break 'walk;
                     };
                     // Entered beyond the closest hit found since it was pushed: skipped.
-                    if entry <= pre.t_max.min(f32::from_bits((best >> 32) as u32)) {
+                    if entry <= reach(best) {
                         break x;
                     }
                 },

@@ -119,16 +119,7 @@ impl<'a> Frame<'a> {
     /// The build's [`Setup`] and frame for `tris` (both schedules of the initial cells start
     /// here): the triangles' boxes, their union, and every check before the first pass.
     fn of(tris: &'a [[Vec3; 3]], cfg: &GridConfig) -> Result<(Setup, Frame<'a>), GridError> {
-        let tri_box: Vec<Aabb> = tris
-            .par_iter()
-            .with_min_len(4096)
-            .map(Aabb::of_triangle)
-            .collect();
-        let tb = tri_box
-            .par_iter()
-            .with_min_len(4096)
-            .copied()
-            .reduce(Aabb::default, |a, b| a.union(&b));
+        let (tri_box, tb) = geom::aabb::triangle_boxes(tris);
         let st = setup(tb, tris.len(), cfg)?;
         let frame = Frame {
             tris,
