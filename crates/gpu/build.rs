@@ -18,6 +18,7 @@ use std::path::Path;
 /// this order.
 const MODULES: &[(&str, &[&str])] = &[
     ("Scan", &["prims/scan.wgsl"]),
+    ("Size", &["prims/size.wgsl"]),
     ("Sort", &["prims/sort.wgsl"]),
     ("Compact", &["prims/bindings.wgsl", "prims/compact.wgsl"]),
     ("Runs", &["prims/bindings.wgsl", "prims/runs.wgsl"]),

@@ -15,11 +15,17 @@
 //! binding of the device however many surfaces the bounces spawn; parts are processed in
 //! order, so the sums are the same as in one part. A frame of ordinary size is one part.
 //!
-//! What the host reads back per frame: the sizes that allocate the next buffers (4 bytes
-//! each), and at the end, in one read-back, the sRGB image (3 bytes per pixel) with the
-//! engine's counts of every trace of the frame, which stayed on the device until then
-//! ([`GpuEngine::take_pending`]: CRSH's single-ray counter blocks, the grid's step and test
-//! sums, 20 bytes per 1024 rays); the launches' parameter blocks go the other way.
+//! What the host reads back per frame: once, at the end, the sRGB image (3 bytes per
+//! pixel) with the engine's counts of every trace of the frame, which stayed on the device
+//! until then ([`GpuEngine::take_pending`]: CRSH's single-ray counter blocks, the grid's step
+//! and test sums, 20 bytes per 1024 rays), and the generations' sizes ([`sizes`]). A
+//! generation's size is counted by a scan on the device and stays there: its buffers are
+//! allocated at its bound (one surface per covered pixel or bounce ray, two bounce rays per
+//! surface), and every launch over them, the engine's included
+//! ([`GpuEngine::trace_device_counted`]), reads it there through an indirect dispatch. Only
+//! where the bound would not fit (one binding, the engine's part, the memory budget), or the
+//! engine sizes its passes on the host (CRSH/RAH in bundles), is a size read back (4 bytes)
+//! to allocate exactly. The launches' parameter blocks go the other way.
 //! [`crate::Gpu::bytes_moved`] counts every one of them.
 //!
 //! The pixel accumulation is order-independent of scheduling: one thread per run of equal
@@ -29,177 +35,36 @@
 use crate::device::{Gpu, GpuError};
 use crate::kernels::params::{
     EncodeParams, FrameCountParams, GbFlagsParams, GbSurfacesParams, HitSurfacesParams,
-    KindCountParams, MissesParams, ShadowMetaParams, TotalsParams,
+    KindCountParams, MissesParams, ShadowMetaParams,
 };
-use crate::kernels::{launch, Exec};
+use crate::kernels::{launch, DevLen, DevSize, Exec, Threads};
 use crate::raster::{DeviceGBuffer, GpuRaster};
 use crate::rays::DeviceRays;
-use crate::stages::Surf;
+use crate::stages::{Surf, SurfSizes};
 use crate::GpuEngine;
+
+pub mod sizes;
+mod totals;
 use render::raster::{GBuffer, RasterStats};
 use render::stats::{FramePhase, RenderStats};
 use render::whitted::{Backend, RenderOptions, Rendered};
 use render::View;
 use scene::Scene;
+use sizes::{Capacity, Counted, Deferrals};
 use std::time::Instant;
+pub(crate) use totals::{copy_pending, sum_totals, totals, totals_on_device, TOTALS_CHUNK};
+pub use totals::{settle, trace_device};
 use trace::{TraceMode, TraceStats};
-
-/// Rays per chunk of [`totals`] (`fr_totals` in `frame.wgsl`).
-const TOTALS_CHUNK: u64 = 1024;
-
-/// A trace's totals as read back by [`totals`].
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Totals {
-    pub hits: u64,
-    pub steps: u64,
-    pub tests: u64,
-}
-
-/// Hits among the `n` records `rec`, and with per-ray (steps, tests) counters `cnt` their
-/// sums: per-chunk sums (64-bit, as two words) read back and added on the host.
-pub(crate) fn totals(
-    ex: &mut Exec,
-    rec: &wgpu::Buffer,
-    cnt: Option<&wgpu::Buffer>,
-    n: u64,
-) -> Totals {
-    match totals_on_device(ex, rec, cnt, n) {
-        Some((out, words)) => sum_totals(&ex.read::<u32>(&out, words as usize)),
-        None => Totals::default(),
-    }
-}
-
-/// [`totals`]' per-chunk sums left on the device: (buffer, words), none for no rays.
-pub(crate) fn totals_on_device(
-    ex: &mut Exec,
-    rec: &wgpu::Buffer,
-    cnt: Option<&wgpu::Buffer>,
-    n: u64,
-) -> Option<(wgpu::Buffer, u64)> {
-    if n == 0 {
-        return None;
-    }
-    let chunks = n.div_ceil(TOTALS_CHUNK);
-    let out = ex.g.storage("trace totals", chunks * 20);
-    let dummy;
-    let cb = match cnt {
-        Some(c) => c,
-        None => {
-            dummy = ex.g.storage("no counters", 8);
-            &dummy
-        }
-    };
-    ex.run(
-        launch::FrTotals {
-            rec,
-            out_u: &out,
-            cnt: cb,
-        },
-        TotalsParams {
-            rays: n as u32,
-            counters: cnt.is_some() as u32,
-        },
-        chunks,
-        256,
-    );
-    Some((out, chunks * 5))
-}
-
-/// The sum of per-chunk totals (5 words each: hits, steps low/high, tests low/high), of one
-/// trace or of several laid end to end.
-pub(crate) fn sum_totals(words: &[u32]) -> Totals {
-    let w = |lo: u32, hi: u32| lo as u64 | (hi as u64) << 32;
-    words
-        .chunks_exact(5)
-        .fold(Totals::default(), |t, c| Totals {
-            hits: t.hits + c[0] as u64,
-            steps: t.steps + w(c[1], c[2]),
-            tests: t.tests + w(c[3], c[4]),
-        })
-}
-
-/// The counts `engine`'s traces on the device left there ([`GpuEngine::take_pending`]) read
-/// back, in one read-back, into `stats`: for a caller of [`trace_device`] outside a frame
-/// (a frame reads them with its image).
-pub fn settle(engine: &dyn GpuEngine, stats: &mut TraceStats) {
-    let pending = engine.take_pending();
-    let words: u64 = pending.iter().map(|p| p.1).sum();
-    if words == 0 {
-        return;
-    }
-    let g = engine.gpu();
-    let mut ex = Exec::new(g, engine.kernels());
-    let all = g.storage("pending counters", words * 4);
-    copy_pending(&mut ex, &pending, &all, 0);
-    let raw: Vec<u32> = ex.read(&all, words as usize);
-    engine.settle(&raw, stats);
-}
-
-/// The pending counter blocks laid end to end into `all` from byte `at`.
-fn copy_pending(ex: &mut Exec, pending: &[(wgpu::Buffer, u64)], all: &wgpu::Buffer, at: u64) {
-    let mut at = at;
-    for (b, w) in pending {
-        ex.copy_at(b, 0, all, at, w * 4);
-        at += w * 4;
-    }
-}
-
-/// Trace rays `rays` on the device with `engine`, in parts of at most its
-/// [`GpuEngine::max_rays`] (each part's rays copied out on the device, its records copied
-/// back), counting into `stats` as [`trace::Tracer::trace`] does, less the counts the engine
-/// keeps on the device until [`settle`] (or the frame's image) reads them; the records
-/// (triangle, t, u, v bits) stay on the device.
-pub fn trace_device(
-    engine: &dyn GpuEngine,
-    rays: &DeviceRays,
-    mode: TraceMode,
-    stats: &mut TraceStats,
-) -> wgpu::Buffer {
-    let g = engine.gpu();
-    let n = rays.len;
-    stats.rays += n;
-    let max = engine.max_rays().max(1) as u64;
-    if n <= max {
-        return engine.trace_device_part(rays, mode, stats);
-    }
-    let rec = g.storage("records", n * 16);
-    let mut lo = 0;
-    while lo < n {
-        let m = max.min(n - lo);
-        let part = {
-            let mut ex = Exec::new(g, engine.kernels());
-            let cut = |ex: &mut Exec, b: &wgpu::Buffer, size: u64, label| {
-                let p = g.storage(label, m * size);
-                ex.copy(b, lo * size, &p, m * size);
-                p
-            };
-            let p = DeviceRays {
-                org: cut(&mut ex, &rays.org, 16, "part org"),
-                dir: cut(&mut ex, &rays.dir, 16, "part dir"),
-                kl: cut(&mut ex, &rays.kl, 4, "part kind"),
-                pix: cut(&mut ex, &rays.pix, 4, "part pixel"),
-                pre: g.storage("part ray constants", m * 16),
-                len: m,
-                width: rays.width,
-            };
-            ex.finish();
-            p
-        };
-        let r = engine.trace_device_part(&part, mode, stats);
-        let mut ex = Exec::new(g, engine.kernels());
-        ex.copy_at(&r, 0, &rec, lo * 16, m * 16);
-        ex.finish();
-        lo += m;
-    }
-    rec
-}
 
 /// One part of a generation's surfaces on the device: `stages.wgsl`'s six arrays and their
 /// pixels.
 pub struct DeviceSurfaces {
     s: Surf,
     pix: wgpu::Buffer,
+    /// The surfaces, or with `sizes` their bound (the buffers' room).
     len: u64,
+    /// A count only the device holds ([`sizes`]), made ready for the launches over it.
+    sizes: Option<SurfSizes>,
 }
 
 impl DeviceSurfaces {
@@ -208,6 +73,7 @@ impl DeviceSurfaces {
             s: Surf::new(g, n),
             pix: g.storage("surface pixel", n * 4),
             len: n,
+            sizes: None,
         }
     }
 }
@@ -215,10 +81,14 @@ impl DeviceSurfaces {
 /// One part of a ray batch on the device: the rays, and a bounce ray's weight (shadow rays
 /// carry none: their surface's throughput applies).
 pub struct DeviceBatch {
+    /// The rays; with `count`, `rays.len` is their bound.
     rays: DeviceRays,
     weight: Option<wgpu::Buffer>,
     /// A bounce batch's refraction rays (counted on the device as it was made).
     refractions: u64,
+    /// A count only the device holds ([`sizes`]), and a bounce batch's per-chunk
+    /// refraction counts (buffer, words) left there with it.
+    count: Option<(DevSize, Option<(wgpu::Buffer, u64)>)>,
 }
 
 /// `n` in parts of at most `per` (one empty part when `n` is 0, so that a launch that
@@ -264,6 +134,10 @@ pub struct GpuBackend<'a> {
     npix: u64,
     host_gbuffer: Option<GBuffer>,
     keep_gbuffer: bool,
+    /// Which generations may stay device-sized.
+    cap: Capacity,
+    /// The counts device-sized generations left on the device, read with the image.
+    deferred: Deferrals,
     /// Whether a generation came in more than one part.
     pub in_parts: bool,
 }
@@ -287,13 +161,21 @@ impl<'a> GpuBackend<'a> {
         }
         // Counts a frame that stopped short left behind are not this frame's.
         drop(engine.take_pending());
+        let part = Self::part_size(g, scene);
+        let cap = Capacity {
+            engine: engine.counts_on_device(),
+            part,
+            rays: engine.max_rays() as u64,
+            lights: scene.lights.len() as u64,
+            budget: sizes::BUDGET,
+        };
         Ok(GpuBackend {
             engine,
             raster,
             scene,
             g,
             ex: Exec::new(g, engine.kernels()),
-            part: Self::part_size(g, scene),
+            part,
             lights: g.upload("lights", &crate::stages::light_rows(&scene.lights)),
             mats: g.upload(
                 "materials",
@@ -304,8 +186,18 @@ impl<'a> GpuBackend<'a> {
             npix: 0,
             host_gbuffer: None,
             keep_gbuffer,
+            cap,
+            deferred: Deferrals::default(),
             in_parts: false,
         })
+    }
+
+    /// At most `bytes` for one generation's buffers sized by its bound instead of its count
+    /// ([`sizes`]; default [`sizes::BUDGET`]): a generation over it reads its count back.
+    /// 0 reads every count back, as a device without room for bounds would.
+    pub fn with_sized_budget(mut self, bytes: u64) -> Self {
+        self.cap.budget = bytes;
+        self
     }
 
     /// The most surfaces of one part: its shadow rays (a vec4 origin and direction per
@@ -326,16 +218,22 @@ impl<'a> GpuBackend<'a> {
         stats: &mut RenderStats,
     ) -> Vec<T> {
         let pending = self.engine.take_pending();
-        let extra: u64 = pending.iter().map(|p| p.1).sum();
-        if extra == 0 {
+        let engine: u64 = pending.iter().map(|p| p.1).sum();
+        let sizes = self.deferred.words();
+        if engine + sizes == 0 {
             return self.ex.read(buf, words as usize);
         }
-        let all = self.g.storage("image and counters", (words + extra) * 4);
+        let all = self
+            .g
+            .storage("image and counters", (words + engine + sizes) * 4);
         self.ex.copy(buf, 0, &all, words * 4);
         copy_pending(&mut self.ex, &pending, &all, words * 4);
-        let raw: Vec<u32> = self.ex.read(&all, (words + extra) as usize);
-        self.engine.settle(&raw[words as usize..], &mut stats.trace);
-        bytemuck::cast_slice(&raw[..words as usize]).to_vec()
+        self.deferred.copy(&mut self.ex, &all, (words + engine) * 4);
+        let raw: Vec<u32> = self.ex.read(&all, (words + engine + sizes) as usize);
+        let (w, e) = (words as usize, (words + engine) as usize);
+        self.engine.settle(&raw[w..e], &mut stats.trace);
+        self.deferred.settle(&raw[e..], stats);
+        bytemuck::cast_slice(&raw[..w]).to_vec()
     }
 
     /// The `n` surfaces a kernel places, as (first, count) parts.
@@ -391,10 +289,31 @@ impl Backend for GpuBackend<'_> {
             256,
         );
         ex.scan(&flags, &offs, npix);
-        let n = ex.read_at(&offs, npix as usize) as u64;
+        // The covered pixels: left on the device, the surfaces' room one per pixel, where
+        // that fits; else read back.
+        let covered = DevLen {
+            buf: offs.clone(),
+            at: npix,
+            cap: npix,
+        };
+        let sized = self.cap.fits(npix);
+        let n = if sized {
+            self.deferred.push(Counted::Covered, &covered);
+            npix
+        } else {
+            ex.read_at(&offs, npix as usize) as u64
+        };
         let mut out = Vec::new();
-        for (first, count) in self.split(n) {
-            let s = DeviceSurfaces::new(g, count);
+        let split = if sized {
+            vec![(0, npix)]
+        } else {
+            self.split(n)
+        };
+        for (first, count) in split {
+            let mut s = DeviceSurfaces::new(g, count);
+            if sized {
+                s.sizes = Some(SurfSizes::new(&mut self.ex, &covered, self.cap.lights));
+            }
             let p = GbSurfacesParams {
                 pixels: npix as u32,
                 width: w,
@@ -426,8 +345,11 @@ impl Backend for GpuBackend<'_> {
         out
     }
 
-    fn surfaces_len(&self, s: &Vec<DeviceSurfaces>) -> u64 {
-        s.iter().map(|p| p.len).sum()
+    fn surfaces_len(&self, s: &Vec<DeviceSurfaces>) -> Option<u64> {
+        if s.iter().any(|p| p.sizes.is_some()) {
+            return None;
+        }
+        Some(s.iter().map(|p| p.len).sum())
     }
 
     fn shadow_rays(&mut self, s: &Vec<DeviceSurfaces>) -> Vec<DeviceBatch> {
@@ -440,9 +362,10 @@ impl Backend for GpuBackend<'_> {
                 continue;
             }
             let rays = DeviceRays::storage(g, "shadow", m);
+            let sz = surf.sizes.as_ref();
             surf.s
-                .shadow_rays(&mut self.ex, &self.lights, &rays.org, &rays.dir, n, nl);
-            self.ex.run(
+                .shadow_rays(&mut self.ex, &self.lights, &rays.org, &rays.dir, n, nl, sz);
+            self.ex.run_on(
                 launch::FrShadowMeta {
                     s_pix: &surf.pix,
                     r_kl: &rays.kl,
@@ -452,13 +375,14 @@ impl Backend for GpuBackend<'_> {
                     rays: m as u32,
                     lights: nl as u32,
                 },
-                m,
+                Threads::of(sz.map(|z| &z.lights), m),
                 256,
             );
             out.push(DeviceBatch {
                 rays,
                 weight: None,
                 refractions: 0,
+                count: sz.map(|z| (z.lights.clone(), None)),
             });
         }
         out
@@ -468,6 +392,7 @@ impl Backend for GpuBackend<'_> {
         let g = self.g;
         let mut out = Vec::new();
         for surf in s {
+            // With the surfaces' count on the device, `slots` is the slots' bound.
             let slots = 2 * surf.len;
             if slots == 0 {
                 continue;
@@ -477,49 +402,69 @@ impl Backend for GpuBackend<'_> {
                 g.storage("slot dir", slots * 16),
                 g.storage("slot weight", slots * 16),
             );
+            let sz = surf.sizes.as_ref();
+            let over_slots = Threads::of(sz.map(|z| &z.slots), slots);
             let ex = &mut self.ex;
             surf.s
-                .bounce_rays(ex, &self.mats, [&b_org, &b_dir, &b_w], surf.len);
+                .bounce_rays(ex, &self.mats, [&b_org, &b_dir, &b_w], surf.len, sz);
+            // New buffers are zeroed (wgpu's guarantee), so the flags past a device count
+            // are 0 and the scan over the bound counts the filled slots only.
             let flags = g.storage("slot flags", slots * 4);
             let offs = g.storage("slot offsets", (slots + 1) * 4);
-            ex.run(
+            ex.run_on(
                 launch::FrSlotFlags {
                     col: &b_w,
                     flags: &flags,
                 },
                 FrameCountParams { n: slots as u32 },
-                slots,
+                over_slots,
                 256,
             );
             ex.scan(&flags, &offs, slots);
-            // The batch's size and its refraction count in one read-back.
             let chunks = slots.div_ceil(TOTALS_CHUNK);
             let kinds = g.storage("slot kind counts", chunks * 4);
-            ex.run(
-                launch::FrSlotKindCount {
-                    flags: &flags,
-                    col: &b_w,
-                    out_u: &kinds,
+            let l = launch::FrSlotKindCount {
+                flags: &flags,
+                col: &b_w,
+                out_u: &kinds,
+            };
+            let p = KindCountParams {
+                rays: slots as u32,
+                kind: trace::RayKind::Refraction as u32,
+            };
+            let threads = match sz {
+                // A thread per chunk of the bound; the chunks past the count count none.
+                Some(z) => Threads::Patched {
+                    first: &z.slots,
+                    threads: chunks,
                 },
-                KindCountParams {
-                    rays: slots as u32,
-                    kind: trace::RayKind::Refraction as u32,
-                },
-                chunks,
-                256,
-            );
-            let both = g.storage("slot totals", (1 + chunks) * 4);
-            ex.copy_at(&offs, slots * 4, &both, 0, 4);
-            ex.copy_at(&kinds, 0, &both, 4, chunks * 4);
-            let words: Vec<u32> = ex.read(&both, 1 + chunks as usize);
-            let r = words[0] as u64;
-            let refractions: u64 = words[1..].iter().map(|&c| c as u64).sum();
+                None => Threads::Host(chunks),
+            };
+            ex.run_on(l, p, threads, 256);
+            let filled = DevLen {
+                buf: offs.clone(),
+                at: slots,
+                cap: slots,
+            };
+            let (r, refractions, count) = if self.cap.fits(slots) {
+                // The batch's size and refraction count stay on the device.
+                let rs = ex.size(&filled, 1, 256);
+                (slots, 0, Some((rs, Some((kinds.clone(), chunks)))))
+            } else {
+                // The batch's size and its refraction count in one read-back.
+                let both = g.storage("slot totals", (1 + chunks) * 4);
+                ex.copy_at(&offs, slots * 4, &both, 0, 4);
+                ex.copy_at(&kinds, 0, &both, 4, chunks * 4);
+                let words: Vec<u32> = ex.read(&both, 1 + chunks as usize);
+                let refractions: u64 = words[1..].iter().map(|&c| c as u64).sum();
+                (words[0] as u64, refractions, None)
+            };
             if r == 0 {
                 continue;
             }
             let rays = DeviceRays::storage(g, "bounce", r);
             let weight = g.storage("bounce weight", r * 16);
-            ex.run(
+            ex.run_on(
                 launch::FrBounceEmit {
                     flags: &flags,
                     offs: &offs,
@@ -534,26 +479,40 @@ impl Backend for GpuBackend<'_> {
                     r_w: &weight,
                 },
                 FrameCountParams { n: slots as u32 },
-                slots,
+                over_slots,
                 256,
             );
             out.push(DeviceBatch {
                 rays,
                 weight: Some(weight),
                 refractions,
+                count,
             });
         }
         out
     }
 
-    fn rays_len(&self, r: &Vec<DeviceBatch>) -> u64 {
-        r.iter().map(|b| b.rays.len).sum()
+    fn rays_len(&self, r: &Vec<DeviceBatch>) -> Option<u64> {
+        if r.iter().any(|b| b.count.is_some()) {
+            return None;
+        }
+        Some(r.iter().map(|b| b.rays.len).sum())
     }
 
     fn count_kinds(&mut self, r: &Vec<DeviceBatch>) -> [u64; 4] {
         let mut k = [0u64; 4];
         for b in r {
-            if b.weight.is_none() {
+            if let Some((n, refr)) = &b.count {
+                // Counted with the image (`finish`).
+                let kind = match b.weight {
+                    None => Counted::Shadow,
+                    Some(_) => Counted::Bounce,
+                };
+                self.deferred.push(kind, &n.count());
+                if let Some((buf, words)) = refr {
+                    self.deferred.push_words(Counted::Refractions, buf, *words);
+                }
+            } else if b.weight.is_none() {
                 k[1] += b.rays.len;
             } else {
                 k[3] += b.refractions;
@@ -578,7 +537,16 @@ impl Backend for GpuBackend<'_> {
         self.ex.finish();
         *hits = r
             .iter()
-            .map(|b| trace_device(self.engine, &b.rays, mode, stats))
+            .map(|b| match &b.count {
+                Some((n, _)) => {
+                    // Counted with the image (`finish`).
+                    self.deferred.push(Counted::Traced, &n.count());
+                    self.engine
+                        .trace_device_counted(&b.rays, n, mode, stats)
+                        .expect("a device-sized batch goes to an engine that counts on the device")
+                }
+                None => trace_device(self.engine, &b.rays, mode, stats),
+            })
             .collect();
     }
 
@@ -594,31 +562,33 @@ impl Backend for GpuBackend<'_> {
         let mut recs = shadows.map(|(_, h)| h.iter());
         for surf in s {
             let (n, m) = (surf.len, surf.len * nl);
+            let sz = surf.sizes.as_ref();
             let occ = g.storage("occluded", m * 4);
             if m > 0 {
                 let rec = recs
                     .as_mut()
                     .and_then(|r| r.next())
                     .expect("a shadow batch per part with rays");
-                self.ex.run(
+                self.ex.run_on(
                     launch::FrOccluded { rec, out_u: &occ },
                     FrameCountParams { n: m as u32 },
-                    m,
+                    Threads::of(sz.map(|z| &z.lights), m),
                     256,
                 );
             }
             if n > 0 {
                 let colour = g.storage("colour", n * 16);
+                let ex = &mut self.ex;
                 surf.s
-                    .shade(&mut self.ex, &self.lights, &self.mats, &occ, &colour, n, nl);
-                self.ex.run(
+                    .shade(ex, &self.lights, &self.mats, &occ, &colour, n, nl, sz);
+                ex.run_on(
                     launch::FrAccumulate {
                         s_pix: &surf.pix,
                         img: &img,
                         col: &colour,
                     },
                     FrameCountParams { n: n as u32 },
-                    n,
+                    Threads::of(sz.map(|z| &z.one), n),
                     256,
                 );
             }
@@ -636,10 +606,13 @@ impl Backend for GpuBackend<'_> {
         let (tris, normals, material) = self.raster.scene_buffers();
         let mut out = Vec::new();
         for (b, rec) in r.iter().zip(h) {
+            // With the batch's count on the device, `n` is its bound.
             let n = b.rays.len;
             let weight = b.weight.as_ref().expect("bounce rays carry weights");
+            let rs = b.count.as_ref().map(|c| &c.0);
+            let over_rays = Threads::of(rs, n);
             // The background behind the misses, then the surfaces of the hits.
-            self.ex.run(
+            self.ex.run_on(
                 launch::FrMisses {
                     r_pix: &b.rays.pix,
                     r_w: weight,
@@ -650,24 +623,39 @@ impl Backend for GpuBackend<'_> {
                     rays: n as u32,
                     background: bg.to_array(),
                 },
-                n,
+                over_rays,
                 256,
             );
+            // Zeroed when made, so the flags past a device count are 0.
             let hflags = g.storage("hit flags", n * 4);
             let hoffs = g.storage("hit offsets", (n + 1) * 4);
-            self.ex.run(
+            self.ex.run_on(
                 launch::FrHitFlags {
                     rec,
                     flags: &hflags,
                 },
                 FrameCountParams { n: n as u32 },
-                n,
+                over_rays,
                 256,
             );
             self.ex.scan(&hflags, &hoffs, n);
-            let nh = self.ex.read_at(&hoffs, n as usize) as u64;
-            for (first, count) in self.split(nh) {
-                let next = DeviceSurfaces::new(g, count);
+            let hits = DevLen {
+                buf: hoffs.clone(),
+                at: n,
+                cap: n,
+            };
+            let sized = self.cap.fits(n);
+            let split = if sized {
+                vec![(0, n)]
+            } else {
+                let nh = self.ex.read_at(&hoffs, n as usize) as u64;
+                self.split(nh)
+            };
+            for (first, count) in split {
+                let mut next = DeviceSurfaces::new(g, count);
+                if sized {
+                    next.sizes = Some(SurfSizes::new(&mut self.ex, &hits, self.cap.lights));
+                }
                 let l = launch::FrHitSurfaces {
                     flags: &hflags,
                     offs: &hoffs,
@@ -691,7 +679,7 @@ impl Backend for GpuBackend<'_> {
                     first: first as u32,
                     count: count as u32,
                 };
-                self.ex.run(l, p, n, 256);
+                self.ex.run_on(l, p, over_rays, 256);
                 out.push(next);
             }
         }

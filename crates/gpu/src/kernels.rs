@@ -163,6 +163,90 @@ struct Timer {
 
 const MAX_QUERIES: u32 = 4096;
 
+/// A count the device holds and the host does not read: word `at` (u32 index) of `buf`, at
+/// most `cap` (the host's bound, which sized the buffers it counts into).
+#[derive(Clone, Debug)]
+pub struct DevLen {
+    /// The buffer holding the count.
+    pub buf: wgpu::Buffer,
+    /// The count's word.
+    pub at: u64,
+    /// Its upper bound.
+    pub cap: u64,
+}
+
+/// A device count made ready for launches ([`Exec::sizes`]): a 16-byte block
+/// `[n, x, y, 1]` at byte `at` of `block` on the device, n = count · mul and (x, y, 1) the
+/// workgroups of a dispatch over n threads; `cap` bounds n.
+#[derive(Clone, Debug)]
+pub struct DevSize {
+    /// The blocks' buffer (storage, indirect-argument and copy usage).
+    pub block: wgpu::Buffer,
+    /// The block's byte offset.
+    pub at: u64,
+    /// Upper bound of n.
+    pub cap: u64,
+}
+
+impl DevSize {
+    /// The block's n as a count ([`DevLen`]) of its own.
+    pub fn count(&self) -> DevLen {
+        DevLen {
+            buf: self.block.clone(),
+            at: self.at / 4,
+            cap: self.cap,
+        }
+    }
+}
+
+/// Over how many threads a launch runs: a count the host knows, or one the device holds
+/// ([`Exec::run_sized`]'s `first` and `over`).
+#[derive(Clone, Copy)]
+pub enum Threads<'s> {
+    /// This many threads (the kernel's first parameter word as its caller set it).
+    Host(u64),
+    /// `over.n` threads, the first parameter word replaced by `first.n`.
+    Device {
+        /// Its n replaces the first parameter word.
+        first: &'s DevSize,
+        /// Its block holds the workgroups.
+        over: &'s DevSize,
+    },
+    /// This many threads (a bound), the first parameter word replaced by `first.n`: for a
+    /// launch of a thread per chunk of items, whose bound is small.
+    Patched {
+        /// Its n replaces the first parameter word.
+        first: &'s DevSize,
+        /// Threads launched.
+        threads: u64,
+    },
+}
+
+impl<'s> Threads<'s> {
+    /// Over `s.n` threads, with `s.n` as the first parameter word; `None`: `host` threads.
+    pub fn of(s: Option<&'s DevSize>, host: u64) -> Threads<'s> {
+        match s {
+            Some(s) => Threads::Device { first: s, over: s },
+            None => Threads::Host(host),
+        }
+    }
+}
+
+/// How a launch's workgroups are given: by the host, or read from a size block on the
+/// device, whose n also replaces the first parameter word of `first`'s launch.
+#[derive(Clone, Copy)]
+enum Dispatch<'b> {
+    Direct(u32, u32),
+    Indirect {
+        first: &'b DevSize,
+        args: &'b DevSize,
+    },
+    Patched {
+        first: &'b DevSize,
+        groups: (u32, u32),
+    },
+}
+
 /// Records kernel launches; submits at read-backs (the pipeline's only synchronisation).
 pub struct Exec<'a> {
     /// The device.
@@ -249,12 +333,95 @@ impl<'a> Exec<'a> {
     /// Launch `launch`'s kernel with its buffers over `threads` threads of workgroups of
     /// `wg`, with `params` at binding 0.
     pub fn run<L: Launch>(&mut self, launch: L, params: L::Params, threads: u64, wg: u32) {
-        let kernel = L::KERNEL;
-        let params = params.block();
         if threads == 0 {
             return;
         }
-        let mut params = params;
+        let (gx, gy) = self.g.grid(threads, wg);
+        self.record(launch, params, Dispatch::Direct(gx, gy));
+    }
+
+    /// Launch `launch`'s kernel over `over.n` threads, a size the device computed
+    /// ([`Exec::size`]): its first parameter word replaced on the device by `first.n` (the
+    /// count the kernel stops at) and its workgroups read from `over`'s block
+    /// (`dispatch_workgroups_indirect`), so nothing is read back. `over` must have been
+    /// sized for workgroups of the kernel's size.
+    pub fn run_sized<L: Launch>(
+        &mut self,
+        launch: L,
+        params: L::Params,
+        first: &DevSize,
+        over: &DevSize,
+    ) {
+        self.record(launch, params, Dispatch::Indirect { first, args: over });
+    }
+
+    /// [`Exec::run`] or [`Exec::run_sized`], as `threads` says.
+    pub fn run_on<L: Launch>(&mut self, launch: L, params: L::Params, threads: Threads, wg: u32) {
+        match threads {
+            Threads::Host(n) => self.run(launch, params, n, wg),
+            Threads::Device { first, over } => self.run_sized(launch, params, first, over),
+            Threads::Patched { first, threads } => {
+                let groups = self.g.grid(threads, wg);
+                self.record(launch, params, Dispatch::Patched { first, groups });
+            }
+        }
+    }
+
+    /// Size blocks of the count `len`, one per `(mul, wg)`: n = count · mul for launches of
+    /// workgroups of `wg` (`size.wgsl`), all in one single-workgroup dispatch; nothing is
+    /// read back.
+    pub fn sizes(&mut self, len: &DevLen, each: &[(u32, u32)]) -> Vec<DevSize> {
+        assert!(
+            (1..=4).contains(&each.len()),
+            "one to four size blocks a launch"
+        );
+        let block = self.g.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("size blocks"),
+            size: 16 * each.len() as u64,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::INDIRECT
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let at = u32::try_from(len.at).expect("a count's word indexes in u32");
+        let (mut mul, mut wg) = ([0u32; 4], [1u32; 4]);
+        for (k, &(m, w)) in each.iter().enumerate() {
+            (mul[k], wg[k]) = (m, w);
+        }
+        self.record(
+            launch::SizeArgs {
+                s_count: &len.buf,
+                s_block: &block,
+            },
+            params::SizeParams {
+                mul,
+                wg,
+                at,
+                maxd: self.g.limits.max_compute_workgroups_per_dimension,
+                blocks: each.len() as u32,
+            },
+            Dispatch::Direct(1, 1),
+        );
+        each.iter()
+            .enumerate()
+            .map(|(k, &(m, _))| DevSize {
+                block: block.clone(),
+                at: 16 * k as u64,
+                cap: len.cap * m as u64,
+            })
+            .collect()
+    }
+
+    /// One size block of the count `len` ([`Exec::sizes`]).
+    pub fn size(&mut self, len: &DevLen, mul: u32, wg: u32) -> DevSize {
+        self.sizes(len, &[(mul, wg)]).remove(0)
+    }
+
+    /// Record one compute pass of `launch`'s kernel.
+    fn record<L: Launch>(&mut self, launch: L, params: L::Params, dispatch: Dispatch) {
+        let kernel = L::KERNEL;
+        let mut params = params.block();
         params.f[1][3] = 0.0;
         if self.timer.used + 2 > MAX_QUERIES {
             self.flush();
@@ -278,7 +445,6 @@ impl<'a> Exec<'a> {
             layout: &pipe.get_bind_group_layout(0),
             entries: &entries,
         });
-        let (gx, gy) = g.grid(threads, wg);
         let q = self.timer.used;
         let ts = self
             .timer
@@ -296,6 +462,11 @@ impl<'a> Exec<'a> {
         let enc = self
             .enc
             .get_or_insert_with(|| g.device.create_command_encoder(&Default::default()));
+        if let Dispatch::Indirect { first, .. } | Dispatch::Patched { first, .. } = dispatch {
+            // The device's count becomes the first parameter word (the queue's write of
+            // the block lands before this command buffer runs).
+            enc.copy_buffer_to_buffer(&first.block, first.at, &ub, 0, 4);
+        }
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(kernel.entry()),
@@ -303,7 +474,15 @@ impl<'a> Exec<'a> {
             });
             pass.set_pipeline(pipe);
             pass.set_bind_group(0, &bg, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
+            match dispatch {
+                Dispatch::Direct(gx, gy)
+                | Dispatch::Patched {
+                    groups: (gx, gy), ..
+                } => pass.dispatch_workgroups(gx, gy, 1),
+                Dispatch::Indirect { args, .. } => {
+                    pass.dispatch_workgroups_indirect(&args.block, args.at + 4)
+                }
+            }
         }
         self.launches += 1;
         g.count_dispatch();

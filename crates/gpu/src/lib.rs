@@ -69,6 +69,24 @@ pub trait GpuEngine: trace::Tracer {
         mode: trace::TraceMode,
         stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer;
+    /// Whether [`GpuEngine::trace_device_counted`] traces batches whose size only the device
+    /// knows (else the frame reads each batch's size back first).
+    fn counts_on_device(&self) -> bool {
+        false
+    }
+    /// [`GpuEngine::trace_device_part`] of the first `count.n` rays of `rays` (`rays.len`,
+    /// at most [`GpuEngine::max_rays`], bounds it), a size on the device made ready for
+    /// launches of 256 threads: the engine's launches read it there (indirect dispatches),
+    /// so nothing is read back; records past it are left unwritten. `None` when the engine cannot ([`GpuEngine::counts_on_device`]).
+    fn trace_device_counted(
+        &self,
+        _rays: &rays::DeviceRays,
+        _count: &kernels::DevSize,
+        _mode: trace::TraceMode,
+        _stats: &mut trace::TraceStats,
+    ) -> Option<wgpu::Buffer> {
+        None
+    }
     /// The counter blocks (buffer, words) that [`GpuEngine::trace_device_part`] left on the
     /// device instead of reading them back, drained: the frame reads them with its image, in
     /// one read-back, and hands their words to [`GpuEngine::settle`].
@@ -109,6 +127,18 @@ impl GpuEngine for GpuRsh {
         // single rays stop at their first hit in any-hit mode, as the CPU's.
         GpuRsh::trace_device_part(self, rays, mode, stats)
     }
+    fn counts_on_device(&self) -> bool {
+        GpuRsh::walks_single(self)
+    }
+    fn trace_device_counted(
+        &self,
+        rays: &rays::DeviceRays,
+        count: &kernels::DevSize,
+        mode: trace::TraceMode,
+        stats: &mut trace::TraceStats,
+    ) -> Option<wgpu::Buffer> {
+        GpuRsh::trace_device_counted(self, rays, count, mode, stats)
+    }
     fn take_pending(&self) -> Vec<(wgpu::Buffer, u64)> {
         GpuRsh::take_pending(self)
     }
@@ -143,6 +173,20 @@ impl GpuEngine for GpuGrid {
         stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer {
         grid::traverse::trace_device_part(self, rays, mode, stats)
+    }
+    fn counts_on_device(&self) -> bool {
+        true
+    }
+    fn trace_device_counted(
+        &self,
+        rays: &rays::DeviceRays,
+        count: &kernels::DevSize,
+        mode: trace::TraceMode,
+        stats: &mut trace::TraceStats,
+    ) -> Option<wgpu::Buffer> {
+        Some(grid::traverse::trace_device_counted(
+            self, rays, count, mode, stats,
+        ))
     }
     fn take_pending(&self) -> Vec<(wgpu::Buffer, u64)> {
         std::mem::take(&mut *self.pending.lock().unwrap())

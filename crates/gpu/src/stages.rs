@@ -11,7 +11,7 @@
 
 use crate::device::Gpu;
 use crate::kernels::params::StageParams;
-use crate::kernels::{launch, Exec, Kernels};
+use crate::kernels::{launch, DevLen, DevSize, Exec, Kernels, Threads};
 use geom::Vec3;
 use render::secondary::Surfaces;
 use scene::{Light, Material, Scene};
@@ -43,6 +43,30 @@ pub(crate) struct Surf {
     pub mat: wgpu::Buffer,
 }
 
+/// A part of surfaces whose count only the device holds, made ready for the launches over
+/// it (one single-workgroup launch, once per part): the count, the count × lights (its
+/// shadow rays) and the count × 2 (its bounce slots).
+pub(crate) struct SurfSizes {
+    pub one: DevSize,
+    pub lights: DevSize,
+    pub slots: DevSize,
+}
+
+impl SurfSizes {
+    /// The sizes of `count` surfaces under `nl` lights.
+    pub fn new(ex: &mut Exec, count: &DevLen, nl: u64) -> SurfSizes {
+        let mut z = ex
+            .sizes(count, &[(1, 256), (nl as u32, 256), (2, 256)])
+            .into_iter();
+        let mut next = || z.next().expect("three blocks");
+        SurfSizes {
+            one: next(),
+            lights: next(),
+            slots: next(),
+        }
+    }
+}
+
 impl Surf {
     /// Room for `n` surfaces (filled by the device frame's kernels).
     pub fn new(g: &Gpu, n: u64) -> Surf {
@@ -57,7 +81,8 @@ impl Surf {
     }
 
     /// The shadow rays of `n` surfaces and `nl` lights (`lights`: [`light_rows`]) into
-    /// `org`/`dir`, ray `surface · nl + light`.
+    /// `org`/`dir`, ray `surface · nl + light`; `sz`: of the first `sz.one` of the `n` (a
+    /// size on the device).
     #[allow(clippy::too_many_arguments)] // one launch: its bindings and sizes
     pub fn shadow_rays(
         &self,
@@ -67,8 +92,16 @@ impl Surf {
         dir: &wgpu::Buffer,
         n: u64,
         nl: u64,
+        sz: Option<&SurfSizes>,
     ) {
-        ex.run(
+        let threads = match sz {
+            Some(z) => Threads::Device {
+                first: &z.one,
+                over: &z.lights,
+            },
+            None => Threads::Host(n * nl),
+        };
+        ex.run_on(
             launch::ShadowRays {
                 s_pos: &self.pos,
                 s_ng: &self.ng,
@@ -81,13 +114,13 @@ impl Surf {
                 surfaces: n as u32,
                 lights: nl as u32,
             },
-            n * nl,
+            threads,
             256,
         );
     }
 
     /// Local shading of `n` surfaces under `nl` lights into `colour`, with `occluded` flags
-    /// per (surface, light) and `mats` ([`material_rows`]).
+    /// per (surface, light) and `mats` ([`material_rows`]); `sz`: of the first `sz.one`.
     #[allow(clippy::too_many_arguments)] // one launch: its bindings and sizes
     pub fn shade(
         &self,
@@ -98,8 +131,9 @@ impl Surf {
         colour: &wgpu::Buffer,
         n: u64,
         nl: u64,
+        sz: Option<&SurfSizes>,
     ) {
-        ex.run(
+        ex.run_on(
             launch::ShadeLocal {
                 s_pos: &self.pos,
                 s_ng: &self.ng,
@@ -116,20 +150,22 @@ impl Surf {
                 surfaces: n as u32,
                 lights: nl as u32,
             },
-            n,
+            Threads::of(sz.map(|z| &z.one), n),
             256,
         );
     }
 
-    /// The bounce slots of `n` surfaces (2 per surface: origin, direction, weight + kind).
+    /// The bounce slots of `n` surfaces (2 per surface: origin, direction, weight + kind);
+    /// `sz`: of the first `sz.one`.
     pub fn bounce_rays(
         &self,
         ex: &mut Exec,
         mats: &wgpu::Buffer,
         slots: [&wgpu::Buffer; 3],
         n: u64,
+        sz: Option<&SurfSizes>,
     ) {
-        ex.run(
+        ex.run_on(
             launch::BounceRays {
                 s_pos: &self.pos,
                 s_ng: &self.ng,
@@ -146,7 +182,7 @@ impl Surf {
                 surfaces: n as u32,
                 lights: 0,
             },
-            n,
+            Threads::of(sz.map(|z| &z.one), n),
             256,
         );
     }
@@ -257,7 +293,7 @@ impl GpuStages<'_> {
             let lb = self.lights(lights);
             let m = (n * nl) as u64;
             let (org, dir) = (g.storage("org", m * 16), g.storage("dir", m * 16));
-            sf.shadow_rays(&mut ex, &lb, &org, &dir, n as u64, nl as u64);
+            sf.shadow_rays(&mut ex, &lb, &org, &dir, n as u64, nl as u64, None);
             let o: Vec<[f32; 4]> = ex.read(&org, m as usize);
             let d: Vec<[f32; 4]> = ex.read(&dir, m as usize);
             let mut b = RayBatch::with_capacity(m as usize);
@@ -291,7 +327,16 @@ impl GpuStages<'_> {
             let occ: Vec<u32> = occluded.iter().map(|&o| o as u32).collect();
             let ob = g.upload("occluded", &occ);
             let out = g.storage("colour", n as u64 * 16);
-            sf.shade(&mut ex, &lb, &mb, &ob, &out, n as u64, lights.len() as u64);
+            sf.shade(
+                &mut ex,
+                &lb,
+                &mb,
+                &ob,
+                &out,
+                n as u64,
+                lights.len() as u64,
+                None,
+            );
             let c: Vec<[f32; 4]> = ex.read(&out, n);
             c.iter().map(|c| Vec3::new(c[0], c[1], c[2])).collect()
         })
@@ -313,7 +358,7 @@ impl GpuStages<'_> {
                 g.storage("dir", m * 16),
                 g.storage("weight", m * 16),
             );
-            sf.bounce_rays(&mut ex, &mb, [&org, &dir, &w], n as u64);
+            sf.bounce_rays(&mut ex, &mb, [&org, &dir, &w], n as u64, None);
             let o: Vec<[f32; 4]> = ex.read(&org, m as usize);
             let d: Vec<[f32; 4]> = ex.read(&dir, m as usize);
             let wt: Vec<[f32; 4]> = ex.read(&w, m as usize);

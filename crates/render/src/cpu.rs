@@ -224,8 +224,8 @@ impl Backend for CpuBackend<'_> {
         s
     }
 
-    fn surfaces_len(&self, s: &Surfaces) -> u64 {
-        s.len() as u64
+    fn surfaces_len(&self, s: &Surfaces) -> Option<u64> {
+        Some(s.len() as u64)
     }
 
     fn shadow_rays(&mut self, s: &Surfaces) -> RayBatch {
@@ -240,8 +240,8 @@ impl Backend for CpuBackend<'_> {
         b
     }
 
-    fn rays_len(&self, r: &RayBatch) -> u64 {
-        r.len() as u64
+    fn rays_len(&self, r: &RayBatch) -> Option<u64> {
+        Some(r.len() as u64)
     }
 
     fn count_kinds(&mut self, r: &RayBatch) -> [u64; 4] {

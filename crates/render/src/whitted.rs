@@ -131,15 +131,18 @@ pub trait Backend {
     /// The G-buffer's surfaces, in pixel order; the image starts as the background where
     /// nothing is seen and black elsewhere.
     fn primary_surfaces(&mut self, view: &View) -> Self::Surfaces;
-    /// How many surfaces `s` holds.
-    fn surfaces_len(&self, s: &Self::Surfaces) -> u64;
+    /// How many surfaces `s` holds; `None` when only the backend's device knows (a backend
+    /// that says so adds the count to the statistics itself, in [`Backend::finish`]).
+    fn surfaces_len(&self, s: &Self::Surfaces) -> Option<u64>;
     /// Shadow rays, one per (surface, light), surface-major (eqs. 3.1–3.2).
     fn shadow_rays(&mut self, s: &Self::Surfaces) -> Self::Rays;
     /// Reflection and refraction rays of the surfaces, surface-major (eqs. 3.3–3.7).
     fn bounce_rays(&mut self, s: &Self::Surfaces) -> Self::Rays;
-    /// How many rays `r` holds.
-    fn rays_len(&self, r: &Self::Rays) -> u64;
-    /// `r`'s rays by kind (primary, shadow, reflection, refraction).
+    /// How many rays `r` holds; `None` when only the backend's device knows.
+    fn rays_len(&self, r: &Self::Rays) -> Option<u64>;
+    /// `r`'s rays by kind (primary, shadow, reflection, refraction), of the parts whose
+    /// sizes the host knows: a backend adds the others to the statistics in
+    /// [`Backend::finish`].
     fn count_kinds(&mut self, r: &Self::Rays) -> [u64; 4];
     /// The hit records `r`'s trace writes into, made ready before the trace is timed (the
     /// CPU's: one miss record per ray, in buffers kept from earlier batches), so that the
@@ -316,7 +319,8 @@ fn frame<B: Backend>(
     let mut surfaces = timed(backend, st, FramePhase::RayCreation, |b| {
         b.primary_surfaces(&view)
     });
-    st.covered_pixels = backend.surfaces_len(&surfaces);
+    // A device-sized generation's count comes with the image (`finish`).
+    st.covered_pixels = backend.surfaces_len(&surfaces).unwrap_or(0);
     let mut generation = 0u32;
     loop {
         let n = backend.surfaces_len(&surfaces);
@@ -325,21 +329,23 @@ fn frame<B: Backend>(
         let shadows = timed(backend, st, FramePhase::RayCreation, |b| {
             b.shadow_rays(&surfaces)
         });
-        let occluded =
-            (backend.rays_len(&shadows) > 0).then(|| trace(backend, &shadows, TraceMode::Any, st));
+        let occluded = (backend.rays_len(&shadows) != Some(0))
+            .then(|| trace(backend, &shadows, TraceMode::Any, st));
         progress.stage(&format!("shading, generation {generation}"));
         timed(backend, st, FramePhase::Shading, |b| {
             b.shade(&surfaces, occluded.as_ref().map(|h| (&shadows, h)))
         });
         backend.recycle(shadows, occluded);
-        if generation >= opts.bounces || n == 0 {
+        // A generation whose size only the device knows goes on: its launches read the
+        // size there, and an empty one does nothing.
+        if generation >= opts.bounces || n == Some(0) {
             break;
         }
         progress.stage(&format!("secondary rays, generation {}", generation + 1));
         let rays = timed(backend, st, FramePhase::RayCreation, |b| {
             b.bounce_rays(&surfaces)
         });
-        if backend.rays_len(&rays) == 0 {
+        if backend.rays_len(&rays) == Some(0) {
             backend.recycle(rays, None);
             break;
         }
@@ -352,9 +358,9 @@ fn frame<B: Backend>(
         generation += 1;
     }
     backend.recycle_surfaces(surfaces);
-    stats.brute_force_tests = stats.rays_traced() * geo.len() as u64;
     let mut out = backend.finish(stats, linear);
     // After `finish`: a backend may add counts it held on the device until then.
+    out.stats.brute_force_tests = out.stats.rays_traced() * geo.len() as u64;
     out.stats.total_tests = out.stats.trace.total_tests();
     out.stats.set_phase_ms();
     out

@@ -8,7 +8,7 @@
 
 use super::GpuGrid;
 use crate::kernels::params::GridTraceParams;
-use crate::kernels::{launch, Exec};
+use crate::kernels::{launch, DevSize, Exec, Threads};
 use crate::rays::{records_to_hits, upload_segments, DeviceRays};
 use trace::Counter;
 use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats};
@@ -39,7 +39,8 @@ pub fn trace(
 }
 
 /// The traversal of `n` rays (origin | t_min, direction | t_max) into hit records and
-/// per-ray (steps, tests) counts, both left on the device.
+/// per-ray (steps, tests) counts, both left on the device; `count`: only the first
+/// `count.n` of the `n` (a size on the device: an indirect launch).
 fn records(
     grid: &GpuGrid,
     ex: &mut Exec,
@@ -47,6 +48,7 @@ fn records(
     dir: &wgpu::Buffer,
     n: u64,
     mode: TraceMode,
+    count: Option<&DevSize>,
 ) -> (wgpu::Buffer, wgpu::Buffer) {
     let g = &grid.gpu;
     let rec = g.storage("grid records", n * 16);
@@ -59,22 +61,18 @@ fn records(
         dims: grid.dims,
         top_dims: grid.top_dims,
     };
-    ex.run(
-        launch::GridTrace {
-            gr_const: &grid.consts,
-            gr_map: &grid.map,
-            gr_cell: &grid.cells,
-            gr_ref: &grid.refs,
-            gr_tris: &grid.tris,
-            gr_org: org,
-            gr_dir: dir,
-            gr_rec: &rec,
-            gr_cnt: &cnt,
-        },
-        p,
-        n,
-        256,
-    );
+    let l = launch::GridTrace {
+        gr_const: &grid.consts,
+        gr_map: &grid.map,
+        gr_cell: &grid.cells,
+        gr_ref: &grid.refs,
+        gr_tris: &grid.tris,
+        gr_org: org,
+        gr_dir: dir,
+        gr_rec: &rec,
+        gr_cnt: &cnt,
+    };
+    ex.run_on(l, p, Threads::of(count, n), 256);
     (rec, cnt)
 }
 
@@ -89,7 +87,7 @@ fn trace_part(
     let n = rays.len();
     let mut ex = Exec::new(g, &grid.kernels);
     let (org, dir) = upload_segments(g, rays);
-    let (rec, cnt) = records(grid, &mut ex, &org, &dir, n as u64, mode);
+    let (rec, cnt) = records(grid, &mut ex, &org, &dir, n as u64, mode, None);
     ex.phase(Phase::ReadBack);
     records_to_hits(&ex.read(&rec, n), hits);
     let counts: Vec<[u32; 2]> = ex.read(&cnt, n);
@@ -110,10 +108,32 @@ pub(crate) fn trace_device_part(
     mode: TraceMode,
     stats: &mut TraceStats,
 ) -> wgpu::Buffer {
+    trace_device_sized(grid, dr, None, mode, stats)
+}
+
+/// [`crate::GpuEngine::trace_device_counted`]: the first `count` rays of `dr` (a size on
+/// the device), launched indirectly.
+pub(crate) fn trace_device_counted(
+    grid: &GpuGrid,
+    dr: &DeviceRays,
+    count: &DevSize,
+    mode: TraceMode,
+    stats: &mut TraceStats,
+) -> wgpu::Buffer {
+    trace_device_sized(grid, dr, Some(count), mode, stats)
+}
+
+fn trace_device_sized(
+    grid: &GpuGrid,
+    dr: &DeviceRays,
+    count: Option<&DevSize>,
+    mode: TraceMode,
+    stats: &mut TraceStats,
+) -> wgpu::Buffer {
     let mut ex = Exec::new(&grid.gpu, &grid.kernels);
-    let (rec, cnt) = records(grid, &mut ex, &dr.org, &dr.dir, dr.len, mode);
+    let (rec, cnt) = records(grid, &mut ex, &dr.org, &dr.dir, dr.len, mode, count);
     // The totals stay on the device until the frame's end (`GpuEngine::settle`).
-    let sums = crate::frame::totals_on_device(&mut ex, &rec, Some(&cnt), dr.len);
+    let sums = crate::frame::totals_on_device(&mut ex, &rec, Some(&cnt), dr.len, count);
     grid.pending.lock().unwrap().extend(sums);
     ex.report(stats, &grid.times);
     rec

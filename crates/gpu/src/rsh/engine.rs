@@ -16,7 +16,7 @@ use super::single;
 use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
 use crate::kernels::params::RecordsParams;
-use crate::kernels::{launch, Exec, Kernels};
+use crate::kernels::{launch, DevSize, Exec, Kernels, Threads};
 use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
 use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
@@ -350,35 +350,40 @@ impl GpuRsh {
         }
         // Records: the winner's hit recomputed with the shared kernel, as on the CPU.
         ex.phase(Phase::FinalTests);
-        let rec = self.hit_records(ex, dr, &best);
+        let rec = self.hit_records(ex, dr, &best, None);
         let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
         (rec, c, top)
     }
 
     /// One record per ray of `dr` from its best (triangle, t bits) in `best`: the winner's
     /// hit recomputed with the shared kernel, as on the CPU (`final.wgsl`'s `records`).
-    fn hit_records(&self, ex: &mut Exec, dr: &DeviceRays, best: &wgpu::Buffer) -> wgpu::Buffer {
+    /// `count`: only the first `count.n` rays (a size on the device).
+    fn hit_records(
+        &self,
+        ex: &mut Exec,
+        dr: &DeviceRays,
+        best: &wgpu::Buffer,
+        count: Option<&DevSize>,
+    ) -> wgpu::Buffer {
         let n = dr.len;
         let rec = self.s.gpu.storage("records", n * 16);
-        ex.run(
-            launch::Records {
-                f_org: &dr.org,
-                f_dir: &dr.dir,
-                f_pre: &dr.pre,
-                f_tris: &self.s.tris,
-                f_best_pair: best,
-                f_rec: &rec,
-            },
-            RecordsParams { rays: n as u32 },
-            n,
-            256,
-        );
+        let l = launch::Records {
+            f_org: &dr.org,
+            f_dir: &dr.dir,
+            f_pre: &dr.pre,
+            f_tris: &self.s.tris,
+            f_best_pair: best,
+            f_rec: &rec,
+        };
+        let p = RecordsParams { rays: n as u32 };
+        ex.run_on(l, p, Threads::of(count, n), 256);
         rec
     }
 
     /// Single rays `dr` through the object tree `t` (`single.wgsl`), their records made on
     /// the device; nothing is read back. Returns the records and the walk (its counters
     /// still on the device); the batch counters go into `stats` now.
+    /// `count`: only the first `count.n` rays of `dr` (a size on the device).
     fn records_single(
         &self,
         t: &TreeState,
@@ -386,6 +391,7 @@ impl GpuRsh {
         dr: &DeviceRays,
         mode: TraceMode,
         stats: &mut TraceStats,
+        count: Option<&DevSize>,
     ) -> (wgpu::Buffer, single::Walked) {
         ex.phase(Phase::Traversal);
         let w = single::walk(
@@ -395,8 +401,9 @@ impl GpuRsh {
             mode == TraceMode::Any,
             self.stack,
             &self.deep,
+            count,
         );
-        let rec = self.hit_records(ex, dr, &w.best);
+        let rec = self.hit_records(ex, dr, &w.best, count);
         stats.count(Counter::SingleRayBatches, 1);
         stats.count(Counter::BundledBatches, 0);
         (rec, w)
@@ -421,7 +428,7 @@ impl GpuRsh {
         let mut ex = Exec::new(g, &self.s.kernels);
         let dr = DeviceRays::upload(g, rays);
         if let Some(t) = &self.tree {
-            let (rec, w) = self.records_single(t, &mut ex, &dr, mode, stats);
+            let (rec, w) = self.records_single(t, &mut ex, &dr, mode, stats, None);
             // The records and the counters in one read-back.
             ex.phase(Phase::ReadBack);
             let (head, bytes) = (single::HEAD as u64 * 4, n as u64 * 16);
@@ -454,7 +461,7 @@ impl GpuRsh {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
         if let Some(t) = &self.tree {
             // The counts stay on the device until the frame's end (`GpuEngine::settle`).
-            let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats);
+            let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, None);
             self.pending.lock().unwrap().push(w.cnt);
             ex.report(stats, &self.times);
             return rec;
@@ -465,6 +472,29 @@ impl GpuRsh {
         ex.report(stats, &self.times);
         self.report(&c, top, t.hits, stats);
         rec
+    }
+
+    /// Whether batches walk the object tree as single rays (the path that traces sizes the
+    /// device holds: [`crate::GpuEngine::counts_on_device`]).
+    pub(crate) fn walks_single(&self) -> bool {
+        self.tree.is_some()
+    }
+
+    /// [`crate::GpuEngine::trace_device_counted`]: the single-ray path only (the bundles'
+    /// passes size their buffers from counts the host reads).
+    pub(crate) fn trace_device_counted(
+        &self,
+        dr: &DeviceRays,
+        count: &DevSize,
+        mode: TraceMode,
+        stats: &mut TraceStats,
+    ) -> Option<wgpu::Buffer> {
+        let t = self.tree.as_ref()?;
+        let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
+        let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, Some(count));
+        self.pending.lock().unwrap().push(w.cnt);
+        ex.report(stats, &self.times);
+        Some(rec)
     }
 
     /// [`crate::GpuEngine::take_pending`].

@@ -14,7 +14,7 @@
 
 use super::objects::DeviceTree;
 use crate::kernels::params::SingleWalkParams;
-use crate::kernels::{launch, Exec};
+use crate::kernels::{launch, DevSize, Exec, Threads};
 use crate::rays::DeviceRays;
 use ::rsh::single::SingleCounts;
 
@@ -45,7 +45,8 @@ pub(crate) struct Walked {
 }
 
 /// Walk rays `dr` through `tree` (`any`: stop at a ray's first hit), each with at most
-/// `stack` entries (≤ [`STACK`]; tests lower it to make walks overflow).
+/// `stack` entries (≤ [`STACK`]; tests lower it to make walks overflow); `count`: only the
+/// first `count.n` of the `dr.len` rays, a size the device holds (an indirect launch).
 pub(crate) fn walk(
     ex: &mut Exec,
     tree: &DeviceTree,
@@ -53,6 +54,7 @@ pub(crate) fn walk(
     any: bool,
     stack: u32,
     deep: &wgpu::Buffer,
+    count: Option<&DevSize>,
 ) -> Walked {
     let n = dr.len;
     let g = ex.g;
@@ -67,23 +69,19 @@ pub(crate) fn walk(
         stack: stack.min(STACK),
         pool: POOL.min(n) as u32,
     };
-    ex.run(
-        launch::SingleWalk {
-            s_org: &dr.org,
-            s_dir: &dr.dir,
-            s_kl: &dr.kl,
-            s_boxes: &tree.boxes,
-            s_leaf_tris: &tree.leaf_tris,
-            s_order: &tree.order,
-            s_best: &best,
-            s_cnt: &cnt,
-            s_pre: &dr.pre,
-            s_stack: deep,
-        },
-        prm,
-        n,
-        256,
-    );
+    let first = launch::SingleWalk {
+        s_org: &dr.org,
+        s_dir: &dr.dir,
+        s_kl: &dr.kl,
+        s_boxes: &tree.boxes,
+        s_leaf_tris: &tree.leaf_tris,
+        s_order: &tree.order,
+        s_best: &best,
+        s_cnt: &cnt,
+        s_pre: &dr.pre,
+        s_stack: deep,
+    };
+    ex.run_on(first, prm, Threads::of(count, n), 256);
     ex.run(
         launch::SingleWalkDeep {
             s_org: &dr.org,

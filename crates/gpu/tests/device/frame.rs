@@ -15,7 +15,7 @@ use gpu::frame::GpuBackend;
 use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh};
 use render::cpu::CpuBackend;
 use render::whitted::{run, RenderOptions};
-use rsh::RshConfig;
+use rsh::{ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
 use scene::{builtin, Geometry, Scene};
 use trace::{Hit, RayKind, TraceMode, TraceStats, Tracer};
 
@@ -29,8 +29,19 @@ fn srgb(p: &[geom::Vec3]) -> Vec<u8> {
         .collect()
 }
 
+/// CRSH as the GPU runs it by default: single rays through the object tree (LBVH).
+fn crsh_single() -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::Bvh,
+        path: RayPath::Single,
+        builder: ObjectBuilder::Lbvh,
+        ..RshConfig::crsh()
+    }
+}
+
 fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
     vec![
+        Box::new(GpuRsh::new(g.clone(), geo, crsh_single()).unwrap()),
         Box::new(GpuRsh::new(g.clone(), geo, RshConfig::crsh()).unwrap()),
         Box::new(GpuRsh::new(g.clone(), geo, RshConfig::rah()).unwrap()),
         Box::new(GpuGrid::new(g.clone(), geo, &GridConfig::default()).unwrap()),
@@ -236,4 +247,67 @@ fn generations_beyond_one_binding_run_in_parts_with_the_same_bytes() {
         .err()
         .expect("refused");
     assert!(err.to_string().contains("binding"), "{err}");
+}
+
+#[test]
+fn device_sized_generations_read_back_once_and_equal_read_counts() {
+    // The same frames with every count read back (budget 0), with only the first
+    // generation sized by its bound (a budget for one surface per pixel), and with every
+    // generation sized (the default): the same image bytes and counts, the default reading
+    // back once (the image with every count), the others more.
+    let Some(g) = gpu() else { return };
+    for (name, w, h, bounces) in [("office", 64, 48, 3), ("cornell", 48, 40, 3)] {
+        let s = builtin::by_name(name).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let opts = RenderOptions {
+            width: w,
+            height: h,
+            bounces,
+            spp: 1,
+        };
+        let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
+        let first = (w * h) as u64 * gpu::frame::sizes::bytes_per_surface(s.lights.len() as u64);
+        let sized: Vec<Box<dyn GpuEngine>> = vec![
+            Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
+            Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
+        ];
+        for e in sized {
+            assert!(e.counts_on_device(), "{name} {}", e.name());
+            let mut runs = Vec::new();
+            for budget in [0, first, gpu::frame::sizes::BUDGET] {
+                let what = format!("{name} {} budget {budget}", e.name());
+                let reads = g.read_backs();
+                let mut b = GpuBackend::new(e.as_ref(), &raster, &s, &opts, false)
+                    .unwrap()
+                    .with_sized_budget(budget);
+                let out = run(&mut b, &s, &geo, &opts, &());
+                runs.push((what, out, g.read_backs() - reads));
+            }
+            let (what0, base, reads0) = &runs[0];
+            assert!(*reads0 > 2, "{what0}: {reads0} read-backs");
+            for (what, out, reads) in &runs[1..] {
+                assert_eq!(out.rgb8(), base.rgb8(), "{what}: image bytes");
+                let (a, b) = (&out.stats, &base.stats);
+                assert_eq!(a.covered_pixels, b.covered_pixels, "{what}: covered");
+                assert_eq!(
+                    (a.rays_shadow, a.rays_reflection, a.rays_refraction),
+                    (b.rays_shadow, b.rays_reflection, b.rays_refraction),
+                    "{what}: rays by kind"
+                );
+                assert_eq!(a.trace.rays, b.trace.rays, "{what}: traced");
+                assert_eq!(a.trace.hits, b.trace.hits, "{what}: hits");
+                assert_eq!(a.total_tests, b.total_tests, "{what}: tests");
+                assert_eq!(a.brute_force_tests, b.brute_force_tests, "{what}");
+                assert!(reads < reads0, "{what}: {reads} read-backs, {reads0} read");
+            }
+            let (what, _, reads) = &runs[2];
+            assert_eq!(*reads, 1, "{what}: the image and the counts, once");
+            assert!(runs[1].2 > 1, "{}: reads the later counts", runs[1].0);
+        }
+        // Engines whose passes size their buffers on the host read their counts back.
+        for c in [RshConfig::rah(), RshConfig::crsh()] {
+            let e = GpuRsh::new(g.clone(), &geo, c).unwrap();
+            assert!(!e.counts_on_device(), "{name} {}", e.name());
+        }
+    }
 }
