@@ -611,30 +611,22 @@ impl Backend for GpuBackend<'_> {
             let weight = b.weight.as_ref().expect("bounce rays carry weights");
             let rs = b.count.as_ref().map(|c| &c.0);
             let over_rays = Threads::of(rs, n);
-            // The background behind the misses, then the surfaces of the hits.
+            // The background behind the misses and the hit flags (zeroed when made, so
+            // past a device count they are 0), then the surfaces of the hits.
+            let hflags = g.storage("hit flags", n * 4);
+            let hoffs = g.storage("hit offsets", (n + 1) * 4);
             self.ex.run_on(
                 launch::FrMisses {
                     r_pix: &b.rays.pix,
                     r_w: weight,
                     rec,
                     img: &img,
+                    flags: &hflags,
                 },
                 MissesParams {
                     rays: n as u32,
                     background: bg.to_array(),
                 },
-                over_rays,
-                256,
-            );
-            // Zeroed when made, so the flags past a device count are 0.
-            let hflags = g.storage("hit flags", n * 4);
-            let hoffs = g.storage("hit offsets", (n + 1) * 4);
-            self.ex.run_on(
-                launch::FrHitFlags {
-                    rec,
-                    flags: &hflags,
-                },
-                FrameCountParams { n: n as u32 },
                 over_rays,
                 256,
             );

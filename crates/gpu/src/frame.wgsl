@@ -78,7 +78,7 @@ struct ShadowMetaParams {
 }
 
 // Parameters of the kernels that take one count (fr_occluded, fr_accumulate, fr_slot_flags,
-// fr_bounce_emit, fr_hit_flags).
+// fr_bounce_emit).
 struct FrameCountParams {
     n: u32, // the rays, surfaces or slots, as each kernel says
 }
@@ -248,7 +248,8 @@ fn fr_accumulate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
 }
 
 // The background times the weight of
-// every bounce ray that hit nothing, added per pixel in ray order (rays are in pixel order).
+// every bounce ray that hit nothing, added per pixel in ray order (rays are in pixel order);
+// and each ray's hit flag, for the scan that places the next generation's surfaces.
 @compute @workgroup_size(256)
 fn fr_misses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let prm = misses_params();
@@ -257,6 +258,7 @@ fn fr_misses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if i >= n {
         return;
     }
+    flags[i] = u32(rec[i].x != NO_HIT);
     let p = r_pix[i];
     if i > 0u && r_pix[i - 1u] == p {
         return;
@@ -305,17 +307,6 @@ fn fr_bounce_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
 }
 
 // ---------------------------------------------------------------- surfaces from hits
-// Rays that hit something.
-@compute @workgroup_size(256)
-fn fr_hit_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let prm = frame_count_params();
-    let i = fid(gid, nwg);
-    if i >= prm.n {
-        return;
-    }
-    flags[i] = u32(rec[i].x != NO_HIT);
-}
-
 // Surfaces::from_hits: one surface per hit, in ray order.
 @compute @workgroup_size(256)
 fn fr_hit_surfaces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
