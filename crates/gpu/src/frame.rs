@@ -20,8 +20,8 @@
 //! until then ([`GpuEngine::take_pending`]: CRSH's single-ray counter blocks, the grid's step
 //! and test sums, 20 bytes per 1024 rays), and the generations' sizes ([`sizes`]). A
 //! generation's size is counted by a scan on the device and stays there: its buffers are
-//! allocated at its bound (one surface per covered pixel or bounce ray, two bounce rays per
-//! surface), and every launch over them, the engine's included
+//! allocated at its bound (one surface per covered pixel or bounce ray, at most two bounce
+//! rays per surface, as the scene's materials allow), and every launch over them, the engine's included
 //! ([`GpuEngine::trace_device_counted`]), reads it there through an indirect dispatch. Only
 //! where the bound would not fit (one binding, the engine's part, the memory budget), or the
 //! engine sizes its passes on the host (CRSH/RAH in bundles), is a size read back (4 bytes)
@@ -136,6 +136,10 @@ pub struct GpuBackend<'a> {
     keep_gbuffer: bool,
     /// Which generations may stay device-sized.
     cap: Capacity,
+    /// Most bounce rays a surface spawns in this scene: 1 for a material that reflects, 1
+    /// more if it is also transparent (`stages.wgsl`'s bounce slots), the most of any
+    /// material; 0: no generation after the first.
+    per_surface: u64,
     /// The counts device-sized generations left on the device, read with the image.
     deferred: Deferrals,
     /// Whether a generation came in more than one part.
@@ -187,6 +191,12 @@ impl<'a> GpuBackend<'a> {
             host_gbuffer: None,
             keep_gbuffer,
             cap,
+            per_surface: scene
+                .materials
+                .iter()
+                .map(|m| (m.reflectivity > 0.0) as u64 + (m.transparency > 0.0) as u64)
+                .max()
+                .unwrap_or(0),
             deferred: Deferrals::default(),
             in_parts: false,
         })
@@ -391,12 +401,18 @@ impl Backend for GpuBackend<'_> {
     fn bounce_rays(&mut self, s: &Vec<DeviceSurfaces>) -> Vec<DeviceBatch> {
         let g = self.g;
         let mut out = Vec::new();
+        if self.per_surface == 0 {
+            // No material reflects or refracts: no bounce ray, known without a count.
+            return out;
+        }
         for surf in s {
             // With the surfaces' count on the device, `slots` is the slots' bound.
             let slots = 2 * surf.len;
             if slots == 0 {
                 continue;
             }
+            // The bounce rays' bound: at most `per_surface` of a surface's two slots fill.
+            let bound = self.per_surface * surf.len;
             let (b_org, b_dir, b_w) = (
                 g.storage("slot org", slots * 16),
                 g.storage("slot dir", slots * 16),
@@ -444,12 +460,12 @@ impl Backend for GpuBackend<'_> {
             let filled = DevLen {
                 buf: offs.clone(),
                 at: slots,
-                cap: slots,
+                cap: bound,
             };
-            let (r, refractions, count) = if self.cap.fits(slots) {
+            let (r, refractions, count) = if self.cap.fits(bound) {
                 // The batch's size and refraction count stay on the device.
                 let rs = ex.size(&filled, 1, 256);
-                (slots, 0, Some((rs, Some((kinds.clone(), chunks)))))
+                (bound, 0, Some((rs, Some((kinds.clone(), chunks)))))
             } else {
                 // The batch's size and its refraction count in one read-back.
                 let both = g.storage("slot totals", (1 + chunks) * 4);

@@ -8,7 +8,9 @@
 //!
 //! The bounds are exact: a generation has at most one surface per covered pixel, or per
 //! bounce ray; at most two bounce rays per surface (thesis eqs. 3.3–3.7: a reflection and
-//! a refraction). A bound that would not fit one binding, the engine's part or the memory
+//! a refraction), one in a scene where no material both reflects and is transparent, and
+//! none where no material does either (then the loop stops after the first generation, as
+//! it would on reading a zero). A bound that would not fit one binding, the engine's part or the memory
 //! budget falls back to reading the count back (one read-back, the buffers sized exactly).
 
 use crate::kernels::{DevLen, Exec};
