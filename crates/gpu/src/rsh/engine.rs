@@ -16,7 +16,7 @@ use super::single;
 use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
 use crate::kernels::params::RecordsParams;
-use crate::kernels::{launch, DevSize, Exec, Kernels, Threads};
+use crate::kernels::{launch, DevSize, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
 use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
@@ -350,33 +350,29 @@ impl GpuRsh {
         }
         // Records: the winner's hit recomputed with the shared kernel, as on the CPU.
         ex.phase(Phase::FinalTests);
-        let rec = self.hit_records(ex, dr, &best, None);
+        let rec = self.hit_records(ex, dr, &best);
         let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
         (rec, c, top)
     }
 
     /// One record per ray of `dr` from its best (triangle, t bits) in `best`: the winner's
     /// hit recomputed with the shared kernel, as on the CPU (`final.wgsl`'s `records`).
-    /// `count`: only the first `count.n` rays (a size on the device).
-    fn hit_records(
-        &self,
-        ex: &mut Exec,
-        dr: &DeviceRays,
-        best: &wgpu::Buffer,
-        count: Option<&DevSize>,
-    ) -> wgpu::Buffer {
+    fn hit_records(&self, ex: &mut Exec, dr: &DeviceRays, best: &wgpu::Buffer) -> wgpu::Buffer {
         let n = dr.len;
         let rec = self.s.gpu.storage("records", n * 16);
-        let l = launch::Records {
-            f_org: &dr.org,
-            f_dir: &dr.dir,
-            f_pre: &dr.pre,
-            f_tris: &self.s.tris,
-            f_best_pair: best,
-            f_rec: &rec,
-        };
-        let p = RecordsParams { rays: n as u32 };
-        ex.run_on(l, p, Threads::of(count, n), 256);
+        ex.run(
+            launch::Records {
+                f_org: &dr.org,
+                f_dir: &dr.dir,
+                f_pre: &dr.pre,
+                f_tris: &self.s.tris,
+                f_best_pair: best,
+                f_rec: &rec,
+            },
+            RecordsParams { rays: n as u32 },
+            n,
+            256,
+        );
         rec
     }
 
@@ -403,7 +399,8 @@ impl GpuRsh {
             &self.deep,
             count,
         );
-        let rec = self.hit_records(ex, dr, &w.best, count);
+        // The walk wrote the records itself (`single.wgsl`).
+        let rec = w.rec.clone();
         stats.count(Counter::SingleRayBatches, 1);
         stats.count(Counter::BundledBatches, 0);
         (rec, w)

@@ -1,8 +1,9 @@
 //! CRSH's single-ray path on the GPU, the twin of `crates/rsh/src/single.rs`: every ray
 //! walks the object tree built on the device ([`super::objects`]) on its own thread
 //! (`single.wgsl`), with the CPU walk's slab test, order and stopping rules, so hits and
-//! counts are the CPU's. One launch per batch: no hashing, sorting or bundles, no size to
-//! read back before the next launch; the counters come back in one small read-back.
+//! counts are the CPU's; each ray writes its own hit record as it finishes. One launch per
+//! batch (and the second pass below): no hashing, sorting or bundles, no records pass, no
+//! size to read back before the next launch; the counters come back in one small read-back.
 //!
 //! A ray's stack lives in private memory and holds [`STACK`] entries. A ray that would
 //! overflow it stops, adds none of its counts and is listed; a second pass walks the listed
@@ -36,10 +37,10 @@ pub(crate) fn deep_stacks(g: &crate::device::Gpu) -> wgpu::Buffer {
     g.storage("single-ray deep stacks", POOL * DEEP * 8)
 }
 
-/// One batch walked on the device: every ray's best (triangle, t bits; the records kernel's
-/// input) and the counter block.
+/// One batch walked on the device: every ray's hit record (triangle, t, u, v bits; triangle
+/// `NO_HIT`: a miss), written by the walk itself, and the counter block.
 pub(crate) struct Walked {
-    pub best: wgpu::Buffer,
+    pub rec: wgpu::Buffer,
     /// The counter block ([`HEAD`] words, then the second pass's list).
     pub cnt: wgpu::Buffer,
 }
@@ -58,7 +59,7 @@ pub(crate) fn walk(
 ) -> Walked {
     let n = dr.len;
     let g = ex.g;
-    let best = g.storage("single-ray best", n * 8);
+    let rec = g.storage("single-ray records", n * 16);
     // Zeroed by a clear command, not a dispatch.
     let cnt = g.storage("single-ray counters", (HEAD as u64 + n) * 4);
     ex.clear(&cnt);
@@ -76,9 +77,8 @@ pub(crate) fn walk(
         s_boxes: &tree.boxes,
         s_leaf_tris: &tree.leaf_tris,
         s_order: &tree.order,
-        s_best: &best,
+        s_rec: &rec,
         s_cnt: &cnt,
-        s_pre: &dr.pre,
         s_stack: deep,
     };
     ex.run_on(first, prm, Threads::of(count, n), 256);
@@ -90,16 +90,15 @@ pub(crate) fn walk(
             s_boxes: &tree.boxes,
             s_leaf_tris: &tree.leaf_tris,
             s_order: &tree.order,
-            s_best: &best,
+            s_rec: &rec,
             s_cnt: &cnt,
-            s_pre: &dr.pre,
             s_stack: deep,
         },
         prm,
         POOL.min(n),
         256,
     );
-    Walked { best, cnt }
+    Walked { rec, cnt }
 }
 
 /// The counts and second-pass rays of a counter block's first [`HEAD`] words.

@@ -16,11 +16,15 @@
 // < DEEP). Should it ever be exceeded, the ray is counted in word OVER_DEEP and left for the
 // host.
 //
+// A finished ray writes its hit record itself (triangle, t, u, v bits; a miss: NO_HIT, +inf):
+// the winner's t, u and v from the same shared kernel call that made it the winner, which is
+// what final.wgsl's `records` recomputes for the bundles (the same inputs, the triangle's
+// vertices copied bit for bit into leaf order), so no records pass follows the walk.
+//
 // Bindings: 1 ray org | t_min, 2 ray dir | t_max, 3 kind | light << 2, 4 box nodes,
-// 5 triangles in leaf order (3 × vec4), 6 leaf order (triangle ids), 7 best (tri, t bits),
+// 5 triangles in leaf order (3 × vec4), 6 leaf order (triangle ids), 7 hit records,
 // 8 counters: 64-bit (low, high) final tests per kind, box tests, box passes, hits (words
-// 0..14), then the overflowed rays' count (word 14) and ids (from word 15); 9 the ray constants
-// (ray_pre, for the records kernel).
+// 0..14), then the overflowed rays' count (word 14) and ids (from word 15).
 
 // Parameters of single_walk.
 struct SingleWalkParams {
@@ -37,9 +41,8 @@ struct SingleWalkParams {
 @group(0) @binding(4) var<storage, read> s_boxes: array<u32>;
 @group(0) @binding(5) var<storage, read> s_leaf_tris: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read> s_order: array<u32>;
-@group(0) @binding(7) var<storage, read_write> s_best: array<vec2<u32>>;
+@group(0) @binding(7) var<storage, read_write> s_rec: array<vec4<u32>>;
 @group(0) @binding(8) var<storage, read_write> s_cnt: array<atomic<u32>>;
-@group(0) @binding(9) var<storage, read_write> s_pre: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read_write> s_stack: array<vec2<u32>>;
 
 const STACK: u32 = 64u;
@@ -93,6 +96,8 @@ fn st_get(i: u32) -> vec2<u32> {
 // What one ray's walk found and did.
 struct Walk {
     best: u64,
+    u: u32, // the best hit's u and v bits
+    v: u32,
     finals: u32,
     tests: u32,
     passes: u32,
@@ -109,14 +114,15 @@ fn walk(r: u32, limit: u32) -> Walk {
     let t_min = o4.w;
     let t_max = d4.w;
     let pre = ray_pre(dir);
-    s_pre[r] = pre;
     let any = prm.any != 0u;
-    var w = Walk(miss64(), 0u, 0u, 0u, false);
+    var w = Walk(miss64(), 0u, 0u, 0u, 0u, 0u, false);
     if prm.leaves == 1u {
         w.finals = 1u;
         let h = intersect(org, dir, pre, t_min, t_max, s_leaf_tris[0].xyz, s_leaf_tris[1].xyz, s_leaf_tris[2].xyz);
         if h.w != 0.0 {
             w.best = u64(bitcast<u32>(h.x)) << 32u;
+            w.u = bitcast<u32>(h.y);
+            w.v = bitcast<u32>(h.z);
         }
         return w;
     }
@@ -176,6 +182,8 @@ fn walk(r: u32, limit: u32) -> Walk {
                     let key = (u64(bitcast<u32>(h.x)) << 32u) | u64(s_order[p + j]);
                     if key < w.best {
                         w.best = key;
+                        w.u = bitcast<u32>(h.y);
+                        w.v = bitcast<u32>(h.z);
                     }
                 }
             }
@@ -226,9 +234,13 @@ fn walk(r: u32, limit: u32) -> Walk {
     return w;
 }
 
-// A finished walk: its best and its counts (into the workgroup's).
+// A finished walk: its hit record and its counts (into the workgroup's).
 fn finished(r: u32, w: Walk) {
-    s_best[r] = vec2<u32>(u32(w.best & u64(0xffffffffu)), u32(w.best >> 32u));
+    if w.best == miss64() {
+        s_rec[r] = vec4<u32>(0xffffffffu, 0x7f800000u, 0u, 0u);
+    } else {
+        s_rec[r] = vec4<u32>(u32(w.best & u64(0xffffffffu)), u32(w.best >> 32u), w.u, w.v);
+    }
     atomicAdd(&wcnt[s_kl[r] & 3u], w.finals);
     atomicAdd(&wcnt[4], w.tests);
     atomicAdd(&wcnt[5], w.passes);
