@@ -5,10 +5,10 @@
 //! Rasterize into a G-buffer that stays on the device ([`GpuRaster::rasterize_device`]) →
 //! surfaces of the covered pixels (`frame.wgsl`, compacted by the backend's scan) → per
 //! generation: shadow rays (`stages.wgsl`) traced by the engine on the device
-//! ([`GpuEngine::trace_device_part`]) → occlusion flags → Blinn-Phong shading → colours added
-//! to their pixels; reflection/refraction rays (`stages.wgsl`, compacted) → traced → the
-//! background behind the misses → the next generation's surfaces from the hits. Finally the
-//! image is encoded to sRGB bytes on the device and read back.
+//! ([`GpuEngine::trace_device_part`]) → Blinn-Phong shading, reading the shadow rays'
+//! records → colours added to their pixels; reflection/refraction rays (`stages.wgsl`,
+//! compacted) → traced → the background behind the misses → the next generation's surfaces
+//! from the hits. Finally the image is encoded to sRGB bytes on the device and read back.
 //!
 //! A generation's surfaces are held in parts of at most [`GpuBackend::part_size`] surfaces,
 //! so that every buffer a kernel binds (a part's shadow rays, bounce slots, hits) fits one
@@ -579,24 +579,22 @@ impl Backend for GpuBackend<'_> {
         for surf in s {
             let (n, m) = (surf.len, surf.len * nl);
             let sz = surf.sizes.as_ref();
-            let occ = g.storage("occluded", m * 4);
-            if m > 0 {
-                let rec = recs
-                    .as_mut()
+            // The shading reads the shadow rays' records; with no shadow ray (no light) it
+            // reads none, and binds a stand-in.
+            let none;
+            let rec = if m > 0 {
+                recs.as_mut()
                     .and_then(|r| r.next())
-                    .expect("a shadow batch per part with rays");
-                self.ex.run_on(
-                    launch::FrOccluded { rec, out_u: &occ },
-                    FrameCountParams { n: m as u32 },
-                    Threads::of(sz.map(|z| &z.lights), m),
-                    256,
-                );
-            }
+                    .expect("a shadow batch per part with rays")
+            } else {
+                none = g.storage("no shadow records", 16);
+                &none
+            };
             if n > 0 {
                 let colour = g.storage("colour", n * 16);
                 let ex = &mut self.ex;
                 surf.s
-                    .shade(ex, &self.lights, &self.mats, &occ, &colour, n, nl, sz);
+                    .shade(ex, &self.lights, &self.mats, rec, &colour, n, nl, sz);
                 ex.run_on(
                     launch::FrAccumulate {
                         s_pix: &surf.pix,

@@ -1,9 +1,9 @@
 // The device-resident Whitted frame's own passes (frame.rs), the twins of the host steps of
 // render::whitted::render_with and render::secondary: surfaces from the G-buffer and from
 // closest hits (Surfaces::from_gbuffer / from_hits), the shadow and bounce rays' kinds and
-// pixels, occlusion flags from hit records, the pixel accumulation in the CPU's order, the
-// misses' background, the sRGB encoding of the image (render::output::srgb_encode) and the
-// small per-trace totals the host reads back instead of the records.
+// pixels, the pixel accumulation in the CPU's order, the misses' background (with the hit
+// flags), the sRGB encoding of the image (render::output::srgb_encode) and the small
+// per-trace totals the host reads back instead of the records.
 //
 // Surfaces (as stages.wgsl reads them): 1 position, 2 geometric normal, 3 shading normal,
 // 4 incident direction (xyz, w = 0), 5 (throughput rgb, offset scale), 6 material, 7 pixel.
@@ -13,8 +13,8 @@
 // 16 hit records (triangle, t, u, v bits), 17 flags, 18 offsets (scan of the flags),
 // 19 image (linear rgb, 0), 20 colours / bounce slot weights (rgb, kind), 21 G-buffer
 // position (xyz, depth), 22 G-buffer normal, 23 G-buffer id (triangle, u, v, covered),
-// 24 bounce slot origins, 25 bounce slot directions, 26 u32 out (occlusion, totals, sRGB
-// words), 27 per-ray counters (grid: steps, tests).
+// 24 bounce slot origins, 25 bounce slot directions, 26 u32 out (totals, sRGB words),
+// 27 per-ray counters (grid: steps, tests).
 
 @group(0) @binding(1) var<storage, read_write> s_pos: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> s_ng: array<vec4<f32>>;
@@ -77,7 +77,7 @@ struct ShadowMetaParams {
     lights: u32, // lights of the scene
 }
 
-// Parameters of the kernels that take one count (fr_occluded, fr_accumulate, fr_slot_flags,
+// Parameters of the kernels that take one count (fr_accumulate, fr_slot_flags,
 // fr_bounce_emit).
 struct FrameCountParams {
     n: u32, // the rays, surfaces or slots, as each kernel says
@@ -211,17 +211,6 @@ fn fr_shadow_meta(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     }
     r_kl[k] = 1u | ((k % prm.lights) << 2u);
     r_pix[k] = s_pix[k / prm.lights];
-}
-
-// Whether each shadow ray's light is hidden.
-@compute @workgroup_size(256)
-fn fr_occluded(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let prm = frame_count_params();
-    let k = fid(gid, nwg);
-    if k >= prm.n {
-        return;
-    }
-    out_u[k] = u32(rec[k].x != NO_HIT);
 }
 
 // ---------------------------------------------------------------- accumulation

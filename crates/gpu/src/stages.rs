@@ -119,15 +119,16 @@ impl Surf {
         );
     }
 
-    /// Local shading of `n` surfaces under `nl` lights into `colour`, with `occluded` flags
-    /// per (surface, light) and `mats` ([`material_rows`]); `sz`: of the first `sz.one`.
+    /// Local shading of `n` surfaces under `nl` lights into `colour`, with the shadow rays'
+    /// hit records `shadow_rec` per (surface, light; a hit hides the light) and `mats`
+    /// ([`material_rows`]); `sz`: of the first `sz.one`.
     #[allow(clippy::too_many_arguments)] // one launch: its bindings and sizes
     pub fn shade(
         &self,
         ex: &mut Exec,
         lights: &wgpu::Buffer,
         mats: &wgpu::Buffer,
-        occluded: &wgpu::Buffer,
+        shadow_rec: &wgpu::Buffer,
         colour: &wgpu::Buffer,
         n: u64,
         nl: u64,
@@ -144,7 +145,7 @@ impl Surf {
                 lights,
                 mats,
                 o_w: colour,
-                occluded,
+                shadow_rec,
             },
             StageParams {
                 surfaces: n as u32,
@@ -324,8 +325,15 @@ impl GpuStages<'_> {
             let sf = self.surf(s);
             let lb = self.lights(lights);
             let mb = self.materials(materials, scene.ambient);
-            let occ: Vec<u32> = occluded.iter().map(|&o| o as u32).collect();
-            let ob = g.upload("occluded", &occ);
+            // As the engines' records: a hit (any triangle) or a miss.
+            let occ: Vec<[u32; 4]> = occluded
+                .iter()
+                .map(|&o| match o {
+                    true => [0, 0, 0, 0],
+                    false => [geom::NO_HIT, f32::INFINITY.to_bits(), 0, 0],
+                })
+                .collect();
+            let ob = g.upload("shadow records", &occ);
             let out = g.storage("colour", n as u64 * 16);
             sf.shade(
                 &mut ex,

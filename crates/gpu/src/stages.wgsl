@@ -19,8 +19,9 @@
 @group(0) @binding(9) var<storage, read_write> o_org: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read_write> o_dir: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read_write> o_w: array<vec4<f32>>;
-// Shading: occluded flags per (surface, light).
-@group(0) @binding(12) var<storage, read> occluded: array<u32>;
+// Shading: the shadow rays' hit records (triangle, t, u, v bits), per (surface, light): a hit
+// hides the light (read as the engine wrote them, with no pass of occlusion flags between).
+@group(0) @binding(12) var<storage, read> shadow_rec: array<vec4<u32>>;
 
 // Parameters of shadow_rays, bounce_rays and shade_local.
 struct StageParams {
@@ -178,7 +179,7 @@ fn shade_local(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     let p = s_pos[i].xyz;
     let view = s_inc[i].xyz;
     for (var l = 0u; l < prm.lights; l++) {
-        if occluded[i * prm.lights + l] != 0u {
+        if shadow_rec[i * prm.lights + l].x != 0xffffffffu {
             continue;
         }
         let to_light = lights[3u * l].xyz - p;
