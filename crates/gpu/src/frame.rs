@@ -35,7 +35,7 @@
 use crate::device::{Gpu, GpuError};
 use crate::kernels::params::{
     EncodeParams, FrameCountParams, GbFlagsParams, GbSurfacesParams, HitSurfacesParams,
-    KindCountParams, MissesParams, ShadowMetaParams,
+    KindCountParams, MissesParams,
 };
 use crate::kernels::{launch, DevLen, DevSize, Exec, Threads};
 use crate::raster::{DeviceGBuffer, GpuRaster};
@@ -374,20 +374,7 @@ impl Backend for GpuBackend<'_> {
             let rays = DeviceRays::storage(g, "shadow", m);
             let sz = surf.sizes.as_ref();
             surf.s
-                .shadow_rays(&mut self.ex, &self.lights, &rays.org, &rays.dir, n, nl, sz);
-            self.ex.run_on(
-                launch::FrShadowMeta {
-                    s_pix: &surf.pix,
-                    r_kl: &rays.kl,
-                    r_pix: &rays.pix,
-                },
-                ShadowMetaParams {
-                    rays: m as u32,
-                    lights: nl as u32,
-                },
-                Threads::of(sz.map(|z| &z.lights), m),
-                256,
-            );
+                .shadow_rays(&mut self.ex, &self.lights, &surf.pix, &rays, n, nl, sz);
             out.push(DeviceBatch {
                 rays,
                 weight: None,

@@ -71,12 +71,6 @@ struct HitSurfacesParams {
     count: u32, // the part's surfaces
 }
 
-// Parameters of fr_shadow_meta.
-struct ShadowMetaParams {
-    rays: u32, // shadow rays: surfaces · lights
-    lights: u32, // lights of the scene
-}
-
 // Parameters of the kernels that take one count (fr_accumulate, fr_slot_flags,
 // fr_bounce_emit).
 struct FrameCountParams {
@@ -197,20 +191,6 @@ fn fr_gb_surfaces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     s_inc[i] = vec4<f32>(inc, 0.0);
     s_mat[i] = g_material[t];
     s_tw[i] = vec4<f32>(1.0, 1.0, 1.0, tri_scale(t));
-}
-
-// ---------------------------------------------------------------- shadow rays
-// The kind (shadow) and light, and the surface's pixel,
-// of ray k = surface · lights + light (secondary::shadow_rays's order).
-@compute @workgroup_size(256)
-fn fr_shadow_meta(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let prm = shadow_meta_params();
-    let k = fid(gid, nwg);
-    if k >= prm.rays {
-        return;
-    }
-    r_kl[k] = 1u | ((k % prm.lights) << 2u);
-    r_pix[k] = s_pix[k / prm.lights];
 }
 
 // ---------------------------------------------------------------- accumulation

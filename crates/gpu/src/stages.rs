@@ -12,6 +12,7 @@
 use crate::device::Gpu;
 use crate::kernels::params::StageParams;
 use crate::kernels::{launch, DevLen, DevSize, Exec, Kernels, Threads};
+use crate::rays::DeviceRays;
 use geom::Vec3;
 use render::secondary::Surfaces;
 use scene::{Light, Material, Scene};
@@ -80,16 +81,16 @@ impl Surf {
         }
     }
 
-    /// The shadow rays of `n` surfaces and `nl` lights (`lights`: [`light_rows`]) into
-    /// `org`/`dir`, ray `surface · nl + light`; `sz`: of the first `sz.one` of the `n` (a
-    /// size on the device).
+    /// The shadow rays of `n` surfaces with pixels `pix` and `nl` lights (`lights`:
+    /// [`light_rows`]) into `rays` (segments, kind | light << 2 and pixel), ray
+    /// `surface · nl + light`; `sz`: of the first `sz.one` of the `n` (a size on the device).
     #[allow(clippy::too_many_arguments)] // one launch: its bindings and sizes
     pub fn shadow_rays(
         &self,
         ex: &mut Exec,
         lights: &wgpu::Buffer,
-        org: &wgpu::Buffer,
-        dir: &wgpu::Buffer,
+        pix: &wgpu::Buffer,
+        rays: &DeviceRays,
         n: u64,
         nl: u64,
         sz: Option<&SurfSizes>,
@@ -107,8 +108,11 @@ impl Surf {
                 s_ng: &self.ng,
                 s_tw: &self.tw,
                 lights,
-                o_org: org,
-                o_dir: dir,
+                o_org: &rays.org,
+                o_dir: &rays.dir,
+                s_pix: pix,
+                o_kl: &rays.kl,
+                o_pix: &rays.pix,
             },
             StageParams {
                 surfaces: n as u32,
@@ -293,18 +297,23 @@ impl GpuStages<'_> {
             let sf = self.surf(s);
             let lb = self.lights(lights);
             let m = (n * nl) as u64;
-            let (org, dir) = (g.storage("org", m * 16), g.storage("dir", m * 16));
-            sf.shadow_rays(&mut ex, &lb, &org, &dir, n as u64, nl as u64, None);
-            let o: Vec<[f32; 4]> = ex.read(&org, m as usize);
-            let d: Vec<[f32; 4]> = ex.read(&dir, m as usize);
+            let pix = g.upload("surface pixel", &s.pixel);
+            let rays = DeviceRays::storage(g, "shadow", m);
+            sf.shadow_rays(&mut ex, &lb, &pix, &rays, n as u64, nl as u64, None);
+            let o: Vec<[f32; 4]> = ex.read(&rays.org, m as usize);
+            let d: Vec<[f32; 4]> = ex.read(&rays.dir, m as usize);
+            let kl: Vec<u32> = ex.read(&rays.kl, m as usize);
+            let px: Vec<u32> = ex.read(&rays.pix, m as usize);
             let mut b = RayBatch::with_capacity(m as usize);
             for k in 0..m as usize {
                 let i = k / nl;
+                // The kind, light and pixel as the kernel wrote them (the pass test
+                // compares them with the CPU's).
                 b.push(
                     ray_of(o[k], d[k]),
-                    RayKind::Shadow,
-                    s.pixel[i],
-                    (k % nl) as u32,
+                    RayKind::from_u8((kl[k] & 3) as u8),
+                    px[k],
+                    kl[k] >> 2,
                     s.throughput[i],
                     s.depth[i],
                 );

@@ -22,6 +22,11 @@
 // Shading: the shadow rays' hit records (triangle, t, u, v bits), per (surface, light): a hit
 // hides the light (read as the engine wrote them, with no pass of occlusion flags between).
 @group(0) @binding(12) var<storage, read> shadow_rec: array<vec4<u32>>;
+// Shadow rays: the surfaces' pixels in, each ray's kind | light << 2 and pixel out (the
+// layout of rsh::DeviceRays).
+@group(0) @binding(13) var<storage, read> s_pix: array<u32>;
+@group(0) @binding(14) var<storage, read_write> o_kl: array<u32>;
+@group(0) @binding(15) var<storage, read_write> o_pix: array<u32>;
 
 // Parameters of shadow_rays, bounce_rays and shade_local.
 struct StageParams {
@@ -63,6 +68,8 @@ fn shadow_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     let d = end - lp;
     let dist = len3(d);
     o_org[k] = vec4<f32>(lp, 0.0);
+    o_kl[k] = 1u | (l << 2u);
+    o_pix[k] = s_pix[i];
     if dist > 0.0 && is_finite(dist) {
         o_dir[k] = vec4<f32>(div3(d, dist), dist);
     } else {
