@@ -407,22 +407,14 @@ impl Backend for GpuBackend<'_> {
             );
             let sz = surf.sizes.as_ref();
             let over_slots = Threads::of(sz.map(|z| &z.slots), slots);
-            let ex = &mut self.ex;
-            surf.s
-                .bounce_rays(ex, &self.mats, [&b_org, &b_dir, &b_w], surf.len, sz);
-            // New buffers are zeroed (wgpu's guarantee), so the flags past a device count
-            // are 0 and the scan over the bound counts the filled slots only.
+            // The kernel flags the filled slots. New buffers are zeroed (wgpu's guarantee),
+            // so the flags past a device count are 0 and the scan over the bound counts the
+            // filled slots only.
             let flags = g.storage("slot flags", slots * 4);
             let offs = g.storage("slot offsets", (slots + 1) * 4);
-            ex.run_on(
-                launch::FrSlotFlags {
-                    col: &b_w,
-                    flags: &flags,
-                },
-                FrameCountParams { n: slots as u32 },
-                over_slots,
-                256,
-            );
+            let ex = &mut self.ex;
+            surf.s
+                .bounce_rays(ex, &self.mats, [&b_org, &b_dir, &b_w, &flags], surf.len, sz);
             ex.scan(&flags, &offs, slots);
             let chunks = slots.div_ceil(TOTALS_CHUNK);
             let kinds = g.storage("slot kind counts", chunks * 4);

@@ -71,8 +71,7 @@ struct HitSurfacesParams {
     count: u32, // the part's surfaces
 }
 
-// Parameters of the kernels that take one count (fr_accumulate, fr_slot_flags,
-// fr_bounce_emit).
+// Parameters of the kernels that take one count (fr_accumulate, fr_bounce_emit).
 struct FrameCountParams {
     n: u32, // the rays, surfaces or slots, as each kernel says
 }
@@ -246,20 +245,8 @@ fn fr_misses(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
 }
 
 // ---------------------------------------------------------------- bounce rays
-// Bounce slots that hold a ray (stages.wgsl's bounce_rays
-// marks them with their kind).
-@compute @workgroup_size(256)
-fn fr_slot_flags(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let prm = frame_count_params();
-    let k = fid(gid, nwg);
-    if k >= prm.n {
-        return;
-    }
-    flags[k] = u32(col[k].w != 0.0);
-}
-
-// The filled slots as a ray batch, in slot order (surface-major,
-// reflection before refraction: secondary::bounce_rays's order).
+// The filled slots (flagged by stages.wgsl's bounce_rays) as a ray batch, in slot order
+// (surface-major, reflection before refraction: secondary::bounce_rays's order).
 @compute @workgroup_size(256)
 fn fr_bounce_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let prm = frame_count_params();

@@ -160,13 +160,13 @@ impl Surf {
         );
     }
 
-    /// The bounce slots of `n` surfaces (2 per surface: origin, direction, weight + kind);
-    /// `sz`: of the first `sz.one`.
+    /// The bounce slots of `n` surfaces (2 per surface: origin, direction, weight + kind,
+    /// and a filled flag); `sz`: of the first `sz.one`.
     pub fn bounce_rays(
         &self,
         ex: &mut Exec,
         mats: &wgpu::Buffer,
-        slots: [&wgpu::Buffer; 3],
+        slots: [&wgpu::Buffer; 4],
         n: u64,
         sz: Option<&SurfSizes>,
     ) {
@@ -182,6 +182,7 @@ impl Surf {
                 o_org: slots[0],
                 o_dir: slots[1],
                 o_w: slots[2],
+                o_flags: slots[3],
             },
             StageParams {
                 surfaces: n as u32,
@@ -370,22 +371,29 @@ impl GpuStages<'_> {
             let sf = self.surf(s);
             let mb = self.materials(materials, Vec3::ZERO);
             let m = 2 * n as u64;
-            let (org, dir, w) = (
+            let (org, dir, w, filled) = (
                 g.storage("org", m * 16),
                 g.storage("dir", m * 16),
                 g.storage("weight", m * 16),
+                g.storage("filled", m * 4),
             );
-            sf.bounce_rays(&mut ex, &mb, [&org, &dir, &w], n as u64, None);
+            sf.bounce_rays(&mut ex, &mb, [&org, &dir, &w, &filled], n as u64, None);
             let o: Vec<[f32; 4]> = ex.read(&org, m as usize);
             let d: Vec<[f32; 4]> = ex.read(&dir, m as usize);
             let wt: Vec<[f32; 4]> = ex.read(&w, m as usize);
+            let fl: Vec<u32> = ex.read(&filled, m as usize);
             let mut b = RayBatch::default();
             // Slots in order: surface-major, reflection before refraction (the CPU's order).
             for k in 0..m as usize {
+                // Compacted by the flag, as the frame does (a flag that disagrees with the
+                // kind makes a ray the CPU's batch does not have, or loses one).
+                if fl[k] == 0 {
+                    continue;
+                }
                 let kind = match wt[k][3] as u32 {
                     2 => RayKind::Reflection,
                     3 => RayKind::Refraction,
-                    _ => continue,
+                    _ => RayKind::Primary,
                 };
                 let i = k / 2;
                 b.push(

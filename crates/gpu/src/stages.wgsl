@@ -27,6 +27,8 @@
 @group(0) @binding(13) var<storage, read> s_pix: array<u32>;
 @group(0) @binding(14) var<storage, read_write> o_kl: array<u32>;
 @group(0) @binding(15) var<storage, read_write> o_pix: array<u32>;
+// Bounce rays: whether each slot holds a ray (the flags the frame's scan compacts by).
+@group(0) @binding(16) var<storage, read_write> o_flags: array<u32>;
 
 // Parameters of shadow_rays, bounce_rays and shade_local.
 struct StageParams {
@@ -115,8 +117,8 @@ fn mirror(i: u32, f: array<vec3<f32>, 2>) -> array<vec4<f32>, 2> {
 }
 
 // Two slots per surface: 2i reflection (or nothing), 2i + 1 refraction, or the reflection
-// total internal reflection turns it into (or nothing). o_w.w = kind (2 reflection,
-// 3 refraction) or 0 for an empty slot.
+// total internal reflection turns it into (or nothing). o_flags: 1 for a filled slot.
+// o_w.w = kind (2 reflection, 3 refraction) or 0 for an empty slot.
 @compute @workgroup_size(256)
 fn bounce_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let prm = stage_params();
@@ -132,6 +134,8 @@ fn bounce_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     let f = facing(i);
     o_w[2u * i] = vec4<f32>(0.0);
     o_w[2u * i + 1u] = vec4<f32>(0.0);
+    o_flags[2u * i] = u32(reflectivity > 0.0);
+    o_flags[2u * i + 1u] = u32(transparency > 0.0);
     if reflectivity > 0.0 {
         let r = mirror(i, f);
         o_org[2u * i] = r[0];
