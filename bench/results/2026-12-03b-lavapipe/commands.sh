@@ -22,6 +22,7 @@ for e in crsh grid rah; do
         bin=${!v}
         row "office-b3-$e-$v" "$bin" office -W 128 -H 128 --bounces 3 --backend gpu --engine "$e"
         row "sponza-b0-$e-$v" "$bin" bench/scenes/sponza.toml -W 512 -H 512 --bounces 0 --backend gpu --engine "$e"
+        row "sponza128-b3-$e-$v" "$bin" bench/scenes/sponza.toml -W 128 -H 128 --bounces 3 --backend gpu --engine "$e"
         row "kitchen-frames-$e-$v" "$bin" kitchen -W 128 -H 128 --bounces 3 --frames 3 --backend gpu --engine "$e"
         row "cornell-spp3-$e-$v" "$bin" cornell -W 64 -H 48 --bounces 3 --spp 3 --backend gpu --engine "$e"
     done
@@ -32,7 +33,7 @@ out = sys.argv[1]
 keys = ["host_read_backs", "gpu_dispatches", "host_device_bytes", "total_tests", "rays_shadow", "rays_reflection", "rays_refraction"]
 print("| frame | engine | read-backs BASE → NEW | dispatches BASE → NEW | host↔device bytes BASE → NEW | total tests (BASE = NEW) | image bytes |")
 print("|---|---|---:|---:|---:|---:|---|")
-for f in ["office-b3", "sponza-b0", "kitchen-frames", "cornell-spp3"]:
+for f in ["office-b3", "sponza-b0", "sponza128-b3", "kitchen-frames", "cornell-spp3"]:
     for e in ["crsh", "grid", "rah"]:
         b = json.load(open(f"{out}/{f}-{e}-BASE.json"))
         n = json.load(open(f"{out}/{f}-{e}-NEW.json"))
