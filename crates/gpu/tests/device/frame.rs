@@ -61,6 +61,32 @@ fn gpu_frame(
     (out, b.in_parts)
 }
 
+/// `dev` (a GPU frame) is `host` (the CPU backend's frame over the same G-buffer and
+/// engine): image bytes within one (the device's `pow`), every count equal.
+fn same_frame(what: &str, host: &render::whitted::Rendered, dev: &render::whitted::Rendered) {
+    let (a, b) = (srgb(&host.pixels), dev.rgb8());
+    assert_eq!(a.len(), b.len(), "{what}: image size");
+    let off = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+    let far = a
+        .iter()
+        .zip(&b)
+        .filter(|(x, y)| x.abs_diff(**y) > 1)
+        .count();
+    eprintln!("{what}: {off} of {} bytes differ by one", a.len());
+    assert_eq!(far, 0, "{what}: bytes differ by more than one");
+    let (hs, ds) = (&host.stats, &dev.stats);
+    assert_eq!(ds.covered_pixels, hs.covered_pixels, "{what}: covered");
+    assert_eq!(
+        (ds.rays_shadow, ds.rays_reflection, ds.rays_refraction),
+        (hs.rays_shadow, hs.rays_reflection, hs.rays_refraction),
+        "{what}: rays by kind"
+    );
+    assert_eq!(ds.trace.rays, hs.trace.rays, "{what}: traced");
+    assert_eq!(ds.trace.hits, hs.trace.hits, "{what}: hits");
+    assert_eq!(ds.total_tests, hs.total_tests, "{what}: tests");
+    assert_eq!(ds.brute_force_tests, hs.brute_force_tests, "{what}");
+}
+
 #[test]
 fn gpu_frames_equal_cpu_frames_over_the_gpu_gbuffer() {
     let Some(g) = gpu() else { return };
@@ -102,27 +128,8 @@ fn gpu_frames_equal_cpu_frames_over_the_gpu_gbuffer() {
                 bytes <= image + (1 << 20),
                 "{what}: {bytes} bytes moved for a {image}-byte image"
             );
-            let (a, b) = (srgb(&host.pixels), dev.rgb8());
-            assert_eq!(a.len(), b.len(), "{what}: image size");
-            let off = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-            let far = a
-                .iter()
-                .zip(&b)
-                .filter(|(x, y)| x.abs_diff(**y) > 1)
-                .count();
-            eprintln!("{what}: {off} of {} bytes differ by one", a.len());
-            assert_eq!(far, 0, "{what}: bytes differ by more than one");
-            let (hs, ds) = (&host.stats, &dev.stats);
-            assert_eq!(ds.covered_pixels, hs.covered_pixels, "{what}: covered");
-            assert_eq!(
-                (ds.rays_shadow, ds.rays_reflection, ds.rays_refraction),
-                (hs.rays_shadow, hs.rays_reflection, hs.rays_refraction),
-                "{what}: rays by kind"
-            );
-            assert_eq!(ds.trace.rays, hs.trace.rays, "{what}: traced");
-            assert_eq!(ds.trace.hits, hs.trace.hits, "{what}: hits");
-            assert_eq!(ds.total_tests, hs.total_tests, "{what}: tests");
-            assert_eq!(ds.brute_force_tests, hs.brute_force_tests);
+            same_frame(&what, &host, &dev);
+            let (b, ds) = (dev.rgb8(), &dev.stats);
             assert!(
                 ds.phases.iter().any(|p| p.0 == render::FramePhase::Trace),
                 "{what}: phases"
@@ -308,6 +315,52 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
         for c in [RshConfig::rah(), RshConfig::crsh()] {
             let e = GpuRsh::new(g.clone(), &geo, c).unwrap();
             assert!(!e.counts_on_device(), "{name} {}", e.name());
+        }
+    }
+}
+
+#[test]
+fn real_scene_frames_read_back_once_and_equal_cpu_frames() {
+    // BART's kitchen (materials that reflect or refract, one bounce ray per surface at most)
+    // and Sponza (none: the loop stops after the first generation without a count) at 3
+    // bounces, device-sized with CRSH's single-ray path and the grid: one read-back, and
+    // the CPU backend's counts and image over the same G-buffer.
+    if testkit::scenes().is_none() {
+        return;
+    }
+    let Some(g) = gpu() else { return };
+    for name in ["kitchen", "sponza"] {
+        let s = scene::load(name, &Default::default()).unwrap();
+        let geo = Geometry::from_scene(&s);
+        let (w, h) = (64, 48);
+        let opts = RenderOptions {
+            width: w,
+            height: h,
+            bounces: 3,
+            spp: 1,
+        };
+        let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
+        let view = render::View::new(&s.camera, w, h);
+        let sized: Vec<Box<dyn GpuEngine>> = vec![
+            Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
+            Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
+        ];
+        for e in sized {
+            let what = format!("{name} {}", e.name());
+            let (gb, _) = raster.rasterize(&view, render::raster::default_near(&geo));
+            let tracer: &dyn Tracer = e.as_ref();
+            let host = run(
+                &mut CpuBackend::new(&s, &geo, tracer).with_gbuffer(gb),
+                &s,
+                &geo,
+                &opts,
+                &(),
+            );
+            let reads = g.read_backs();
+            let (dev, in_parts) = gpu_frame(e.as_ref(), &raster, &s, &geo, &opts);
+            assert!(!in_parts, "{what}: one part");
+            assert_eq!(g.read_backs() - reads, 1, "{what}: one read-back");
+            same_frame(&what, &host, &dev);
         }
     }
 }
