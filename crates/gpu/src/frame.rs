@@ -246,11 +246,34 @@ impl<'a> GpuBackend<'a> {
         bytemuck::cast_slice(&raw[..w]).to_vec()
     }
 
-    /// The `n` surfaces a kernel places, as (first, count) parts.
-    fn split(&mut self, n: u64) -> Vec<(u64, u64)> {
-        let p = parts(n, self.part);
+    /// Room for the surfaces a scan of `n` flags into `offs` places (their count at
+    /// `offs[n]`), as (first surface, part) pairs: where the bound `n` fits ([`sizes`]),
+    /// one part at the bound whose count stays on the device (returned, for the
+    /// statistics); else the count read back and the surfaces split into exact parts.
+    fn place(
+        &mut self,
+        offs: &wgpu::Buffer,
+        n: u64,
+    ) -> (Vec<(u64, DeviceSurfaces)>, Option<DevLen>) {
+        let g = self.g;
+        if self.cap.fits(n) {
+            let count = DevLen {
+                buf: offs.clone(),
+                at: n,
+                cap: n,
+            };
+            let mut s = DeviceSurfaces::new(g, n);
+            s.sizes = Some(SurfSizes::new(&mut self.ex, &count, self.cap.lights));
+            return (vec![(0, s)], Some(count));
+        }
+        let placed = self.ex.read_at(offs, n as usize) as u64;
+        let p = parts(placed, self.part);
         self.in_parts |= p.len() > 1;
-        p
+        let parts = p
+            .into_iter()
+            .map(|(first, count)| (first, DeviceSurfaces::new(g, count)))
+            .collect();
+        (parts, None)
     }
 }
 
@@ -299,31 +322,13 @@ impl Backend for GpuBackend<'_> {
             256,
         );
         ex.scan(&flags, &offs, npix);
-        // The covered pixels: left on the device, the surfaces' room one per pixel, where
-        // that fits; else read back.
-        let covered = DevLen {
-            buf: offs.clone(),
-            at: npix,
-            cap: npix,
-        };
-        let sized = self.cap.fits(npix);
-        let n = if sized {
-            self.deferred.push(Counted::Covered, &covered);
-            npix
-        } else {
-            ex.read_at(&offs, npix as usize) as u64
-        };
+        let (parts, covered) = self.place(&offs, npix);
+        if let Some(c) = &covered {
+            self.deferred.push(Counted::Covered, c);
+        }
         let mut out = Vec::new();
-        let split = if sized {
-            vec![(0, npix)]
-        } else {
-            self.split(n)
-        };
-        for (first, count) in split {
-            let mut s = DeviceSurfaces::new(g, count);
-            if sized {
-                s.sizes = Some(SurfSizes::new(&mut self.ex, &covered, self.cap.lights));
-            }
+        for (first, s) in parts {
+            let count = s.len;
             let p = GbSurfacesParams {
                 pixels: npix as u32,
                 width: w,
@@ -624,23 +629,8 @@ impl Backend for GpuBackend<'_> {
                 256,
             );
             self.ex.scan(&hflags, &hoffs, n);
-            let hits = DevLen {
-                buf: hoffs.clone(),
-                at: n,
-                cap: n,
-            };
-            let sized = self.cap.fits(n);
-            let split = if sized {
-                vec![(0, n)]
-            } else {
-                let nh = self.ex.read_at(&hoffs, n as usize) as u64;
-                self.split(nh)
-            };
-            for (first, count) in split {
-                let mut next = DeviceSurfaces::new(g, count);
-                if sized {
-                    next.sizes = Some(SurfSizes::new(&mut self.ex, &hits, self.cap.lights));
-                }
+            for (first, next) in self.place(&hoffs, n).0 {
+                let count = next.len;
                 let l = launch::FrHitSurfaces {
                     flags: &hflags,
                     offs: &hoffs,

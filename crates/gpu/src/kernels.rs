@@ -200,7 +200,7 @@ impl DevSize {
 }
 
 /// Over how many threads a launch runs: a count the host knows, or one the device holds
-/// ([`Exec::run_sized`]'s `first` and `over`).
+/// ([`Exec::run_on`]).
 #[derive(Clone, Copy)]
 pub enum Threads<'s> {
     /// This many threads (the kernel's first parameter word as its caller set it).
@@ -340,26 +340,17 @@ impl<'a> Exec<'a> {
         self.record(launch, params, Dispatch::Direct(gx, gy));
     }
 
-    /// Launch `launch`'s kernel over `over.n` threads, a size the device computed
-    /// ([`Exec::size`]): its first parameter word replaced on the device by `first.n` (the
-    /// count the kernel stops at) and its workgroups read from `over`'s block
-    /// (`dispatch_workgroups_indirect`), so nothing is read back. `over` must have been
-    /// sized for workgroups of the kernel's size.
-    pub fn run_sized<L: Launch>(
-        &mut self,
-        launch: L,
-        params: L::Params,
-        first: &DevSize,
-        over: &DevSize,
-    ) {
-        self.record(launch, params, Dispatch::Indirect { first, args: over });
-    }
-
-    /// [`Exec::run`] or [`Exec::run_sized`], as `threads` says.
+    /// Launch `launch`'s kernel over the threads `threads` says: as [`Exec::run`], or over
+    /// a size the device computed ([`Exec::sizes`]), its first parameter word (the count
+    /// the kernel stops at) replaced on the device by `first.n` and its workgroups read
+    /// from `over`'s block (`dispatch_workgroups_indirect`; `over` sized for workgroups of
+    /// `wg`), or given for a bound ([`Threads::Patched`]); so nothing is read back.
     pub fn run_on<L: Launch>(&mut self, launch: L, params: L::Params, threads: Threads, wg: u32) {
         match threads {
             Threads::Host(n) => self.run(launch, params, n, wg),
-            Threads::Device { first, over } => self.run_sized(launch, params, first, over),
+            Threads::Device { first, over } => {
+                self.record(launch, params, Dispatch::Indirect { first, args: over })
+            }
             Threads::Patched { first, threads } => {
                 let groups = self.g.grid(threads, wg);
                 self.record(launch, params, Dispatch::Patched { first, groups });

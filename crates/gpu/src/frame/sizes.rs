@@ -1,7 +1,7 @@
 //! The sizes a device-resident frame leaves on the device, so that nothing inside a frame
 //! waits for the host. A generation's surfaces, rays and hits are counted by scans on the device; where
 //! the generation's bound fits (`Capacity`), its buffers are allocated at that bound and
-//! every launch over them reads the count there (`Exec::run_sized`: the first parameter
+//! every launch over them reads the count there (`Exec::run_on`: the first parameter
 //! word patched on the device, the workgroups from an indirect-dispatch block), so the host
 //! never waits for it. The statistics those counts feed (covered pixels, rays by kind, rays
 //! traced) are read with the image, in the frame's one read-back (`Deferrals`).

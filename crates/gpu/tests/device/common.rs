@@ -1,7 +1,18 @@
 //! Helpers shared by the GPU integration tests.
 
 use accel::grid::GridEngine;
+use rsh::{ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
 use scene::Geometry;
+
+/// CRSH as the GPU runs it by default: single rays through the object tree (LBVH).
+pub fn crsh_single() -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::Bvh,
+        path: RayPath::Single,
+        builder: ObjectBuilder::Lbvh,
+        ..RshConfig::crsh()
+    }
+}
 
 /// A binding just large enough for `cpu`'s grid over `geo`: its largest array (references,
 /// cell records, voxel map, triangles), to the next power of two.

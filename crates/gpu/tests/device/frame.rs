@@ -10,12 +10,13 @@
 
 use crate::common;
 
+use crate::common::crsh_single;
 use accel::{GridConfig, GridEngine};
 use gpu::frame::GpuBackend;
 use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh};
 use render::cpu::CpuBackend;
 use render::whitted::{run, RenderOptions};
-use rsh::{ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
+use rsh::RshConfig;
 use scene::{builtin, Geometry, Scene};
 use trace::{Hit, RayKind, TraceMode, TraceStats, Tracer};
 
@@ -27,16 +28,6 @@ fn srgb(p: &[geom::Vec3]) -> Vec<u8> {
     p.iter()
         .flat_map(|c| [c.x, c.y, c.z].map(render::output::srgb_encode))
         .collect()
-}
-
-/// CRSH as the GPU runs it by default: single rays through the object tree (LBVH).
-fn crsh_single() -> RshConfig {
-    RshConfig {
-        objects: ObjectHierarchy::Bvh,
-        path: RayPath::Single,
-        builder: ObjectBuilder::Lbvh,
-        ..RshConfig::crsh()
-    }
 }
 
 fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
@@ -59,6 +50,26 @@ fn gpu_frame(
     let mut b = GpuBackend::new(e, raster, s, opts, false).unwrap();
     let out = run(&mut b, s, geo, opts, &());
     (out, b.in_parts)
+}
+
+/// The same frame as [`gpu_frame`] on the CPU backend, over the GPU's G-buffer.
+fn cpu_frame(
+    e: &dyn GpuEngine,
+    raster: &GpuRaster,
+    s: &Scene,
+    geo: &Geometry,
+    opts: &RenderOptions,
+) -> render::whitted::Rendered {
+    let view = render::View::new(&s.camera, opts.width, opts.height);
+    let (gb, _) = raster.rasterize(&view, render::raster::default_near(geo));
+    let tracer: &dyn Tracer = e;
+    run(
+        &mut CpuBackend::new(s, geo, tracer).with_gbuffer(gb),
+        s,
+        geo,
+        opts,
+        &(),
+    )
 }
 
 /// `dev` (a GPU frame) is `host` (the CPU backend's frame over the same G-buffer and
@@ -106,18 +117,9 @@ fn gpu_frames_equal_cpu_frames_over_the_gpu_gbuffer() {
             spp: 1,
         };
         let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
-        let view = render::View::new(&s.camera, w, h);
         for e in engines(&g, &geo) {
             let what = format!("{name} {}", e.name());
-            let (gb, _) = raster.rasterize(&view, render::raster::default_near(&geo));
-            let tracer: &dyn Tracer = e.as_ref();
-            let host = run(
-                &mut CpuBackend::new(&s, &geo, tracer).with_gbuffer(gb),
-                &s,
-                &geo,
-                &opts,
-                &(),
-            );
+            let host = cpu_frame(e.as_ref(), &raster, &s, &geo, &opts);
             let moved = e.gpu().bytes_moved();
             let (dev, in_parts) = gpu_frame(e.as_ref(), &raster, &s, &geo, &opts);
             assert!(!in_parts, "{what}: one part");
@@ -340,22 +342,13 @@ fn real_scene_frames_read_back_once_and_equal_cpu_frames() {
             spp: 1,
         };
         let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
-        let view = render::View::new(&s.camera, w, h);
         let sized: Vec<Box<dyn GpuEngine>> = vec![
             Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
             Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
         ];
         for e in sized {
             let what = format!("{name} {}", e.name());
-            let (gb, _) = raster.rasterize(&view, render::raster::default_near(&geo));
-            let tracer: &dyn Tracer = e.as_ref();
-            let host = run(
-                &mut CpuBackend::new(&s, &geo, tracer).with_gbuffer(gb),
-                &s,
-                &geo,
-                &opts,
-                &(),
-            );
+            let host = cpu_frame(e.as_ref(), &raster, &s, &geo, &opts);
             let reads = g.read_backs();
             let (dev, in_parts) = gpu_frame(e.as_ref(), &raster, &s, &geo, &opts);
             assert!(!in_parts, "{what}: one part");

@@ -8,22 +8,13 @@
 
 use gpu::rsh::engine::comparable_counters as counters;
 use gpu::{Gpu, GpuRsh};
-use rsh::{ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, RshEngine};
+use rsh::RshEngine;
 use scene::{builtin, Geometry};
 use testkit::record_render;
 use trace::{Counter, Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 fn gpu() -> Option<Gpu> {
     testkit::or_skip(Gpu::new(), "gpu")
-}
-
-fn single() -> RshConfig {
-    RshConfig {
-        objects: ObjectHierarchy::Bvh,
-        path: RayPath::Single,
-        builder: ObjectBuilder::Lbvh,
-        ..RshConfig::crsh()
-    }
 }
 
 /// Traces `rays` on both; returns the GPU's stack overflows.
@@ -47,8 +38,8 @@ fn single_rays_match_the_cpu_on_builtin_scenes() {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
         let batches = record_render(&s, &geo, 48, 40, 2);
-        let cpu = RshEngine::new(&geo, single()).unwrap();
-        let dev = GpuRsh::new(g.clone(), &geo, single()).unwrap();
+        let cpu = RshEngine::new(&geo, crate::common::crsh_single()).unwrap();
+        let dev = GpuRsh::new(g.clone(), &geo, crate::common::crsh_single()).unwrap();
         assert_eq!(dev.build_passes().len(), 1, "the tree's build is a pass");
         for (k, (rays, mode, expect)) in batches.iter().enumerate() {
             for m in [*mode, TraceMode::Closest, TraceMode::Any] {
@@ -70,8 +61,10 @@ fn overflowing_walks_are_finished_by_the_second_pass() {
     let s = builtin::by_name("office").unwrap();
     let geo = Geometry::from_scene(&s);
     let batches = record_render(&s, &geo, 64, 48, 1);
-    let cpu = RshEngine::new(&geo, single()).unwrap();
-    let dev = GpuRsh::new(g, &geo, single()).unwrap().with_stack(2);
+    let cpu = RshEngine::new(&geo, crate::common::crsh_single()).unwrap();
+    let dev = GpuRsh::new(g, &geo, crate::common::crsh_single())
+        .unwrap()
+        .with_stack(2);
     let mut over = 0;
     for (k, (rays, mode, _)) in batches.iter().enumerate() {
         over += compare(
@@ -97,8 +90,8 @@ fn single_rays_match_the_cpu_on_sponza() {
     let s = scene::load(path.to_str().unwrap(), &Default::default()).unwrap();
     let geo = Geometry::from_scene(&s);
     let batches = record_render(&s, &geo, 64, 48, 1);
-    let cpu = RshEngine::new(&geo, single()).unwrap();
-    let dev = GpuRsh::new(g, &geo, single()).unwrap();
+    let cpu = RshEngine::new(&geo, crate::common::crsh_single()).unwrap();
+    let dev = GpuRsh::new(g, &geo, crate::common::crsh_single()).unwrap();
     let mut over = 0;
     for (k, (rays, mode, _)) in batches.iter().enumerate() {
         over += compare(&cpu, &dev, rays, *mode, &format!("sponza batch {k}"));
