@@ -24,6 +24,58 @@ pub fn keep_freed_memory() {
     }
 }
 
+/// Give the heap's free memory back to the kernel when it holds at least `min_free` bytes
+/// (glibc; elsewhere nothing): the exception to [`keep_freed_memory`] for a pass about to
+/// allocate far more than the memory freed before it, where the freed pages would count
+/// towards the peak without being reused. Returns the free bytes found.
+///
+/// The irregular grid's merge calls it: the initial cells' build leaves its scratch free in
+/// the heap (about 270 MiB on a 2 M-triangle hairball), and the merge's state is allocated
+/// in buffers above the heap's 32 MiB ceiling, which never reuse it.
+pub fn release_free_heap(min_free: u64) -> u64 {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        // SAFETY: mallinfo2 only reads the allocator's statistics; malloc_trim only
+        // returns free pages, and both are thread-safe.
+        let free = unsafe { libc::mallinfo2() }.fordblks as u64;
+        if free >= min_free {
+            unsafe { libc::malloc_trim(0) };
+        }
+        free
+    }
+    #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+    {
+        let _ = min_free;
+        0
+    }
+}
+
+/// Shorten `v` to `len` elements and hand the whole pages of its buffer past them back to
+/// the kernel (Linux; elsewhere it only shortens).
+///
+/// `Vec::shrink_to_fit` would do it by reallocating, which for an element alignment above
+/// the allocator's 16 bytes is a copy: both buffers are resident at once, the opposite of
+/// the point when a buffer of hundreds of MB is cut in half. The capacity is kept; the
+/// pages come back zero-filled if the vector grows into them again.
+pub fn release_tail<T: Copy>(v: &mut Vec<T>, len: usize) {
+    v.truncate(len);
+    #[cfg(target_os = "linux")]
+    {
+        let size = std::mem::size_of::<T>();
+        let page = 4096usize;
+        let start = (v.as_ptr() as usize + len * size).next_multiple_of(page);
+        let end = (v.as_ptr() as usize + v.capacity() * size) / page * page;
+        if size > 0 && end > start {
+            // SAFETY: [start, end) lies inside `v`'s allocation and past its last element,
+            // so no live value is in it and nothing borrows it; MADV_DONTNEED on private
+            // anonymous memory (heap or mmap) only drops the pages, which read back as zeros.
+            unsafe {
+                libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_DONTNEED);
+            }
+        }
+    }
+}
+
 /// 80 % of min(physical memory, address-space limit), in bytes (`u64::MAX` where neither
 /// is known).
 pub fn default_limit() -> u64 {

@@ -381,7 +381,27 @@ pub struct Grid {
 impl Grid {
     /// Number of cells.
     pub fn cells(&self) -> usize {
-        self.cell_min.len()
+        self.cell_min.len().max(self.trav.len())
+    }
+
+    /// Free what only the build reads (the footprints, expanded boxes and reference offsets,
+    /// 52 bytes per cell; traversal reads the records, references and voxel map): an engine
+    /// keeps the grid it traces, not the build's state.
+    pub fn shed_build_arrays(&mut self) {
+        debug_assert_eq!(
+            self.trav.len(),
+            self.exp_min.len(),
+            "shed after the records"
+        );
+        for v in [
+            &mut self.cell_min,
+            &mut self.cell_max,
+            &mut self.exp_min,
+            &mut self.exp_max,
+        ] {
+            *v = Vec::new();
+        }
+        self.ref_first = Vec::new();
     }
 
     /// Bytes of what traversal reads: the cell records (exit box and reference range), the
@@ -419,7 +439,10 @@ impl Grid {
     /// The triangle indices of cell `c`.
     #[inline]
     pub fn cell_refs(&self, c: usize) -> &[u32] {
-        &self.refs[self.ref_first[c] as usize..self.ref_first[c + 1] as usize]
+        match self.trav.get(c) {
+            Some(t) => &self.refs[t.begin as usize..t.end as usize],
+            None => &self.refs[self.ref_first[c] as usize..self.ref_first[c + 1] as usize],
+        }
     }
 }
 
@@ -495,9 +518,23 @@ pub fn build_grid(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridErro
     Ok(complete(build::initial(tris, cfg)?, cfg))
 }
 
+/// [`build_grid`] for tracing only: the build's own arrays are freed as soon as the traversal
+/// records no longer need them ([`Grid::shed_build_arrays`]), the footprints before the
+/// records are made (on a 2 M-triangle hairball, 0.25 GB less at that point).
+pub fn build_grid_for_tracing(tris: &[[Vec3; 3]], cfg: &GridConfig) -> Result<Grid, GridError> {
+    let mut g = complete_with(build::initial(tris, cfg)?, cfg, true);
+    g.shed_build_arrays();
+    Ok(g)
+}
+
 /// The passes after the initial cells: merging and expansion as `cfg` asks, then the
 /// traversal records.
-pub fn complete(mut g: Grid, cfg: &GridConfig) -> Grid {
+pub fn complete(g: Grid, cfg: &GridConfig) -> Grid {
+    complete_with(g, cfg, false)
+}
+
+/// [`complete`]; with `shed`, the footprints go before the traversal records are made.
+fn complete_with(mut g: Grid, cfg: &GridConfig, shed: bool) -> Grid {
     if !cfg.merge && g.exp_min.len() != g.cells() {
         // Unmerged cells exit through their own boxes until expansion grows them.
         g.exp_min = g.cell_min.clone();
@@ -512,6 +549,10 @@ pub fn complete(mut g: Grid, cfg: &GridConfig) -> Grid {
         let t0 = std::time::Instant::now();
         expand::expand(&mut g, cfg.expansion_passes, cfg.empty_only);
         g.build.expand_seconds = t0.elapsed().as_secs_f64();
+    }
+    if shed {
+        g.cell_min = Vec::new();
+        g.cell_max = Vec::new();
     }
     g.trav = cell_records(&g.exp_min, &g.exp_max, &g.ref_first);
     g
@@ -546,7 +587,7 @@ pub struct GridEngine {
 impl GridEngine {
     /// Build the grid of `cfg` over `geo` (errors name the limit or option at fault).
     pub fn new(geo: &scene::Geometry, cfg: &GridConfig) -> Result<Self, GridError> {
-        let grid = build_grid(&geo.tris, cfg)?;
+        let grid = build_grid_for_tracing(&geo.tris, cfg)?;
         let name = if cfg.merge || cfg.expansion_passes > 0 {
             "grid"
         } else {
