@@ -173,8 +173,7 @@ enum EvalSet {
     List(Vec<u32>),
 }
 
-/// The cells of `set` that hold candidates after evaluation: every live cell for `Live` and
-/// `Stale` (a cell not evaluated has none), else the list.
+/// The cells of `set`: every live cell for `Live` and `Stale`, else the list.
 fn eval_cells<'a>(m: &'a Merger, set: &'a EvalSet) -> impl ParallelIterator<Item = u32> + 'a {
     match set {
         EvalSet::List(v) => rayon::iter::Either::Left(v.par_iter().with_min_len(4096).copied()),
@@ -348,16 +347,22 @@ fn sah_lowered(au: f32, nu: usize, aa: f32, na: usize, ab: f32, nb: usize) -> bo
     au * (nu as f32 + 1.0) <= aa * (na as f32 + 1.0) + ab * (nb as f32 + 1.0)
 }
 
-/// Evaluate live cell `i`'s candidate along `axis` and record it in its `marks` bit.
-fn evaluate(g: &Grid, m: &Merger, i: usize, axis: usize) {
+/// Evaluate live cell `i`'s candidate along `axis` and record it in its `marks` bit;
+/// returns `(i, candidate)` when it has one.
+fn evaluate(g: &Grid, m: &Merger, i: usize, axis: usize) -> Option<(u32, u32)> {
+    evaluate_with(g, m, i, m.probe_owner(g, i, axis), axis)
+}
+
+/// [`evaluate`], the live cell at `i`'s probe voxel (`j`) already found.
+fn evaluate_with(g: &Grid, m: &Merger, i: usize, j: u32, axis: usize) -> Option<(u32, u32)> {
     let ci = &m.cells[i];
-    let j = m.probe_owner(g, i, axis);
     let cand = j != NONE
         && aligned(ci, &m.cells[j as usize], axis)
         && worth_merging(g, m, i, j as usize, axis);
     let bit = 1u8 << axis;
     let old = m.marks[i].load(Relaxed);
     m.marks[i].store(if cand { old | bit } else { old & !bit }, Relaxed);
+    cand.then_some((i as u32, j))
 }
 
 /// The live cells whose probe voxel along `axis` lies in live cell `k`: the cells met on
@@ -438,35 +443,42 @@ fn merge_pass(g: &mut Grid, m: &mut Merger, axis: usize) -> usize {
     let pass = m.pass;
     let (gr, mr) = (&*g, &*m);
     // 1. Candidates, re-evaluated where the cell or its probe neighbour changed.
+    // Every cell with a candidate is evaluated in this pass (module docs), so `cands` (cell,
+    // candidate) is every one, in ascending cell order.
     let set = to_evaluate(gr, mr, axis);
-    match &set {
-        EvalSet::Stale => live_cells(mr).for_each(|i| {
-            let j = mr.probe_owner(gr, i as usize, axis);
-            if mr.changed(i as usize) || (j != NONE && mr.changed(j as usize)) {
-                evaluate(gr, mr, i as usize, axis);
-            }
-        }),
-        _ => eval_cells(mr, &set).for_each(|i| evaluate(gr, mr, i as usize, axis)),
-    }
-    // 2. Chains: heads are candidates nobody points at; walk each, cutting it into runs.
-    // Only evaluated cells have candidates (module docs).
-    eval_cells(mr, &set).for_each(|i| {
-        let j = mr.next(gr, i as usize, axis);
-        if j != NONE {
-            mr.marks[j as usize].fetch_or(PRED, Relaxed);
-        }
-    });
-    let heads: Vec<u32> = eval_cells(mr, &set)
-        // A candidate bit means a live neighbour at the probe (evaluate sets it only then).
-        .filter(|&i| mr.marks[i as usize].load(Relaxed) & (PRED | 1 << axis) == 1 << axis)
-        .collect();
-    eval_cells(mr, &set).for_each(|i| {
-        let j = mr.next(gr, i as usize, axis);
-        if j != NONE {
-            mr.marks[j as usize].fetch_and(!PRED, Relaxed);
-        }
-    });
+    let cands: Vec<(u32, u32)> = match &set {
+        EvalSet::Stale => live_cells(mr)
+            .filter_map(|i| {
+                if mr.changed(i as usize) {
+                    return evaluate(gr, mr, i as usize, axis);
+                }
+                let j = mr.probe_owner(gr, i as usize, axis);
+                if j != NONE && mr.changed(j as usize) {
+                    evaluate_with(gr, mr, i as usize, j, axis)
+                } else {
+                    None
+                }
+            })
+            .collect(),
+        _ => eval_cells(mr, &set)
+            .filter_map(|i| evaluate(gr, mr, i as usize, axis))
+            .collect(),
+    };
     drop(set);
+    // 2. Chains: heads are candidates nobody points at; walk each, cutting it into runs.
+    cands.par_iter().with_min_len(4096).for_each(|&(_, j)| {
+        mr.marks[j as usize].fetch_or(PRED, Relaxed);
+    });
+    let heads: Vec<u32> = cands
+        .par_iter()
+        .with_min_len(4096)
+        .filter(|&&(i, _)| mr.marks[i as usize].load(Relaxed) & PRED == 0)
+        .map(|&(i, _)| i)
+        .collect();
+    cands.par_iter().with_min_len(4096).for_each(|&(_, j)| {
+        mr.marks[j as usize].fetch_and(!PRED, Relaxed);
+    });
+    drop(cands);
     let chunks = walk_chains(g, m, &heads, axis);
     // The changes of the pass three back are no longer "since the last pass along" any axis.
     let slot = pass as usize % 3;
