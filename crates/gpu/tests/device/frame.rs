@@ -85,17 +85,21 @@ fn same_frame(what: &str, host: &render::whitted::Rendered, dev: &render::whitte
         .count();
     eprintln!("{what}: {off} of {} bytes differ by one", a.len());
     assert_eq!(far, 0, "{what}: bytes differ by more than one");
-    let (hs, ds) = (&host.stats, &dev.stats);
-    assert_eq!(ds.covered_pixels, hs.covered_pixels, "{what}: covered");
+    same_counts(what, &dev.stats, &host.stats);
+}
+
+/// Frame statistics `a` equal `b`: covered pixels, rays by kind, rays traced, hits and tests.
+fn same_counts(what: &str, a: &render::stats::RenderStats, b: &render::stats::RenderStats) {
+    assert_eq!(a.covered_pixels, b.covered_pixels, "{what}: covered");
     assert_eq!(
-        (ds.rays_shadow, ds.rays_reflection, ds.rays_refraction),
-        (hs.rays_shadow, hs.rays_reflection, hs.rays_refraction),
+        (a.rays_shadow, a.rays_reflection, a.rays_refraction),
+        (b.rays_shadow, b.rays_reflection, b.rays_refraction),
         "{what}: rays by kind"
     );
-    assert_eq!(ds.trace.rays, hs.trace.rays, "{what}: traced");
-    assert_eq!(ds.trace.hits, hs.trace.hits, "{what}: hits");
-    assert_eq!(ds.total_tests, hs.total_tests, "{what}: tests");
-    assert_eq!(ds.brute_force_tests, hs.brute_force_tests, "{what}");
+    assert_eq!(a.trace.rays, b.trace.rays, "{what}: traced");
+    assert_eq!(a.trace.hits, b.trace.hits, "{what}: hits");
+    assert_eq!(a.total_tests, b.total_tests, "{what}: tests");
+    assert_eq!(a.brute_force_tests, b.brute_force_tests, "{what}");
 }
 
 #[test]
@@ -296,17 +300,7 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
             assert!(*reads0 > 2, "{what0}: {reads0} read-backs");
             for (what, out, reads) in &runs[1..] {
                 assert_eq!(out.rgb8(), base.rgb8(), "{what}: image bytes");
-                let (a, b) = (&out.stats, &base.stats);
-                assert_eq!(a.covered_pixels, b.covered_pixels, "{what}: covered");
-                assert_eq!(
-                    (a.rays_shadow, a.rays_reflection, a.rays_refraction),
-                    (b.rays_shadow, b.rays_reflection, b.rays_refraction),
-                    "{what}: rays by kind"
-                );
-                assert_eq!(a.trace.rays, b.trace.rays, "{what}: traced");
-                assert_eq!(a.trace.hits, b.trace.hits, "{what}: hits");
-                assert_eq!(a.total_tests, b.total_tests, "{what}: tests");
-                assert_eq!(a.brute_force_tests, b.brute_force_tests, "{what}");
+                same_counts(what, &out.stats, &base.stats);
                 assert!(reads < reads0, "{what}: {reads} read-backs, {reads0} read");
             }
             let (what, _, reads) = &runs[2];
