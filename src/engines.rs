@@ -169,6 +169,12 @@ pub fn method_default_path(method: Method) -> RayPath {
     }
 }
 
+/// How a method's batches go over the object tree on the GPU backend unless `--ray-path`
+/// says otherwise: the CPU's default as a device takes it ([`RayPath::on_device`]).
+pub fn gpu_default_path(method: Method) -> RayPath {
+    method_default_path(method).on_device()
+}
+
 /// The object side CRSH and RAH use on the CPU unless `--object-hierarchy` says otherwise.
 pub const DEFAULT_OBJECTS: ObjectHierarchy = ObjectHierarchy::Bvh;
 
@@ -176,7 +182,7 @@ pub const DEFAULT_OBJECTS: ObjectHierarchy = ObjectHierarchy::Bvh;
 /// where the method's batches go as single rays by default (CRSH: the device walks the tree
 /// ray by ray), else mesh spheres (RAH: the device's bundles have no object tree yet).
 pub fn gpu_default_objects(method: Method) -> ObjectHierarchy {
-    if method_default_path(method) == RayPath::Single {
+    if gpu_default_path(method) == RayPath::Single {
         ObjectHierarchy::Bvh
     } else {
         ObjectHierarchy::MeshSpheres
@@ -253,11 +259,13 @@ impl EngineOptions {
     }
 
     /// [`EngineOptions::rsh_config`] for the GPU backend: the object side defaults to
-    /// [`gpu_default_objects`], and the object tree is the LBVH (the device's builder).
+    /// [`gpu_default_objects`], the path to [`gpu_default_path`], and the object tree is the
+    /// LBVH (the device's builder).
     pub fn gpu_rsh_config(&self, method: Method) -> RshConfig {
         RshConfig {
             objects: objects_for(method, self.objects, true),
             builder: ObjectBuilder::Lbvh,
+            path: self.path.unwrap_or(gpu_default_path(method)),
             ..self.rsh_config(method)
         }
     }

@@ -70,7 +70,11 @@ pub fn rsh_options_apply(
     let Some(method) = engine.rsh_method() else {
         return Ok(());
     };
-    let default = engines::method_default_path(method);
+    let default = if gpu {
+        engines::gpu_default_path(method)
+    } else {
+        engines::method_default_path(method)
+    };
     let no_bvh = engines::objects_for(method, r.objects, gpu) == rsh::ObjectHierarchy::MeshSpheres;
     for (flag, kw) in given_engine_options(m) {
         if no_bvh && ["descent", "schedule", "ray_path", "object_builder"].contains(&kw.as_str()) {
@@ -102,12 +106,13 @@ pub fn rsh_options_apply(
     }
     // The ray hierarchy's options do nothing where every batch goes as single rays through
     // the object tree.
-    if !no_bvh && r.path.unwrap_or(default) == rsh::RayPath::Single {
+    if !no_bvh && r.path.unwrap_or(default).tree_only() {
         for (flag, kw) in given_engine_options(m) {
             if keywords::RAY_HIERARCHY.contains(&kw.as_str()) {
                 return Err(UsageError(format!(
-                    "{flag} applies to the ray hierarchy (--ray-path bundles or auto, or --object-hierarchy mesh-spheres), and --engine {} traces single rays through its object tree here",
-                    engine.name()
+                    "{flag} applies to the ray hierarchy (--ray-path bundles or auto, or --object-hierarchy mesh-spheres), and --engine {} traces {} through its object tree here",
+                    engine.name(),
+                    if r.path.unwrap_or(default) == rsh::RayPath::Packets { "packets of rays" } else { "single rays" }
                 )));
             }
         }

@@ -87,8 +87,8 @@ pub struct RshConfig {
     pub descent: Descent,
     /// With [`ObjectHierarchy::Bvh`]: in which order the pairs are taken.
     pub schedule: Schedule,
-    /// With [`ObjectHierarchy::Bvh`]: bundles, single rays, or each batch as its coherence
-    /// says ([`crate::single`]).
+    /// With [`ObjectHierarchy::Bvh`]: bundles, single rays, packets, or each batch as its
+    /// coherence says ([`crate::single`], [`crate::packet`]).
     pub path: RayPath,
     /// With [`ObjectHierarchy::Bvh`]: how the object tree is built.
     pub builder: ObjectBuilder,
@@ -134,7 +134,7 @@ impl RshConfig {
             objects: ObjectHierarchy::MeshSpheres,
             descent: Descent::Size,
             schedule: Schedule::Depth,
-            path: RayPath::Single,
+            path: RayPath::Packets,
             builder: ObjectBuilder::Sah,
         }
     }
@@ -313,7 +313,7 @@ impl RshEngine {
             let spheres = cfg.mesh_culling.then_some(&geo.mesh_sphere[..]);
             // Only the records of the paths this configuration can take.
             let parts = objects::Parts {
-                dual: cfg.path != RayPath::Single,
+                dual: !matches!(cfg.path, RayPath::Single | RayPath::Packets),
                 single: cfg.path != RayPath::Bundles,
             };
             let t = objects::build(&geo.tris, &geo.mesh_first, spheres, cfg.builder, parts);
@@ -515,9 +515,15 @@ impl RshEngine {
         mode: TraceMode,
         hits: &mut [Hit],
         stats: &mut TraceStats,
+        packets: bool,
     ) {
         let t0 = Instant::now();
-        let c = single::trace(tree, &self.tris, rays, mode, hits, single::Isa::best());
+        let isa = single::Isa::best();
+        let c = if packets {
+            crate::packet::trace(tree, &self.tris, rays, mode, hits, isa)
+        } else {
+            single::trace(tree, &self.tris, rays, mode, hits, isa)
+        };
         stats.time(Phase::Traversal, t0.elapsed().as_secs_f64());
         report_single(&c, stats);
     }
@@ -582,16 +588,22 @@ impl Tracer for RshEngine {
         };
         let tree = self.tree.as_ref().filter(|_| !self.tris.is_empty());
         if let Some((tree, _)) = tree {
-            let single = match self.cfg.path {
-                RayPath::Bundles => false,
-                RayPath::Single => true,
-                RayPath::Auto => single::coherence(rays) < single::COHERENT_SHARE,
+            let coherent = || single::coherence(rays) >= single::COHERENT_SHARE;
+            let (single, packets) = match self.cfg.path {
+                RayPath::Bundles => (false, false),
+                RayPath::Single => (true, false),
+                RayPath::Auto => (!coherent(), false),
+                RayPath::Packets => {
+                    let p = coherent();
+                    (!p, p)
+                }
             };
-            // Both paths' batch counters, every call (the reports keep one set of names).
+            // Every path's batch counters, every call (the reports keep one set of names).
             stats.count(Counter::SingleRayBatches, single as u64);
-            stats.count(Counter::BundledBatches, !single as u64);
-            if single {
-                return self.trace_single(tree, rays, mode, hits, stats);
+            stats.count(Counter::PacketBatches, packets as u64);
+            stats.count(Counter::BundledBatches, (!single && !packets) as u64);
+            if single || packets {
+                return self.trace_single(tree, rays, mode, hits, stats, packets);
             }
         }
         let order = leaf_order(rays, grouping, &self.bounds, &self.cfg.hash_bits, stats);

@@ -16,6 +16,7 @@ pub mod hash;
 pub mod node8;
 pub mod objects;
 pub mod order;
+pub mod packet;
 pub mod single;
 pub mod traverse;
 

@@ -48,7 +48,8 @@ pub struct SingleCounts {
 }
 
 impl SingleCounts {
-    fn add(mut self, o: SingleCounts) -> SingleCounts {
+    /// The sum of two calls' counts.
+    pub fn merged(mut self, o: SingleCounts) -> SingleCounts {
         for k in 0..4 {
             self.final_tests[k] += o.final_tests[k];
         }
@@ -249,7 +250,7 @@ pub fn trace(
                 }
             },
         )
-        .reduce(SingleCounts::default, SingleCounts::add)
+        .reduce(SingleCounts::default, SingleCounts::merged)
 }
 
 /// Rays `first..first + out.len()` one by one (see the module doc), each node's boxes
@@ -436,22 +437,55 @@ pub enum RayPath {
     /// Always the ray hierarchy's bundles (the papers' method; RAH's default).
     #[cfg_attr(feature = "clap", value(help = "always the ray hierarchy's bundles"))]
     Bundles,
-    /// Always single rays through the object tree (CRSH's default: on this project's
+    /// Always single rays through the object tree (the GPU's path: on this project's
     /// measurements the bundles lose on every kind of batch, see `crate::single`).
     #[cfg_attr(
         feature = "clap",
         value(help = "always single rays through the object tree")
     )]
     Single,
+    /// Coherent batches ([`coherence`]) in packets of 16 consecutive rays walking the object
+    /// tree together ([`crate::packet`]), incoherent ones as single rays (CRSH's default on
+    /// the CPU: Sponza's 512² shadow rays in about half the single rays' time).
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "packets of 16 rays for coherent batches, single rays for incoherent ones")
+    )]
+    Packets,
 }
 
 impl RayPath {
     /// Every value by its name (as options spell it).
-    pub const NAMES: [(&'static str, RayPath); 3] = [
+    pub const NAMES: [(&'static str, RayPath); 4] = [
         ("auto", RayPath::Auto),
         ("bundles", RayPath::Bundles),
         ("single", RayPath::Single),
+        ("packets", RayPath::Packets),
     ];
+
+    /// The value's name (as options spell it).
+    pub fn name(self) -> &'static str {
+        RayPath::NAMES
+            .iter()
+            .find(|(_, p)| *p == self)
+            .map_or("auto", |(n, _)| n)
+    }
+
+    /// Whether every batch walks the object tree without the ray hierarchy (single rays
+    /// or packets): the ray hierarchy's options do nothing then.
+    pub fn tree_only(self) -> bool {
+        matches!(self, RayPath::Single | RayPath::Packets)
+    }
+
+    /// The path a GPU takes for this one: packets are the CPU's way of walking neighbouring
+    /// rays side by side in vector lanes, which a GPU's threads do on their own, so a
+    /// device walks them as single rays; the other paths are themselves.
+    pub fn on_device(self) -> RayPath {
+        match self {
+            RayPath::Packets => RayPath::Single,
+            p => p,
+        }
+    }
 }
 
 /// Rays sampled by [`coherence`] (evenly spaced over the batch).

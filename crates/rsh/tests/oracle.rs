@@ -280,7 +280,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
     #[test]
-    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4, breadth in any::<bool>(), path in 0usize..3, sah in any::<bool>()) {
+    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4, breadth in any::<bool>(), path in 0usize..4, sah in any::<bool>()) {
         let (geo, rays) = random_case(seed, ntri, nray);
         let base = if rah { RshConfig::rah() } else { RshConfig::crsh() };
         // 0: the thesis's mesh spheres; 1–3: the object hierarchy with each descent rule.
@@ -405,7 +405,7 @@ fn short_directions_reach_far_triangles() {
     assert!(expect.iter().all(|h| h.is_hit()));
     for objects in [ObjectHierarchy::MeshSpheres, ObjectHierarchy::Bvh] {
         for schedule in [Schedule::Depth, Schedule::Breadth] {
-            for path in [RayPath::Bundles, RayPath::Single] {
+            for path in [RayPath::Bundles, RayPath::Single, RayPath::Packets] {
                 let cfg = RshConfig {
                     objects,
                     schedule,
@@ -426,12 +426,13 @@ fn short_directions_reach_far_triangles() {
     }
 }
 
-/// The incoherent path (`rsh::single`) on every built-in scene's Whitted batches and on
-/// random rays, over both builders' trees: brute force's hits (closest hit bit for bit, the
-/// kernel's own records for any hit too), and the AVX2 and AVX-512 builds give the scalar
-/// path's hits and counts exactly.
+/// The walks without the ray hierarchy, single rays (`rsh::single`) and packets
+/// (`rsh::packet`), on every built-in scene's Whitted batches and on random rays, over both
+/// builders' trees: brute force's hits (closest hit bit for bit, the kernel's own records for
+/// any hit too), and the AVX2 and AVX-512 builds give the scalar build's hits and counts
+/// exactly.
 #[test]
-fn single_rays_match_brute_force_and_the_scalar_path() {
+fn single_rays_and_packets_match_brute_force_and_the_scalar_path() {
     type Batches = Vec<(RayBatch, TraceMode, Vec<Hit>)>;
     let mut cases: Vec<(String, Geometry, Batches)> = Vec::new();
     for name in builtin::NAMES {
@@ -459,11 +460,21 @@ fn single_rays_match_brute_force_and_the_scalar_path() {
                 builder,
                 rsh::objects::Parts::ALL,
             );
-            for (j, (rays, mode, expect)) in batches.iter().enumerate() {
-                let what = format!("{name} {builder:?} batch {j} {mode:?}");
+            for (j, (rays, mode, expect), packets) in batches
+                .iter()
+                .enumerate()
+                .flat_map(|(j, b)| [(j, b, false), (j, b, true)])
+            {
+                let walk = if packets { "packets" } else { "single" };
+                let what = format!("{name} {builder:?} batch {j} {mode:?} {walk}");
                 let run = |isa| {
                     let mut got = vec![Hit::MISS; rays.len()];
-                    let c = rsh::single::trace(&tree, &geo.tris, rays, *mode, &mut got, isa);
+                    let f = if packets {
+                        rsh::packet::trace
+                    } else {
+                        rsh::single::trace
+                    };
+                    let c = f(&tree, &geo.tris, rays, *mode, &mut got, isa);
                     (got, c)
                 };
                 let (scalar, sc) = run(Isa::Scalar);
@@ -499,8 +510,9 @@ fn single_rays_match_brute_force_and_the_scalar_path() {
 }
 
 /// `RayPath::Auto` takes the bundles for a batch of neighbouring, near-parallel rays
-/// (a view's shadow rays) and single rays for rays scattered at random, and says which
-/// in the counters; the hits are brute force's either way.
+/// (a view's shadow rays) and single rays for rays scattered at random, `RayPath::Packets`
+/// packets and single rays, and each says which in the counters; the hits are brute
+/// force's either way.
 #[test]
 fn auto_path_follows_the_batch_coherence() {
     let s = builtin::office(7);
@@ -517,16 +529,20 @@ fn auto_path_follows_the_batch_coherence() {
     );
     assert!(rsh::single::coherence(&primary) >= rsh::single::COHERENT_SHARE);
     assert!(rsh::single::coherence(&random) < rsh::single::COHERENT_SHARE);
-    let cfg = RshConfig {
-        objects: ObjectHierarchy::Bvh,
-        path: RayPath::Auto,
-        ..RshConfig::crsh()
-    };
-    let e = RshEngine::new(&geo, cfg).unwrap();
-    for (rays, mode, expect, bundled) in [
-        (&primary, pmode, &pexpect, 1),
-        (&random, TraceMode::Closest, &rexpect, 0),
-    ] {
+    for (path, (rays, mode, expect, coherent)) in
+        [RayPath::Auto, RayPath::Packets].into_iter().flat_map(|p| {
+            [
+                (p, (&primary, pmode, &pexpect, 1)),
+                (p, (&random, TraceMode::Closest, &rexpect, 0)),
+            ]
+        })
+    {
+        let cfg = RshConfig {
+            objects: ObjectHierarchy::Bvh,
+            path,
+            ..RshConfig::crsh()
+        };
+        let e = RshEngine::new(&geo, cfg).unwrap();
         let mut st = TraceStats::default();
         let mut got = vec![Hit::MISS; rays.len()];
         e.trace(rays, mode, &mut got, &mut st);
@@ -537,7 +553,16 @@ fn auto_path_follows_the_batch_coherence() {
             }
         }
         let count = |c| st.counters.get(c).unwrap_or(0);
-        assert_eq!(count(trace::Counter::BundledBatches), bundled);
-        assert_eq!(count(trace::Counter::SingleRayBatches), 1 - bundled);
+        let (bundled, packets) = match path {
+            RayPath::Auto => (coherent, 0),
+            _ => (0, coherent),
+        };
+        assert_eq!(count(trace::Counter::BundledBatches), bundled, "{path:?}");
+        assert_eq!(count(trace::Counter::PacketBatches), packets, "{path:?}");
+        assert_eq!(
+            count(trace::Counter::SingleRayBatches),
+            1 - coherent,
+            "{path:?}"
+        );
     }
 }

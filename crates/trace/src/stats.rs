@@ -157,6 +157,9 @@ counters! {
     /// Ray hierarchies with an object hierarchy: tests of ray nodes against inner object
     /// nodes (also counted in the level tests).
     ObjectNodeTests = "object-node tests", Sum;
+    /// CRSH/RAH with an object hierarchy: trace calls whose rays went through the object
+    /// tree in packets of consecutive rays (the coherent batches of `--ray-path packets`).
+    PacketBatches = "packet batches", Sum;
     /// Ray hierarchies with an object hierarchy: the bytes the most waiting pairs took
     /// (depth first: one worker's most × the workers, the most they can hold at once).
     PeakPairBytes = "peak pair bytes", Peak;

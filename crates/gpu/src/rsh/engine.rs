@@ -149,11 +149,7 @@ impl GpuRsh {
             if cfg.path != RayPath::Single {
                 return Err(OptionError::new(
                     "ray_path",
-                    if cfg.path == RayPath::Auto {
-                        "auto"
-                    } else {
-                        "bundles"
-                    },
+                    cfg.path.name(),
                     "the GPU backend traces the object tree with single rays only",
                 )
                 .into());
@@ -402,6 +398,7 @@ impl GpuRsh {
         // The walk wrote the records itself (`single.wgsl`).
         let rec = w.rec.clone();
         stats.count(Counter::SingleRayBatches, 1);
+        stats.count(Counter::PacketBatches, 0);
         stats.count(Counter::BundledBatches, 0);
         (rec, w)
     }
