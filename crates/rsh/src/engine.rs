@@ -588,13 +588,13 @@ impl Tracer for RshEngine {
         };
         let tree = self.tree.as_ref().filter(|_| !self.tris.is_empty());
         if let Some((tree, _)) = tree {
-            let coherent = || single::coherence(rays) >= single::COHERENT_SHARE;
             let (single, packets) = match self.cfg.path {
                 RayPath::Bundles => (false, false),
                 RayPath::Single => (true, false),
-                RayPath::Auto => (!coherent(), false),
+                RayPath::Auto => (single::coherence(rays) < single::COHERENT_SHARE, false),
                 RayPath::Packets => {
-                    let p = coherent();
+                    let diag = self.bounds.extent().length();
+                    let p = single::locality(rays, diag) >= single::COHERENT_SHARE;
                     (!p, p)
                 }
             };

@@ -510,16 +510,26 @@ fn single_rays_and_packets_match_brute_force_and_the_scalar_path() {
 }
 
 /// `RayPath::Auto` takes the bundles for a batch of neighbouring, near-parallel rays
-/// (a view's shadow rays) and single rays for rays scattered at random, `RayPath::Packets`
-/// packets and single rays, and each says which in the counters; the hits are brute
-/// force's either way.
+/// (a view's shadow rays) and single rays for rays scattered at random through the scene,
+/// `RayPath::Packets` packets and single rays, and each says which in the counters; the
+/// hits are brute force's either way.
 #[test]
 fn auto_path_follows_the_batch_coherence() {
     let s = builtin::office(7);
     let geo = Geometry::from_scene(&s);
     let batches = record_render(&s, &geo, 64, 48, 0);
     let (primary, pmode, pexpect) = batches[0].clone();
-    let (_, random) = random_case(3, 10, 4000);
+    // Rays from anywhere in the scene's box, in any direction, unbounded.
+    let mut rng = geom::Pcg32::new(3, 11);
+    let b = geo.bounds;
+    let mut random = RayBatch::default();
+    for i in 0..4000u32 {
+        let mut f = || rng.next_f32();
+        let o = b.min + (b.max - b.min) * Vec3::new(f(), f(), f());
+        let d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).normalize_or(Vec3::Y);
+        let r = Ray::new(o, d, 0.0, f32::INFINITY);
+        random.push(r, RayKind::Reflection, i, 0, Vec3::ONE, 0);
+    }
     let mut rexpect = vec![Hit::MISS; random.len()];
     BruteForce::new(&geo).trace(
         &random,
@@ -528,6 +538,9 @@ fn auto_path_follows_the_batch_coherence() {
         &mut TraceStats::default(),
     );
     assert!(rsh::single::coherence(&primary) >= rsh::single::COHERENT_SHARE);
+    let diag = geo.bounds.extent().length();
+    assert!(rsh::single::locality(&primary, diag) >= rsh::single::COHERENT_SHARE);
+    assert!(rsh::single::locality(&random, diag) < rsh::single::COHERENT_SHARE);
     assert!(rsh::single::coherence(&random) < rsh::single::COHERENT_SHARE);
     for (path, (rays, mode, expect, coherent)) in
         [RayPath::Auto, RayPath::Packets].into_iter().flat_map(|p| {
