@@ -2,7 +2,7 @@
 # Benchmarks of record 2026-12-03 (issue 43: CRSH's packets). Two binaries, both
 #   cargo build --profile ci --bin rayspace --features embree
 # BASE = 1b81643 (this session's start: CRSH's default path single rays), NEW = this stop's
-# code (default path packets). Embree and embree-stream run from NEW (the same library either
+# code, 7c0a620 (default path packets, chosen by single::locality). Embree and embree-stream run from NEW (the same library either
 # way). 2 threads, this VM; medians and minima of the same runs are both given.
 set -e
 cd "$(dirname "$0")/../../.."
@@ -18,12 +18,11 @@ for s in sponza conference kitchen; do
   done
 done
 # build + trace: `trace --repeat` (10 for shadow rays, 5 for AO and random); the summary line
-# (medians) and the runs line (every run) of each, three interleaved rounds.
+# (medians) and the runs line (every run) of each, five interleaved rounds.
 {
-for round in 1 2 3; do
+for round in 1 2 3 4 5; do
   for s in sponza conference kitchen; do
     for k in shadow ao random; do
-      [ $s != sponza ] && [ $k != shadow ] && continue
       mode=--any-hit; rep=5; [ $k = random ] && mode=""; [ $k = shadow ] && rep=10
       for run in "base crsh" "new crsh" "new embree" "new embree-stream"; do
         set -- $run; bin=$NEW; [ $1 = base ] && bin=$BASE
@@ -38,7 +37,6 @@ done
 {
 for s in sponza conference kitchen; do
   for k in shadow ao random; do
-    [ $s != sponza ] && [ $k != shadow ] && continue
     mode=--any-hit; [ $k = random ] && mode=""
     for b in base new; do
       bin=$NEW; [ $b = base ] && bin=$BASE
