@@ -535,8 +535,8 @@ const LOCAL: f32 = 0.25;
 /// what a packet ([`crate::packet`]) needs: rays made pixel by pixel towards a light or a
 /// mirror have it (near-parallel and long), and so do ambient-occlusion rays (random
 /// directions, but short and from neighbouring points); rays scattered from anywhere do
-/// not. Measured on this project's 512² batches (`bench/results/2026-12-03d-2core/`):
-/// shadow rays 0.97–1.00, AO rays 0.84–1.00, random rays 0.
+/// not. On the bench scenes' 512² batches (`bench/results/2026-12-03d-2core/`): shadow
+/// rays 0.998–1, AO rays 0.995–1, random rays 0.002–0.003.
 pub fn locality(rays: &RayBatch, diag: f32) -> f32 {
     let n = rays.len();
     if n < 2 {
