@@ -37,13 +37,13 @@ fn counter(json: &serde_json::Value, name: &str) -> u64 {
 }
 
 /// `render office` (reflections, refractions, shadows) with every ray path and builder, for
-/// CRSH and RAH: one image, and the batches counted by path.
+/// CRSH and RAH: one image whatever the path and builder, and the batches counted by path.
 #[test]
 fn every_path_and_builder_renders_the_same_image() {
     let d = tmp("render");
     let mut first: Option<Vec<u8>> = None;
     for engine in ["crsh", "rah"] {
-        for path in ["", "single", "bundles", "auto"] {
+        for path in ["", "packets", "single", "bundles", "auto"] {
             for builder in ["sah", "lbvh"] {
                 let png = d.join(format!("{engine}-{path}-{builder}.png"));
                 let json = d.join(format!("{engine}-{path}-{builder}.json"));
@@ -75,19 +75,31 @@ fn every_path_and_builder_renders_the_same_image() {
                 }
                 let stats: serde_json::Value =
                     serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-                let (single, bundled) = (
+                let (single, packets, bundled) = (
                     counter(&stats, "single-ray batches"),
+                    counter(&stats, "packet batches"),
                     counter(&stats, "bundled batches"),
                 );
-                let batches = single + bundled;
+                let batches = single + packets + bundled;
                 assert!(batches >= 3, "{engine} {path}: {stats}");
-                // The default path: single rays for CRSH, bundles for RAH.
+                // The default path: packets (or single rays) for CRSH, bundles for RAH.
                 let want = match (path, engine) {
-                    ("single", _) | ("", "crsh") => (batches, 0),
-                    ("bundles", _) | ("", "rah") => (0, batches),
-                    _ => (single, bundled),
+                    ("single", _) => (batches, 0, 0),
+                    ("packets", _) | ("", "crsh") => (single, batches - single, 0),
+                    ("bundles", _) | ("", "rah") => (0, 0, batches),
+                    _ => (single, 0, bundled),
                 };
-                assert_eq!((single, bundled), want, "{engine} {path} {builder}");
+                assert_eq!(
+                    (single, packets, bundled),
+                    want,
+                    "{engine} {path} {builder}"
+                );
+                if matches!((path, engine), ("packets", _) | ("", "crsh")) {
+                    assert!(
+                        packets > 0,
+                        "{engine} {path} {builder}: a view's batches as packets"
+                    );
+                }
                 assert!(counter(&stats, "ray-box tests") > 0);
             }
         }
