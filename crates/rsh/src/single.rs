@@ -447,7 +447,7 @@ pub enum RayPath {
     /// Batches of neighbouring rays ([`locality`]) in packets of 16 consecutive rays walking
     /// the object tree together ([`crate::packet`]), others as single rays (CRSH's default
     /// on the CPU: Sponza's 512² shadow rays in about half the single rays' time, its AO
-    /// rays in 0.7 of it).
+    /// rays in 0.7–0.8 of it).
     #[cfg_attr(
         feature = "clap",
         value(
