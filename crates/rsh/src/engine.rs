@@ -313,7 +313,7 @@ impl RshEngine {
             let spheres = cfg.mesh_culling.then_some(&geo.mesh_sphere[..]);
             // Only the records of the paths this configuration can take.
             let parts = objects::Parts {
-                dual: !matches!(cfg.path, RayPath::Single | RayPath::Packets),
+                dual: !cfg.path.tree_only(),
                 single: cfg.path != RayPath::Bundles,
             };
             let t = objects::build(&geo.tris, &geo.mesh_first, spheres, cfg.builder, parts);
@@ -505,9 +505,10 @@ impl RshEngine {
         object_counters(&c, stats);
     }
 
-    /// The incoherent path ([`crate::single`]): every ray alone through the collapsed
-    /// object tree, no hashing, sorting or bundles; its slab and triangle tests are
-    /// reported as the dual traversal's (`ray-box tests`, final tests of level 1).
+    /// The paths without the ray hierarchy: every ray alone through the collapsed object
+    /// tree ([`crate::single`]), or with `packets` 16 neighbouring rays at a time
+    /// ([`crate::packet`]); no hashing, sorting or bundles. Their slab and triangle tests
+    /// are reported as the dual traversal's (`ray-box tests`, final tests of level 1).
     fn trace_single(
         &self,
         tree: &ObjectTree,
