@@ -8,54 +8,60 @@ use rayon::prelude::*;
 
 /// `passes` expansion passes, each over x, y, z and both sides.
 ///
+/// A side's walk reads only its own cell's expanded box and the neighbours' *initial* boxes
+/// and lists, never another cell's expanded box. So the paper's schedule (pass by pass, side
+/// by side, every cell in parallel) gives the same boxes as running each cell's sides in that
+/// order on their own, which is what this does: one parallel loop over the cells, each cell's
+/// sides one after another while its list and its neighbourhood are in cache, instead of one
+/// sweep over every cell's boxes per pass and side.
+///
 /// A side that cannot grow stays blocked in every later pass: its face layer does not move,
 /// and the face only widens as other sides grow, so the neighbour that stopped it is still
-/// there. Blocked sides (one bit per side and cell) are therefore not walked again, which
-/// makes the second and third passes a fraction of the first. The result is the same.
+/// there. Blocked sides are therefore not walked again, and a cell stops when all six are
+/// blocked. The result is the same.
 ///
 /// With `empty_only`, only empty cells grow (over empty neighbours): Devillers's macro
 /// regions.
 pub fn expand(g: &mut Grid, passes: u32, empty_only: bool) {
-    let mut blocked: Vec<u8> = (0..g.cells())
-        .map(|c| {
-            if empty_only && !g.cell_refs(c).is_empty() {
-                0x3f
+    let mut exp_min = std::mem::take(&mut g.exp_min);
+    let mut exp_max = std::mem::take(&mut g.exp_max);
+    let gr = &*g;
+    exp_min
+        .par_iter_mut()
+        .zip(exp_max.par_iter_mut())
+        .enumerate()
+        .with_min_len(1024)
+        .for_each(|(c, (lo, hi))| {
+            let mut blocked = if empty_only && !gr.cell_refs(c).is_empty() {
+                ALL_SIDES
             } else {
                 0
-            }
-        })
-        .collect();
-    for _ in 0..passes {
-        for axis in 0..3 {
-            for positive in [false, true] {
-                let bit = 1u8 << (2 * axis + positive as usize);
-                // A side's walk reads only its own cell's expanded box (and the neighbours'
-                // initial boxes and lists), so every cell updates in place, in parallel.
-                let mut exp_min = std::mem::take(&mut g.exp_min);
-                let mut exp_max = std::mem::take(&mut g.exp_max);
-                let gr = &*g;
-                exp_min
-                    .par_iter_mut()
-                    .zip(exp_max.par_iter_mut())
-                    .zip(blocked.par_iter_mut())
-                    .enumerate()
-                    .with_min_len(1024)
-                    .for_each(|(c, ((lo, hi), b))| {
-                        if *b & bit == 0 {
+            };
+            for _ in 0..passes {
+                for axis in 0..3 {
+                    for positive in [false, true] {
+                        let bit = 1u8 << (2 * axis + positive as usize);
+                        if blocked & bit == 0 {
                             let (l, h) = expand_side(gr, c, (*lo, *hi), axis, positive);
                             if (l, h) == (*lo, *hi) {
-                                *b |= bit;
+                                blocked |= bit;
                             } else {
                                 (*lo, *hi) = (l, h);
                             }
                         }
-                    });
-                g.exp_min = exp_min;
-                g.exp_max = exp_max;
+                    }
+                }
+                if blocked == ALL_SIDES {
+                    break;
+                }
             }
-        }
-    }
+        });
+    g.exp_min = exp_min;
+    g.exp_max = exp_max;
 }
+
+/// The six sides' bits (bit 2·axis + positive).
+const ALL_SIDES: u8 = 0x3f;
 
 /// The cells on one side of cell c's expanded box `(lo, hi)` (the voxel layer just outside
 /// the face): if all hold subsets of c's references, the box grows by the smallest overhang.
