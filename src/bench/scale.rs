@@ -62,6 +62,18 @@ pub struct Row {
     /// Whole-process peak of `render SCENE -e ENGINE -b 0` at the same size (a child
     /// process), where measured.
     pub peak_rss_bytes: Option<u64>,
+    /// The resident memory the engine's build added at its peak in that render
+    /// (`render --stats`' `build_peak_bytes`), where measured.
+    pub build_peak_bytes: Option<u64>,
+}
+
+/// What a render of one engine in a child process says of its memory.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Peaks {
+    /// The whole process's peak.
+    pub process: Option<u64>,
+    /// What the engine's build added at its peak.
+    pub build: Option<u64>,
 }
 
 /// A fitted exponent: `measure` ∝ triangles^slope for one engine on one generator.
@@ -105,11 +117,11 @@ pub fn steps(spec: &Spec) -> u64 {
     (spec.generators.len() * spec.sizes.len() * (1 + spec.engines.len())) as u64
 }
 
-/// Run the sweep. `peak(scene, engine)` measures a render's whole-process peak (or says
-/// `None`); `progress` is told each step.
+/// Run the sweep. `peak(scene, engine)` measures a render's whole-process and build peaks
+/// (or says `None`); `progress` is told each step.
 pub fn run(
     spec: &Spec,
-    peak: &dyn Fn(&str, Engine) -> Result<Option<u64>>,
+    peak: &dyn Fn(&str, Engine) -> Result<Peaks>,
     progress: &dyn Fn(&str),
 ) -> Result<(Vec<Row>, Vec<Slope>)> {
     let mut rows = Vec::new();
@@ -174,7 +186,7 @@ pub fn run(
                 }
                 let structure = tracer.structure_bytes();
                 drop(tracer);
-                let peak_rss_bytes = peak(&name, e)?;
+                let peaks = peak(&name, e)?;
                 rows.push(Row {
                     generator: g.clone(),
                     requested: n,
@@ -190,7 +202,8 @@ pub fn run(
                     primary_tests_per_ray: tests[0],
                     random_tests_per_ray: tests[2],
                     wrong,
-                    peak_rss_bytes,
+                    peak_rss_bytes: peaks.process,
+                    build_peak_bytes: peaks.build,
                 });
             }
         }
@@ -259,17 +272,18 @@ fn opt(v: Option<f64>, digits: usize) -> String {
 /// The markdown tables: one row per (generator, size, engine), then the slopes.
 pub fn markdown(rows: &[Row], slopes: &[Slope]) -> String {
     let mut md = String::from(
-        "| scene | triangles | engine | build ms | structure B/tri | peak MB (render) | primary MRays/s | shadow MRays/s | random MRays/s | tests/ray primary | tests/ray random | wrong |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | triangles | engine | build ms | structure B/tri | peak MB (render) | build peak MB | primary MRays/s | shadow MRays/s | random MRays/s | tests/ray primary | tests/ray random | wrong |\n|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in rows {
         md += &format!(
-            "| {} | {} | {} | {:.1} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {} |\n",
+            "| {} | {} | {} | {:.1} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {} |\n",
             r.generator,
             r.triangles,
             r.engine,
             r.build_ms,
             opt(r.structure_bytes_per_triangle, 1),
             opt(r.peak_rss_bytes.map(|b| b as f64 / 1e6), 0),
+            opt(r.build_peak_bytes.map(|b| b as f64 / 1e6), 0),
             r.primary_mrays,
             r.shadow_mrays,
             r.random_mrays,
@@ -314,10 +328,10 @@ pub fn markdown(rows: &[Row], slopes: &[Slope]) -> String {
 /// The rows as CSV.
 pub fn csv(rows: &[Row]) -> String {
     let f = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
-    let mut s = String::from("generator,requested,triangles,engine,build_ms,structure_bytes,structure_bytes_per_triangle,geometry_bytes_per_triangle,primary_mrays,shadow_mrays,random_mrays,primary_tests_per_ray,random_tests_per_ray,wrong,peak_rss_bytes\n");
+    let mut s = String::from("generator,requested,triangles,engine,build_ms,structure_bytes,structure_bytes_per_triangle,geometry_bytes_per_triangle,primary_mrays,shadow_mrays,random_mrays,primary_tests_per_ray,random_tests_per_ray,wrong,peak_rss_bytes,build_peak_bytes\n");
     for r in rows {
         s += &format!(
-            "{},{},{},{},{:.3},{},{},{:.1},{:.4},{:.4},{:.4},{},{},{},{}\n",
+            "{},{},{},{},{:.3},{},{},{:.1},{:.4},{:.4},{:.4},{},{},{},{},{}\n",
             r.generator,
             r.requested,
             r.triangles,
@@ -333,6 +347,7 @@ pub fn csv(rows: &[Row]) -> String {
             f(r.random_tests_per_ray),
             r.wrong,
             r.peak_rss_bytes.map_or(String::new(), |b| b.to_string()),
+            r.build_peak_bytes.map_or(String::new(), |b| b.to_string()),
         );
     }
     s

@@ -282,9 +282,9 @@ pub fn cmd_bench_scale(a: &BenchScaleArgs) -> Result<()> {
     };
     let bar = step_bar(bench::scale::steps(&spec));
     let tmp = std::env::temp_dir().join(format!("rayspace-scale-{}", std::process::id()));
-    let peak = |scene: &str, e: Engine| -> Result<Option<u64>> {
+    let peak = |scene: &str, e: Engine| -> Result<bench::scale::Peaks> {
         if a.no_peak {
-            return Ok(None);
+            return Ok(Default::default());
         }
         peak_of_render(&tmp, scene, e, a.width, a.height)
     };
@@ -319,14 +319,15 @@ pub fn cmd_bench_scale(a: &BenchScaleArgs) -> Result<()> {
 }
 
 /// The whole-process peak memory of `render SCENE -e ENGINE -b 0` in a child process (this
-/// executable), read from its `--stats`; `None` where the system does not report it.
+/// executable), and what its engine's build added at its peak, read from its `--stats`;
+/// `None` where the system does not report them.
 fn peak_of_render(
     tmp: &std::path::Path,
     scene: &str,
     e: Engine,
     width: u32,
     height: u32,
-) -> Result<Option<u64>> {
+) -> Result<bench::scale::Peaks> {
     std::fs::create_dir_all(tmp).context("bench scale: a temporary folder")?;
     let stats = tmp.join("stats.json");
     let out = std::process::Command::new(std::env::current_exe()?)
@@ -346,5 +347,8 @@ fn peak_of_render(
         );
     }
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats)?)?;
-    Ok(v.get("peak_rss_bytes").and_then(|b| b.as_u64()))
+    Ok(bench::scale::Peaks {
+        process: v.get("peak_rss_bytes").and_then(|b| b.as_u64()),
+        build: v.get("build_peak_bytes").and_then(|b| b.as_u64()),
+    })
 }

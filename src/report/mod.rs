@@ -689,7 +689,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
     )?;
     let scaling = scaling(spec, progress)?;
     let (generated, generated_slopes) =
-        bench::scale::run(&spec.generated(), &|_, _| Ok(None), progress)?;
+        bench::scale::run(&spec.generated(), &|_, _| Ok(Default::default()), progress)?;
     let mut r = Report {
         provenance: bench::provenance(),
         commit: env!("RAYSPACE_BUILD_COMMIT").to_string(),

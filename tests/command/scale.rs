@@ -47,6 +47,10 @@ fn bench_scale_writes_rows_slopes_and_peaks() {
         assert_eq!(r[col("wrong")], "0", "{r:?}: hits agree with the grid's");
         let peak: u64 = r[col("peak_rss_bytes")].parse().unwrap();
         assert!(peak > 1 << 20, "{r:?}: a render's peak memory");
+        // The build's resident growth holds at least the structure it made.
+        let build: u64 = r[col("build_peak_bytes")].parse().unwrap();
+        let structure: u64 = r[col("structure_bytes")].parse().unwrap_or(0);
+        assert!(build > 0 && build >= structure, "{r:?}: the build's peak");
         let tris: u64 = r[col("triangles")].parse().unwrap();
         let want: u64 = r[col("requested")].parse().unwrap();
         assert!(tris.abs_diff(want) * 10 < want, "{r:?}: the generated size");
