@@ -7,7 +7,7 @@
 set -euo pipefail
 bin="${1:-target/release/rayspace}"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-# Strip times (keys or rows naming seconds/ms/MRays, `*_ms` keys) and the process's peak memory from JSON
+# Strip times (keys or rows naming seconds/ms/MRays, `*_ms` keys) and the peak memories (process, build) from JSON
 # and tables.
 strip_json() {
     python3 - "$1" <<'PY'
@@ -15,7 +15,7 @@ import json, sys
 def clean(v):
     if isinstance(v, dict):
         return {k: clean(x) for k, x in v.items()
-                if k not in ("phases", "load_seconds", "build_passes", "peak_rss_bytes") and "time" not in k and "seconds" not in k and not k.endswith("_ms")}
+                if k not in ("phases", "load_seconds", "build_passes", "peak_rss_bytes", "build_peak_bytes") and "time" not in k and "seconds" not in k and not k.endswith("_ms")}
     if isinstance(v, list):
         return [clean(x) for x in v]
     return v

@@ -1,6 +1,6 @@
 //! The object tree by binned SAH (Wald 2007, "On fast construction of SAH-based bounding
 //! volume hierarchies"; MacDonald & Booth 1990's surface area cost): top down, each node's
-//! triangles binned by centroid into [`BINS`] slabs per axis, split where
+//! triangles binned by centroid into up to [`BINS`] slabs per axis, split where
 //! `A(left)·N(left) + A(right)·N(right)` is least, down to one triangle per leaf (the dual
 //! traversal's leaves are triangles). Large nodes bin in parallel; the two halves of a node
 //! build in parallel. The result is deterministic: bin counts and box unions (min, max) do
@@ -241,8 +241,13 @@ fn node(
 ) -> (Aabb, u32) {
     let m = prims.len();
     debug_assert!(m >= 2);
-    // As many bins as triangles, from 4 up to BINS: small nodes (most of them) sweep few.
-    let by = Binner::new(&cb, m.clamp(4, BINS));
+    // 4 bins, one more per 40 triangles, up to BINS (Embree's binner grows its bins with
+    // the node the same way, at one per 20). Most nodes are small, and their cost was the
+    // bins' clearing and sweeps: with as many bins as triangles (4..=32) the trees' SAH
+    // metric is the same to within 0.6 % (nodes per ray: Sponza 15.45 → 15.43, Kitchen
+    // 3.41 → 3.39, Conference 8.66 → 8.67; triangles per ray unchanged) for 0.66–0.95 of
+    // the build time (one thread, `examples/object_trees`).
+    let by = Binner::new(&cb, (4 + m / 40).min(BINS));
     let split = if m == 2 {
         None
     } else {
