@@ -49,9 +49,13 @@ pub(crate) fn render_frame<'py>(
         spp,
     };
     let (rgb, stats) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
+        // What the build adds at its peak, as `render --stats` measures it (started before
+        // the build's clock: it reads and writes /proc).
+        let watch = trace::memory::PeakWatch::start();
         let t1 = Instant::now();
         let engine = engines::build(engine, &opts, &geo).map_err(err)?.tracer;
         let build_s = t1.elapsed().as_secs_f64();
+        let build_peak = watch.and_then(|w| w.added());
         let mut out = render::whitted::render(&sc, &geo, engine.as_ref(), &ropts, &());
         out.stats.put_build(build_s, engine.build_passes());
         let rgb = render::output::to_rgb8(&out.pixels, width, height).into_raw();
@@ -64,12 +68,16 @@ pub(crate) fn render_frame<'py>(
         if let Some(o) = engines::object_hierarchy_name(engine_kind, objects, false) {
             v["object_hierarchy"] = o.into();
         }
-        // The structure's bytes and the process's peak memory, as `render --stats` has them.
+        // The structure's bytes, the process's peak memory and the build's, as `render
+        // --stats` has them.
         if let Some(b) = engine.structure_bytes() {
             v["structure_bytes"] = b.into();
         }
         if let Some(b) = trace::memory::peak_rss() {
             v["peak_rss_bytes"] = b.into();
+        }
+        if let Some(b) = build_peak {
+            v["build_peak_bytes"] = b.into();
         }
         Ok((rgb, v.to_string()))
     })?;
