@@ -6,6 +6,8 @@
 //! address-space limit (`ulimit -v`), so that a request the machine cannot hold is refused
 //! with an error naming the option instead of ending in an out-of-memory abort.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 /// Keep freed memory in the process for reuse, where the allocator is glibc's.
 ///
 /// glibc hands a large freed buffer back to the kernel (`munmap`, or trimming the heap), so
@@ -35,10 +37,9 @@ pub fn keep_freed_memory() {
 pub fn release_free_heap(min_free: u64) -> u64 {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
-        // SAFETY: mallinfo2 only reads the allocator's statistics; malloc_trim only
-        // returns free pages, and both are thread-safe.
-        let free = unsafe { libc::mallinfo2() }.fordblks as u64;
+        let free = heap_free();
         if free >= min_free {
+            // SAFETY: malloc_trim only returns free pages, and is thread-safe.
             unsafe { libc::malloc_trim(0) };
         }
         free
@@ -136,8 +137,6 @@ fn status_bytes(key: &str) -> Option<u64> {
     let kib: u64 = l.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib.saturating_mul(1024))
 }
-
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The process's peak before the last reset of its high-water mark ([`PeakWatch::start`]).
 static EARLIER_PEAK: AtomicU64 = AtomicU64::new(0);
