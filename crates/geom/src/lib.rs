@@ -4,7 +4,8 @@
 //! mirror it 1:1: rays, the one ray–triangle kernel all engines use ([`tri::intersect`]), the
 //! ray–box slab test, spheres and cones (the two halves of a ray-space hierarchy node), the
 //! conservative node tests, and the minimal enclosing ball used to cull meshes; [`tri8`] runs the
-//! triangle kernel on 8 rays at once and [`cone8`] grows 8 cones at once, with the same bits.
+//! triangle kernel on 8 rays at once, [`tris8`] one ray against 8 triangles, and [`cone8`]
+//! grows 8 cones at once, with the same bits.
 
 #![warn(missing_docs)]
 
@@ -21,6 +22,7 @@ pub mod rng;
 pub mod sphere;
 pub mod tri;
 pub mod tri8;
+pub mod tris8;
 
 pub use aabb::Aabb;
 pub use cone::Cone;

@@ -71,10 +71,14 @@ pub struct ObjectTree {
     /// The single-ray path's collapsed nodes ([`BoxNode`], node 0 the root's), made when
     /// [`Parts::single`] is asked for.
     pub boxes: Vec<BoxNode>,
-    /// The triangles in leaf order (`leaf_tris[p]` is triangle `tri_order[p]`): a collapsed
-    /// node's triangles lie side by side, so the single-ray path reads a few cache lines
-    /// where it would gather one line per triangle.
-    pub leaf_tris: Vec<[Vec3; 3]>,
+    /// The box nodes' leaf triangles, 8 to a block ([`blocks`]: a box node's leaf lanes
+    /// at consecutive positions, position `p`, triangle `leaf_ids[p]`, lane `p % 8` of
+    /// block `p / 8`; [`ObjectTree::leaf_tri`]): a node's triangles lie side by side, so the
+    /// single-ray path reads a few cache lines where it would gather one line per
+    /// triangle, and tests a block's triangles at once.
+    pub leaf_tris: Vec<geom::tris8::Tris8>,
+    /// The triangle at each position of [`ObjectTree::leaf_tris`].
+    pub leaf_ids: Vec<u32>,
 }
 
 /// Up to 8 descendants of one binary inner node, side by side as lanes (structure of arrays
@@ -216,6 +220,7 @@ impl ObjectTree {
             + size_of_val(&self.wide_of[..])
             + size_of_val(&self.boxes[..])
             + size_of_val(&self.leaf_tris[..])
+            + size_of_val(&self.leaf_ids[..])
     }
 
     /// Internal nodes.
@@ -616,11 +621,8 @@ pub fn build(
         let pos = leaf_positions(&order);
         let leaf_box = |t: u32| grow(&boxes[t as usize]);
         tree.boxes = collapse_boxes(&tree.child, &tree.range, &gbox, &leaf_box, &pos);
-        tree.leaf_tris = order
-            .par_iter()
-            .with_min_len(4096)
-            .map(|&t| tris[t as usize])
-            .collect();
+        tree.leaf_ids = box_order(&mut tree.boxes, &order);
+        tree.leaf_tris = leaf_blocks(order.len(), |p| tris[tree.leaf_ids[p] as usize]);
     }
     tree.tri_order = order;
     tree
@@ -700,8 +702,10 @@ fn dual_parts(
     (leaf, node, child_box, wide, wide_of)
 }
 
+pub mod blocks;
 pub mod boxes;
 pub mod sah;
+pub use blocks::{box_order, leaf_blocks};
 use boxes::{collapse_boxes, leaf_positions};
 pub use boxes::{BoxNode, LANE_TRIS};
 #[cfg(test)]

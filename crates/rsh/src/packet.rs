@@ -550,10 +550,8 @@ fn walk(
                 continue;
             }
             let at = (node.child[i] & !LEAF) as usize;
-            for (j, &[a, b, cc]) in tree.leaf_tris[at..at + node.ntri[i] as usize]
-                .iter()
-                .enumerate()
-            {
+            for j in 0..node.ntri[i] as usize {
+                let [a, b, cc] = tree.leaf_tri(at + j);
                 let tested = pass[i] & !done;
                 let mut t = tested;
                 while t != 0 {
@@ -566,7 +564,7 @@ fn walk(
                     let l = redo.trailing_zeros() as usize;
                     redo &= redo - 1;
                     if let Some(hit) = intersect_inlined(&p.pre[l], a, b, cc) {
-                        let key = pack(hit.t, tree.tri_order[at + j]);
+                        let key = pack(hit.t, tree.leaf_ids[at + j]);
                         if key < p.best[l] {
                             p.best[l] = key;
                             p.uv[l] = (hit.u, hit.v);

@@ -12,9 +12,14 @@
 //!
 //! Per ray: the node being visited, and a stack of (collapsed node, entry distance) to
 //! come back to; each visited node's 8 boxes are slab-tested at once (AVX2 lanes, or the
-//! scalar [`boxes_scalar`] on CPUs without it: the same answers, tested), its passing
-//! triangles get the shared kernel ([`geom::intersect`], inlined: so every hit is brute
-//! force's bit for bit), and of its passing inner children entered before the closest hit
+//! scalar [`boxes_scalar`] on CPUs without it: the same answers, tested); the triangles of
+//! its passing leaf lanes, side by side in the leaf order's blocks of 8
+//! ([`crate::objects::blocks`]), go through one 8-lane watertight test per block
+//! ([`geom::tris8`]) that rejects misses, and every triangle it does not reject gets the
+//! shared kernel ([`geom::intersect`], inlined: so every hit is brute force's bit for bit);
+//! an any-hit ray stops at the end of the first leaf lane that gives it a hit (lanes in lane
+//! order, as the GPU's walk, so both record the same triangle); of its passing inner
+//! children entered before the closest hit
 //! so far the nearest is visited next and the others are pushed farthest first, so a node
 //! with one such child (the common case) touches no stack. A popped node whose entry lies
 //! beyond the closest hit so far is skipped untested. The boxes are the tree's grown
@@ -26,6 +31,7 @@ use crate::objects::{BoxNode, ObjectTree, LEAF};
 use crate::traverse::pack;
 use geom::tri::intersect_inlined;
 use geom::tri::RayPre;
+use geom::tris8::Tris8;
 use geom::{intersect, Vec3};
 use rayon::prelude::*;
 use trace::{Hit, RayBatch, TraceMode};
@@ -176,6 +182,7 @@ pub mod avx2 {
                     any,
                     stack,
                     |n, o, i, t0, t1| unsafe { boxes8(n, o, i, t0, t1) },
+                    |r, t, m| unsafe { geom::tris8::redo8(r, t, m) },
                     |p, lines| unsafe { prefetch(p, lines) },
                 )
             }
@@ -245,6 +252,7 @@ pub fn trace(
                         any,
                         stack,
                         boxes_scalar,
+                        geom::tris8::redo8_scalar,
                         |_, _| {},
                     ),
                 }
@@ -266,6 +274,7 @@ fn walk_rays(
     any: bool,
     stack: &mut Vec<(u32, f32)>,
     boxes: impl Fn(&BoxNode, Vec3, Vec3, f32, f32) -> (u8, [f32; 8]),
+    tris8: impl Fn(&RayPre, &Tris8, u8) -> u8,
     prefetch: impl Fn(*const u8, usize),
 ) -> SingleCounts {
     let mut c = SingleCounts::default();
@@ -279,6 +288,7 @@ fn walk_rays(
             stack,
             &mut c,
             &boxes,
+            &tris8,
             &prefetch,
         );
         c.hits += h.is_hit() as u64;
@@ -298,26 +308,13 @@ fn walk_ray(
     stack: &mut Vec<(u32, f32)>,
     c: &mut SingleCounts,
     boxes: &impl Fn(&BoxNode, Vec3, Vec3, f32, f32) -> (u8, [f32; 8]),
+    tris8: &impl Fn(&RayPre, &Tris8, u8) -> u8,
     prefetch: &impl Fn(*const u8, usize),
 ) -> Hit {
     let pre = RayPre::new(&rays.ray(r));
     let kind = rays.kind[r] as usize & 3;
     let mut best = u64::MAX;
     let mut uv = (0.0f32, 0.0f32);
-    // The triangles at leaf positions `p .. p + k`.
-    let test = |p: u32, k: u8, best: &mut u64, uv: &mut (f32, f32), c: &mut SingleCounts| {
-        let p = p as usize;
-        c.final_tests[kind] += k as u64;
-        for (j, &[a, b, cc]) in tree.leaf_tris[p..p + k as usize].iter().enumerate() {
-            if let Some(hit) = intersect_inlined(&pre, a, b, cc) {
-                let key = pack(hit.t, tree.tri_order[p + j]);
-                if key < *best {
-                    *best = key;
-                    *uv = (hit.u, hit.v);
-                }
-            }
-        }
-    };
     if tree.root & LEAF != 0 {
         if let Some(&[a, b, cc]) = tris.first() {
             // One triangle, no inner node (and no leaf order).
@@ -345,24 +342,77 @@ fn walk_ray(
             box_tests += node.count as u64;
             box_passes += mask.count_ones() as u64;
             // Triangles first (they shorten the ray for the inner children), then the
-            // inner children.
+            // inner children. The passing leaf lanes' triangles as (block, lanes) runs in
+            // leaf order: a node's lanes follow each other in leaf order, so they share a
+            // block or two.
             let mut m = mask & node.leaves as u8;
-            // The passing lanes' triangles are asked for before the first test (side by
-            // side in leaf order: their misses overlap).
-            let mut f = m;
-            while f != 0 {
-                let l = f.trailing_zeros() as usize;
-                f &= f - 1;
-                let p = (node.child[l] & !LEAF) as usize;
-                prefetch(tree.leaf_tris.as_ptr().wrapping_add(p) as *const u8, 2);
-            }
-            while m != 0 {
-                let l = m.trailing_zeros() as usize;
-                m &= m - 1;
-                test(node.child[l] & !LEAF, node.ntri[l], &mut best, &mut uv, c);
-                if any && best != u64::MAX {
+            if m != 0 {
+                // The runs, and per position (from the first passing lane's `p0`) whether
+                // it is tested and whether it ends its lane: an any-hit walk stops at the
+                // end of the first lane with a hit, as a walk testing lane by lane in lane
+                // order does (the GPU's), so the same triangle is recorded.
+                let mut runs = [(0u32, 0u8); 8 * crate::objects::LANE_TRIS as usize];
+                let mut nr = 0;
+                let p0 = node.child[m.trailing_zeros() as usize] & !LEAF;
+                let (mut tested, mut ends) = (0u32, 0u32);
+                while m != 0 {
+                    let l = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let p = node.child[l] & !LEAF;
+                    let k = node.ntri[l] as u32;
+                    tested |= ((1u32 << k) - 1) << (p - p0);
+                    ends |= 1 << (p + k - 1 - p0);
+                    for q in p..p + k {
+                        let bit = 1u8 << (q % 8);
+                        if nr > 0 && runs[nr - 1].0 == q / 8 {
+                            runs[nr - 1].1 |= bit;
+                        } else {
+                            runs[nr] = (q / 8, bit);
+                            nr += 1;
+                        }
+                    }
+                }
+                // Any hit: the last position tested (the end of the first lane that hit).
+                let mut stop = u32::MAX;
+                'runs: for &(b, lanes) in &runs[..nr] {
+                    let blk = &tree.leaf_tris[b as usize];
+                    // The lanes the vector test cannot rule out, decided by the scalar
+                    // kernel in position order (a lone triangle goes to it straight away).
+                    let mut redo = if lanes & (lanes - 1) == 0 {
+                        lanes
+                    } else {
+                        tris8(&pre, blk, lanes)
+                    };
+                    while redo != 0 {
+                        let j = redo.trailing_zeros() as usize;
+                        redo &= redo - 1;
+                        let q = 8 * b + j as u32;
+                        if q > stop {
+                            break 'runs;
+                        }
+                        let [a, b2, cc] = blk.tri(j);
+                        if let Some(hit) = intersect_inlined(&pre, a, b2, cc) {
+                            let key = pack(hit.t, tree.leaf_ids[q as usize]);
+                            if key < best {
+                                best = key;
+                                uv = (hit.u, hit.v);
+                            }
+                            if any && stop == u32::MAX {
+                                stop = q + (ends >> (q - p0)).trailing_zeros();
+                            }
+                        }
+                    }
+                    if 8 * b + 7 >= stop {
+                        break;
+                    }
+                }
+                if stop != u32::MAX {
+                    // The lanes up to the one that hit were tested.
+                    let upto = (2u64 << (stop - p0)) - 1;
+                    c.final_tests[kind] += (tested as u64 & upto).count_ones() as u64;
                     break 'walk;
                 }
+                c.final_tests[kind] += tested.count_ones() as u64;
             }
             let far = reach(best);
             // The inner children the ray enters before its closest hit so far.

@@ -325,11 +325,8 @@ impl DeviceTree {
             // (The device keeps the lone triangle in `leaf_tris`; the CPU reads the scene's.)
             return t;
         }
+        // (The triangles in binary leaf order: laid out by box node below.)
         let lt: Vec<[f32; 4]> = ex.read(&self.leaf_tris, 3 * n);
-        t.leaf_tris = lt
-            .chunks(3)
-            .map(|c| [0, 1, 2].map(|k| Vec3::new(c[k][0], c[k][1], c[k][2])))
-            .collect();
         let v3 = |a: &[f32]| Vec3::new(a[0], a[1], a[2]);
         t.child = ex.read(&self.child, inner);
         t.range = ex.read(&self.range, inner);
@@ -349,6 +346,18 @@ impl DeviceTree {
         t.depth = ex.read::<u32>(&self.exact, 4)[3];
         let words: Vec<u32> = ex.read(&self.boxes, inner * BOX_WORDS as usize);
         t.boxes = box_nodes(&words);
+        // The box nodes' leaf positions as the CPU numbers them, and the triangles so.
+        t.leaf_ids = ::rsh::objects::box_order(&mut t.boxes, &t.tri_order);
+        // Each triangle's binary leaf position (where `lt` holds it).
+        let mut at = vec![0usize; n];
+        for (q, &tri) in t.tri_order.iter().enumerate() {
+            at[tri as usize] = q;
+        }
+        t.leaf_tris = ::rsh::objects::leaf_blocks(n, |p| {
+            let q = at[t.leaf_ids[p] as usize];
+            let c = &lt[3 * q..3 * q + 3];
+            [0, 1, 2].map(|k| Vec3::new(c[k][0], c[k][1], c[k][2]))
+        });
         t
     }
 }

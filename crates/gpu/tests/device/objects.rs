@@ -60,8 +60,12 @@ fn same(what: &str, cpu: &ObjectTree, dev: &ObjectTree) {
     // The single-ray path's records.
     let tri_bits = |t: &[Vec3; 3]| t.map(vbits);
     assert_eq!(
-        cpu.leaf_tris.iter().map(tri_bits).collect::<Vec<_>>(),
-        dev.leaf_tris.iter().map(tri_bits).collect::<Vec<_>>(),
+        (0..cpu.tri_order.len())
+            .map(|p| tri_bits(&cpu.leaf_tri(p)))
+            .collect::<Vec<_>>(),
+        (0..dev.tri_order.len())
+            .map(|p| tri_bits(&dev.leaf_tri(p)))
+            .collect::<Vec<_>>(),
         "{what}: triangles in leaf order"
     );
     assert_eq!(cpu.boxes.len(), dev.boxes.len(), "{what}: box nodes");

@@ -38,9 +38,10 @@ pub struct BoxNode {
     pub min: [[f32; 8]; 3],
     /// Grown boxes' maxima.
     pub max: [[f32; 8]; 3],
-    /// A leaf lane: `LEAF | p`, its triangles at leaf positions `p .. p + ntri`
-    /// ([`ObjectTree::tri_order`], vertices [`ObjectTree::leaf_tris`]); else the index of
-    /// the child node.
+    /// A leaf lane: `LEAF | p`, its triangles at positions `p .. p + ntri` of the box order
+    /// (ids [`ObjectTree::leaf_ids`], vertices [`ObjectTree::leaf_tris`]; a node's leaf
+    /// lanes at consecutive positions, [`super::blocks::box_order`]); else the index of the
+    /// child node.
     pub child: [u32; 8],
     /// Children in use.
     pub count: u32,

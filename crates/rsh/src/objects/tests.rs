@@ -68,8 +68,15 @@ fn check_boxes(tris: &[[Vec3; 3]], t: &ObjectTree) {
         assert!(t.boxes.is_empty());
         return;
     }
-    for (p, &tri) in t.tri_order.iter().enumerate() {
-        assert_eq!(t.leaf_tris[p], tris[tri as usize]);
+    let mut ids = t.leaf_ids.clone();
+    ids.sort();
+    assert_eq!(
+        ids,
+        (0..tris.len() as u32).collect::<Vec<_>>(),
+        "every triangle once"
+    );
+    for (p, &tri) in t.leaf_ids.iter().enumerate() {
+        assert_eq!(t.leaf_tri(p), tris[tri as usize]);
     }
     // Leaf positions under node `b`, each lane's checked against its box.
     fn cover(t: &ObjectTree, b: usize, seen: &mut Vec<u32>) {
@@ -98,13 +105,28 @@ fn check_boxes(tris: &[[Vec3; 3]], t: &ObjectTree) {
                 cover(t, c, &mut below);
             }
             for &p in &below {
-                for v in t.leaf_tris[p as usize] {
+                for v in t.leaf_tri(p as usize) {
                     assert!(bx.contains(v), "node {b} lane {i} misses position {p}");
                 }
             }
             seen.extend(below);
         }
     }
+    // Box order: the nodes' leaf lanes take consecutive positions, node after node.
+    let mut next = 0u32;
+    for (b, n) in t.boxes.iter().enumerate() {
+        for l in 0..n.count as usize {
+            if n.leaves >> l & 1 != 0 {
+                assert_eq!(
+                    n.child[l] & !LEAF,
+                    next,
+                    "node {b} lane {l}: the next position"
+                );
+                next += n.ntri[l] as u32;
+            }
+        }
+    }
+    assert_eq!(next as usize, t.leaf_ids.len());
     let mut seen = Vec::new();
     cover(t, 0, &mut seen);
     seen.sort();
