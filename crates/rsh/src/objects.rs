@@ -620,8 +620,8 @@ pub fn build(
     if parts.single {
         let pos = leaf_positions(&order);
         let leaf_box = |t: u32| grow(&boxes[t as usize]);
-        tree.boxes = collapse_boxes(&tree.child, &tree.range, &gbox, &leaf_box, &pos);
-        tree.leaf_ids = box_order(&mut tree.boxes, &order);
+        (tree.boxes, tree.leaf_ids) =
+            collapse_boxes(&tree.child, &tree.range, &gbox, &leaf_box, &pos, &order);
         tree.leaf_tris = leaf_blocks(order.len(), |p| tris[tree.leaf_ids[p] as usize]);
     }
     tree.tri_order = order;

@@ -44,7 +44,8 @@ impl ObjectTree {
 
 /// Renumber the leaf lanes of `nodes` (whose references are leaf positions of the binary
 /// tree's order) so that every node's leaf lanes take consecutive positions, node after node
-/// in `nodes`' order, lanes in lane order: a node's leaf triangles then share a block or
+/// in `nodes`' order, lanes in lane order (the CPU's build numbers them so as it makes the
+/// nodes, `boxes::collapse_boxes`; this is for nodes made elsewhere, the GPU's read back): a node's leaf triangles then share a block or
 /// two, where in the binary order an inner lane's subtree may lie between them. Returns,
 /// per new position, the triangle there: `order[q]` for the binary position q it came from
 /// (`order` the binary tree's leaf order).

@@ -120,7 +120,8 @@ pub(super) fn collapse_boxes(
     gbox: &[Aabb],
     leaf_box: &(impl Fn(u32) -> Aabb + Sync),
     pos: &[u32],
-) -> Vec<BoxNode> {
+    order: &[u32],
+) -> (Vec<BoxNode>, Vec<u32>) {
     // A member that stays a node: an inner node with more than LANE_TRIS triangles.
     let is_node =
         |x: u32| x & LEAF == 0 && range[x as usize][1] - range[x as usize][0] >= LANE_TRIS;
@@ -159,12 +160,15 @@ pub(super) fn collapse_boxes(
         b
     };
     let mut nodes: Vec<BoxNode> = Vec::with_capacity(child.len() / 8 + 1);
+    let mut ids: Vec<u32> = Vec::with_capacity(order.len());
     let mut heads = vec![0u32];
     while !heads.is_empty() {
         let base = nodes.len();
         nodes.par_extend(heads.par_iter().with_min_len(256).map(|&h| make(h)));
         // The next level's heads, numbered in the order they appear (lane order within
         // node order), each reference rewritten to its node's index.
+        // The leaf lanes renumbered in the box order as they are met, node after node
+        // (`super::blocks::box_order`, done here while the level's nodes are in cache).
         heads.clear();
         let mut next = nodes.len() as u32;
         for b in &mut nodes[base..] {
@@ -173,6 +177,10 @@ pub(super) fn collapse_boxes(
                     heads.push(b.child[i]);
                     b.child[i] = next;
                     next += 1;
+                } else {
+                    let lo = (b.child[i] & !LEAF) as usize;
+                    b.child[i] = LEAF | ids.len() as u32;
+                    ids.extend_from_slice(&order[lo..lo + b.ntri[i] as usize]);
                 }
             }
             // Masked lanes repeat lane 0's reference.
@@ -181,7 +189,7 @@ pub(super) fn collapse_boxes(
             }
         }
     }
-    nodes
+    (nodes, ids)
 }
 
 impl ObjectTree {
