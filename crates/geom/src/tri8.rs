@@ -305,7 +305,7 @@ mod avx {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::tri::intersect;
     use crate::{Pcg32, Ray};
@@ -335,7 +335,7 @@ mod tests {
 
     /// Rays from a small region towards a triangle, with every kind of awkward component:
     /// axis-parallel, ±0, on the triangle's vertices and edges, bounded and unbounded.
-    fn case(seed: u64, n: usize, degenerate: u32) -> (Vec<RayPre>, Vec<u32>, [Vec3; 3]) {
+    pub(crate) fn case(seed: u64, n: usize, degenerate: u32) -> (Vec<RayPre>, Vec<u32>, [Vec3; 3]) {
         let mut rng = Pcg32::new(seed, 77);
         let v = |rng: &mut Pcg32| {
             Vec3::new(

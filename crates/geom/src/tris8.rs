@@ -125,59 +125,18 @@ mod tests {
     use crate::{Pcg32, Ray};
     use proptest::prelude::*;
 
-    /// Eight triangles around the unit cube, some degenerate (a point, a segment, collinear
-    /// vertices) or on the unit planes, and rays aimed at their vertices, edges and insides
-    /// from anywhere, with axis-parallel directions, ±0 components and short intervals.
+    /// Eight triangles, each with rays aimed at it: [`crate::tri8`]'s cases (triangles
+    /// in the unit cube, some degenerate or on the unit planes; rays aimed at their
+    /// vertices, edges and insides, axis-parallel, with ±0 components, bounded and not),
+    /// one per lane.
     fn case(seed: u64) -> (Tris8, Vec<RayPre>) {
-        let mut rng = Pcg32::new(seed, 91);
-        let v = |rng: &mut Pcg32| {
-            Vec3::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            )
-        };
         let mut t = Tris8::default();
-        let mut tris = Vec::new();
-        for l in 0..8 {
-            let mut tri = [v(&mut rng), v(&mut rng), v(&mut rng)];
-            match rng.below(8) {
-                0 => tri[2] = tri[1],
-                1 => tri[2] = tri[0] * 2.0 - tri[1],
-                2 => tri = [Vec3::X, Vec3::Y, Vec3::Z],
-                3 => tri = [tri[0]; 3],
-                _ => {}
-            }
-            t.set(l, tri);
-            tris.push(tri);
+        let mut rays = Vec::new();
+        for l in 0..8u64 {
+            let (pre, _, tri) = crate::tri8::tests::case(seed * 8 + l, 8, (l % 4) as u32);
+            t.set(l as usize, tri);
+            rays.extend(pre);
         }
-        let rays = (0..64)
-            .map(|i| {
-                let tri = tris[i % 8];
-                let org = v(&mut rng) * 3.0;
-                let target = match i % 5 {
-                    0 => tri[i % 3],
-                    1 => (tri[0] + tri[1]) * 0.5,
-                    _ => {
-                        let (x, y) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
-                        tri[0] + (tri[1] - tri[0]) * x + (tri[2] - tri[0]) * y
-                    }
-                };
-                let mut dir = target - org;
-                if i % 7 == 0 {
-                    dir = [Vec3::X, -Vec3::Y, Vec3::Z][i % 3];
-                }
-                if i % 11 == 0 {
-                    dir.y = -0.0;
-                }
-                let t_max = if i % 4 == 0 {
-                    rng.range(0.0, 2.0)
-                } else {
-                    f32::INFINITY
-                };
-                RayPre::new(&Ray::new(org, dir, 0.0, t_max))
-            })
-            .collect();
         (t, rays)
     }
 

@@ -705,8 +705,8 @@ fn dual_parts(
 pub mod blocks;
 pub mod boxes;
 pub mod sah;
-pub use blocks::{box_order, leaf_blocks};
+pub use blocks::leaf_blocks;
 use boxes::{collapse_boxes, leaf_positions};
-pub use boxes::{BoxNode, LANE_TRIS};
+pub use boxes::{number_level, BoxNode, LANE_TRIS};
 #[cfg(test)]
 mod tests;

@@ -13,7 +13,7 @@
 //! Per ray: the node being visited, and a stack of (collapsed node, entry distance) to
 //! come back to; each visited node's 8 boxes are slab-tested at once (AVX2 lanes, or the
 //! scalar [`boxes_scalar`] on CPUs without it: the same answers, tested); the triangles of
-//! its passing leaf lanes, side by side in the leaf order's blocks of 8
+//! its passing leaf lanes, side by side in the box order's blocks of 8
 //! ([`crate::objects::blocks`]), go through one 8-lane watertight test per block
 //! ([`geom::tris8`]) that rejects misses, and every triangle it does not reject gets the
 //! shared kernel ([`geom::intersect`], inlined: so every hit is brute force's bit for bit);

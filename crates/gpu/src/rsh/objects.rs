@@ -267,19 +267,23 @@ fn bounds_of(w: &[[f32; 4]]) -> Bounds {
 
 /// The device's box nodes (stored at their binary node's index) as the CPU numbers them:
 /// the root's first, then level by level, each level's in the order their references appear
-/// (lane order within node order), references rewritten to those numbers (as
-/// `rsh::objects::boxes::collapse_boxes`).
-fn box_nodes(words: &[u32]) -> Vec<BoxNode> {
+/// (lane order within node order), references rewritten to those numbers and leaf lanes to
+/// the box order's positions ([`::rsh::objects::number_level`], as
+/// `rsh::objects::boxes::collapse_boxes`). Also returns, per box-order position, the binary
+/// leaf position it came from.
+fn box_nodes(words: &[u32]) -> (Vec<BoxNode>, Vec<u32>) {
     let w = BOX_WORDS as usize;
     let mut out = Vec::new();
-    let mut heads = vec![0usize];
+    let mut src = Vec::new();
+    let mut heads = vec![0u32];
     if words.is_empty() {
-        return out;
+        return (out, src);
     }
+    let mut at = 0u32;
     while !heads.is_empty() {
         let base = out.len();
         for &h in &heads {
-            let r = &words[h * w..(h + 1) * w];
+            let r = &words[h as usize * w..(h as usize + 1) * w];
             let f = |i: usize| f32::from_bits(r[i]);
             out.push(BoxNode {
                 min: std::array::from_fn(|k| std::array::from_fn(|i| f(8 * k + i))),
@@ -290,22 +294,12 @@ fn box_nodes(words: &[u32]) -> Vec<BoxNode> {
                 ntri: std::array::from_fn(|i| (r[58] >> (4 * i) & 15) as u8),
             });
         }
-        heads.clear();
-        let mut next = out.len() as u32;
-        for b in &mut out[base..] {
-            for i in 0..b.count as usize {
-                if b.leaves >> i & 1 == 0 {
-                    heads.push(b.child[i] as usize);
-                    b.child[i] = next;
-                    next += 1;
-                }
-            }
-            for i in b.count as usize..8 {
-                b.child[i] = b.child[0];
-            }
-        }
+        let next = out.len() as u32;
+        ::rsh::objects::number_level(&mut out[base..], next, &mut heads, &mut at, |lo, k| {
+            src.extend(lo..lo + k)
+        });
     }
-    out
+    (out, src)
 }
 
 impl DeviceTree {
@@ -345,16 +339,12 @@ impl DeviceTree {
         t.tri_order = ex.read(&self.order, n);
         t.depth = ex.read::<u32>(&self.exact, 4)[3];
         let words: Vec<u32> = ex.read(&self.boxes, inner * BOX_WORDS as usize);
-        t.boxes = box_nodes(&words);
-        // The box nodes' leaf positions as the CPU numbers them, and the triangles so.
-        t.leaf_ids = ::rsh::objects::box_order(&mut t.boxes, &t.tri_order);
-        // Each triangle's binary leaf position (where `lt` holds it).
-        let mut at = vec![0usize; n];
-        for (q, &tri) in t.tri_order.iter().enumerate() {
-            at[tri as usize] = q;
-        }
+        let src;
+        (t.boxes, src) = box_nodes(&words);
+        // The triangles in the box order, from their binary leaf positions.
+        t.leaf_ids = src.iter().map(|&q| t.tri_order[q as usize]).collect();
         t.leaf_tris = ::rsh::objects::leaf_blocks(n, |p| {
-            let q = at[t.leaf_ids[p] as usize];
+            let q = src[p] as usize;
             let c = &lt[3 * q..3 * q + 3];
             [0, 1, 2].map(|k| Vec3::new(c[k][0], c[k][1], c[k][2]))
         });

@@ -40,8 +40,7 @@ pub struct BoxNode {
     pub max: [[f32; 8]; 3],
     /// A leaf lane: `LEAF | p`, its triangles at positions `p .. p + ntri` of the box order
     /// (ids [`ObjectTree::leaf_ids`], vertices [`ObjectTree::leaf_tris`]; a node's leaf
-    /// lanes at consecutive positions, [`super::blocks::box_order`]); else the index of the
-    /// child node.
+    /// lanes at consecutive positions, [`number_level`]); else the index of the child node.
     pub child: [u32; 8],
     /// Children in use.
     pub count: u32,
@@ -165,31 +164,50 @@ pub(super) fn collapse_boxes(
     while !heads.is_empty() {
         let base = nodes.len();
         nodes.par_extend(heads.par_iter().with_min_len(256).map(|&h| make(h)));
-        // The next level's heads, numbered in the order they appear (lane order within
-        // node order), each reference rewritten to its node's index.
-        // The leaf lanes renumbered in the box order as they are met, node after node
-        // (`super::blocks::box_order`, done here while the level's nodes are in cache).
-        heads.clear();
-        let mut next = nodes.len() as u32;
-        for b in &mut nodes[base..] {
-            for i in 0..b.count as usize {
-                if b.leaves >> i & 1 == 0 {
-                    heads.push(b.child[i]);
-                    b.child[i] = next;
-                    next += 1;
-                } else {
-                    let lo = (b.child[i] & !LEAF) as usize;
-                    b.child[i] = LEAF | ids.len() as u32;
-                    ids.extend_from_slice(&order[lo..lo + b.ntri[i] as usize]);
-                }
-            }
-            // Masked lanes repeat lane 0's reference.
-            for i in b.count as usize..WIDTH {
-                b.child[i] = b.child[0];
-            }
-        }
+        let next = nodes.len() as u32;
+        let mut at = ids.len() as u32;
+        number_level(&mut nodes[base..], next, &mut heads, &mut at, |lo, k| {
+            ids.extend_from_slice(&order[lo as usize..(lo + k) as usize])
+        });
     }
     (nodes, ids)
+}
+
+/// Number one level of box nodes, made from binary node ids and binary leaf positions (the
+/// nodes numbered from `next`, the leaf positions from `*at`): the next level's heads (each
+/// inner lane's binary node, in lane order within node order) replace `heads`, each inner
+/// lane gets its node's index; each leaf lane gets the next positions of the box order (a
+/// node's leaf lanes consecutive, node after node: their triangles then share a block or
+/// two of [`ObjectTree::leaf_tris`], where in the binary leaf order an inner lane's subtree
+/// may lie between them), `leaf(lo, k)` told its binary positions `lo .. lo + k`; masked
+/// lanes repeat lane 0. The CPU's build ([`collapse_boxes`]) and the GPU's read-back tree
+/// number their levels with it.
+pub fn number_level(
+    level: &mut [BoxNode],
+    mut next: u32,
+    heads: &mut Vec<u32>,
+    at: &mut u32,
+    mut leaf: impl FnMut(u32, u32),
+) {
+    heads.clear();
+    for b in level {
+        for i in 0..b.count as usize {
+            if b.leaves >> i & 1 == 0 {
+                heads.push(b.child[i]);
+                b.child[i] = next;
+                next += 1;
+            } else {
+                let (lo, k) = (b.child[i] & !LEAF, b.ntri[i] as u32);
+                b.child[i] = LEAF | *at;
+                *at += k;
+                leaf(lo, k);
+            }
+        }
+        // Masked lanes repeat lane 0's reference.
+        for i in b.count as usize..WIDTH {
+            b.child[i] = b.child[0];
+        }
+    }
 }
 
 impl ObjectTree {
