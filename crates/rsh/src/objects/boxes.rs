@@ -180,7 +180,7 @@ pub(super) fn collapse_boxes(
 /// node's leaf lanes consecutive, node after node: their triangles then share a block or
 /// two of [`ObjectTree::leaf_tris`], where in the binary leaf order an inner lane's subtree
 /// may lie between them), `leaf(lo, k)` told its binary positions `lo .. lo + k`; masked
-/// lanes repeat lane 0. The CPU's build ([`collapse_boxes`]) and the GPU's read-back tree
+/// lanes repeat lane 0. The CPU's build (`collapse_boxes`) and the GPU's read-back tree
 /// number their levels with it.
 pub fn number_level(
     level: &mut [BoxNode],
