@@ -182,10 +182,74 @@ pub fn compact_pairs<K: Copy + Send + Sync, V: Copy + Send + Sync, F: Flag>(
     total
 }
 
+/// The outputs of `f` over the blocks of `0..n` (`block` indices each, in parallel), in
+/// block order: `f(range, out)` appends its block's elements to `out`.
+///
+/// For a filter whose kept elements cost more to find than to keep (the test reads other
+/// arrays, so [`compact_with`]'s two passes would run it twice): each block's elements are
+/// made once into its own vector, then copied into their place (offsets by a scan of the
+/// blocks' lengths). Rayon's `collect` of a filtered iterator does the same through a linked
+/// list of vectors grown element by element, about 8× slower on a million-triangle grid's
+/// merge (the live cells of 9 M: 200 ms against 25).
+pub fn collect_blocks<T: Copy + Send + Sync>(
+    n: usize,
+    block: usize,
+    f: impl Fn(std::ops::Range<usize>, &mut Vec<T>) + Sync,
+) -> Vec<T> {
+    let block = block.max(1);
+    let parts: Vec<Vec<T>> = (0..n.div_ceil(block))
+        .into_par_iter()
+        .map(|b| {
+            let mut v = Vec::new();
+            f(b * block..((b + 1) * block).min(n), &mut v);
+            v
+        })
+        .collect();
+    let mut at = Vec::with_capacity(parts.len());
+    let mut total = 0;
+    for p in &parts {
+        at.push(total);
+        total += p.len();
+    }
+    let mut out: Vec<T> = Vec::with_capacity(total);
+    let dst = SharedMut(out.as_mut_ptr());
+    parts.par_iter().zip(at.par_iter()).for_each(|(p, &a)| {
+        let dst = &dst;
+        // SAFETY: part k fills [at[k], at[k] + its length), disjoint by the scan and within
+        // the capacity `total`.
+        unsafe { std::ptr::copy_nonoverlapping(p.as_ptr(), dst.0.add(a), p.len()) };
+    });
+    // SAFETY: the parts' ranges tile 0..total, all written above.
+    unsafe { out.set_len(total) };
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn collect_blocks_matches_filter_map(v in prop::collection::vec(any::<u32>(), 0..20_000), block in 1usize..3000) {
+            let expect: Vec<(u32, usize)> = v
+                .iter()
+                .enumerate()
+                .filter(|(_, x)| **x % 3 != 0)
+                .map(|(i, x)| (*x, i))
+                .collect();
+            let got = collect_blocks(v.len(), block, |r, out| {
+                for i in r {
+                    if v[i] % 3 != 0 {
+                        out.push((v[i], i));
+                    }
+                }
+            });
+            prop_assert_eq!(got, expect);
+        }
+    }
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]

@@ -19,7 +19,7 @@ pub mod runs;
 pub mod scan;
 pub mod sort;
 
-pub use compact::{compact, compact_pairs, compact_with, Flag};
+pub use compact::{collect_blocks, compact, compact_pairs, compact_with, Flag};
 pub use emit::{emit_pairs, emit_streams, Pairs};
 pub use runs::{compress_runs, expand_runs, segmented_inclusive_scan};
 pub use scan::{exclusive_scan, exclusive_scan_in_place, inclusive_scan, Elem};

@@ -138,11 +138,11 @@ fn same<T: PartialEq + std::fmt::Debug>(a: &[T], b: &[T], what: &str) {
     assert_eq!(a.len(), b.len(), "{what}: lengths");
 }
 
-/// Waves cover the top cells in order, each at least one top cell and, past its first top
-/// cell, below the wave's reference budget.
+/// Waves cover the top cells in order, each at least one top cell and, before its last
+/// top cell holding references, below the wave's reference budget.
 #[test]
 fn waves_split_the_top_cells_by_references() {
-    let first = [0u32, 5, 5, 9, 30, 31, 31, 40];
+    let first = [0u32, 5, 5, 9, 30, 31, 31, 40, 40, 40];
     for budget in [1u64, 4, 10, 100] {
         let w = topcells::waves(&first, budget);
         assert_eq!(w.first().map(|r| r.start), Some(0));
@@ -152,10 +152,18 @@ fn waves_split_the_top_cells_by_references() {
         }
         for r in &w {
             assert!(!r.is_empty());
-            let refs = (first[r.end - 1] - first[r.start]) as u64;
+            let last = r
+                .clone()
+                .rev()
+                .find(|&t| first[t + 1] > first[t])
+                .unwrap_or(r.start);
+            let refs = (first[last] - first[r.start]) as u64;
             assert!(refs < budget.max(1), "{r:?} with budget {budget}");
         }
     }
-    // A budget of one reference: one wave per non-empty top cell, empty ones riding along.
-    assert_eq!(topcells::waves(&first, 1), [0..1, 1..3, 3..4, 4..5, 5..7]);
+    // A budget of one reference: one wave per non-empty top cell, empty ones riding along
+    // (those past the last reference with the last wave).
+    assert_eq!(topcells::waves(&first, 1), [0..1, 1..3, 3..4, 4..5, 5..9]);
+    assert_eq!(topcells::waves(&first, 100), [0..9]);
+    assert_eq!(topcells::waves(&[0, 0, 0], 4), [0..2]);
 }

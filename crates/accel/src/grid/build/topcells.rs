@@ -397,9 +397,15 @@ pub(super) fn waves(first: &[u32], refs: u64) -> Vec<std::ops::Range<usize>> {
     while start < ntop {
         let target = (first[start] as u64 + refs).min(first[ntop] as u64) as u32;
         // The first boundary past `start` at or beyond the target: the wave holds at least
-        // top cell `start`.
+        // top cell `start`. A wave that reaches the last reference takes the empty top
+        // cells after it too (the search would make each its own wave: 1,281 of them on a
+        // 1 M-triangle hairball).
         let end = start + 1 + first[start + 1..=ntop].partition_point(|&f| f < target);
-        let end = end.min(ntop);
+        let end = if first[end.min(ntop)] == first[ntop] {
+            ntop
+        } else {
+            end
+        };
         out.push(start..end);
         start = end;
     }
