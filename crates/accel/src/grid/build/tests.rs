@@ -164,6 +164,6 @@ fn waves_split_the_top_cells_by_references() {
     // A budget of one reference: one wave per non-empty top cell, empty ones riding along
     // (those past the last reference with the last wave).
     assert_eq!(topcells::waves(&first, 1), [0..1, 1..3, 3..4, 4..5, 5..9]);
-    assert_eq!(topcells::waves(&first, 100), [0..9]);
-    assert_eq!(topcells::waves(&[0, 0, 0], 4), [0..2]);
+    assert_eq!(topcells::waves(&first, 100), vec![0..9]);
+    assert_eq!(topcells::waves(&[0, 0, 0], 4), vec![0..2]);
 }
