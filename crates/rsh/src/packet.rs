@@ -94,8 +94,9 @@ struct Packet {
     /// barycentrics.
     best: L<u64>,
     uv: L<(f32, f32)>,
-    /// Ray kinds (the counters).
+    /// Ray kinds (the counters), and the lanes of each kind.
     kind: L<u8>,
+    kind_lanes: [u16; 4],
 }
 
 impl Packet {
@@ -117,6 +118,7 @@ impl Packet {
             best: [u64::MAX; LANES],
             uv: [(0.0, 0.0); LANES],
             kind: [0; LANES],
+            kind_lanes: [0; 4],
         };
         // Plain loops, the lanes written in place, every per-ray choice a select on local
         // arrays (closures per lane were not inlined, and `Vec3`'s index is a branch).
@@ -139,6 +141,7 @@ impl Packet {
             p.s[0][l] = pre.sx;
             p.s[1][l] = pre.sy;
             p.kind[l] = rays.kind[r] & 3;
+            p.kind_lanes[p.kind[l] as usize] |= 1 << l;
             p.pre[l] = pre;
         }
         p
@@ -553,11 +556,9 @@ fn walk(
             for j in 0..node.ntri[i] as usize {
                 let [a, b, cc] = tree.leaf_tri(at + j);
                 let tested = pass[i] & !done;
-                let mut t = tested;
-                while t != 0 {
-                    let l = t.trailing_zeros() as usize;
-                    t &= t - 1;
-                    c.final_tests[p.kind[l] as usize] += 1;
+                // One count per lane tested, by kind (a packet's rays are mostly of one).
+                for (k, &lanes) in p.kind_lanes.iter().enumerate() {
+                    c.final_tests[k] += (tested & lanes).count_ones() as u64;
                 }
                 let mut redo = tested & inside(p, a, b, cc);
                 while redo != 0 {
