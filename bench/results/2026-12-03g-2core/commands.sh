@@ -37,6 +37,15 @@ for round in 1 2 3 4 5 6; do
   for b in $order; do grid_build $round 1M $b; done
   if [ $round -le 3 ]; then for b in $order; do grid_build $round 2M $b; done; fi
 done > $OUT/grid-build-more.txt
+# 1c. After the rest (and after `.ci/run`): hairball:200k, best of 6 builds per run, four
+# rounds, NEW first in each (the runs above put BASE first in most rounds).
+for round in 1 2 3 4; do
+  for b in new base; do
+    gb=$NEW_GB; [ $b = base ] && gb=$BASE_GB
+    echo "== round $round hairball:200k $b"
+    $gb hairball:200k 6 2>&1
+  done
+done > $OUT/grid-200k.txt
 # 2. The grid's build on real scenes (`trace --repeat 5`, medians), BASE and NEW, two rounds.
 {
 for round in 1 2; do

@@ -10,7 +10,7 @@ out = []
 # 1. Grid passes per (scene, binary): every run's ms per pass, its peak, the hashes seen.
 passes = collections.defaultdict(lambda: collections.defaultdict(list))
 hashes = collections.defaultdict(set)
-for name in ("grid-build.txt", "grid-build-more.txt"):
+for name in ("grid-build.txt", "grid-build-more.txt", "grid-200k.txt"):
     path = os.path.join(here, name)
     if not os.path.exists(path):
         continue
@@ -29,7 +29,7 @@ for name in ("grid-build.txt", "grid-build-more.txt"):
         m = re.match(r"peak (\d+) KB", line)
         if m and key:
             passes[key]["peak KB"].append(float(m.group(1)))
-out.append("## The grid's passes (grid_build, medians over the runs; NEW/BASE of the medians)\n")
+out.append("## The grid's passes (grid_build, medians over the runs; NEW/BASE of the medians; 200k: each run the best of 6 builds)\n")
 out.append("| scene | pass | runs | BASE ms | NEW ms | NEW/BASE |")
 out.append("|---|---|---:|---:|---:|---:|")
 for scene in sorted({k[0] for k in passes}):
