@@ -178,15 +178,11 @@ pub fn gpu_default_path(method: Method) -> RayPath {
 /// The object side CRSH and RAH use on the CPU unless `--object-hierarchy` says otherwise.
 pub const DEFAULT_OBJECTS: ObjectHierarchy = ObjectHierarchy::Bvh;
 
-/// The object hierarchy the GPU backend gives `method` when none is asked for: the BVH
-/// where the method's batches go as single rays by default (CRSH: the device walks the tree
-/// ray by ray), else mesh spheres (RAH: the device's bundles have no object tree yet).
-pub fn gpu_default_objects(method: Method) -> ObjectHierarchy {
-    if gpu_default_path(method) == RayPath::Single {
-        ObjectHierarchy::Bvh
-    } else {
-        ObjectHierarchy::MeshSpheres
-    }
+/// The object hierarchy the GPU backend gives `method` when none is asked for: the BVH, as
+/// on the CPU (CRSH's single rays walk it; RAH's bundles descend it with the dual
+/// traversal, level by level).
+pub fn gpu_default_objects(_method: Method) -> ObjectHierarchy {
+    ObjectHierarchy::Bvh
 }
 
 /// The object hierarchy `method` runs with: the one asked for, else the backend's default
@@ -221,7 +217,7 @@ pub struct EngineOptions {
     /// Mesh-sphere culling for CRSH and RAH alike (`None`: each method's default).
     pub mesh_culling: Option<bool>,
     /// The object side of CRSH and RAH (`None`: [`DEFAULT_OBJECTS`] on the CPU,
-    /// mesh-spheres on the GPU, which has no other).
+    /// [`gpu_default_objects`] on the GPU).
     pub objects: Option<ObjectHierarchy>,
     /// How CRSH and RAH trace a batch over the object tree (`None`: each method's default,
     /// auto for CRSH, bundles for RAH).
@@ -259,13 +255,15 @@ impl EngineOptions {
     }
 
     /// [`EngineOptions::rsh_config`] for the GPU backend: the object side defaults to
-    /// [`gpu_default_objects`], the path to [`gpu_default_path`], and the object tree is the
-    /// LBVH (the device's builder).
+    /// [`gpu_default_objects`], the path to [`gpu_default_path`], the object tree is the
+    /// LBVH (the device's builder) and the dual traversal goes level by level (the device's
+    /// schedule).
     pub fn gpu_rsh_config(&self, method: Method) -> RshConfig {
         RshConfig {
             objects: objects_for(method, self.objects, true),
             builder: ObjectBuilder::Lbvh,
             path: self.path.unwrap_or(gpu_default_path(method)),
+            schedule: rsh::Schedule::Breadth,
             ..self.rsh_config(method)
         }
     }

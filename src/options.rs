@@ -176,20 +176,20 @@ pub struct RshArgs {
     #[arg(long = "pair-budget", default_value_t = RshConfig::crsh().pair_budget)]
     pub pair_budget: usize,
     /// What the traversal pushes through the ray hierarchy: every triangle behind per-mesh
-    /// spheres (the thesis), or a per-frame BVH descended together with it (default: bvh on
-    /// the CPU; the GPU backend has mesh-spheres only).
+    /// spheres (the thesis), or a per-frame BVH descended together with it (default: bvh).
     #[arg(long = "object-hierarchy", value_enum)]
     pub objects: Option<ObjectHierarchy>,
     /// With `--object-hierarchy bvh`: which node of a surviving pair is expanded.
     #[arg(long, value_enum, default_value_t = RshConfig::crsh().descent)]
     pub descent: Descent,
     /// With `--object-hierarchy bvh`: take the pairs depth first per top ray node (fast on
-    /// the CPU), or level by level in data-parallel steps (the GPU's shape).
+    /// the CPU), or level by level in data-parallel steps (the GPU's shape; the GPU backend
+    /// runs breadth only).
     #[arg(long, value_enum, default_value_t = RshConfig::crsh().schedule)]
     pub schedule: Schedule,
     /// With `--object-hierarchy bvh`: trace each batch as the ray hierarchy's bundles, as
     /// single rays through the object tree, or as its coherence says (default: auto for
-    /// crsh, bundles for rah).
+    /// crsh, bundles for rah; on the GPU backend single for crsh, bundles for rah).
     #[arg(long = "ray-path", value_enum)]
     pub path: Option<RayPath>,
     /// With `--object-hierarchy bvh`: how the object tree is built per frame.

@@ -30,6 +30,7 @@ const MODULES: &[(&str, &[&str])] = &[
     ("Final", &["shaders/geom.wgsl", "rsh/final.wgsl"]),
     ("Objects", &["shaders/geom.wgsl", "rsh/objects.wgsl"]),
     ("Single", &["shaders/geom.wgsl", "rsh/single.wgsl"]),
+    ("Dual", &["shaders/geom.wgsl", "rsh/dual.wgsl"]),
     ("Stages", &["stages.wgsl"]),
     (
         "Grid",

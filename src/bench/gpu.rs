@@ -102,7 +102,8 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
             &[rsh::Method::Crsh]
         };
         // The thesis's configurations (bundles behind the mesh spheres), then CRSH's
-        // default on the GPU: single rays through the object tree built on the device.
+        // default on the GPU: single rays through the object tree built on the device, and
+        // the dual traversal.
         let mut runs: Vec<(String, rsh::RshConfig)> = Vec::new();
         for &(b, d) in &spec.configs {
             for &method in methods {
@@ -126,6 +127,23 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
                 ..rsh::RshConfig::crsh()
             },
         ));
+        // The bundles and the object tree descended together, level by level (the dual
+        // traversal's breadth schedule, the GPU's; RAH's default there).
+        for &method in methods {
+            runs.push((
+                format!("{method:?}, object BVH (LBVH), bundles, level by level"),
+                rsh::RshConfig {
+                    objects: rsh::ObjectHierarchy::Bvh,
+                    path: rsh::RayPath::Bundles,
+                    builder: rsh::ObjectBuilder::Lbvh,
+                    schedule: rsh::Schedule::Breadth,
+                    ..match method {
+                        rsh::Method::Crsh => rsh::RshConfig::crsh(),
+                        rsh::Method::Rah => rsh::RshConfig::rah(),
+                    }
+                },
+            ));
+        }
         for (label, cfg) in runs {
             let method = cfg.method;
             progress(&format!("{name}: {label} on the CPU"));

@@ -56,10 +56,10 @@ pub fn engine_options_apply(m: &ArgMatches, engine: Engine) -> Result<(), UsageE
 }
 
 /// Refuse CRSH/RAH options that the run would not read: the object tree's where there is
-/// none (`--object-hierarchy mesh-spheres`, or the GPU backend's default for bundles), the
-/// ones the GPU backend's tree does not have (the dual traversal's, the SAH builder, a
-/// path other than single rays), and the ray hierarchy's where every batch goes as single
-/// rays through the tree. `what` names the command in the message.
+/// none (`--object-hierarchy mesh-spheres`), the ones the GPU backend's tree does not take
+/// (the depth-first schedule, the SAH builder, a path other than single rays or bundles),
+/// and the ray hierarchy's where every batch goes as single rays through the tree. `what`
+/// names the command in the message.
 pub fn rsh_options_apply(
     m: &ArgMatches,
     engine: Engine,
@@ -84,25 +84,25 @@ pub fn rsh_options_apply(
         }
         if gpu && !no_bvh {
             let refuse = match kw.as_str() {
-                "descent" | "schedule" => Some("the dual traversal, which the GPU backend does not have"),
+                "schedule" if r.schedule != rsh::Schedule::Breadth => Some(
+                    "the CPU backend: the GPU backend runs the dual traversal level by level (--schedule breadth)",
+                ),
                 "object_builder" if r.builder != rsh::ObjectBuilder::Lbvh => {
                     Some("the CPU backend: the GPU backend builds the LBVH only (--object-builder lbvh)")
                 }
-                "ray_path" if r.path != Some(rsh::RayPath::Single) => Some(
-                    "the CPU backend: the GPU backend walks the object BVH with single rays only (--ray-path single; for the ray hierarchy's bundles on the GPU, --object-hierarchy mesh-spheres)",
-                ),
+                "ray_path"
+                    if !matches!(r.path, Some(rsh::RayPath::Single | rsh::RayPath::Bundles)) =>
+                {
+                    Some(
+                        "the CPU backend: the GPU backend takes the object BVH with single rays or bundles (--ray-path single or bundles)",
+                    )
+                }
                 _ => None,
             };
             if let Some(why) = refuse {
                 return Err(UsageError(format!("{flag} applies to {why}")));
             }
         }
-    }
-    if gpu && !no_bvh && r.path.unwrap_or(default) != rsh::RayPath::Single {
-        return Err(UsageError(format!(
-            "--object-hierarchy bvh on the GPU backend needs --ray-path single (the device walks the tree with single rays; --engine {}'s batches go as bundles)",
-            engine.name()
-        )));
     }
     // The ray hierarchy's options do nothing where every batch goes as single rays through
     // the object tree.

@@ -205,20 +205,16 @@ fn gpu_backend_rejects_what_it_does_not_run() {
         &["--frames", "not animated"],
     );
     fails(
-        &words("render cornell --backend gpu --engine rah --object-hierarchy bvh"),
-        &["--object-hierarchy bvh", "GPU", "--ray-path single"],
-    );
-    fails(
         &words("render cornell --backend gpu --object-builder sah"),
         &["--object-builder", "LBVH only"],
     );
     fails(
-        &words("render cornell --backend gpu --ray-path bundles"),
-        &["--ray-path", "single rays only"],
+        &words("render cornell --backend gpu --ray-path auto"),
+        &["--ray-path", "single rays or bundles"],
     );
     fails(
-        &words("render cornell --backend gpu --schedule breadth"),
-        &["--schedule", "dual traversal"],
+        &words("render cornell --backend gpu --ray-path bundles --schedule depth"),
+        &["--schedule", "level by level", "--schedule breadth"],
     );
 }
 

@@ -256,7 +256,7 @@ pub fn report_single(c: &single::SingleCounts, stats: &mut TraceStats) {
 
 /// The object tree's counters into `stats` (every ray-box test counts towards the total
 /// tests, the thesis's % of brute force).
-fn object_counters(c: &Counters, stats: &mut TraceStats) {
+pub fn object_counters(c: &Counters, stats: &mut TraceStats) {
     stats.count(Counter::ObjectNodeTests, c.object_tests);
     stats.count(Counter::RayBoxTests, c.ray_box_tests);
     stats.count(Counter::RayBoxPasses, c.ray_box_passes);

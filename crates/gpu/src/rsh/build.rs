@@ -20,6 +20,9 @@ pub struct Level {
     pub first: wgpu::Buffer,
     /// Nodes per kind (kinds are sorted, so this is the level's whole layout).
     pub per_kind: [u32; 4],
+    /// Children per kind in the level below (leaves for level 1): each kind's nodes take
+    /// `b` of them but the last, which takes the rest.
+    pub children: [u32; 4],
 }
 
 impl Level {
@@ -92,6 +95,7 @@ pub fn build(
             sc: g.storage("node sc", total as u64 * 16),
             first: g.storage("node first", (total as u64 + 1) * 4),
             per_kind: nodes,
+            children: below,
         };
         let prm = LevelParams {
             nodes: total,

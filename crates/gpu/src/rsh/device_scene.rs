@@ -35,6 +35,8 @@ pub struct DeviceScene {
     pub box_min: [f32; 3],
     /// The scene box's extent.
     pub box_ext: [f32; 3],
+    /// The scene box's diagonal (the dual traversal's cap on unbounded rays).
+    pub diag: f32,
 }
 
 /// The scene's per-triangle and per-mesh arrays in the layouts the kernels read: triangles

@@ -10,6 +10,7 @@
 
 use super::build::build;
 use super::device_scene::{DeviceScene, SceneArrays};
+use super::dual::GpuDual;
 use super::objects::{self, DeviceTree, TreeInput};
 use super::order::leaf_order;
 use super::single;
@@ -19,7 +20,7 @@ use crate::kernels::params::RecordsParams;
 use crate::kernels::{launch, DevSize, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
-use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
+use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, Schedule};
 use geom::Pcg32;
 use scene::Geometry;
 use std::sync::Mutex;
@@ -102,6 +103,7 @@ pub(super) struct SceneBuffers {
     ntri: u32,
     box_min: [f32; 3],
     box_ext: [f32; 3],
+    diag: f32,
     max_rays: usize,
 }
 
@@ -133,6 +135,7 @@ impl SceneBuffers {
             ntri: ntri as u32,
             box_min: [b.x, b.y, b.z],
             box_ext: [ext.x, ext.y, ext.z],
+            diag: geo.bounds.diagonal(),
             max_rays,
         })
     }
@@ -144,13 +147,37 @@ impl GpuRsh {
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: RshConfig) -> Result<GpuRsh, GpuError> {
         cfg.validate()?;
         if cfg.objects == ObjectHierarchy::Bvh {
-            // The object tree is walked by single rays; the dual traversal (bundles) is
-            // not written for the device yet, nor the SAH builder.
-            if cfg.path != RayPath::Single {
+            // The object tree is walked by single rays, or descended with the ray
+            // hierarchy's bundles level by level (the dual traversal's breadth schedule);
+            // the per-batch choice and packets are the CPU's, and so is the SAH builder.
+            match cfg.path {
+                RayPath::Single => {}
+                RayPath::Bundles if cfg.schedule == Schedule::Breadth => {}
+                RayPath::Bundles => {
+                    return Err(OptionError::new(
+                        "schedule",
+                        "depth",
+                        "the GPU backend runs the dual traversal level by level (breadth) only",
+                    )
+                    .into());
+                }
+                _ => {
+                    return Err(OptionError::new(
+                        "ray_path",
+                        cfg.path.name(),
+                        "the GPU backend traces the object tree with single rays or bundles only",
+                    )
+                    .into());
+                }
+            }
+            if cfg.path == RayPath::Bundles
+                && cfg.method == Method::Crsh
+                && cfg.hash != HashKind::Thesis
+            {
                 return Err(OptionError::new(
-                    "ray_path",
-                    cfg.path.name(),
-                    "the GPU backend traces the object tree with single rays only",
+                    "hash",
+                    "morton64",
+                    "the GPU backend implements the thesis's 32-bit hash only",
                 )
                 .into());
             }
@@ -204,6 +231,7 @@ impl GpuRsh {
                 ntri: sb.ntri,
                 box_min: sb.box_min,
                 box_ext: sb.box_ext,
+                diag: sb.diag,
                 gpu,
                 kernels,
                 cfg,
@@ -244,6 +272,7 @@ impl GpuRsh {
         s.ntri = sb.ntri;
         s.box_min = sb.box_min;
         s.box_ext = sb.box_ext;
+        s.diag = sb.diag;
         self.max_rays = sb.max_rays;
         if self.tree.is_some() {
             self.tree = Some(TreeState::build(&self.s));
@@ -301,14 +330,23 @@ impl GpuRsh {
     }
 
     /// Order, build, traverse and make the hit records of rays `dr` on the device (thesis
-    /// §3.2.3–3.2.9); the records stay there. Returns them with the traversal's counters and
-    /// the number of top nodes.
+    /// §3.2.3–3.2.9): the triangles pushed down the hierarchy ([`GpuTraversal`]), or with
+    /// the object tree the dual traversal ([`GpuDual`]); the records stay there. Returns
+    /// them with the traversal's counters and the number of top nodes; the dual
+    /// traversal's own counters go into `stats` now.
     fn records(
         &self,
         ex: &mut Exec,
         dr: &DeviceRays,
+        mode: TraceMode,
         stats: &mut TraceStats,
     ) -> (wgpu::Buffer, Counters, u64) {
+        let dual = self.tree.as_ref().filter(|_| self.s.ntri > 0);
+        if dual.is_some() {
+            stats.count(Counter::SingleRayBatches, 0);
+            stats.count(Counter::PacketBatches, 0);
+            stats.count(Counter::BundledBatches, 1);
+        }
         let n = dr.len;
         let g = &self.s.gpu;
         let (leaves, m) = leaf_order(&self.s, ex, dr, stats);
@@ -323,7 +361,24 @@ impl GpuRsh {
             hits: vec![[0; 4]; levels.len()],
             ..Default::default()
         };
-        if self.s.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
+        if let (Some(t), Some(_)) = (dual, levels.last()) {
+            let words = GpuDual::counter_words(levels.len());
+            let counters = g.storage("dual traversal counters", words * 4);
+            let trav = GpuDual {
+                eng: &self.s,
+                tree: &t.dev,
+                levels: &levels,
+                rays: dr,
+                leaves: &leaves,
+                m,
+                best: &best,
+                counters: &counters,
+                any: mode == TraceMode::Any,
+                diag: self.s.diag,
+            };
+            let over = trav.run(ex, &mut c);
+            stats.count(Counter::GpuStackOverflows, over);
+        } else if self.s.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
             let words = GpuTraversal::counter_words(levels.len());
             let counters = g.storage("traversal counters", words * 4);
             #[cfg(test)]
@@ -421,7 +476,7 @@ impl GpuRsh {
         let g = &self.s.gpu;
         let mut ex = Exec::new(g, &self.s.kernels);
         let dr = DeviceRays::upload(g, rays);
-        if let Some(t) = &self.tree {
+        if let Some(t) = self.single_tree() {
             let (rec, w) = self.records_single(t, &mut ex, &dr, mode, stats, None);
             // The records and the counters in one read-back.
             ex.phase(Phase::ReadBack);
@@ -436,7 +491,7 @@ impl GpuRsh {
             ex.report(stats, &self.times);
             return;
         }
-        let (rec, c, top) = self.records(&mut ex, &dr, stats);
+        let (rec, c, top) = self.records(&mut ex, &dr, mode, stats);
         ex.phase(Phase::ReadBack);
         records_to_hits(&ex.read(&rec, n), hits);
         ex.report(stats, &self.times);
@@ -453,14 +508,14 @@ impl GpuRsh {
         stats: &mut TraceStats,
     ) -> wgpu::Buffer {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
-        if let Some(t) = &self.tree {
+        if let Some(t) = self.single_tree() {
             // The counts stay on the device until the frame's end (`GpuEngine::settle`).
             let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, None);
             self.pending.lock().unwrap().push(w.cnt);
             ex.report(stats, &self.times);
             return rec;
         }
-        let (rec, c, top) = self.records(&mut ex, dr, stats);
+        let (rec, c, top) = self.records(&mut ex, dr, mode, stats);
         ex.phase(Phase::ReadBack);
         let t = crate::frame::totals(&mut ex, &rec, None, dr.len);
         ex.report(stats, &self.times);
@@ -471,7 +526,15 @@ impl GpuRsh {
     /// Whether batches walk the object tree as single rays (the path that traces sizes the
     /// device holds: [`crate::GpuEngine::counts_on_device`]).
     pub(crate) fn walks_single(&self) -> bool {
-        self.tree.is_some()
+        self.single_tree().is_some()
+    }
+
+    /// The object tree where batches walk it as single rays (else the bundles descend it,
+    /// or there is none).
+    fn single_tree(&self) -> Option<&TreeState> {
+        self.tree
+            .as_ref()
+            .filter(|_| self.s.cfg.path == RayPath::Single)
     }
 
     /// [`crate::GpuEngine::trace_device_counted`]: the single-ray path only (the bundles'
@@ -483,7 +546,7 @@ impl GpuRsh {
         mode: TraceMode,
         stats: &mut TraceStats,
     ) -> Option<wgpu::Buffer> {
-        let t = self.tree.as_ref()?;
+        let t = self.single_tree()?;
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
         let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, Some(count));
         self.pending.lock().unwrap().push(w.cnt);
@@ -520,7 +583,12 @@ impl GpuRsh {
     /// Counters into `stats`, as the CPU engine reports them.
     fn report(&self, c: &Counters, top: u64, hits: u64, stats: &mut TraceStats) {
         stats.hits += hits;
-        ::rsh::engine::report_counters(c, self.s.cfg.mesh_culling, top, stats);
+        // With the object tree the mesh spheres are in the tree, not a pass of their own.
+        let tree = self.tree.is_some();
+        ::rsh::engine::report_counters(c, self.s.cfg.mesh_culling && !tree, top, stats);
+        if tree {
+            ::rsh::engine::object_counters(c, stats);
+        }
     }
 }
 
@@ -597,7 +665,8 @@ mod tests {
                 .store(bias, std::sync::atomic::Ordering::Relaxed);
             let mut ex = Exec::new(&eng.s.gpu, &eng.s.kernels);
             let dr = DeviceRays::upload(&eng.s.gpu, &rays);
-            let (_, c, _) = eng.records(&mut ex, &dr, &mut TraceStats::default());
+            let (_, c, _) =
+                eng.records(&mut ex, &dr, TraceMode::Closest, &mut TraceStats::default());
             ex.finish();
             c
         };

@@ -1,7 +1,7 @@
 //! Helpers shared by the GPU integration tests.
 
 use accel::grid::GridEngine;
-use rsh::{ObjectBuilder, ObjectHierarchy, RayPath, RshConfig};
+use rsh::{ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, Schedule};
 use scene::Geometry;
 
 /// CRSH as the GPU runs it by default: single rays through the object tree (LBVH).
@@ -11,6 +11,29 @@ pub fn crsh_single() -> RshConfig {
         path: RayPath::Single,
         builder: ObjectBuilder::Lbvh,
         ..RshConfig::crsh()
+    }
+}
+
+/// CRSH's bundles and the object tree (LBVH) descended together, level by level: the dual
+/// traversal the GPU runs.
+pub fn crsh_dual() -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::Bvh,
+        path: RayPath::Bundles,
+        builder: ObjectBuilder::Lbvh,
+        schedule: Schedule::Breadth,
+        ..RshConfig::crsh()
+    }
+}
+
+/// RAH's screen-space bundles with the object tree, level by level.
+pub fn rah_dual() -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::Bvh,
+        path: RayPath::Bundles,
+        builder: ObjectBuilder::Lbvh,
+        schedule: Schedule::Breadth,
+        ..RshConfig::rah()
     }
 }
 

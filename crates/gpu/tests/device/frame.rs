@@ -35,6 +35,7 @@ fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
         Box::new(GpuRsh::new(g.clone(), geo, crsh_single()).unwrap()),
         Box::new(GpuRsh::new(g.clone(), geo, RshConfig::crsh()).unwrap()),
         Box::new(GpuRsh::new(g.clone(), geo, RshConfig::rah()).unwrap()),
+        Box::new(GpuRsh::new(g.clone(), geo, crate::common::rah_dual()).unwrap()),
         Box::new(GpuGrid::new(g.clone(), geo, &GridConfig::default()).unwrap()),
     ]
 }

@@ -4,6 +4,7 @@
 
 mod agreement;
 mod common;
+mod dual;
 mod frame;
 mod grid;
 mod grid_build;

@@ -48,7 +48,7 @@ use std::time::Instant;
 /// With any hit, [`Descent::Size`] expands the object node while its radius is at least
 /// this many times the ray node's reach (once with the closest hit): the ray nodes' `reach`
 /// is scaled by it.
-const ANY_HIT_SIZE_RATIO: f32 = 2.0;
+pub const ANY_HIT_SIZE_RATIO: f32 = 2.0;
 
 /// Which side of a surviving (ray node, inner object node) pair is expanded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -206,7 +206,7 @@ fn action(descent: Descent, node: &RayNode, li: usize, o: u32, d: f32) -> u8 {
 /// side) tests the triangles exactly instead, 8 rays in lanes (on Sponza's shadow rays: 15 %
 /// more final tests, 7 % more tests in all, 9 % less traversal time than the walks). Both
 /// schedules do this.
-const SMALL_SUBTREE: u32 = 8;
+pub const SMALL_SUBTREE: u32 = 8;
 
 /// Whether inner object node `o` holds at most [`SMALL_SUBTREE`] triangles.
 #[inline]

@@ -1,0 +1,405 @@
+//! The dual traversal on the device, level by level: the twin of `crates/rsh/src/dual/`
+//! (`breadth.rs`'s schedule, `mod.rs`'s ray nodes, pair tests and single-ray walks;
+//! kernels in `dual.wgsl`). CRSH's or RAH's ray hierarchy and the object tree (the LBVH
+//! built on the device, [`super::objects`]) descend together as (ray node, object node)
+//! pairs, the thesis's future work (§5.1) on the GPU it was written for.
+//!
+//! The host keeps the CPU's schedule exactly: one stack of pairs per ray level, each step a
+//! chunk of `pair budget / widest node` pairs from the lowest level holding a full chunk,
+//! else from the highest holding any. A step at a ray level ≥ 1 is test → count → scan →
+//! emit on the device (`dual_classify`, [`Exec::scan`], `dual_emit`): its final tests go
+//! to `final.wgsl`'s kernel at once, its other two streams onto the stacks. A step of
+//! single rays sorts its pairs by ray ([`Exec::sort_pairs_all`]), compresses them into runs
+//! and walks each ray's run in one thread (`dual_walk`). Each step reads back its three
+//! stream sizes (the schedule depends on them) and the run count; the pairs stay on the
+//! device. So hits and every counter are the CPU's `--schedule breadth` with the same
+//! object builder (the LBVH), tested on lavapipe (`tests/device/dual.rs`).
+
+use super::build::Level;
+use super::device_scene::DeviceScene;
+use super::objects::DeviceTree;
+use crate::kernels::params::{DualBeamParams, DualPairParams, DualWalkParams, FinalTestsParams};
+use crate::kernels::{launch, Exec};
+use crate::rays::DeviceRays;
+use ::rsh::dual::{ANY_HIT_SIZE_RATIO, SMALL_SUBTREE};
+use ::rsh::objects::LEAF;
+use ::rsh::traverse::Counters;
+use ::rsh::{Descent, NodeTest};
+use trace::Phase;
+
+// `dual.wgsl` writes the CPU's small-subtree rule with this constant.
+const _: () = assert!(SMALL_SUBTREE == 8, "dual.wgsl's SMALL_SUBTREE is 8");
+
+/// One trace call's dual traversal: the scene, its object tree, the ray hierarchy and rays.
+pub struct GpuDual<'a> {
+    /// The engine (scene buffers, configuration).
+    pub eng: &'a DeviceScene,
+    /// The object tree of the frame.
+    pub tree: &'a DeviceTree,
+    /// The ray hierarchy, level 1 first (at least one level).
+    pub levels: &'a [Level],
+    /// The rays.
+    pub rays: &'a DeviceRays,
+    /// The sorted leaves: ray index by leaf position.
+    pub leaves: &'a wgpu::Buffer,
+    /// Leaves (rays in the hierarchy).
+    pub m: u64,
+    /// Per ray, the closest hit so far as (t bits << 32 | triangle), by 64-bit atomic min.
+    pub best: &'a wgpu::Buffer,
+    /// The counters on the device, zeroed ([`GpuDual::counter_words`] words of 64-bit
+    /// (low, high) counters): per level 16 words from 16 · level (tests, then passes, per
+    /// kind), then from 16 · levels the final tests per kind, the tests against inner
+    /// object nodes, the single rays' slab tests, their passes and the walks that
+    /// overflowed their stack.
+    pub counters: &'a wgpu::Buffer,
+    /// Any hit will do (shadow rays): a ray that hit stops.
+    pub any: bool,
+    /// The scene's diagonal (caps unbounded rays in the [`Descent::Size`] rule).
+    pub diag: f32,
+}
+
+/// A stack of (ray node, object node) pairs on the device; its length lives on the host.
+struct Stack {
+    bufs: Option<(wgpu::Buffer, wgpu::Buffer)>,
+    len: u64,
+    cap: u64,
+}
+
+impl Stack {
+    fn new() -> Stack {
+        Stack {
+            bufs: None,
+            len: 0,
+            cap: 0,
+        }
+    }
+
+    /// Append `n` pairs of `(ray, obj)` from element `from` on.
+    fn push(&mut self, ex: &mut Exec, src: (&wgpu::Buffer, &wgpu::Buffer), from: u64, n: u64) {
+        if n == 0 {
+            return;
+        }
+        if self.len + n > self.cap {
+            let cap = (self.len + n).max(2 * self.cap).max(1024);
+            let grown = (
+                ex.g.storage("dual stack: ray nodes", cap * 4),
+                ex.g.storage("dual stack: object nodes", cap * 4),
+            );
+            if let Some((r, o)) = &self.bufs {
+                ex.copy(r, 0, &grown.0, self.len * 4);
+                ex.copy(o, 0, &grown.1, self.len * 4);
+            }
+            self.bufs = Some(grown);
+            self.cap = cap;
+        }
+        let (r, o) = self.bufs.as_ref().unwrap();
+        ex.copy_at(src.0, from * 4, r, self.len * 4, n * 4);
+        ex.copy_at(src.1, from * 4, o, self.len * 4, n * 4);
+        self.len += n;
+    }
+
+    /// Take the top `chunk` pairs (fewer when the stack holds fewer), in stack order.
+    fn take(&mut self, ex: &mut Exec, chunk: u64) -> (wgpu::Buffer, wgpu::Buffer, u64) {
+        let at = self.len.saturating_sub(chunk);
+        let n = self.len - at;
+        let out = (
+            ex.g.storage("dual step: ray nodes", n * 4),
+            ex.g.storage("dual step: object nodes", n * 4),
+        );
+        let (r, o) = self
+            .bufs
+            .as_ref()
+            .expect("a stack that holds pairs has buffers");
+        ex.copy_at(r, at * 4, &out.0, 0, n * 4);
+        ex.copy_at(o, at * 4, &out.1, 0, n * 4);
+        self.len = at;
+        (out.0, out.1, n)
+    }
+}
+
+/// `count` words of `buf` at the element indices `at`, in one read-back.
+fn read_words(ex: &mut Exec, buf: &wgpu::Buffer, at: &[u64]) -> Vec<u32> {
+    let tmp = ex.g.storage("dual sizes", at.len() as u64 * 4);
+    for (j, &i) in at.iter().enumerate() {
+        ex.copy_at(buf, i * 4, &tmp, j as u64 * 4, 4);
+    }
+    ex.read(&tmp, at.len())
+}
+
+impl GpuDual<'_> {
+    /// Words of the counter buffer for a hierarchy of `levels` levels.
+    pub fn counter_words(levels: usize) -> u64 {
+        16 * levels as u64 + 16
+    }
+
+    /// The first word of the counters after the levels'.
+    fn tail(&self) -> u32 {
+        16 * self.levels.len() as u32
+    }
+
+    /// The most children of any node of any level: each kind's nodes take `b` children
+    /// but the last, which takes the rest (`build`'s layout, the CPU's).
+    fn widest(&self) -> usize {
+        let b = self.eng.cfg.branching;
+        self.levels
+            .iter()
+            .flat_map(|l| l.children)
+            .filter(|&c| c > 0)
+            .map(|c| c.min(b))
+            .max()
+            .unwrap_or(1) as usize
+    }
+
+    /// Run the traversal and the final tests, as `rsh`'s `level_by_level`; adds the
+    /// counters to `c` and returns the walks' stack overflows (none in any LBVH).
+    pub fn run(&self, ex: &mut Exec, c: &mut Counters) -> u64 {
+        let nl = self.levels.len();
+        ex.phase(Phase::Traversal);
+        let chunk = (self.eng.cfg.pair_budget / self.widest().max(2)).max(1) as u64;
+        let beams = self.beams(ex);
+        let nt = self.levels[nl - 1].len() as u64;
+        let root = if self.tree.leaves == 1 { LEAF } else { 0 };
+        let mut next_top = 0u64;
+        // stacks[L]: pairs at ray level L (0: single rays by leaf position; L ≥ 1: nodes of
+        // `levels[L − 1]`).
+        let mut stacks: Vec<Stack> = (0..=nl).map(|_| Stack::new()).collect();
+        loop {
+            if stacks[nl].len == 0 && next_top < nt {
+                let end = (next_top + chunk).min(nt);
+                let ray: Vec<u32> = (next_top as u32..end as u32).collect();
+                let top = (
+                    ex.g.upload("dual top nodes", &ray),
+                    ex.g.upload("dual top roots", &vec![root; ray.len()]),
+                );
+                stacks[nl].push(ex, (&top.0, &top.1), 0, end - next_top);
+                next_top = end;
+            }
+            let full = stacks.iter().position(|s| s.len >= chunk);
+            let Some(l) = full.or_else(|| stacks.iter().rposition(|s| s.len > 0)) else {
+                break;
+            };
+            let held: u64 = stacks.iter().map(|s| s.len).sum();
+            c.peak_pairs = c.peak_pairs.max(held);
+            // Two u32 per pair waiting (ray node, object node).
+            c.peak_pair_bytes = c.peak_pair_bytes.max(8 * held);
+            let (rn, on, n) = stacks[l].take(ex, chunk);
+            if l == 0 {
+                self.ray_step(ex, rn, on, n);
+                continue;
+            }
+            let (out, [f, below, here]) = self.node_step(ex, &beams, l - 1, (&rn, &on), n);
+            stacks[l].push(ex, (&out.0, &out.1), f + below, here);
+            stacks[l - 1].push(ex, (&out.0, &out.1), f, below);
+        }
+        // Every count, added up on the device: one read.
+        let w: Vec<u32> = ex.read(self.counters, Self::counter_words(nl) as usize);
+        let at = |i: usize| w[i] as u64 | (w[i + 1] as u64) << 32;
+        for li in 0..nl {
+            for k in 0..4 {
+                c.tests[li][k] += at(16 * li + 2 * k);
+                c.hits[li][k] += at(16 * li + 8 + 2 * k);
+            }
+        }
+        let t = 16 * nl;
+        for k in 0..4 {
+            c.final_tests[k] += at(t + 2 * k);
+        }
+        c.object_tests += at(t + 8);
+        c.ray_box_tests += at(t + 10);
+        c.ray_box_passes += at(t + 12);
+        at(t + 14)
+    }
+
+    /// Every level's beams and reaches (`Traversal::ray_nodes`): level 1's from its rays,
+    /// each level above from its children's.
+    fn beams(&self, ex: &mut Exec) -> Vec<wgpu::Buffer> {
+        let scale = if self.any { ANY_HIT_SIZE_RATIO } else { 1.0 };
+        let mut out: Vec<wgpu::Buffer> = Vec::with_capacity(self.levels.len());
+        for lv in self.levels {
+            let nodes = lv.len();
+            let beam = ex.g.storage("dual beams", nodes as u64 * 64);
+            let prm = DualBeamParams {
+                nodes,
+                scale,
+                diag: self.diag,
+            };
+            match out.last() {
+                None => ex.run(
+                    launch::DualBeamsLeaf {
+                        n_sphere: &lv.sphere,
+                        n_cone: &lv.cone,
+                        n_sc: &lv.sc,
+                        n_first: &lv.first,
+                        b_beam: &beam,
+                        d_leaf: self.leaves,
+                        d_org: &self.rays.org,
+                        d_dir: &self.rays.dir,
+                    },
+                    prm,
+                    nodes as u64,
+                    64,
+                ),
+                Some(below) => ex.run(
+                    launch::DualBeamsUpper {
+                        n_sphere: &lv.sphere,
+                        n_cone: &lv.cone,
+                        n_sc: &lv.sc,
+                        n_first: &lv.first,
+                        b_below: below,
+                        b_beam: &beam,
+                    },
+                    prm,
+                    nodes as u64,
+                    64,
+                ),
+            }
+            out.push(beam);
+        }
+        out
+    }
+
+    /// Test `n` pairs of ray level index `li` and emit what the survivors make: returns
+    /// the three streams in one pair of buffers (final tests, pairs one ray level down,
+    /// pairs of collapsed nodes' children) and their sizes; the final tests are run.
+    fn node_step(
+        &self,
+        ex: &mut Exec,
+        beams: &[wgpu::Buffer],
+        li: usize,
+        pairs: (&wgpu::Buffer, &wgpu::Buffer),
+        n: u64,
+    ) -> ((wgpu::Buffer, wgpu::Buffer), [u64; 3]) {
+        let g = ex.g;
+        let lv = &self.levels[li];
+        let t = self.tree;
+        let prm = DualPairParams {
+            pairs: n as u32,
+            level: li as u32,
+            exact: (self.eng.cfg.node_test == NodeTest::Exact) as u32,
+            descent: match self.eng.cfg.descent {
+                Descent::Size => 0,
+                Descent::ObjectFirst => 1,
+                Descent::RayFirst => 2,
+            },
+            counters: 16 * li as u32,
+            objects: self.tail() + 8,
+        };
+        let act = g.storage("dual actions", n * 4);
+        let counts = g.storage("dual stream counts", 3 * n * 4);
+        ex.run(
+            launch::DualClassify {
+                n_sphere: &lv.sphere,
+                n_cone: &lv.cone,
+                n_sc: &lv.sc,
+                n_first: &lv.first,
+                b_beam: &beams[li],
+                t_child: &t.child,
+                t_node: &t.node,
+                t_leaf: &t.leaf,
+                t_range: &t.range,
+                p_ray: pairs.0,
+                p_obj: pairs.1,
+                p_act: &act,
+                p_cnt: &counts,
+                cnt: self.counters,
+            },
+            prm,
+            n,
+            256,
+        );
+        let offs = g.storage("dual stream offsets", (3 * n + 1) * 4);
+        ex.scan(&counts, &offs, 3 * n);
+        drop(counts);
+        let ends = read_words(ex, &offs, &[n, 2 * n, 3 * n]);
+        let (f, b, total) = (ends[0] as u64, ends[1] as u64, ends[2] as u64);
+        let out = (
+            g.storage("dual pairs: ray nodes", total * 4),
+            g.storage("dual pairs: object nodes", total * 4),
+        );
+        if total > 0 {
+            ex.run(
+                launch::DualEmit {
+                    n_first: &lv.first,
+                    t_child: &t.child,
+                    t_node: &t.node,
+                    t_range: &t.range,
+                    t_order: &t.order,
+                    p_ray: pairs.0,
+                    p_obj: pairs.1,
+                    p_act: &act,
+                    p_cnt: &offs,
+                    o_ray: &out.0,
+                    o_obj: &out.1,
+                },
+                prm,
+                n,
+                256,
+            );
+        }
+        if f > 0 {
+            // (level-1 node, triangle) pairs: the final tests (thesis §3.2.9), `final.wgsl`.
+            ex.phase(Phase::FinalTests);
+            let l1 = &self.levels[0];
+            ex.run(
+                launch::FinalTests {
+                    f_node: &out.0,
+                    f_tri: &out.1,
+                    f_first: &l1.first,
+                    f_sc: &l1.sc,
+                    f_leaf: self.leaves,
+                    f_org: &self.rays.org,
+                    f_dir: &self.rays.dir,
+                    f_pre: &self.rays.pre,
+                    f_tris: &self.eng.tris,
+                    f_best: self.best,
+                    f_cnt: self.counters,
+                },
+                FinalTestsParams {
+                    pairs: f as u32,
+                    counters: self.tail(),
+                },
+                f,
+                256,
+            );
+            ex.phase(Phase::Traversal);
+        }
+        (out, [f, b - f, total - b])
+    }
+
+    /// Single rays (leaf positions) against object nodes: the pairs sorted by ray, then
+    /// each ray's run walked by one thread (`Traversal::ray_step`).
+    fn ray_step(&self, ex: &mut Exec, pos: wgpu::Buffer, obj: wgpu::Buffer, n: u64) {
+        ex.phase(Phase::FinalTests);
+        let bits = (32 - (self.m as u32).leading_zeros()).max(1);
+        ex.sort_pairs_all(&pos, &obj, n, bits);
+        let runs = ex.compress_runs(&pos, n);
+        let t = self.tail();
+        ex.run(
+            launch::DualWalk {
+                d_leaf: self.leaves,
+                d_org: &self.rays.org,
+                d_dir: &self.rays.dir,
+                d_pre: &self.rays.pre,
+                d_kl: &self.rays.kl,
+                t_child: &self.tree.child,
+                t_cbox: &self.tree.child_box,
+                d_tris: &self.eng.tris,
+                w_key: &runs.keys,
+                w_base: &runs.bases,
+                w_size: &runs.sizes,
+                p_obj: &obj,
+                d_best: self.best,
+                cnt: self.counters,
+            },
+            DualWalkParams {
+                runs: runs.len as u32,
+                any: self.any as u32,
+                finals: t,
+                boxes: t + 10,
+            },
+            runs.len,
+            64,
+        );
+        ex.phase(Phase::Traversal);
+    }
+}

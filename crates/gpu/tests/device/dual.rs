@@ -1,0 +1,118 @@
+//! The dual traversal on the device (`gpu::rsh::dual`: the ray hierarchy's bundles and the
+//! object tree built on the device, level by level) against the CPU engine with the same
+//! configuration (`--object-hierarchy bvh --ray-path bundles --schedule breadth
+//! --object-builder lbvh`): hit records bit for bit (so brute force's for closest hits) and
+//! every counter (tests and passes per level and kind, object-node tests, final tests, the
+//! single rays' slab tests and passes, the peak of waiting pairs), in both trace modes, for
+//! CRSH and RAH, every descent rule, a pair budget small enough to cut every level into many
+//! steps, on every built-in scene's recorded Whitted batches and on Sponza.
+
+use gpu::rsh::engine::comparable_counters as counters;
+use gpu::{Gpu, GpuRsh};
+use rsh::{Descent, RshConfig, RshEngine};
+use scene::{builtin, Geometry, Scene};
+use testkit::record_render;
+use trace::{Counter, Hit, RayBatch, TraceMode, TraceStats, Tracer};
+
+fn gpu() -> Option<Gpu> {
+    testkit::or_skip(Gpu::new(), "gpu")
+}
+
+/// Traces `rays` on both and compares records and counters.
+fn compare(cpu: &RshEngine, gpu: &GpuRsh, rays: &RayBatch, mode: TraceMode, what: &str) {
+    let (mut hc, mut hg) = (vec![Hit::MISS; rays.len()], vec![Hit::MISS; rays.len()]);
+    let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
+    cpu.trace(rays, mode, &mut hc, &mut sc);
+    gpu.trace(rays, mode, &mut hg, &mut sg);
+    for i in 0..rays.len() {
+        assert_eq!(hg[i], hc[i], "{what}: ray {i} ({mode:?}) GPU vs CPU");
+    }
+    assert_eq!(counters(&sg), counters(&sc), "{what}: counters ({mode:?})");
+    assert_eq!(
+        sg.counters.get(Counter::GpuStackOverflows),
+        Some(0),
+        "{what}"
+    );
+    assert!(
+        rays.is_empty() || sc.counters.get(Counter::ObjectNodeTests).unwrap_or(0) > 0,
+        "{what}: the pairs met inner object nodes"
+    );
+}
+
+/// Every batch of `scene` at `w`×`h` (`bounces`) in both modes, each configuration of
+/// `cfgs` on both backends; closest hits also against brute force.
+fn check_scene(g: &Gpu, name: &str, s: &Scene, size: (u32, u32), bounces: u32, cfgs: &[RshConfig]) {
+    let geo = Geometry::from_scene(s);
+    let batches = record_render(s, &geo, size.0, size.1, bounces);
+    for cfg in cfgs {
+        let cpu = RshEngine::new(&geo, cfg.clone()).unwrap();
+        let dev = GpuRsh::new(g.clone(), &geo, cfg.clone()).unwrap();
+        let what = |k: usize| {
+            format!(
+                "{name} batch {k}, {:?} {:?} budget {}",
+                cfg.method, cfg.descent, cfg.pair_budget
+            )
+        };
+        for (k, (rays, mode, expect)) in batches.iter().enumerate() {
+            for m in [TraceMode::Closest, TraceMode::Any] {
+                compare(&cpu, &dev, rays, m, &what(k));
+            }
+            if *mode == TraceMode::Closest {
+                let mut h = vec![Hit::MISS; rays.len()];
+                dev.trace(rays, *mode, &mut h, &mut TraceStats::default());
+                assert_eq!(&h, expect, "{}: brute force", what(k));
+            }
+        }
+    }
+}
+
+#[test]
+fn dual_traversal_matches_the_cpu_on_builtin_scenes() {
+    let Some(g) = gpu() else { return };
+    let base = crate::common::crsh_dual();
+    let mut cfgs = vec![base.clone(), crate::common::rah_dual()];
+    for descent in [Descent::ObjectFirst, Descent::RayFirst] {
+        cfgs.push(RshConfig {
+            descent,
+            ..base.clone()
+        });
+    }
+    for name in builtin::NAMES {
+        let s = builtin::by_name(name).unwrap();
+        check_scene(&g, name, &s, (48, 40), 2, &cfgs);
+    }
+}
+
+#[test]
+fn a_small_pair_budget_cuts_the_levels_into_many_steps() {
+    let Some(g) = gpu() else { return };
+    // Chunks of 128 pairs (the smallest budget): every level takes many steps, and the stacks grow and shrink.
+    let cfgs = [
+        RshConfig {
+            pair_budget: 1024,
+            ..crate::common::crsh_dual()
+        },
+        RshConfig {
+            pair_budget: 1024,
+            ..crate::common::rah_dual()
+        },
+    ];
+    for name in ["office", "cornell"] {
+        let s = builtin::by_name(name).unwrap();
+        check_scene(&g, name, &s, (64, 48), 1, &cfgs);
+    }
+}
+
+#[test]
+fn dual_traversal_matches_the_cpu_on_sponza() {
+    let Some(dir) = testkit::scenes() else { return };
+    let Some(g) = gpu() else { return };
+    let path = dir.join("dabrovic-sponza/sponza.obj");
+    if !path.exists() {
+        testkit::skip("scenes", format!("{} not present", path.display()));
+        return;
+    }
+    let s = scene::load(path.to_str().unwrap(), &Default::default()).unwrap();
+    let cfgs = [crate::common::crsh_dual(), crate::common::rah_dual()];
+    check_scene(&g, "sponza", &s, (64, 48), 1, &cfgs);
+}
