@@ -258,3 +258,53 @@ fn gpu_crsh_walks_the_object_tree() {
         "the same image with either object side"
     );
 }
+
+/// RAH on the GPU descends the object tree with its bundles by default (the dual traversal,
+/// level by level): the stats say so, the image is the thesis configuration's (mesh
+/// spheres), with fewer tests. (Hits and counters against the CPU's `--schedule breadth`:
+/// `crates/gpu/tests/device/dual.rs`.)
+#[test]
+fn gpu_rah_descends_the_object_tree_with_its_bundles() {
+    let d = tmp("gpu-rah-dual");
+    let mut runs = Vec::new();
+    for (k, extra) in ["", "--object-hierarchy mesh-spheres"]
+        .into_iter()
+        .enumerate()
+    {
+        let (png, json) = (d.join(format!("r{k}.png")), d.join(format!("r{k}.json")));
+        let out = bin()
+            .args(words(&format!(
+                "render office --backend gpu --engine rah --width 40 --height 30 --bounces 2 {extra} --out {} --stats {}",
+                png.display(),
+                json.display()
+            )))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        if !out.status.success() && (err.contains("no GPU") || err.contains("lacks")) {
+            testkit::skip("gpu", &err);
+            return;
+        }
+        assert!(out.status.success(), "{err}");
+        let stats = std::fs::read_to_string(&json).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&stats).unwrap();
+        let side = if k == 0 { "bvh" } else { "mesh-spheres" };
+        assert_eq!(v["object_hierarchy"], side, "{stats}");
+        let c = &v["trace"]["counters"];
+        if k == 0 {
+            assert!(c["bundled batches"].as_u64().unwrap() > 0, "{stats}");
+            assert!(c["object-node tests"].as_u64().unwrap() > 0, "{stats}");
+            assert_eq!(c["gpu stack overflows"].as_u64(), Some(0), "{stats}");
+        }
+        runs.push((std::fs::read(&png).unwrap(), v));
+    }
+    assert_eq!(
+        runs[0].0, runs[1].0,
+        "the same image with either object side"
+    );
+    let tests = |v: &serde_json::Value| v["total_tests"].as_u64().unwrap();
+    assert!(
+        tests(&runs[0].1) < tests(&runs[1].1),
+        "the object tree cuts RAH's tests"
+    );
+}

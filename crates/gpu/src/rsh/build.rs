@@ -64,8 +64,12 @@ pub fn build(
             m,
             256,
         );
-        let st: Vec<u32> = ex.read(&starts, 4);
-        let pr: Vec<u32> = ex.read(&present, 4);
+        // Both tables in one read-back.
+        let both = g.storage("kind starts and presence", 32);
+        ex.copy(&starts, 0, &both, 16);
+        ex.copy_at(&present, 0, &both, 16, 16);
+        let w: Vec<u32> = ex.read(&both, 8);
+        let (st, pr) = w.split_at(4);
         for k in 0..4 {
             if pr[k] != 0 {
                 let end = (k + 1..4)

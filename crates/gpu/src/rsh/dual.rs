@@ -9,10 +9,10 @@
 //! else from the highest holding any. A step at a ray level ≥ 1 is test → count → scan →
 //! emit on the device (`dual_classify`, [`Exec::scan`], `dual_emit`): its final tests go
 //! to `final.wgsl`'s kernel at once, its other two streams onto the stacks. A step of
-//! single rays sorts its pairs by ray ([`Exec::sort_pairs_all`]), compresses them into runs
-//! and walks each ray's run in one thread (`dual_walk`). Each step reads back its three
-//! stream sizes (the schedule depends on them) and the run count; the pairs stay on the
-//! device. So hits and every counter are the CPU's `--schedule breadth` with the same
+//! single rays sorts its pairs by ray ([`Exec::sort_pairs_all`]) and walks each ray's run in
+//! the thread of its first pair (`dual_walk`). A step of ray nodes reads back its three
+//! stream sizes (the schedule depends on them), a step of single rays nothing; the pairs
+//! stay on the device. So hits and every counter are the CPU's `--schedule breadth` with the same
 //! object builder (the LBVH), tested on lavapipe (`tests/device/dual.rs`).
 
 use super::build::Level;
@@ -150,9 +150,10 @@ impl GpuDual<'_> {
             .unwrap_or(1) as usize
     }
 
-    /// Run the traversal and the final tests, as `rsh`'s `level_by_level`; adds the
-    /// counters to `c` and returns the walks' stack overflows (none in any LBVH).
-    pub fn run(&self, ex: &mut Exec, c: &mut Counters) -> u64 {
+    /// Run the traversal and the final tests, as `rsh`'s `level_by_level`: the peaks go
+    /// into `c` now, the device's counts stay in [`GpuDual::counters`] (read them with
+    /// [`GpuDual::counts`]).
+    pub fn run(&self, ex: &mut Exec, c: &mut Counters) {
         let nl = self.levels.len();
         ex.phase(Phase::Traversal);
         let chunk = (self.eng.cfg.pair_budget / self.widest().max(2)).max(1) as u64;
@@ -191,8 +192,12 @@ impl GpuDual<'_> {
             stacks[l].push(ex, (&out.0, &out.1), f + below, here);
             stacks[l - 1].push(ex, (&out.0, &out.1), f, below);
         }
-        // Every count, added up on the device: one read.
-        let w: Vec<u32> = ex.read(self.counters, Self::counter_words(nl) as usize);
+    }
+
+    /// The counter block's words `w` (of a hierarchy of `levels` levels) into `c`; returns
+    /// the walks' stack overflows (none in any LBVH).
+    pub fn counts(w: &[u32], levels: usize, c: &mut Counters) -> u64 {
+        let nl = levels;
         let at = |i: usize| w[i] as u64 | (w[i + 1] as u64) << 32;
         for li in 0..nl {
             for k in 0..4 {
@@ -367,12 +372,11 @@ impl GpuDual<'_> {
     }
 
     /// Single rays (leaf positions) against object nodes: the pairs sorted by ray, then
-    /// each ray's run walked by one thread (`Traversal::ray_step`).
+    /// each ray's run walked by one thread (`Traversal::ray_step`); nothing is read back.
     fn ray_step(&self, ex: &mut Exec, pos: wgpu::Buffer, obj: wgpu::Buffer, n: u64) {
         ex.phase(Phase::FinalTests);
         let bits = (32 - (self.m as u32).leading_zeros()).max(1);
         ex.sort_pairs_all(&pos, &obj, n, bits);
-        let runs = ex.compress_runs(&pos, n);
         let t = self.tail();
         ex.run(
             launch::DualWalk {
@@ -384,20 +388,18 @@ impl GpuDual<'_> {
                 t_child: &self.tree.child,
                 t_cbox: &self.tree.child_box,
                 d_tris: &self.eng.tris,
-                w_key: &runs.keys,
-                w_base: &runs.bases,
-                w_size: &runs.sizes,
+                w_key: &pos,
                 p_obj: &obj,
                 d_best: self.best,
                 cnt: self.counters,
             },
             DualWalkParams {
-                runs: runs.len as u32,
+                pairs: n as u32,
                 any: self.any as u32,
                 finals: t,
                 boxes: t + 10,
             },
-            runs.len,
+            n,
             64,
         );
         ex.phase(Phase::Traversal);

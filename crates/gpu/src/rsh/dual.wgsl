@@ -16,8 +16,8 @@
 // 12 tree children, 13 tree node bounds (sphere, grown min, grown max), 14 tree leaf bounds,
 // 15 tree ranges, 16 tree leaf order, 17 tree children's boxes, 18 triangles (3 × vec4),
 // 19 pairs: ray node, 20 pairs: object node, 21 actions, 22 counts (3 streams) or their
-// scanned offsets, 23 out: ray node, 24 out: object node, 25 run keys (leaf positions),
-// 26 run bases, 27 run sizes, 28 best hits (u64: t bits << 32 | triangle), 29 counters.
+// scanned offsets, 23 out: ray node, 24 out: object node, 25 the walks' pairs' leaf
+// positions (sorted), 28 best hits (u64: t bits << 32 | triangle), 29 counters.
 
 // Parameters of dual_beams_leaf and dual_beams_upper.
 struct DualBeamParams {
@@ -38,7 +38,7 @@ struct DualPairParams {
 
 // Parameters of dual_walk.
 struct DualWalkParams {
-    runs: u32, // rays walking (one run of sorted pairs each)
+    pairs: u32, // the sorted pairs (each ray's run walked by the thread at its head)
     any: u32, // 1: any hit (a ray that hit stops)
     finals: u32, // the first word of the final tests per kind
     boxes: u32, // the word of the slab tests (their passes 2 words on, overflows 4 on)
@@ -69,8 +69,6 @@ struct DualWalkParams {
 @group(0) @binding(23) var<storage, read_write> o_ray: array<u32>;
 @group(0) @binding(24) var<storage, read_write> o_obj: array<u32>;
 @group(0) @binding(25) var<storage, read> w_key: array<u32>;
-@group(0) @binding(26) var<storage, read> w_base: array<u32>;
-@group(0) @binding(27) var<storage, read> w_size: array<u32>;
 @group(0) @binding(28) var<storage, read_write> d_best: array<atomic<u64>>;
 @group(0) @binding(29) var<storage, read_write> cnt: array<atomic<u32>>;
 
@@ -487,16 +485,18 @@ fn miss64() -> u64 {
     return (u64(0xffffffffu) << 32u) | u64(0xffffffffu);
 }
 
-// One thread per ray (a run of its sorted pairs): Traversal::walk_ray over the run's object
-// nodes in order, each subtree depth first, nearer child first; the ray's best hit of the
-// steps before this one caps the slabs, and with any hit it stops at its first.
+// One thread per sorted pair; the thread at the head of a ray's run (its first pair) walks
+// the run: Traversal::walk_ray over the run's object nodes in order, each subtree depth
+// first, nearer child first; the ray's best hit of the steps before this one caps the slabs,
+// and with any hit it stops at its first. (Heads found in place: no run count to read.)
 @compute @workgroup_size(64)
 fn dual_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
     wcnt_reset(li);
     let p = dual_walk_params();
     let k = gid.x + gid.y * nwg.x * 64u;
-    if k < p.runs {
-        let r = d_leaf[w_key[k]];
+    if k < p.pairs && (k == 0u || w_key[k] != w_key[k - 1u]) {
+        let pos = w_key[k];
+        let r = d_leaf[pos];
         let kind = d_kl[r] & 3u;
         let any = p.any != 0u;
         let had = atomicLoad(&d_best[r]);
@@ -514,9 +514,8 @@ fn dual_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invoc
             let inv = vec3<f32>(div(1.0, dir.x), div(1.0, dir.y), div(1.0, dir.z));
             var stack: array<u32, WALK_STACK>;
             var done = false;
-            let start = w_base[k];
-            for (var j = 0u; j < w_size[k] && !done; j++) {
-                stack[0] = p_obj[start + j];
+            for (var j = k; j < p.pairs && w_key[j] == pos && !done; j++) {
+                stack[0] = p_obj[j];
                 var sp = 1u;
                 while sp > 0u {
                     sp--;

@@ -42,12 +42,36 @@ pub struct GpuRsh {
     /// The single-ray walks' second-pass stacks ([`single::deep_stacks`]).
     deep: wgpu::Buffer,
     /// Counter blocks of traces on the device not yet read ([`crate::GpuEngine::settle`]).
-    pending: Mutex<Vec<wgpu::Buffer>>,
+    pending: Mutex<Vec<Pending>>,
+    /// The blocks [`GpuRsh::take_pending`] handed out last, in its order: what
+    /// [`GpuRsh::settle`] parses their words as.
+    settling: Mutex<Vec<Pending>>,
     /// Tests only: the value every 64-bit traversal counter starts from (its low word; 0
     /// in every real trace), so that a test can make the low words wrap.
     #[cfg(test)]
     counter_bias: std::sync::atomic::AtomicU32,
 }
+
+/// A trace's counts left on the device until the frame reads them with its image.
+#[derive(Clone)]
+enum Pending {
+    /// A single-ray walk's counter block ([`single::HEAD`] words).
+    Single(wgpu::Buffer),
+    /// A dual traversal's counters ([`GpuDual::counter_words`]) followed by its records'
+    /// totals (`frame::totals_on_device`), with what the host counted (the peaks) and the
+    /// hierarchy's levels and top nodes.
+    Dual {
+        block: wgpu::Buffer,
+        words: u64,
+        levels: usize,
+        c: Counters,
+        top: u64,
+    },
+}
+
+/// Counters and the device's counter block of a dual traversal not yet read: its buffer
+/// and the hierarchy's levels.
+type DualCounts = Option<(wgpu::Buffer, usize)>;
 
 /// The object tree of the scene's current frame, built on the device.
 struct TreeState {
@@ -241,6 +265,7 @@ impl GpuRsh {
             stack: single::STACK,
             deep: gpu_deep,
             pending: Mutex::new(Vec::new()),
+            settling: Mutex::new(Vec::new()),
             #[cfg(test)]
             counter_bias: Default::default(),
         };
@@ -332,15 +357,16 @@ impl GpuRsh {
     /// Order, build, traverse and make the hit records of rays `dr` on the device (thesis
     /// §3.2.3–3.2.9): the triangles pushed down the hierarchy ([`GpuTraversal`]), or with
     /// the object tree the dual traversal ([`GpuDual`]); the records stay there. Returns
-    /// them with the traversal's counters and the number of top nodes; the dual
-    /// traversal's own counters go into `stats` now.
+    /// them with the traversal's counters, the number of top nodes and, for the dual
+    /// traversal, its counter block still on the device (its counts not yet in the
+    /// counters: [`GpuDual::counts`]).
     fn records(
         &self,
         ex: &mut Exec,
         dr: &DeviceRays,
         mode: TraceMode,
         stats: &mut TraceStats,
-    ) -> (wgpu::Buffer, Counters, u64) {
+    ) -> (wgpu::Buffer, Counters, u64, DualCounts) {
         let dual = self.tree.as_ref().filter(|_| self.s.ntri > 0);
         if dual.is_some() {
             stats.count(Counter::SingleRayBatches, 0);
@@ -361,6 +387,7 @@ impl GpuRsh {
             hits: vec![[0; 4]; levels.len()],
             ..Default::default()
         };
+        let mut on_device = None;
         if let (Some(t), Some(_)) = (dual, levels.last()) {
             let words = GpuDual::counter_words(levels.len());
             let counters = g.storage("dual traversal counters", words * 4);
@@ -376,8 +403,8 @@ impl GpuRsh {
                 any: mode == TraceMode::Any,
                 diag: self.s.diag,
             };
-            let over = trav.run(ex, &mut c);
-            stats.count(Counter::GpuStackOverflows, over);
+            trav.run(ex, &mut c);
+            on_device = Some((counters, levels.len()));
         } else if self.s.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
             let words = GpuTraversal::counter_words(levels.len());
             let counters = g.storage("traversal counters", words * 4);
@@ -403,7 +430,7 @@ impl GpuRsh {
         ex.phase(Phase::FinalTests);
         let rec = self.hit_records(ex, dr, &best);
         let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
-        (rec, c, top)
+        (rec, c, top, on_device)
     }
 
     /// One record per ray of `dr` from its best (triangle, t bits) in `best`: the winner's
@@ -491,9 +518,22 @@ impl GpuRsh {
             ex.report(stats, &self.times);
             return;
         }
-        let (rec, c, top) = self.records(&mut ex, &dr, mode, stats);
+        let (rec, mut c, top, dual) = self.records(&mut ex, &dr, mode, stats);
         ex.phase(Phase::ReadBack);
-        records_to_hits(&ex.read(&rec, n), hits);
+        match dual {
+            None => records_to_hits(&ex.read(&rec, n), hits),
+            Some((cnt, levels)) => {
+                // The records and the counters in one read-back.
+                let (bytes, words) = (n as u64 * 16, GpuDual::counter_words(levels));
+                let both = g.storage("records and counters", bytes + words * 4);
+                ex.copy(&rec, 0, &both, bytes);
+                ex.copy_at(&cnt, 0, &both, bytes, words * 4);
+                let w: Vec<u32> = ex.read(&both, 4 * n + words as usize);
+                records_to_hits(bytemuck::cast_slice(&w[..4 * n]), hits);
+                let over = GpuDual::counts(&w[4 * n..], levels, &mut c);
+                stats.count(Counter::GpuStackOverflows, over);
+            }
+        }
         ex.report(stats, &self.times);
         let nhits = hits.iter().filter(|h| h.is_hit()).count() as u64;
         self.report(&c, top, nhits, stats);
@@ -511,11 +551,32 @@ impl GpuRsh {
         if let Some(t) = self.single_tree() {
             // The counts stay on the device until the frame's end (`GpuEngine::settle`).
             let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, None);
-            self.pending.lock().unwrap().push(w.cnt);
+            self.pending.lock().unwrap().push(Pending::Single(w.cnt));
             ex.report(stats, &self.times);
             return rec;
         }
-        let (rec, c, top) = self.records(&mut ex, dr, mode, stats);
+        let (rec, c, top, dual) = self.records(&mut ex, dr, mode, stats);
+        if let Some((cnt, levels)) = dual {
+            // The counters and the records' totals stay on the device, side by side, until
+            // the frame reads them with its image (`GpuEngine::settle`).
+            let cw = GpuDual::counter_words(levels);
+            let totals = crate::frame::totals_on_device(&mut ex, &rec, None, dr.len, None);
+            let tw = totals.as_ref().map_or(0, |t| t.1);
+            let block = self.s.gpu.storage("dual counts", (cw + tw) * 4);
+            ex.copy(&cnt, 0, &block, cw * 4);
+            if let Some((t, w)) = &totals {
+                ex.copy_at(t, 0, &block, cw * 4, w * 4);
+            }
+            self.pending.lock().unwrap().push(Pending::Dual {
+                block,
+                words: cw + tw,
+                levels,
+                c,
+                top,
+            });
+            ex.report(stats, &self.times);
+            return rec;
+        }
         ex.phase(Phase::ReadBack);
         let t = crate::frame::totals(&mut ex, &rec, None, dr.len);
         ex.report(stats, &self.times);
@@ -549,24 +610,50 @@ impl GpuRsh {
         let t = self.single_tree()?;
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
         let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, Some(count));
-        self.pending.lock().unwrap().push(w.cnt);
+        self.pending.lock().unwrap().push(Pending::Single(w.cnt));
         ex.report(stats, &self.times);
         Some(rec)
     }
 
     /// [`crate::GpuEngine::take_pending`].
     pub(crate) fn take_pending(&self) -> Vec<(wgpu::Buffer, u64)> {
-        let words = single::HEAD as u64;
-        std::mem::take(&mut *self.pending.lock().unwrap())
-            .into_iter()
-            .map(|b| (b, words))
-            .collect()
+        let taken = std::mem::take(&mut *self.pending.lock().unwrap());
+        let out = taken
+            .iter()
+            .map(|p| match p {
+                Pending::Single(b) => (b.clone(), single::HEAD as u64),
+                Pending::Dual { block, words, .. } => (block.clone(), *words),
+            })
+            .collect();
+        *self.settling.lock().unwrap() = taken;
+        out
     }
 
     /// [`crate::GpuEngine::settle`].
     pub(crate) fn settle(&self, words: &[u32], stats: &mut TraceStats) {
-        for head in words.chunks(single::HEAD) {
-            Self::settle_single(head, stats);
+        let mut at = 0;
+        for p in std::mem::take(&mut *self.settling.lock().unwrap()) {
+            match p {
+                Pending::Single(_) => {
+                    Self::settle_single(&words[at..at + single::HEAD], stats);
+                    at += single::HEAD;
+                }
+                Pending::Dual {
+                    words: n,
+                    levels,
+                    mut c,
+                    top,
+                    ..
+                } => {
+                    let w = &words[at..at + n as usize];
+                    let cw = GpuDual::counter_words(levels) as usize;
+                    let over = GpuDual::counts(&w[..cw], levels, &mut c);
+                    stats.count(Counter::GpuStackOverflows, over);
+                    let hits = crate::frame::sum_totals(&w[cw..]).hits;
+                    self.report(&c, top, hits, stats);
+                    at += n as usize;
+                }
+            }
         }
     }
 
@@ -665,7 +752,7 @@ mod tests {
                 .store(bias, std::sync::atomic::Ordering::Relaxed);
             let mut ex = Exec::new(&eng.s.gpu, &eng.s.kernels);
             let dr = DeviceRays::upload(&eng.s.gpu, &rays);
-            let (_, c, _) =
+            let (_, c, _, _) =
                 eng.records(&mut ex, &dr, TraceMode::Closest, &mut TraceStats::default());
             ex.finish();
             c

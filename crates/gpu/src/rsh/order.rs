@@ -31,7 +31,9 @@ pub fn leaf_order(
         chunked_order(eng, ex, &tk, &tv, m, stats)
     } else {
         ex.phase(Phase::ScreenOrder);
-        ex.sort_pairs(&tk, &tv, m, 32);
+        // Every digit sorted (an equal digit's pass is the identity): no read-back of which
+        // digits vary.
+        ex.sort_pairs_all(&tk, &tv, m, 32);
         tv
     };
     (leaves, m)
