@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The GPU numbers of record in one run, for a session that is lent a real GPU (the `device`
 # tool): the grid built and traversed on the GPU (issue 17), whole frames and host↔device
-# traffic (issue 18), CRSH/RAH phases, CRSH over the object tree on the device (issue 46),
-# and the GPU tests that compare against the CPU.
+# traffic (issue 18), CRSH/RAH phases, CRSH over the object tree on the device and the dual
+# traversal there (issue 46), and the GPU tests that compare against the CPU.
 #
 # Prepare on the dev machine (no GPU needed), then carry `dev-bin` and the scenes:
 #   cargo build --release && cargo test --release -p gpu --no-run 2>&1 | grep -o 'target/release/deps/[a-z_]*-[0-9a-f]*' > /tmp/tests.txt
@@ -53,12 +53,20 @@ for h in bvh mesh-spheres; do
         --bounces 0 --backend gpu --engine crsh --object-hierarchy $h \
         --stats "$OUT/sponza-512-crsh-$h.json" --out "$OUT/sponza-512-crsh-$h.png"
 done
+# The dual traversal on the device (RAH's default there; CRSH with --ray-path bundles),
+# against RAH's thesis bundles and the grid, Sponza 512² shadow frames.
+for run in "rah" "rah --object-hierarchy mesh-spheres" "crsh --ray-path bundles" "grid"; do
+    tag=$(echo "$run" | tr ' ' '_' | tr -d '-')
+    step 120 "render sponza 512 shadows $run" "$R" render $S/sponza.toml -W 512 -H 512 \
+        --bounces 0 --backend gpu --engine $run \
+        --stats "$OUT/sponza-512-$tag.json" --out "$OUT/sponza-512-$tag.png"
+done
 step 150 "render kitchen 1024 b3 crsh frames" "$R" render kitchen -W 1024 -H 1024 --bounces 3 \
     --backend gpu --engine crsh --frames 6 --frame-csv "$OUT/kitchen-1024-b3-crsh.csv" \
     --out "$OUT/kitchen-%04d.png"
 # The GPU tests (the GPU frame against the CPU loop over its G-buffer, in parts; the minimal-ball
 # fix eb34266 is checked by hierarchies_match_the_cpu_node_for_node).
-for m in objects single frame grid_build grid agreement; do
+for m in objects single dual frame grid_build grid agreement; do
     for t in "$BIN"/device-*; do
         [ -x "$t" ] && step 120 "test $m" "$t" "$m::" --test-threads 4
     done

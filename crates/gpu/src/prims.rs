@@ -156,9 +156,32 @@ impl Exec<'_> {
         b: Option<&wgpu::Buffer>,
         n: u64,
     ) -> (wgpu::Buffer, wgpu::Buffer, u64) {
+        let (oa, ob, m, _) = self.compact_reading(flags, a, b, n, None);
+        (oa, ob, m)
+    }
+
+    /// [`Exec::compact`], reading the first `extra.1` words of buffer `extra.0` (made ready
+    /// before the call) in the same read-back as the length; returns them too.
+    pub fn compact_reading(
+        &mut self,
+        flags: &wgpu::Buffer,
+        a: &wgpu::Buffer,
+        b: Option<&wgpu::Buffer>,
+        n: u64,
+        extra: Option<(&wgpu::Buffer, u64)>,
+    ) -> (wgpu::Buffer, wgpu::Buffer, u64, Vec<u32>) {
         let offs = self.g.storage("compact offsets", (n + 1) * 4);
         self.scan(flags, &offs, n);
-        let m = self.read_at(&offs, n as usize) as u64;
+        let (m, words) = match extra {
+            None => (self.read_at(&offs, n as usize) as u64, Vec::new()),
+            Some((buf, w)) => {
+                let both = self.g.storage("compacted length and more", (w + 1) * 4);
+                self.copy(&offs, n * 4, &both, 4);
+                self.copy_at(buf, 0, &both, 4, w * 4);
+                let r: Vec<u32> = self.read(&both, w as usize + 1);
+                (r[0] as u64, r[1..].to_vec())
+            }
+        };
         let (oa, ob) = (
             self.g.storage("compacted a", m * 4),
             self.g.storage("compacted b", m * 4),
@@ -181,7 +204,7 @@ impl Exec<'_> {
                 256,
             );
         }
-        (oa, ob, m)
+        (oa, ob, m, words)
     }
 }
 

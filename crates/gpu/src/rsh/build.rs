@@ -1,9 +1,10 @@
 //! The hierarchy's construction on the GPU, the twin of `crates/rsh/src/build.rs`: level 1
 //! over the sorted leaves, then unions level by level (thesis §3.2.7; `build.wgsl`), with
-//! the CPU's stop rules; the kinds' starts among the leaves come from `kinds.wgsl`.
+//! the CPU's stop rules; the leaves per kind come from the ordering (`kinds.wgsl`, read back
+//! with the trim's count).
 
 use super::device_scene::DeviceScene;
-use crate::kernels::params::{KindHistParams, LevelParams};
+use crate::kernels::params::LevelParams;
 use crate::kernels::{launch, Exec};
 use crate::rays::DeviceRays;
 use ::rsh::Union;
@@ -37,52 +38,21 @@ impl Level {
     }
 }
 
-/// Bottom-up build: level 1 over the sorted leaves, then unions, as `rsh::build::build`.
+/// Bottom-up build: level 1 over the sorted leaves (`per_kind` of each ray kind, kinds in
+/// order: [`super::order::leaf_order`]), then unions, as `rsh::build::build`.
 pub fn build(
     eng: &DeviceScene,
     ex: &mut Exec,
     rays: &DeviceRays,
     leaves: &wgpu::Buffer,
-    m: u64,
+    per_kind: [u32; 4],
 ) -> Vec<Level> {
     let g = &eng.gpu;
-    let (org, dir, kl) = (&rays.org, &rays.dir, &rays.kl);
+    let (org, dir) = (&rays.org, &rays.dir);
     let b = eng.cfg.branching;
-    // Leaf counts per kind (kinds are sorted: find where each starts).
-    let mut counts = [0u32; 4];
-    if m > 0 {
-        let starts = g.upload("kind starts", &[0u32; 4]);
-        let present = g.upload("kind present", &[0u32; 4]);
-        ex.run(
-            launch::KindHist {
-                x_a: kl,
-                x_b: leaves,
-                y_a: &starts,
-                y_b: &present,
-            },
-            KindHistParams { leaves: m as u32 },
-            m,
-            256,
-        );
-        // Both tables in one read-back.
-        let both = g.storage("kind starts and presence", 32);
-        ex.copy(&starts, 0, &both, 16);
-        ex.copy_at(&present, 0, &both, 16, 16);
-        let w: Vec<u32> = ex.read(&both, 8);
-        let (st, pr) = w.split_at(4);
-        for k in 0..4 {
-            if pr[k] != 0 {
-                let end = (k + 1..4)
-                    .find(|&j| pr[j] != 0)
-                    .map(|j| st[j])
-                    .unwrap_or(m as u32);
-                counts[k] = end - st[k];
-            }
-        }
-    }
     let union = (eng.cfg.union == Union::Thesis) as u32;
     let mut levels: Vec<Level> = Vec::new();
-    let mut below = counts;
+    let mut below = per_kind;
     loop {
         let nodes: [u32; 4] = below.map(|c| c.div_ceil(b));
         let total: u32 = nodes.iter().sum();

@@ -337,8 +337,8 @@ impl GpuRsh {
     pub fn hierarchy(&self, rays: &RayBatch) -> (Vec<u32>, Vec<LevelRows>) {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
         let dr = DeviceRays::upload(&self.s.gpu, rays);
-        let (leaves, m) = leaf_order(&self.s, &mut ex, &dr, &mut TraceStats::default());
-        let levels = build(&self.s, &mut ex, &dr, &leaves, m);
+        let (leaves, m, per_kind) = leaf_order(&self.s, &mut ex, &dr, &mut TraceStats::default());
+        let levels = build(&self.s, &mut ex, &dr, &leaves, per_kind);
         let order = ex.read(&leaves, m as usize);
         let rows = levels
             .iter()
@@ -375,10 +375,10 @@ impl GpuRsh {
         }
         let n = dr.len;
         let g = &self.s.gpu;
-        let (leaves, m) = leaf_order(&self.s, ex, dr, stats);
+        let (leaves, m, per_kind) = leaf_order(&self.s, ex, dr, stats);
         // Hierarchy (thesis §3.2.7).
         ex.phase(Phase::HierarchyCreation);
-        let levels = build(&self.s, ex, dr, &leaves, m);
+        let levels = build(&self.s, ex, dr, &leaves, per_kind);
         // Traversal and final tests (thesis §3.2.8–3.2.9).
         // Every ray's best hit starts as none (u64::MAX), set on the device.
         let best = ex.filled("best", 2 * n, u32::MAX);

@@ -1,22 +1,33 @@
-// Where each ray kind starts among the sorted leaves (the layout of every hierarchy level,
-// thesis §3.2.7); bindings in prims/bindings.wgsl.
+// How many of the trimmed rays are of each kind: every hierarchy level's layout (thesis
+// §3.2.7: kinds are sorted, so each kind's leaves follow the previous kind's); bindings in
+// prims/bindings.wgsl, and the counts here.
 
-// Parameters of kind_hist.
-struct KindHistParams {
-    leaves: u32, // sorted leaves
+// Parameters of trim_kinds.
+struct TrimKindsParams {
+    rays: u32, // rays of the batch (trimmed or not: flags in x_flag)
 }
 
-// Kind histogram of the sorted leaves (kind = top two key bits of the sorted keys).
+@group(0) @binding(8) var<storage, read_write> y_kinds: array<atomic<u32>>;
+
+var<workgroup> wkinds: array<atomic<u32>, 4>;
+
+// Per kind (kind | light << 2 in x_a) the rays whose flag (x_flag: the trim's) is set, added
+// per workgroup, then once per workgroup into y_kinds.
 @compute @workgroup_size(256)
-fn kind_hist(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+fn trim_kinds(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
+    if li < 4u {
+        atomicStore(&wkinds[li], 0u);
+    }
+    workgroupBarrier();
     let i = lin(gid, nwg);
-    if i < kind_hist_params().leaves {
-        let k = x_a[x_b[i]] & 3u;
-        // Counted with plain stores of run boundaries: the kinds are sorted, so the first
-        // index of every kind is where it differs from its predecessor.
-        if i == 0u || (x_a[x_b[i - 1u]] & 3u) != k {
-            y_a[k] = i;
-            y_b[k] = 1u;
+    if i < trim_kinds_params().rays && x_flag[i] != 0u {
+        atomicAdd(&wkinds[x_a[i] & 3u], 1u);
+    }
+    workgroupBarrier();
+    if li < 4u {
+        let v = atomicLoad(&wkinds[li]);
+        if v > 0u {
+            atomicAdd(&y_kinds[li], v);
         }
     }
 }

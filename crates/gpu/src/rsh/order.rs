@@ -4,19 +4,22 @@
 
 use super::device_scene::DeviceScene;
 use super::hash::hash_keys;
-use crate::kernels::Exec;
+use crate::kernels::params::TrimKindsParams;
+use crate::kernels::{launch, Exec};
 use crate::rays::DeviceRays;
 use ::rsh::Method;
 use trace::Counter;
 use trace::{Phase, TraceStats};
 
-/// The sorted leaves (ray indices of the rays that can hit anything) and their count.
+/// The sorted leaves (ray indices of the rays that can hit anything), their count and
+/// their count per ray kind (the hierarchy's layout: [`super::build::build`]), the counts
+/// in one read-back.
 pub fn leaf_order(
     eng: &DeviceScene,
     ex: &mut Exec,
     rays: &DeviceRays,
     stats: &mut TraceStats,
-) -> (wgpu::Buffer, u64) {
+) -> (wgpu::Buffer, u64, [u32; 4]) {
     let crsh = eng.cfg.method == Method::Crsh;
     ex.phase(if crsh {
         Phase::Hash
@@ -25,7 +28,22 @@ pub fn leaf_order(
     });
     let (keys, valid) = hash_keys(eng, ex, rays, !crsh);
     ex.phase(Phase::Trim);
-    let (tk, tv, m) = ex.compact(&valid, &keys, None, rays.len);
+    // The trimmed rays per kind, read with their count.
+    let kinds = eng.gpu.upload("kind counts", &[0u32; 4]);
+    ex.run(
+        launch::TrimKinds {
+            x_flag: &valid,
+            x_a: &rays.kl,
+            y_kinds: &kinds,
+        },
+        TrimKindsParams {
+            rays: rays.len as u32,
+        },
+        rays.len,
+        256,
+    );
+    let (tk, tv, m, per_kind) =
+        ex.compact_reading(&valid, &keys, None, rays.len, Some((&kinds, 4)));
     drop((keys, valid));
     let leaves = if crsh {
         chunked_order(eng, ex, &tk, &tv, m, stats)
@@ -36,7 +54,11 @@ pub fn leaf_order(
         ex.sort_pairs_all(&tk, &tv, m, 32);
         tv
     };
-    (leaves, m)
+    (
+        leaves,
+        m,
+        [per_kind[0], per_kind[1], per_kind[2], per_kind[3]],
+    )
 }
 
 /// Trim is done; compress → sort → decompress (thesis §3.2.4–3.2.6).
@@ -57,7 +79,8 @@ fn chunked_order(
     stats.count(Counter::Chunks, runs.len);
     ex.phase(Phase::Sort);
     let order = ex.iota(runs.len);
-    ex.sort_pairs(&runs.keys, &order, runs.len, 32);
+    // Every digit (no read-back of which vary; an equal digit's pass is the identity).
+    ex.sort_pairs_all(&runs.keys, &order, runs.len, 32);
     ex.phase(Phase::Decompress);
     ex.expand_runs(&runs, &order, rays, m)
 }
