@@ -52,7 +52,7 @@ use render::View;
 use scene::Scene;
 use sizes::{Capacity, Counted, Deferrals};
 use std::time::Instant;
-pub(crate) use totals::{copy_pending, sum_totals, totals, totals_on_device, TOTALS_CHUNK};
+pub(crate) use totals::{copy_pending, sum_totals, totals_on_device, TOTALS_CHUNK};
 pub use totals::{settle, trace_device};
 use trace::{TraceMode, TraceStats};
 

@@ -128,7 +128,9 @@ impl GpuEngine for GpuRsh {
         GpuRsh::trace_device_part(self, rays, mode, stats)
     }
     fn counts_on_device(&self) -> bool {
-        GpuRsh::walks_single(self)
+        // Every path takes a batch whose size the device holds (the bundles' first
+        // read-back is then their trim's count).
+        true
     }
     fn trace_device_counted(
         &self,

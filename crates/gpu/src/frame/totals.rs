@@ -1,6 +1,6 @@
 //! What a device-resident frame reads back of its traces, and tracing rays that are on the
-//! device: per-chunk totals of hit records and per-ray counters ([`totals`], summed on the
-//! host in u64), the counter blocks engines leave on the device until one read-back
+//! device: per-chunk totals of hit records and per-ray counters ([`totals_on_device`],
+//! summed on the host in u64 by [`sum_totals`]), the counter blocks engines leave on the device until one read-back
 //! ([`settle`]), and [`trace_device`], a batch traced in the engine's parts. The twin of
 //! the sums `trace::TraceStats` keeps on the CPU (`frame.wgsl`'s `fr_totals`).
 
@@ -10,10 +10,10 @@ use crate::rays::DeviceRays;
 use crate::GpuEngine;
 use trace::{TraceMode, TraceStats};
 
-/// Rays per chunk of [`totals`] (`fr_totals` in `frame.wgsl`).
+/// Rays per chunk of [`totals_on_device`] (`fr_totals` in `frame.wgsl`).
 pub(crate) const TOTALS_CHUNK: u64 = 1024;
 
-/// A trace's totals as read back by [`totals`].
+/// A trace's totals as [`sum_totals`] adds them up.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Totals {
     pub hits: u64,
@@ -22,20 +22,8 @@ pub(crate) struct Totals {
 }
 
 /// Hits among the `n` records `rec`, and with per-ray (steps, tests) counters `cnt` their
-/// sums: per-chunk sums (64-bit, as two words) read back and added on the host.
-pub(crate) fn totals(
-    ex: &mut Exec,
-    rec: &wgpu::Buffer,
-    cnt: Option<&wgpu::Buffer>,
-    n: u64,
-) -> Totals {
-    match totals_on_device(ex, rec, cnt, n, None) {
-        Some((out, words)) => sum_totals(&ex.read::<u32>(&out, words as usize)),
-        None => Totals::default(),
-    }
-}
-
-/// [`totals`]' per-chunk sums left on the device: (buffer, words), none for no rays;
+/// sums, as per-chunk sums (64-bit, as two words) left on the device: (buffer, words), none
+/// for no rays (read back with the frame's image and added by [`sum_totals`]);
 /// `count`: of the first `count.n` of the `n` records only (a size on the device; the
 /// chunks past it sum to zero).
 pub(crate) fn totals_on_device(

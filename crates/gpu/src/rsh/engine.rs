@@ -57,13 +57,14 @@ pub struct GpuRsh {
 enum Pending {
     /// A single-ray walk's counter block ([`single::HEAD`] words).
     Single(wgpu::Buffer),
-    /// A dual traversal's counters ([`GpuDual::counter_words`]) followed by its records'
-    /// totals (`frame::totals_on_device`), with what the host counted (the peaks) and the
-    /// hierarchy's levels and top nodes.
-    Dual {
+    /// The bundles' counts: a dual traversal's counters ([`GpuDual::counter_words`] words,
+    /// where `levels` is some), then the records' totals (`frame::totals_on_device`), with
+    /// what the host counted (the mesh-sphere traversal's counters, the dual's peaks) and
+    /// the hierarchy's top nodes.
+    Bundles {
         block: wgpu::Buffer,
         words: u64,
-        levels: usize,
+        levels: Option<usize>,
         c: Counters,
         top: u64,
     },
@@ -305,6 +306,11 @@ impl GpuRsh {
         Ok(())
     }
 
+    /// The configuration.
+    pub fn config(&self) -> &RshConfig {
+        &self.s.cfg
+    }
+
     /// The device.
     pub fn gpu(&self) -> &Gpu {
         &self.s.gpu
@@ -326,7 +332,7 @@ impl GpuRsh {
     pub fn hash_keys(&self, rays: &RayBatch, screen: bool) -> (Vec<u32>, Vec<u32>) {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
         let dr = DeviceRays::upload(&self.s.gpu, rays);
-        let (keys, valid) = super::hash::hash_keys(&self.s, &mut ex, &dr, screen);
+        let (keys, valid) = super::hash::hash_keys(&self.s, &mut ex, &dr, screen, None);
         let n = rays.len();
         (ex.read(&keys, n), ex.read(&valid, n))
     }
@@ -337,7 +343,8 @@ impl GpuRsh {
     pub fn hierarchy(&self, rays: &RayBatch) -> (Vec<u32>, Vec<LevelRows>) {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
         let dr = DeviceRays::upload(&self.s.gpu, rays);
-        let (leaves, m, per_kind) = leaf_order(&self.s, &mut ex, &dr, &mut TraceStats::default());
+        let (leaves, m, per_kind) =
+            leaf_order(&self.s, &mut ex, &dr, &mut TraceStats::default(), None);
         let levels = build(&self.s, &mut ex, &dr, &leaves, per_kind);
         let order = ex.read(&leaves, m as usize);
         let rows = levels
@@ -360,12 +367,14 @@ impl GpuRsh {
     /// them with the traversal's counters, the number of top nodes and, for the dual
     /// traversal, its counter block still on the device (its counts not yet in the
     /// counters: [`GpuDual::counts`]).
+    /// `count`: of the first `count.n` rays of `dr` only (a size on the device).
     fn records(
         &self,
         ex: &mut Exec,
         dr: &DeviceRays,
         mode: TraceMode,
         stats: &mut TraceStats,
+        count: Option<&DevSize>,
     ) -> (wgpu::Buffer, Counters, u64, DualCounts) {
         let dual = self.tree.as_ref().filter(|_| self.s.ntri > 0);
         if dual.is_some() {
@@ -375,7 +384,7 @@ impl GpuRsh {
         }
         let n = dr.len;
         let g = &self.s.gpu;
-        let (leaves, m, per_kind) = leaf_order(&self.s, ex, dr, stats);
+        let (leaves, m, per_kind) = leaf_order(&self.s, ex, dr, stats, count);
         // Hierarchy (thesis §3.2.7).
         ex.phase(Phase::HierarchyCreation);
         let levels = build(&self.s, ex, dr, &leaves, per_kind);
@@ -518,7 +527,7 @@ impl GpuRsh {
             ex.report(stats, &self.times);
             return;
         }
-        let (rec, mut c, top, dual) = self.records(&mut ex, &dr, mode, stats);
+        let (rec, mut c, top, dual) = self.records(&mut ex, &dr, mode, stats, None);
         ex.phase(Phase::ReadBack);
         match dual {
             None => records_to_hits(&ex.read(&rec, n), hits),
@@ -555,39 +564,42 @@ impl GpuRsh {
             ex.report(stats, &self.times);
             return rec;
         }
-        let (rec, c, top, dual) = self.records(&mut ex, dr, mode, stats);
-        if let Some((cnt, levels)) = dual {
-            // The counters and the records' totals stay on the device, side by side, until
-            // the frame reads them with its image (`GpuEngine::settle`).
-            let cw = GpuDual::counter_words(levels);
-            let totals = crate::frame::totals_on_device(&mut ex, &rec, None, dr.len, None);
-            let tw = totals.as_ref().map_or(0, |t| t.1);
-            let block = self.s.gpu.storage("dual counts", (cw + tw) * 4);
-            ex.copy(&cnt, 0, &block, cw * 4);
-            if let Some((t, w)) = &totals {
-                ex.copy_at(t, 0, &block, cw * 4, w * 4);
-            }
-            self.pending.lock().unwrap().push(Pending::Dual {
-                block,
-                words: cw + tw,
-                levels,
-                c,
-                top,
-            });
-            ex.report(stats, &self.times);
-            return rec;
-        }
-        ex.phase(Phase::ReadBack);
-        let t = crate::frame::totals(&mut ex, &rec, None, dr.len);
+        let rec = self.bundles_on_device(&mut ex, dr, mode, stats, None);
         ex.report(stats, &self.times);
-        self.report(&c, top, t.hits, stats);
         rec
     }
 
-    /// Whether batches walk the object tree as single rays (the path that traces sizes the
-    /// device holds: [`crate::GpuEngine::counts_on_device`]).
-    pub(crate) fn walks_single(&self) -> bool {
-        self.single_tree().is_some()
+    /// The bundles' trace of rays `dr` on the device (of the first `count.n` only where
+    /// given), its counts left there until the frame reads them with its image
+    /// (`GpuEngine::settle`): the dual traversal's counter block, then the records'
+    /// totals. (The traversals themselves read back the sizes their passes need.)
+    fn bundles_on_device(
+        &self,
+        ex: &mut Exec,
+        dr: &DeviceRays,
+        mode: TraceMode,
+        stats: &mut TraceStats,
+        count: Option<&DevSize>,
+    ) -> wgpu::Buffer {
+        let (rec, c, top, dual) = self.records(ex, dr, mode, stats, count);
+        let cw = dual.as_ref().map_or(0, |d| GpuDual::counter_words(d.1));
+        let totals = crate::frame::totals_on_device(ex, &rec, None, dr.len, count);
+        let tw = totals.as_ref().map_or(0, |t| t.1);
+        let block = self.s.gpu.storage("bundles' counts", (cw + tw) * 4);
+        if let Some((cnt, _)) = &dual {
+            ex.copy(cnt, 0, &block, cw * 4);
+        }
+        if let Some((t, w)) = &totals {
+            ex.copy_at(t, 0, &block, cw * 4, w * 4);
+        }
+        self.pending.lock().unwrap().push(Pending::Bundles {
+            block,
+            words: cw + tw,
+            levels: dual.map(|d| d.1),
+            c,
+            top,
+        });
+        rec
     }
 
     /// The object tree where batches walk it as single rays (else the bundles descend it,
@@ -598,8 +610,9 @@ impl GpuRsh {
             .filter(|_| self.s.cfg.path == RayPath::Single)
     }
 
-    /// [`crate::GpuEngine::trace_device_counted`]: the single-ray path only (the bundles'
-    /// passes size their buffers from counts the host reads).
+    /// [`crate::GpuEngine::trace_device_counted`]: single rays read nothing back; the
+    /// bundles' first read-back is the trim's count (the hash runs over the device's count),
+    /// and their traversal reads the sizes its passes need.
     pub(crate) fn trace_device_counted(
         &self,
         dr: &DeviceRays,
@@ -607,10 +620,15 @@ impl GpuRsh {
         mode: TraceMode,
         stats: &mut TraceStats,
     ) -> Option<wgpu::Buffer> {
-        let t = self.single_tree()?;
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
-        let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, Some(count));
-        self.pending.lock().unwrap().push(Pending::Single(w.cnt));
+        let rec = match self.single_tree() {
+            Some(t) => {
+                let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, Some(count));
+                self.pending.lock().unwrap().push(Pending::Single(w.cnt));
+                rec
+            }
+            None => self.bundles_on_device(&mut ex, dr, mode, stats, Some(count)),
+        };
         ex.report(stats, &self.times);
         Some(rec)
     }
@@ -622,7 +640,7 @@ impl GpuRsh {
             .iter()
             .map(|p| match p {
                 Pending::Single(b) => (b.clone(), single::HEAD as u64),
-                Pending::Dual { block, words, .. } => (block.clone(), *words),
+                Pending::Bundles { block, words, .. } => (block.clone(), *words),
             })
             .collect();
         *self.settling.lock().unwrap() = taken;
@@ -638,7 +656,7 @@ impl GpuRsh {
                     Self::settle_single(&words[at..at + single::HEAD], stats);
                     at += single::HEAD;
                 }
-                Pending::Dual {
+                Pending::Bundles {
                     words: n,
                     levels,
                     mut c,
@@ -646,9 +664,11 @@ impl GpuRsh {
                     ..
                 } => {
                     let w = &words[at..at + n as usize];
-                    let cw = GpuDual::counter_words(levels) as usize;
-                    let over = GpuDual::counts(&w[..cw], levels, &mut c);
-                    stats.count(Counter::GpuStackOverflows, over);
+                    let cw = levels.map_or(0, |l| GpuDual::counter_words(l) as usize);
+                    if let Some(levels) = levels {
+                        let over = GpuDual::counts(&w[..cw], levels, &mut c);
+                        stats.count(Counter::GpuStackOverflows, over);
+                    }
                     let hits = crate::frame::sum_totals(&w[cw..]).hits;
                     self.report(&c, top, hits, stats);
                     at += n as usize;
@@ -752,8 +772,13 @@ mod tests {
                 .store(bias, std::sync::atomic::Ordering::Relaxed);
             let mut ex = Exec::new(&eng.s.gpu, &eng.s.kernels);
             let dr = DeviceRays::upload(&eng.s.gpu, &rays);
-            let (_, c, _, _) =
-                eng.records(&mut ex, &dr, TraceMode::Closest, &mut TraceStats::default());
+            let (_, c, _, _) = eng.records(
+                &mut ex,
+                &dr,
+                TraceMode::Closest,
+                &mut TraceStats::default(),
+                None,
+            );
             ex.finish();
             c
         };

@@ -4,21 +4,24 @@
 
 use super::device_scene::DeviceScene;
 use crate::kernels::params::HashParams;
-use crate::kernels::{launch, Exec};
+use crate::kernels::{launch, DevSize, Exec, Threads};
 use crate::rays::DeviceRays;
 
-/// Keys and validity flags of every ray (`screen`: RAH's pixel Z-order key).
+/// Keys and validity flags of every ray (`screen`: RAH's pixel Z-order key). `count`: of
+/// the first `count.n` rays only (a size on the device); the flags of the rest stay zero,
+/// so the trim drops them.
 pub fn hash_keys(
     eng: &DeviceScene,
     ex: &mut Exec,
     rays: &DeviceRays,
     screen: bool,
+    count: Option<&DevSize>,
 ) -> (wgpu::Buffer, wgpu::Buffer) {
     let n = rays.len;
     let keys = eng.gpu.storage("keys", n * 4);
     let valid = eng.gpu.storage("valid", n * 4);
     let hb = &eng.cfg.hash_bits;
-    ex.run(
+    ex.run_on(
         launch::HashKeys {
             h_org: &rays.org,
             h_dir: &rays.dir,
@@ -39,7 +42,7 @@ pub fn hash_keys(
             box_min: eng.box_min,
             box_ext: eng.box_ext,
         },
-        n,
+        Threads::of(count, n),
         256,
     );
     (keys, valid)

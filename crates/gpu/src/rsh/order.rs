@@ -5,7 +5,7 @@
 use super::device_scene::DeviceScene;
 use super::hash::hash_keys;
 use crate::kernels::params::TrimKindsParams;
-use crate::kernels::{launch, Exec};
+use crate::kernels::{launch, DevSize, Exec};
 use crate::rays::DeviceRays;
 use ::rsh::Method;
 use trace::Counter;
@@ -13,12 +13,14 @@ use trace::{Phase, TraceStats};
 
 /// The sorted leaves (ray indices of the rays that can hit anything), their count and
 /// their count per ray kind (the hierarchy's layout: [`super::build::build`]), the counts
-/// in one read-back.
+/// in one read-back. `count`: of the first `count.n` rays only (a size on the device): the
+/// trim's read-back is the first the host learns of it.
 pub fn leaf_order(
     eng: &DeviceScene,
     ex: &mut Exec,
     rays: &DeviceRays,
     stats: &mut TraceStats,
+    count: Option<&DevSize>,
 ) -> (wgpu::Buffer, u64, [u32; 4]) {
     let crsh = eng.cfg.method == Method::Crsh;
     ex.phase(if crsh {
@@ -26,7 +28,7 @@ pub fn leaf_order(
     } else {
         Phase::ScreenOrder
     });
-    let (keys, valid) = hash_keys(eng, ex, rays, !crsh);
+    let (keys, valid) = hash_keys(eng, ex, rays, !crsh, count);
     ex.phase(Phase::Trim);
     // The trimmed rays per kind, read with their count.
     let kinds = eng.gpu.upload("kind counts", &[0u32; 4]);
