@@ -56,6 +56,8 @@ for f in ["office-b3", "sponza-b0", "kitchen-frames", "cornell-spp3"]:
         tpr = " / ".join(f"{x['total_tests'] / max(r, 1):.1f}" for x, r in zip(xs, rays))
         hits = " / ".join(str(x["trace"]["hits"]) for x in xs)
         eq = "yes" if same_images(f, run, "rah-BASE") else "NO"
-        print(f"| {f} | {label} | {xs[0]['object_hierarchy']} | {col(xs, 'host_read_backs')} | {col(xs, 'gpu_dispatches')} | {col(xs, 'host_device_bytes')} | {col(xs, 'total_tests')} | {tpr} | {hits} | {eq} |")
+        # (--frames' per-frame stats carry no object_hierarchy: the run's single-frame rows say it.)
+        side = xs[0].get("object_hierarchy") or load("office-b3", run)[0]["object_hierarchy"]
+        print(f"| {f} | {label} | {side} | {col(xs, 'host_read_backs')} | {col(xs, 'gpu_dispatches')} | {col(xs, 'host_device_bytes')} | {col(xs, 'total_tests')} | {tpr} | {hits} | {eq} |")
 PY
 echo "wrote $here/counts.md"
