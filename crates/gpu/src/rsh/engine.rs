@@ -93,6 +93,7 @@ impl TreeState {
             tri_mesh: &s.tri_mesh,
             mesh_sphere: s.cfg.mesh_culling.then_some(&s.mesh_sphere),
             mesh_first: &s.mesh_first,
+            single: s.cfg.path == RayPath::Single,
         };
         let dev = objects::build(&mut ex, &inp, s.ntri);
         ex.finish();

@@ -32,6 +32,10 @@ pub struct TreeInput<'a> {
     pub mesh_sphere: Option<&'a wgpu::Buffer>,
     /// First triangle of each mesh, and one past the last.
     pub mesh_first: &'a [u32],
+    /// Make the single-ray path's box nodes and its triangles in leaf order (else those two
+    /// buffers are left empty: the dual traversal reads the binary tree only, and the box
+    /// nodes are its largest array, 256 bytes per inner node).
+    pub single: bool,
 }
 
 /// The tree on the device (layouts as `objects.wgsl` writes them).
@@ -111,8 +115,11 @@ pub fn build(ex: &mut Exec, inp: &TreeInput, n: u32) -> DeviceTree {
         leaf,
         order: g.storage("object leaf order", nu * 4),
         exact: g.storage("object exact boxes", inner * 32),
-        boxes: g.storage("object box nodes", inner * BOX_WORDS * 4),
-        leaf_tris: g.storage("object leaf triangles", nu * 48),
+        boxes: g.storage(
+            "object box nodes",
+            inp.single as u64 * inner * BOX_WORDS * 4,
+        ),
+        leaf_tris: g.storage("object leaf triangles", inp.single as u64 * nu * 48),
     };
     let np = ObjNodesParams {
         leaves: n,
@@ -136,7 +143,9 @@ pub fn build(ex: &mut Exec, inp: &TreeInput, n: u32) -> DeviceTree {
         // A lone triangle is the root; with none, nothing is traversed.
         if n == 1 {
             tree.order = ex.iota(1);
-            positions(ex, &tree);
+            if inp.single {
+                positions(ex, &tree);
+            }
         }
         return tree;
     }
@@ -240,6 +249,9 @@ pub fn build(ex: &mut Exec, inp: &TreeInput, n: u32) -> DeviceTree {
         256,
     );
     tree.order = order;
+    if !inp.single {
+        return tree;
+    }
     positions(ex, &tree);
     ex.run(
         launch::ObjBoxNodes {
@@ -305,7 +317,8 @@ fn box_nodes(words: &[u32]) -> (Vec<BoxNode>, Vec<u32>) {
 impl DeviceTree {
     /// The tree read back as the CPU's [`ObjectTree`] (its root, children, ranges, depth,
     /// leaf order, bounds, the single-ray path's box nodes and triangles; the dual
-    /// traversal's collapsed nodes left empty). For tests and tools.
+    /// traversal's collapsed nodes left empty). For tests and tools; a tree built without
+    /// [`TreeInput::single`] has no box nodes to read.
     pub fn read(&self, ex: &mut Exec) -> ObjectTree {
         let n = self.leaves as usize;
         let inner = n.saturating_sub(1);
@@ -374,6 +387,7 @@ pub fn tree_of(g: &Gpu, geo: &Geometry, mesh_spheres: bool) -> (ObjectTree, f64)
         tri_mesh: &tri_mesh,
         mesh_sphere: mesh_spheres.then_some(&meshes),
         mesh_first: &geo.mesh_first,
+        single: true,
     };
     let d = build(&mut ex, &inp, geo.tris.len() as u32);
     ex.finish();
