@@ -30,7 +30,10 @@ const MODULES: &[(&str, &[&str])] = &[
     ("Final", &["shaders/geom.wgsl", "rsh/final.wgsl"]),
     ("Objects", &["shaders/geom.wgsl", "rsh/objects.wgsl"]),
     ("Single", &["shaders/geom.wgsl", "rsh/single.wgsl"]),
-    ("Dual", &["shaders/geom.wgsl", "rsh/dual.wgsl"]),
+    (
+        "Dual",
+        &["shaders/geom.wgsl", "rsh/dual.wgsl", "rsh/dual_rounds.wgsl"],
+    ),
     ("Stages", &["stages.wgsl"]),
     (
         "Grid",

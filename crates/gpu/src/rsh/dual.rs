@@ -18,7 +18,9 @@
 use super::build::Level;
 use super::device_scene::DeviceScene;
 use super::objects::DeviceTree;
-use crate::kernels::params::{DualBeamParams, DualPairParams, DualWalkParams, FinalTestsParams};
+use crate::kernels::params::{
+    DualBeamParams, DualPairParams, DualWalkParams, FinalTestsParams, PermuteParams,
+};
 use crate::kernels::{launch, Exec};
 use crate::rays::DeviceRays;
 use ::rsh::dual::{ANY_HIT_SIZE_RATIO, SMALL_SUBTREE};
@@ -26,6 +28,9 @@ use ::rsh::objects::LEAF;
 use ::rsh::traverse::Counters;
 use ::rsh::{Descent, NodeTest};
 use trace::Phase;
+
+mod rounds;
+pub use rounds::ROUNDS;
 
 // `dual.wgsl` writes the CPU's small-subtree rule with this constant.
 const _: () = assert!(SMALL_SUBTREE == 8, "dual.wgsl's SMALL_SUBTREE is 8");
@@ -49,13 +54,16 @@ pub struct GpuDual<'a> {
     /// The counters on the device, zeroed ([`GpuDual::counter_words`] words of 64-bit
     /// (low, high) counters): per level 16 words from 16 · level (tests, then passes, per
     /// kind), then from 16 · levels the final tests per kind, the tests against inner
-    /// object nodes, the single rays' slab tests, their passes and the walks that
-    /// overflowed their stack.
+    /// object nodes, the single rays' slab tests, their passes, the walks that overflowed
+    /// their stack and (one word) the most pairs held at once by the device's rounds.
     pub counters: &'a wgpu::Buffer,
     /// Any hit will do (shadow rays): a ray that hit stops.
     pub any: bool,
     /// The scene's diagonal (caps unbounded rays in the [`Descent::Size`] rule).
     pub diag: f32,
+    /// The device rounds' per-pass rounds ([`ROUNDS`]) and a bound on their buffers
+    /// (`None`: their own; tests make traces take many passes or overflow).
+    pub rounds: (usize, Option<u64>),
 }
 
 /// A stack of (ray node, object node) pairs on the device; its length lives on the host.
@@ -129,7 +137,7 @@ fn read_words(ex: &mut Exec, buf: &wgpu::Buffer, at: &[u64]) -> Vec<u32> {
 impl GpuDual<'_> {
     /// Words of the counter buffer for a hierarchy of `levels` levels.
     pub fn counter_words(levels: usize) -> u64 {
-        16 * levels as u64 + 16
+        16 * levels as u64 + 18
     }
 
     /// The first word of the counters after the levels'.
@@ -150,14 +158,33 @@ impl GpuDual<'_> {
             .unwrap_or(1) as usize
     }
 
-    /// Run the traversal and the final tests, as `rsh`'s `level_by_level`: the peaks go
-    /// into `c` now, the device's counts stay in [`GpuDual::counters`] (read them with
-    /// [`GpuDual::counts`]).
+    /// Run the traversal and the final tests, as `rsh`'s `level_by_level`: by the device's
+    /// rounds where they keep its schedule ([`rounds`]), else (or when a round overflows
+    /// its buffers, after which the trace starts again) by the host's steps. The device's
+    /// counts stay in [`GpuDual::counters`] (read them with [`GpuDual::counts`]); the host
+    /// steps' peaks go into `c` now.
     pub fn run(&self, ex: &mut Exec, c: &mut Counters) {
         let nl = self.levels.len();
         ex.phase(Phase::Traversal);
         let chunk = (self.eng.cfg.pair_budget / self.widest().max(2)).max(1) as u64;
         let beams = self.beams(ex);
+        if let Some(cap) = self.round_cap(chunk) {
+            if self.run_rounds(ex, &beams, cap) {
+                return;
+            }
+            // Overflowed: every count and hit of the rounds is dropped, and the host's
+            // steps trace the batch from the start.
+            ex.clear(self.counters);
+            ex.run(
+                launch::Fill { y_a: self.best },
+                PermuteParams {
+                    n: 2 * self.rays.len as u32,
+                    value: u32::MAX,
+                },
+                2 * self.rays.len,
+                256,
+            );
+        }
         let nt = self.levels[nl - 1].len() as u64;
         let root = if self.tree.leaves == 1 { LEAF } else { 0 };
         let mut next_top = 0u64;
@@ -212,6 +239,9 @@ impl GpuDual<'_> {
         c.object_tests += at(t + 8);
         c.ray_box_tests += at(t + 10);
         c.ray_box_passes += at(t + 12);
+        // The rounds' peak (zero where the host's steps counted it in `c`).
+        c.peak_pairs = c.peak_pairs.max(w[t + 16] as u64);
+        c.peak_pair_bytes = 8 * c.peak_pairs;
         at(t + 14)
     }
 

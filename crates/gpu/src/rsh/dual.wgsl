@@ -493,12 +493,27 @@ fn miss64() -> u64 {
 fn dual_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
     wcnt_reset(li);
     let p = dual_walk_params();
-    let k = gid.x + gid.y * nwg.x * 64u;
-    if k < p.pairs && (k == 0u || w_key[k] != w_key[k - 1u]) {
+    walk_slot(gid.x + gid.y * nwg.x * 64u, p.pairs, p.any != 0u);
+    flush_walk(li, p);
+}
+
+// A walk's counts, once per workgroup.
+fn flush_walk(li: u32, p: DualWalkParams) {
+    workgroupBarrier();
+    if li < 4u {
+        flush_one(li, p.finals + 2u * li);
+    } else if li < 7u {
+        flush_one(li, p.boxes + 2u * (li - 4u));
+    }
+}
+
+// The walk of the ray whose run starts at sorted pair k of n (none unless k is a run's
+// head), its counts into the workgroup's.
+fn walk_slot(k: u32, n: u32, any: bool) {
+    if k < n && (k == 0u || w_key[k] != w_key[k - 1u]) {
         let pos = w_key[k];
         let r = d_leaf[pos];
         let kind = d_kl[r] & 3u;
-        let any = p.any != 0u;
         let had = atomicLoad(&d_best[r]);
         var best = had;
         var finals = 0u;
@@ -514,7 +529,7 @@ fn dual_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invoc
             let inv = vec3<f32>(div(1.0, dir.x), div(1.0, dir.y), div(1.0, dir.z));
             var stack: array<u32, WALK_STACK>;
             var done = false;
-            for (var j = k; j < p.pairs && w_key[j] == pos && !done; j++) {
+            for (var j = k; j < n && w_key[j] == pos && !done; j++) {
                 stack[0] = p_obj[j];
                 var sp = 1u;
                 while sp > 0u {
@@ -593,11 +608,5 @@ fn dual_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invoc
         atomicAdd(&wcnt[4u], tests);
         atomicAdd(&wcnt[5u], passes);
         atomicAdd(&wcnt[6u], over);
-    }
-    workgroupBarrier();
-    if li < 4u {
-        flush_one(li, p.finals + 2u * li);
-    } else if li < 7u {
-        flush_one(li, p.boxes + 2u * (li - 4u));
     }
 }

@@ -40,6 +40,9 @@ pub struct GpuRsh {
     tree: Option<TreeState>,
     /// Stack entries a single ray's walk may use in private memory ([`single::STACK`]).
     stack: u32,
+    /// The dual traversal's device rounds: rounds per level of a pass, and a bound on their
+    /// buffers' pairs (tests only; `None`: [`GpuDual`]'s own).
+    rounds: (usize, Option<u64>),
     /// The single-ray walks' second-pass stacks ([`single::deep_stacks`]).
     deep: wgpu::Buffer,
     /// Counter blocks of traces on the device not yet read ([`crate::GpuEngine::settle`]).
@@ -266,6 +269,7 @@ impl GpuRsh {
             times: Mutex::new(Vec::new()),
             tree: None,
             stack: single::STACK,
+            rounds: (super::dual::ROUNDS, None),
             deep: gpu_deep,
             pending: Mutex::new(Vec::new()),
             settling: Mutex::new(Vec::new()),
@@ -283,6 +287,15 @@ impl GpuRsh {
     #[doc(hidden)]
     pub fn with_stack(mut self, entries: u32) -> GpuRsh {
         self.stack = entries.clamp(1, single::STACK);
+        self
+    }
+
+    /// Tests only (public for the device tests): the dual traversal's device rounds take
+    /// `per_pass` rounds per level between the host's looks, in buffers of at most `cap`
+    /// pairs (`Some(0)`: never in rounds), so that traces take many passes or overflow.
+    #[doc(hidden)]
+    pub fn with_rounds(mut self, per_pass: usize, cap: Option<u64>) -> GpuRsh {
+        self.rounds = (per_pass.max(1), cap);
         self
     }
 
@@ -413,6 +426,7 @@ impl GpuRsh {
                 counters: &counters,
                 any: mode == TraceMode::Any,
                 diag: self.s.diag,
+                rounds: self.rounds,
             };
             trav.run(ex, &mut c);
             on_device = Some((counters, levels.len()));

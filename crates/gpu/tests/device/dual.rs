@@ -42,11 +42,24 @@ fn compare(cpu: &RshEngine, gpu: &GpuRsh, rays: &RayBatch, mode: TraceMode, what
 /// Every batch of `scene` at `w`×`h` (`bounces`) in both modes, each configuration of
 /// `cfgs` on both backends; closest hits also against brute force.
 fn check_scene(g: &Gpu, name: &str, s: &Scene, size: (u32, u32), bounces: u32, cfgs: &[RshConfig]) {
+    check_scene_with(g, name, s, size, bounces, cfgs, |e| e);
+}
+
+/// [`check_scene`] with the GPU engine as `tune` makes it.
+fn check_scene_with(
+    g: &Gpu,
+    name: &str,
+    s: &Scene,
+    size: (u32, u32),
+    bounces: u32,
+    cfgs: &[RshConfig],
+    tune: impl Fn(GpuRsh) -> GpuRsh,
+) {
     let geo = Geometry::from_scene(s);
     let batches = record_render(s, &geo, size.0, size.1, bounces);
     for cfg in cfgs {
         let cpu = RshEngine::new(&geo, cfg.clone()).unwrap();
-        let dev = GpuRsh::new(g.clone(), &geo, cfg.clone()).unwrap();
+        let dev = tune(GpuRsh::new(g.clone(), &geo, cfg.clone()).unwrap());
         let what = |k: usize| {
             format!(
                 "{name} batch {k}, {:?} {:?} budget {}",
@@ -101,6 +114,51 @@ fn a_small_pair_budget_cuts_the_levels_into_many_steps() {
         let s = builtin::by_name(name).unwrap();
         check_scene(&g, name, &s, (64, 48), 1, &cfgs);
     }
+}
+
+#[test]
+fn device_rounds_in_many_passes_or_overflowing_equal_the_cpu() {
+    // The device's rounds with one or three rounds a pass (many passes: levels left
+    // unfinished and resumed), with buffers of 64 pairs (they overflow, and the host's
+    // steps trace the batch again), and never (the host's steps alone).
+    let Some(g) = gpu() else { return };
+    let cfgs = [crate::common::crsh_dual(), crate::common::rah_dual()];
+    for (rounds, cap) in [(1, None), (3, None), (12, Some(64)), (12, Some(0))] {
+        for name in ["office", "cornell"] {
+            let s = builtin::by_name(name).unwrap();
+            let what = format!("{name}, {rounds} rounds a pass, cap {cap:?}");
+            check_scene_with(&g, &what, &s, (48, 40), 1, &cfgs, |e| {
+                e.with_rounds(rounds, cap)
+            });
+        }
+    }
+}
+
+#[test]
+fn device_rounds_read_back_once_a_trace_where_a_pass_suffices() {
+    // A shadow batch of office: the host's steps read each step's sizes back; the device's
+    // rounds read the trim's count and one state block.
+    let Some(g) = gpu() else { return };
+    let s = builtin::by_name("office").unwrap();
+    let geo = Geometry::from_scene(&s);
+    let batches = record_render(&s, &geo, 64, 48, 0);
+    let (rays, mode, _) = batches
+        .iter()
+        .find(|b| b.0.len() > 0 && b.1 == TraceMode::Any)
+        .expect("a shadow batch");
+    let mut reads = Vec::new();
+    for cap in [None, Some(0)] {
+        let e = GpuRsh::new(g.clone(), &geo, crate::common::rah_dual())
+            .unwrap()
+            .with_rounds(12, cap);
+        let mut h = vec![Hit::MISS; rays.len()];
+        let before = g.read_backs();
+        e.trace(rays, *mode, &mut h, &mut TraceStats::default());
+        reads.push(g.read_backs() - before);
+    }
+    // The trim's count, one pass's state, the records with the counters.
+    assert_eq!(reads[0], 3, "rounds: {reads:?}");
+    assert!(reads[1] > reads[0] + 2, "host steps: {reads:?}");
 }
 
 #[test]
