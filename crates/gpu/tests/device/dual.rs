@@ -144,7 +144,7 @@ fn device_rounds_read_back_once_a_trace_where_a_pass_suffices() {
     let batches = record_render(&s, &geo, 64, 48, 0);
     let (rays, mode, _) = batches
         .iter()
-        .find(|b| b.0.len() > 0 && b.1 == TraceMode::Any)
+        .find(|b| !b.0.is_empty() && b.1 == TraceMode::Any)
         .expect("a shadow batch");
     let mut reads = Vec::new();
     for cap in [None, Some(0)] {
