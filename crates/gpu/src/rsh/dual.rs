@@ -159,7 +159,7 @@ impl GpuDual<'_> {
     }
 
     /// Run the traversal and the final tests, as `rsh`'s `level_by_level`: by the device's
-    /// rounds where they keep its schedule ([`rounds`]), else (or when a round overflows
+    /// rounds where they keep its schedule (`dual/rounds.rs`), else (or when a round overflows
     /// its buffers, after which the trace starts again) by the host's steps. The device's
     /// counts stay in [`GpuDual::counters`] (read them with [`GpuDual::counts`]); the host
     /// steps' peaks go into `c` now.
