@@ -218,6 +218,29 @@ fn gpu_backend_rejects_what_it_does_not_run() {
     );
 }
 
+/// `render office --backend gpu` with `args` into `d` as `tag`: (the table it prints, its
+/// stats JSON, the PNG's bytes), or `None` where no GPU is there (said: `SKIPPED`).
+fn gpu_render(d: &std::path::Path, tag: &str, args: &str) -> Option<(String, String, Vec<u8>)> {
+    let (png, json) = (d.join(format!("{tag}.png")), d.join(format!("{tag}.json")));
+    let out = bin()
+        .args(words(&format!(
+            "render office --backend gpu {args} --out {} --stats {}",
+            png.display(),
+            json.display()
+        )))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() && (err.contains("no GPU") || err.contains("lacks")) {
+        testkit::skip("gpu", &err);
+        return None;
+    }
+    assert!(out.status.success(), "{err}");
+    let table = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stats = std::fs::read_to_string(&json).unwrap();
+    Some((table, stats, std::fs::read(&png).unwrap()))
+}
+
 /// CRSH on the GPU walks the object tree built on the device: the stats say so (its build a
 /// pass, its ray-box tests counted), and the image is the thesis configuration's.
 #[test]
@@ -228,30 +251,17 @@ fn gpu_crsh_walks_the_object_tree() {
         .into_iter()
         .enumerate()
     {
-        let (png, json) = (d.join(format!("g{k}.png")), d.join(format!("g{k}.json")));
-        let out = bin()
-            .args(words(&format!(
-                "render office --backend gpu --engine crsh --width 40 --height 30 {extra} --out {} --stats {}",
-                png.display(),
-                json.display()
-            )))
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        if !out.status.success() && (err.contains("no GPU") || err.contains("lacks")) {
-            testkit::skip("gpu", &err);
+        let args = format!("--engine crsh --width 40 --height 30 {extra}");
+        let Some((table, stats, png)) = gpu_render(&d, &format!("g{k}"), &args) else {
             return;
-        }
-        assert!(out.status.success(), "{err}");
-        let table = String::from_utf8_lossy(&out.stdout);
-        let stats = std::fs::read_to_string(&json).unwrap();
+        };
         assert_eq!(table.contains("build: object hierarchy"), k == 0, "{table}");
         let v: serde_json::Value = serde_json::from_str(&stats).unwrap();
         let side = if k == 0 { "bvh" } else { "mesh-spheres" };
         assert_eq!(v["object_hierarchy"], side, "{stats}");
         assert_eq!(stats.contains("ray-box tests"), k == 0, "{stats}");
         assert!(stats.contains("gpu_dispatches"), "{stats}");
-        images.push(std::fs::read(&png).unwrap());
+        images.push(png);
     }
     assert_eq!(
         images[0], images[1],
@@ -271,22 +281,10 @@ fn gpu_rah_descends_the_object_tree_with_its_bundles() {
         .into_iter()
         .enumerate()
     {
-        let (png, json) = (d.join(format!("r{k}.png")), d.join(format!("r{k}.json")));
-        let out = bin()
-            .args(words(&format!(
-                "render office --backend gpu --engine rah --width 40 --height 30 --bounces 2 {extra} --out {} --stats {}",
-                png.display(),
-                json.display()
-            )))
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        if !out.status.success() && (err.contains("no GPU") || err.contains("lacks")) {
-            testkit::skip("gpu", &err);
+        let args = format!("--engine rah --width 40 --height 30 --bounces 2 {extra}");
+        let Some((_, stats, png)) = gpu_render(&d, &format!("r{k}"), &args) else {
             return;
-        }
-        assert!(out.status.success(), "{err}");
-        let stats = std::fs::read_to_string(&json).unwrap();
+        };
         let v: serde_json::Value = serde_json::from_str(&stats).unwrap();
         let side = if k == 0 { "bvh" } else { "mesh-spheres" };
         assert_eq!(v["object_hierarchy"], side, "{stats}");
@@ -296,7 +294,7 @@ fn gpu_rah_descends_the_object_tree_with_its_bundles() {
             assert!(c["object-node tests"].as_u64().unwrap() > 0, "{stats}");
             assert_eq!(c["gpu stack overflows"].as_u64(), Some(0), "{stats}");
         }
-        runs.push((std::fs::read(&png).unwrap(), v));
+        runs.push((png, v));
     }
     assert_eq!(
         runs[0].0, runs[1].0,

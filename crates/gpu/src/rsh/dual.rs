@@ -21,7 +21,7 @@ use super::objects::DeviceTree;
 use crate::kernels::params::{
     DualBeamParams, DualPairParams, DualWalkParams, FinalTestsParams, PermuteParams,
 };
-use crate::kernels::{launch, Exec};
+use crate::kernels::{launch, Exec, Threads};
 use crate::rays::DeviceRays;
 use ::rsh::dual::{ANY_HIT_SIZE_RATIO, SMALL_SUBTREE};
 use ::rsh::objects::LEAF;
@@ -212,12 +212,12 @@ impl GpuDual<'_> {
             c.peak_pair_bytes = c.peak_pair_bytes.max(8 * held);
             let (rn, on, n) = stacks[l].take(ex, chunk);
             if l == 0 {
-                self.ray_step(ex, rn, on, n);
+                self.ray_step(ex, &(rn, on), n);
                 continue;
             }
-            let (out, [f, below, here]) = self.node_step(ex, &beams, l - 1, (&rn, &on), n);
-            stacks[l].push(ex, (&out.0, &out.1), f + below, here);
-            stacks[l - 1].push(ex, (&out.0, &out.1), f, below);
+            let (below, here, [nb, nh]) = self.node_step(ex, &beams, l, &(rn, on), n);
+            stacks[l].push(ex, (&here.0, &here.1), 0, nh);
+            stacks[l - 1].push(ex, (&below.0, &below.1), 0, nb);
         }
     }
 
@@ -293,22 +293,12 @@ impl GpuDual<'_> {
         out
     }
 
-    /// Test `n` pairs of ray level index `li` and emit what the survivors make: returns
-    /// the three streams in one pair of buffers (final tests, pairs one ray level down,
-    /// pairs of collapsed nodes' children) and their sizes; the final tests are run.
-    fn node_step(
-        &self,
-        ex: &mut Exec,
-        beams: &[wgpu::Buffer],
-        li: usize,
-        pairs: (&wgpu::Buffer, &wgpu::Buffer),
-        n: u64,
-    ) -> ((wgpu::Buffer, wgpu::Buffer), [u64; 3]) {
-        let g = ex.g;
-        let lv = &self.levels[li];
-        let t = self.tree;
-        let prm = DualPairParams {
-            pairs: n as u32,
+    /// The launch parameters of a step at ray level `l` (0: the single rays): counts in
+    /// `stride` slots per stream, outputs of at most `room` pairs.
+    fn pair_params(&self, stride: u64, l: usize, room: u32, pad: u32) -> DualPairParams {
+        let li = l.saturating_sub(1);
+        DualPairParams {
+            stride: stride as u32,
             level: li as u32,
             exact: (self.eng.cfg.node_test == NodeTest::Exact) as u32,
             descent: match self.eng.cfg.descent {
@@ -318,95 +308,123 @@ impl GpuDual<'_> {
             },
             counters: 16 * li as u32,
             objects: self.tail() + 8,
-        };
-        let act = g.storage("dual actions", n * 4);
-        let counts = g.storage("dual stream counts", 3 * n * 4);
+            room,
+            pad,
+            stage: l as u32,
+        }
+    }
+
+    /// The test and count of a step at ray level `l ≥ 1` over `pairs` (their count in
+    /// `state`): actions into `s.act`, the streams' counts into `s.counts`.
+    #[allow(clippy::too_many_arguments)]
+    fn classify(
+        &self,
+        ex: &mut Exec,
+        beams: &[wgpu::Buffer],
+        l: usize,
+        pairs: &Region,
+        state: &wgpu::Buffer,
+        s: &Scratch,
+        prm: DualPairParams,
+    ) {
+        let (lv, t) = (&self.levels[l - 1], self.tree);
         ex.run(
             launch::DualClassify {
                 n_sphere: &lv.sphere,
                 n_cone: &lv.cone,
                 n_sc: &lv.sc,
                 n_first: &lv.first,
-                b_beam: &beams[li],
+                b_beam: &beams[l - 1],
                 t_child: &t.child,
                 t_node: &t.node,
                 t_leaf: &t.leaf,
                 t_range: &t.range,
-                p_ray: pairs.0,
-                p_obj: pairs.1,
-                p_act: &act,
-                p_cnt: &counts,
+                p_ray: &pairs.0,
+                p_obj: &pairs.1,
+                p_act: &s.act,
+                p_cnt: &s.counts,
                 cnt: self.counters,
+                r_state: state,
             },
             prm,
-            n,
+            prm.stride as u64,
             256,
         );
-        let offs = g.storage("dual stream offsets", (3 * n + 1) * 4);
-        ex.scan(&counts, &offs, 3 * n);
-        drop(counts);
-        let ends = read_words(ex, &offs, &[n, 2 * n, 3 * n]);
-        let (f, b, total) = (ends[0] as u64, ends[1] as u64, ends[2] as u64);
-        let out = (
-            g.storage("dual pairs: ray nodes", total * 4),
-            g.storage("dual pairs: object nodes", total * 4),
-        );
-        if total > 0 {
-            ex.run(
-                launch::DualEmit {
-                    n_first: &lv.first,
-                    t_child: &t.child,
-                    t_node: &t.node,
-                    t_range: &t.range,
-                    t_order: &t.order,
-                    p_ray: pairs.0,
-                    p_obj: pairs.1,
-                    p_act: &act,
-                    p_cnt: &offs,
-                    o_ray: &out.0,
-                    o_obj: &out.1,
-                },
-                prm,
-                n,
-                256,
-            );
-        }
-        if f > 0 {
-            // (level-1 node, triangle) pairs: the final tests (thesis §3.2.9), `final.wgsl`.
-            ex.phase(Phase::FinalTests);
-            let l1 = &self.levels[0];
-            ex.run(
-                launch::FinalTests {
-                    f_node: &out.0,
-                    f_tri: &out.1,
-                    f_first: &l1.first,
-                    f_sc: &l1.sc,
-                    f_leaf: self.leaves,
-                    f_org: &self.rays.org,
-                    f_dir: &self.rays.dir,
-                    f_pre: &self.rays.pre,
-                    f_tris: &self.eng.tris,
-                    f_best: self.best,
-                    f_cnt: self.counters,
-                },
-                FinalTestsParams {
-                    pairs: f as u32,
-                    counters: self.tail(),
-                },
-                f,
-                256,
-            );
-            ex.phase(Phase::Traversal);
-        }
-        (out, [f, b - f, total - b])
     }
 
-    /// Single rays (leaf positions) against object nodes: the pairs sorted by ray, then
-    /// each ray's run walked by one thread (`Traversal::ray_step`); nothing is read back.
-    fn ray_step(&self, ex: &mut Exec, pos: wgpu::Buffer, obj: wgpu::Buffer, n: u64) {
+    /// The emission of a step at ray level `l ≥ 1` over `pairs` (their count in `state`),
+    /// at the offsets `s.offs`: (final tests, pairs one level down appended after the
+    /// state's count, the collapsed nodes' children) into `out`.
+    #[allow(clippy::too_many_arguments)]
+    fn emit(
+        &self,
+        ex: &mut Exec,
+        l: usize,
+        pairs: &Region,
+        state: &wgpu::Buffer,
+        s: &Scratch,
+        out: (&Region, &Region, &Region),
+        prm: DualPairParams,
+    ) {
+        let (lv, t) = (&self.levels[l - 1], self.tree);
+        let (fin, below, here) = out;
+        ex.run(
+            launch::DualEmit {
+                n_first: &lv.first,
+                t_child: &t.child,
+                t_node: &t.node,
+                t_range: &t.range,
+                t_order: &t.order,
+                p_ray: &pairs.0,
+                p_obj: &pairs.1,
+                p_act: &s.act,
+                p_cnt: &s.offs,
+                o_ray: &here.0,
+                o_obj: &here.1,
+                r_state: state,
+                r_below_ray: &below.0,
+                r_below_obj: &below.1,
+                r_fin_ray: &fin.0,
+                r_fin_obj: &fin.1,
+            },
+            prm,
+            prm.stride as u64,
+            256,
+        );
+    }
+
+    /// The final tests (thesis §3.2.9, `final.wgsl`) of the (level-1 node, triangle) pairs
+    /// `fin`, over `threads` (their count `pairs`, or a count on the device).
+    fn final_tests(&self, ex: &mut Exec, fin: &Region, pairs: u64, threads: Threads) {
         ex.phase(Phase::FinalTests);
-        let bits = (32 - (self.m as u32).leading_zeros()).max(1);
-        ex.sort_pairs_all(&pos, &obj, n, bits);
+        let l1 = &self.levels[0];
+        ex.run_on(
+            launch::FinalTests {
+                f_node: &fin.0,
+                f_tri: &fin.1,
+                f_first: &l1.first,
+                f_sc: &l1.sc,
+                f_leaf: self.leaves,
+                f_org: &self.rays.org,
+                f_dir: &self.rays.dir,
+                f_pre: &self.rays.pre,
+                f_tris: &self.eng.tris,
+                f_best: self.best,
+                f_cnt: self.counters,
+            },
+            FinalTestsParams {
+                pairs: pairs as u32,
+                counters: self.tail(),
+            },
+            threads,
+            256,
+        );
+        ex.phase(Phase::Traversal);
+    }
+
+    /// The single rays' walks over `pairs` sorted by ray (their count in `state`), `bound`
+    /// threads: each ray's run walked by the thread at its head (`Traversal::ray_step`).
+    fn walks(&self, ex: &mut Exec, state: &wgpu::Buffer, pairs: &Region, bound: u64) {
         let t = self.tail();
         ex.run(
             launch::DualWalk {
@@ -418,20 +436,92 @@ impl GpuDual<'_> {
                 t_child: &self.tree.child,
                 t_cbox: &self.tree.child_box,
                 d_tris: &self.eng.tris,
-                w_key: &pos,
-                p_obj: &obj,
+                w_key: &pairs.0,
+                p_obj: &pairs.1,
                 d_best: self.best,
                 cnt: self.counters,
+                r_state: state,
             },
             DualWalkParams {
-                pairs: n as u32,
+                pairs: bound as u32,
                 any: self.any as u32,
                 finals: t,
                 boxes: t + 10,
             },
-            n,
+            bound,
             64,
         );
+    }
+
+    /// The host's step of `n` pairs at ray level `l ≥ 1`: test, count, scan, read the three
+    /// streams' sizes back, emit; runs the final tests and returns (the pairs one level
+    /// down, the collapsed nodes' children) with their sizes.
+    fn node_step(
+        &self,
+        ex: &mut Exec,
+        beams: &[wgpu::Buffer],
+        l: usize,
+        pairs: &Region,
+        n: u64,
+    ) -> (Region, Region, [u64; 2]) {
+        let g = ex.g;
+        let state = g.upload("dual step state", &step_state(n, l));
+        let prm = self.pair_params(n, l, u32::MAX, 0);
+        let s = Scratch {
+            act: g.storage("dual actions", n * 4),
+            counts: g.storage("dual stream counts", 3 * n * 4),
+            offs: g.storage("dual stream offsets", (3 * n + 1) * 4),
+        };
+        self.classify(ex, beams, l, pairs, &state, &s, prm);
+        ex.scan(&s.counts, &s.offs, 3 * n);
+        let ends = read_words(ex, &s.offs, &[n, 2 * n, 3 * n]);
+        let (f, b, h) = (
+            ends[0] as u64,
+            (ends[1] - ends[0]) as u64,
+            (ends[2] - ends[1]) as u64,
+        );
+        let fin = region(ex, "dual final tests", f);
+        let below = region(ex, "dual pairs one level down", b);
+        let here = region(ex, "dual pairs of collapsed nodes' children", h);
+        if f + b + h > 0 {
+            self.emit(ex, l, pairs, &state, &s, (&fin, &below, &here), prm);
+        }
+        if f > 0 {
+            self.final_tests(ex, &fin, f, Threads::Host(f));
+        }
+        (below, here, [b, h])
+    }
+
+    /// The host's step of `n` single rays' pairs (leaf positions): sorted by ray, then
+    /// walked; nothing is read back.
+    fn ray_step(&self, ex: &mut Exec, pairs: &Region, n: u64) {
+        ex.phase(Phase::FinalTests);
+        let bits = (32 - (self.m as u32).leading_zeros()).max(1);
+        ex.sort_pairs_all(&pairs.0, &pairs.1, n, bits);
+        let state = ex.g.upload("dual step state", &step_state(n, 0));
+        self.walks(ex, &state, pairs, n);
         ex.phase(Phase::Traversal);
     }
+}
+
+/// The state of one host step of `n` pairs at ray level `l` (`dual_rounds.wgsl`'s layout).
+fn step_state(n: u64, l: usize) -> [u32; 7] {
+    [0, n as u32, 0, 0, 0, l as u32, 0]
+}
+
+/// A buffer pair of `len` (ray node, object node) pairs.
+type Region = (wgpu::Buffer, wgpu::Buffer);
+
+fn region(ex: &Exec, what: &str, len: u64) -> Region {
+    (
+        ex.g.storage(&format!("{what}: ray nodes"), len * 4),
+        ex.g.storage(&format!("{what}: object nodes"), len * 4),
+    )
+}
+
+/// A step's scratch: actions, stream counts and their offsets.
+struct Scratch {
+    act: wgpu::Buffer,
+    counts: wgpu::Buffer,
+    offs: wgpu::Buffer,
 }

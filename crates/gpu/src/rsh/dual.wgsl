@@ -1,8 +1,9 @@
 // The dual traversal on the device, level by level: the twin of crates/rsh/src/dual (mod.rs's
 // ray nodes, beam test, pair classification and single-ray walk; breadth.rs's steps), for
-// `--object-hierarchy bvh --ray-path bundles --schedule breadth`. The host (dual.rs) keeps
-// the CPU's schedule of steps; each step here is test → count → scan → emit over one chunk of
-// (ray node, object node) pairs, or the single rays' walks over their sorted pairs.
+// `--object-hierarchy bvh --ray-path bundles --schedule breadth`. Each step is test → count
+// → scan → emit over one chunk of (ray node, object node) pairs, or the single rays' walks
+// over their sorted pairs; a step's count is in a state on the device, which the host writes
+// where it takes the CPU's steps itself (dual.rs) and the rounds keep (dual_rounds.wgsl).
 //
 // Every float operation is the CPU's, in its order: products that feed a sum go through mul()
 // and sums through keep() (common.wgsl), 1/d is correctly rounded (div), and min/max that may
@@ -16,8 +17,10 @@
 // 12 tree children, 13 tree node bounds (sphere, grown min, grown max), 14 tree leaf bounds,
 // 15 tree ranges, 16 tree leaf order, 17 tree children's boxes, 18 triangles (3 × vec4),
 // 19 pairs: ray node, 20 pairs: object node, 21 actions, 22 counts (3 streams) or their
-// scanned offsets, 23 out: ray node, 24 out: object node, 25 the walks' pairs' leaf
-// positions (sorted), 28 best hits (u64: t bits << 32 | triangle), 29 counters.
+// scanned offsets, 23/24 out: the collapsed nodes' children (ray node, object node), 25 the
+// walks' pairs' leaf positions (sorted), 28 best hits (u64: t bits << 32 | triangle),
+// 29 counters, 30 the state (dual_rounds.wgsl), 31/32 out: the pairs one ray level down,
+// appended to its stack, 33/34 out: the final tests (level-1 node, triangle).
 
 // Parameters of dual_beams_leaf and dual_beams_upper.
 struct DualBeamParams {
@@ -26,19 +29,22 @@ struct DualBeamParams {
     diag: f32, // the scene's diagonal: the longest ray the reach counts
 }
 
-// Parameters of dual_classify and dual_emit.
+// Parameters of dual_classify, dual_emit and (dual_rounds.wgsl) the rounds' kernels.
 struct DualPairParams {
-    pairs: u32, // pairs of the step
+    stride: u32, // slots per stream of the step's counts (its pairs' bound)
     level: u32, // the ray nodes' level index (0: level 1)
     exact: u32, // 1: the exact cone test (rsh::NodeTest::Exact), 0: the thesis's
     descent: u32, // 0: size, 1: object first, 2: ray first (rsh::dual::Descent)
     counters: u32, // the level's first counter word (tests, then passes, per kind)
     objects: u32, // the word of the tests against inner object nodes
+    room: u32, // pairs each output buffer holds (the rounds' overflow; the host's steps: all)
+    pad: u32, // dual_round_pad: the key past the last leaf position
+    stage: u32, // the ray level the kernel serves (level index + 1; 0: single rays)
 }
 
 // Parameters of dual_walk.
 struct DualWalkParams {
-    pairs: u32, // the sorted pairs (each ray's run walked by the thread at its head)
+    pairs: u32, // threads launched (the pairs' bound; their count is the state's)
     any: u32, // 1: any hit (a ray that hit stops)
     finals: u32, // the first word of the final tests per kind
     boxes: u32, // the word of the slab tests (their passes 2 words on, overflows 4 on)
@@ -71,6 +77,19 @@ struct DualWalkParams {
 @group(0) @binding(25) var<storage, read> w_key: array<u32>;
 @group(0) @binding(28) var<storage, read_write> d_best: array<atomic<u64>>;
 @group(0) @binding(29) var<storage, read_write> cnt: array<atomic<u32>>;
+@group(0) @binding(30) var<storage, read_write> r_state: array<atomic<u32>>;
+@group(0) @binding(31) var<storage, read_write> r_below_ray: array<u32>;
+@group(0) @binding(32) var<storage, read_write> r_below_obj: array<u32>;
+@group(0) @binding(33) var<storage, read_write> r_fin_ray: array<u32>;
+@group(0) @binding(34) var<storage, read_write> r_fin_obj: array<u32>;
+
+const R_FLAG: u32 = 0u;
+const R_PAIRS: u32 = 1u;
+const R_BELOW: u32 = 2u;
+const R_PEAK: u32 = 3u;
+const R_FINALS: u32 = 4u;
+const R_LEVEL: u32 = 5u;
+const R_WALKED: u32 = 6u;
 
 const LEAF: u32 = 0x80000000u;
 // What a tested pair becomes (rsh::dual's DROP, FINAL, RAY, OBJECT).
@@ -142,19 +161,15 @@ fn flush_one(i: u32, at: u32) {
 
 // ------------------------------------------------------------------ ray nodes (mod.rs)
 
-// Node n's beam and reach (RayNode): `lo`/`hi` the beam's origin box, `ilo`/`ihi` its
-// reciprocal directions' box, t range [tn, tf]; the reach as `Traversal::ray_nodes`.
-fn write_beam(n: u32, lo: vec3<f32>, hi: vec3<f32>, ilo: vec3<f32>, ihi: vec3<f32>, tn: f32, tf: f32) {
-    let p = dual_beam_params();
-    var reach = inf();
-    if n_cone[n].w < C_FRAC_PI_2 {
-        let sc = n_sc[n];
-        reach = mul(keep(n_sphere[n].w + mul(rmin(sc.z, p.diag), sc.x)), p.scale);
-    }
-    b_beam[4u * n] = vec4<f32>(lo, tn);
-    b_beam[4u * n + 1u] = vec4<f32>(hi, tf);
-    b_beam[4u * n + 2u] = vec4<f32>(ilo, reach);
-    b_beam[4u * n + 3u] = vec4<f32>(ihi, 0.0);
+// A beam (RayNode's beam part): the origins' box [lo, hi], the reciprocal directions' box
+// [ilo, ihi], the smallest t_min and the largest t_max.
+struct Beam {
+    lo: vec3<f32>,
+    hi: vec3<f32>,
+    ilo: vec3<f32>,
+    ihi: vec3<f32>,
+    tn: f32,
+    tf: f32,
 }
 
 fn vmin(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
@@ -165,6 +180,29 @@ fn vmax(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(rmax(a.x, b.x), rmax(a.y, b.y), rmax(a.z, b.z));
 }
 
+// beam_union of `b` and `x`, from beam_union's empty start (beam_none).
+fn beam_add(b: Beam, x: Beam) -> Beam {
+    return Beam(vmin(b.lo, x.lo), vmax(b.hi, x.hi), vmin(b.ilo, x.ilo), vmax(b.ihi, x.ihi), rmin(b.tn, x.tn), rmax(b.tf, x.tf));
+}
+
+fn beam_none() -> Beam {
+    return Beam(vec3<f32>(inf()), vec3<f32>(-inf()), vec3<f32>(inf()), vec3<f32>(-inf()), inf(), 0.0);
+}
+
+// Node n's beam and its reach (RayNode; the reach as `Traversal::ray_nodes`).
+fn write_beam(n: u32, b: Beam) {
+    let p = dual_beam_params();
+    var reach = inf();
+    if n_cone[n].w < C_FRAC_PI_2 {
+        let sc = n_sc[n];
+        reach = mul(keep(n_sphere[n].w + mul(rmin(sc.z, p.diag), sc.x)), p.scale);
+    }
+    b_beam[4u * n] = vec4<f32>(b.lo, b.tn);
+    b_beam[4u * n + 1u] = vec4<f32>(b.hi, b.tf);
+    b_beam[4u * n + 2u] = vec4<f32>(b.ilo, reach);
+    b_beam[4u * n + 3u] = vec4<f32>(b.ihi, 0.0);
+}
+
 // Level 1's beams, from their rays (beam_union over origins, 1/d, t ranges).
 @compute @workgroup_size(64)
 fn dual_beams_leaf(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -172,25 +210,15 @@ fn dual_beams_leaf(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_w
     if n >= dual_beam_params().nodes {
         return;
     }
-    var lo = vec3<f32>(inf());
-    var hi = vec3<f32>(-inf());
-    var ilo = vec3<f32>(inf());
-    var ihi = vec3<f32>(-inf());
-    var tn = inf();
-    var tf = 0.0;
+    var b = beam_none();
     for (var c = n_first[n]; c < n_first[n + 1u]; c++) {
         let r = d_leaf[c];
         let o = d_org[r];
         let d = d_dir[r];
         let i = vec3<f32>(div(1.0, d.x), div(1.0, d.y), div(1.0, d.z));
-        lo = vmin(lo, o.xyz);
-        hi = vmax(hi, o.xyz);
-        ilo = vmin(ilo, i);
-        ihi = vmax(ihi, i);
-        tn = rmin(tn, o.w);
-        tf = rmax(tf, d.w);
+        b = beam_add(b, Beam(o.xyz, o.xyz, i, i, o.w, d.w));
     }
-    write_beam(n, lo, hi, ilo, ihi, tn, tf);
+    write_beam(n, b);
 }
 
 // The beams of a level above 1, from their children's.
@@ -200,23 +228,14 @@ fn dual_beams_upper(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     if n >= dual_beam_params().nodes {
         return;
     }
-    var lo = vec3<f32>(inf());
-    var hi = vec3<f32>(-inf());
-    var ilo = vec3<f32>(inf());
-    var ihi = vec3<f32>(-inf());
-    var tn = inf();
-    var tf = 0.0;
+    var b = beam_none();
     for (var c = n_first[n]; c < n_first[n + 1u]; c++) {
         let b0 = b_below[4u * c];
         let b1 = b_below[4u * c + 1u];
-        lo = vmin(lo, b0.xyz);
-        hi = vmax(hi, b1.xyz);
-        ilo = vmin(ilo, b_below[4u * c + 2u].xyz);
-        ihi = vmax(ihi, b_below[4u * c + 3u].xyz);
-        tn = rmin(tn, b0.w);
-        tf = rmax(tf, b1.w);
+        let x = Beam(b0.xyz, b1.xyz, b_below[4u * c + 2u].xyz, b_below[4u * c + 3u].xyz, b0.w, b1.w);
+        b = beam_add(b, x);
     }
-    write_beam(n, lo, hi, ilo, ihi, tn, tf);
+    write_beam(n, b);
 }
 
 // RayNode::beam_test: whether some ray of node n may meet box [bmin, bmax] (interval
@@ -371,43 +390,56 @@ fn classify(p: DualPairParams, n: u32, o: u32) -> u32 {
     return RAY;
 }
 
-// Test each pair, count the tests and passes per ray kind (and the tests of inner object
-// nodes), and count what each survivor makes in the three streams: final tests, pairs one
-// ray level down, pairs of the collapsed node's children (p_cnt: stream s at s · pairs).
+// The pairs of ray level `stage` this round takes: none unless the state is at that level.
+fn round_pairs(stage: u32) -> u32 {
+    if atomicLoad(&r_state[R_FLAG]) != 0u || atomicLoad(&r_state[R_LEVEL]) != stage {
+        return 0u;
+    }
+    return atomicLoad(&r_state[R_PAIRS]);
+}
+
+// Test each pair of the step (its count in the state), count the tests and passes per ray
+// kind (and the tests of inner object nodes), and count what each survivor makes in the
+// three streams: final tests, pairs one ray level down, pairs of the collapsed node's
+// children (p_cnt: stream s at s · stride; the slots past the count are zero, so a scan
+// over 3 · stride gives each stream's offsets).
 @compute @workgroup_size(256)
 fn dual_classify(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
     wcnt_reset(li);
     let p = dual_pair_params();
+    let n = round_pairs(p.stage);
     let i = gid.x + gid.y * nwg.x * 256u;
-    if i < p.pairs {
-        let n = p_ray[i];
-        let o = p_obj[i];
-        let act = classify(p, n, o);
-        let k = bitcast<u32>(n_sc[n].w) & 3u;
-        atomicAdd(&wcnt[k], 1u);
-        if act != DROP {
-            atomicAdd(&wcnt[4u + k], 1u);
-        }
-        if (o & LEAF) == 0u {
-            atomicAdd(&wcnt[8u], 1u);
-        }
-        p_act[i] = act;
+    if i < p.stride {
         var c = vec3<u32>(0u);
-        if act == FINAL {
-            c.x = 1u;
-        } else if act == RAY {
-            if p.level == 0u && small(o) {
-                let r = t_range[o];
-                c.x = r.y - r.x + 1u;
-            } else {
-                c.y = n_first[n + 1u] - n_first[n];
+        if i < n {
+            let nd = p_ray[i];
+            let o = p_obj[i];
+            let act = classify(p, nd, o);
+            let k = bitcast<u32>(n_sc[nd].w) & 3u;
+            atomicAdd(&wcnt[k], 1u);
+            if act != DROP {
+                atomicAdd(&wcnt[4u + k], 1u);
             }
-        } else if act == OBJECT {
-            c.z = frontier(o).n;
+            if (o & LEAF) == 0u {
+                atomicAdd(&wcnt[8u], 1u);
+            }
+            p_act[i] = act;
+            if act == FINAL {
+                c.x = 1u;
+            } else if act == RAY {
+                if p.level == 0u && small(o) {
+                    let rg = t_range[o];
+                    c.x = rg.y - rg.x + 1u;
+                } else {
+                    c.y = n_first[nd + 1u] - n_first[nd];
+                }
+            } else if act == OBJECT {
+                c.z = frontier(o).n;
+            }
         }
         p_cnt[i] = c.x;
-        p_cnt[p.pairs + i] = c.y;
-        p_cnt[2u * p.pairs + i] = c.z;
+        p_cnt[p.stride + i] = c.y;
+        p_cnt[2u * p.stride + i] = c.z;
     }
     workgroupBarrier();
     if li < 4u {
@@ -418,44 +450,62 @@ fn dual_classify(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_i
     }
 }
 
-// Write what each survivor makes at its scanned offsets (p_cnt holds them here): the three
-// streams one after the other, each in pair order, as par::emit_streams.
+// Put one pair at slot `at` of stream `which`'s buffer of `room` pairs (past it: a round
+// overflows, and dual_round_update says so).
+fn put(which: u32, at: u32, room: u32, nd: u32, o: u32) {
+    if at >= room {
+        return;
+    }
+    if which == 0u {
+        r_fin_ray[at] = nd;
+        r_fin_obj[at] = o;
+    } else if which == 1u {
+        r_below_ray[at] = nd;
+        r_below_obj[at] = o;
+    } else {
+        o_ray[at] = nd;
+        o_obj[at] = o;
+    }
+}
+
+// Write what each survivor makes at its scanned offsets (p_cnt holds them here), each stream
+// in pair order as par::emit_streams: the final tests from slot 0 of their buffer, the pairs
+// one level down appended to that level's stack (after the state's count), the collapsed
+// nodes' children from slot 0 of the next step's input.
 @compute @workgroup_size(256)
 fn dual_emit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let p = dual_pair_params();
     let i = gid.x + gid.y * nwg.x * 256u;
-    if i >= p.pairs {
+    if i >= round_pairs(p.stage) {
         return;
     }
     let act = p_act[i];
-    let n = p_ray[i];
+    let nd = p_ray[i];
     let o = p_obj[i];
+    let f = p_cnt[p.stride];
+    let fb = p_cnt[2u * p.stride];
+    let below = atomicLoad(&r_state[R_BELOW]);
     if act == FINAL {
-        let at = p_cnt[i];
-        o_ray[at] = n;
-        o_obj[at] = o & ~LEAF;
+        put(0u, p_cnt[i], p.room, nd, o & ~LEAF);
     } else if act == RAY {
         if p.level == 0u && small(o) {
             let at = p_cnt[i];
-            let r = t_range[o];
-            for (var j = r.x; j <= r.y; j++) {
-                o_ray[at + j - r.x] = n;
-                o_obj[at + j - r.x] = t_order[j];
+            let rg = t_range[o];
+            for (var j = rg.x; j <= rg.y; j++) {
+                put(0u, at + j - rg.x, p.room, nd, t_order[j]);
             }
         } else {
-            var at = p_cnt[p.pairs + i];
-            for (var c = n_first[n]; c < n_first[n + 1u]; c++) {
-                o_ray[at] = c;
-                o_obj[at] = o;
+            var at = below + p_cnt[p.stride + i] - f;
+            for (var c = n_first[nd]; c < n_first[nd + 1u]; c++) {
+                put(1u, at, p.room, c, o);
                 at++;
             }
         }
     } else if act == OBJECT {
-        let f = frontier(o);
-        let at = p_cnt[2u * p.pairs + i];
-        for (var j = 0u; j < f.n; j++) {
-            o_ray[at + j] = n;
-            o_obj[at + j] = f.f[j];
+        let fr = frontier(o);
+        let at = p_cnt[2u * p.stride + i] - fb;
+        for (var j = 0u; j < fr.n; j++) {
+            put(2u, at + j, p.room, nd, fr.f[j]);
         }
     }
 }
@@ -489,11 +539,12 @@ fn miss64() -> u64 {
 // the run: Traversal::walk_ray over the run's object nodes in order, each subtree depth
 // first, nearer child first; the ray's best hit of the steps before this one caps the slabs,
 // and with any hit it stops at its first. (Heads found in place: no run count to read.)
+// The pairs' count is the state's (the host's steps write it; the rounds leave it there).
 @compute @workgroup_size(64)
 fn dual_walk(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) nwg: vec3<u32>) {
     wcnt_reset(li);
     let p = dual_walk_params();
-    walk_slot(gid.x + gid.y * nwg.x * 64u, p.pairs, p.any != 0u);
+    walk_slot(gid.x + gid.y * nwg.x * 64u, round_pairs(0u), p.any != 0u);
     flush_walk(li, p);
 }
 

@@ -37,6 +37,18 @@ pub fn rah_dual() -> RshConfig {
     }
 }
 
+/// Dabrovic Sponza from the shared scenes, or `None` (said: `SKIPPED`, or a failure where
+/// the scenes are required) when they are absent.
+pub fn sponza() -> Option<scene::Scene> {
+    let dir = testkit::scenes()?;
+    let path = dir.join("dabrovic-sponza/sponza.obj");
+    if !path.exists() {
+        testkit::skip("scenes", format!("{} not present", path.display()));
+        return None;
+    }
+    Some(scene::load(path.to_str().unwrap(), &Default::default()).unwrap())
+}
+
 /// A binding just large enough for `cpu`'s grid over `geo`: its largest array (references,
 /// cell records, voxel map, triangles), to the next power of two.
 pub fn tight_binding(cpu: &GridEngine, geo: &Geometry) -> u64 {

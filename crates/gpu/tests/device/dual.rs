@@ -163,14 +163,10 @@ fn device_rounds_read_back_once_a_trace_where_a_pass_suffices() {
 
 #[test]
 fn dual_traversal_matches_the_cpu_on_sponza() {
-    let Some(dir) = testkit::scenes() else { return };
-    let Some(g) = gpu() else { return };
-    let path = dir.join("dabrovic-sponza/sponza.obj");
-    if !path.exists() {
-        testkit::skip("scenes", format!("{} not present", path.display()));
+    let Some(s) = crate::common::sponza() else {
         return;
-    }
-    let s = scene::load(path.to_str().unwrap(), &Default::default()).unwrap();
+    };
+    let Some(g) = gpu() else { return };
     let cfgs = [crate::common::crsh_dual(), crate::common::rah_dual()];
     check_scene(&g, "sponza", &s, (64, 48), 1, &cfgs);
 }

@@ -80,14 +80,10 @@ fn overflowing_walks_are_finished_by_the_second_pass() {
 
 #[test]
 fn single_rays_match_the_cpu_on_sponza() {
-    let Some(dir) = testkit::scenes() else { return };
-    let Some(g) = gpu() else { return };
-    let path = dir.join("dabrovic-sponza/sponza.obj");
-    if !path.exists() {
-        testkit::skip("scenes", format!("{} not present", path.display()));
+    let Some(s) = crate::common::sponza() else {
         return;
-    }
-    let s = scene::load(path.to_str().unwrap(), &Default::default()).unwrap();
+    };
+    let Some(g) = gpu() else { return };
     let geo = Geometry::from_scene(&s);
     let batches = record_render(&s, &geo, 64, 48, 1);
     let cpu = RshEngine::new(&geo, crate::common::crsh_single()).unwrap();

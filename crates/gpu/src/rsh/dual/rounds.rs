@@ -13,34 +13,14 @@
 //! would pass it flags the trace, which the host then traces again with its own steps
 //! ([`GpuDual::run`] resets the best hits and the counters).
 
-use super::GpuDual;
-use crate::kernels::params::{DualRoundParams, DualWalkParams, FinalTestsParams};
+use super::{region, GpuDual, Region, Scratch};
 use crate::kernels::{launch, DevLen, Exec, Threads};
 use ::rsh::objects::LEAF;
-use ::rsh::{Descent, NodeTest};
 use trace::Phase;
 
 /// Rounds per level of one pass (Sponza's 512² shadow rays take 10–11 at each of their two
 /// levels; office's 3-bounce batches 2–6).
 pub const ROUNDS: usize = 12;
-
-/// A buffer pair of `cap` (ray node, object node) pairs.
-type Region = (wgpu::Buffer, wgpu::Buffer);
-
-fn region(ex: &Exec, what: &str, cap: u64) -> Region {
-    (
-        ex.g.storage(&format!("{what}: ray nodes"), cap * 4),
-        ex.g.storage(&format!("{what}: object nodes"), cap * 4),
-    )
-}
-
-/// A round's scratch: actions, stream counts, their offsets, and the final tests' pairs.
-struct Scratch {
-    act: wgpu::Buffer,
-    counts: wgpu::Buffer,
-    offs: wgpu::Buffer,
-    fin: Region,
-}
 
 impl GpuDual<'_> {
     /// The pairs every buffer of the rounds holds: room for 8 pairs per ray, below the
@@ -76,8 +56,8 @@ impl GpuDual<'_> {
             act: g.storage("dual round actions", cap * 4),
             counts: g.storage("dual round counts", 3 * cap * 4),
             offs: g.storage("dual round offsets", (3 * cap + 1) * 4),
-            fin: region(ex, "dual round final tests", cap),
         };
+        let fin = region(ex, "dual round final tests", cap);
         let walk = region(ex, "dual round single rays", cap);
         let mut at = nl;
         loop {
@@ -94,12 +74,13 @@ impl GpuDual<'_> {
                 let (input, spare) = io[l].as_mut().unwrap();
                 let b = below[l].as_ref().unwrap();
                 for _ in 0..self.rounds.0 {
-                    self.round(ex, beams, cap, l, &state, (&*input, &*spare, b), &scratch);
+                    let out = (&fin, b, &*spare);
+                    self.round(ex, beams, cap, l, &state, &*input, out, &scratch);
                     std::mem::swap(input, spare);
                 }
                 ex.run(
                     launch::DualRoundDescend { r_state: &state },
-                    self.round_params(cap, l, 0),
+                    self.pair_params(cap, l, cap as u32, 0),
                     1,
                     1,
                 );
@@ -130,28 +111,9 @@ impl GpuDual<'_> {
         true
     }
 
-    /// The launch parameters of a kernel of ray level `l` (0: the single rays).
-    fn round_params(&self, cap: u64, l: usize, pad: u32) -> DualRoundParams {
-        let li = l.saturating_sub(1);
-        DualRoundParams {
-            cap: cap as u32,
-            level: li as u32,
-            exact: (self.eng.cfg.node_test == NodeTest::Exact) as u32,
-            descent: match self.eng.cfg.descent {
-                Descent::Size => 0,
-                Descent::ObjectFirst => 1,
-                Descent::RayFirst => 2,
-            },
-            counters: 16 * li as u32,
-            objects: self.tail() + 8,
-            pad,
-            stage: l as u32,
-        }
-    }
-
-    /// One round at ray level `l ≥ 1`: classify the input's pairs, scan the streams' counts,
-    /// emit into (final tests, the next round's input, the stack below), update the state,
-    /// and at level 1 the round's final tests.
+    /// One round at ray level `l ≥ 1` over `input`: classify, scan the streams' counts,
+    /// emit into `out` (final tests, the stack below, the next round's input), update the
+    /// state, and at level 1 the round's final tests over the count the update left.
     #[allow(clippy::too_many_arguments)]
     fn round(
         &self,
@@ -160,58 +122,15 @@ impl GpuDual<'_> {
         cap: u64,
         l: usize,
         state: &wgpu::Buffer,
-        (input, spare, below): (&Region, &Region, &Region),
+        input: &Region,
+        out: (&Region, &Region, &Region),
         s: &Scratch,
     ) {
-        let (li, lv, t) = (l - 1, &self.levels[l - 1], self.tree);
-        let prm = self.round_params(cap, l, 0);
+        let prm = self.pair_params(cap, l, cap as u32, 0);
         ex.phase(Phase::Traversal);
-        ex.run(
-            launch::DualRoundClassify {
-                n_sphere: &lv.sphere,
-                n_cone: &lv.cone,
-                n_sc: &lv.sc,
-                n_first: &lv.first,
-                b_beam: &beams[li],
-                t_child: &t.child,
-                t_node: &t.node,
-                t_leaf: &t.leaf,
-                t_range: &t.range,
-                p_ray: &input.0,
-                p_obj: &input.1,
-                p_act: &s.act,
-                p_cnt: &s.counts,
-                cnt: self.counters,
-                r_state: state,
-            },
-            prm,
-            cap,
-            256,
-        );
+        self.classify(ex, beams, l, input, state, s, prm);
         ex.scan(&s.counts, &s.offs, 3 * cap);
-        ex.run(
-            launch::DualRoundEmit {
-                n_first: &lv.first,
-                t_child: &t.child,
-                t_node: &t.node,
-                t_range: &t.range,
-                t_order: &t.order,
-                p_ray: &input.0,
-                p_obj: &input.1,
-                p_act: &s.act,
-                p_cnt: &s.offs,
-                o_ray: &spare.0,
-                o_obj: &spare.1,
-                r_state: state,
-                r_below_ray: &below.0,
-                r_below_obj: &below.1,
-                r_fin_ray: &s.fin.0,
-                r_fin_obj: &s.fin.1,
-            },
-            prm,
-            cap,
-            256,
-        );
+        self.emit(ex, l, input, state, s, out, prm);
         ex.run(
             launch::DualRoundUpdate {
                 p_cnt: &s.offs,
@@ -221,42 +140,15 @@ impl GpuDual<'_> {
             1,
             1,
         );
-        if li == 0 {
-            self.round_finals(ex, state, &s.fin, cap);
+        if l == 1 {
+            let len = DevLen {
+                buf: state.clone(),
+                at: 4,
+                cap,
+            };
+            let size = ex.sizes(&len, &[(1, 256)]).remove(0);
+            self.final_tests(ex, out.0, cap, Threads::of(Some(&size), cap));
         }
-    }
-
-    /// The final tests of a round of level 1 over the count the round left in the state.
-    fn round_finals(&self, ex: &mut Exec, state: &wgpu::Buffer, fin: &Region, cap: u64) {
-        let len = DevLen {
-            buf: state.clone(),
-            at: 4,
-            cap,
-        };
-        let size = ex.sizes(&len, &[(1, 256)]).remove(0);
-        ex.phase(Phase::FinalTests);
-        let l1 = &self.levels[0];
-        ex.run_on(
-            launch::FinalTests {
-                f_node: &fin.0,
-                f_tri: &fin.1,
-                f_first: &l1.first,
-                f_sc: &l1.sc,
-                f_leaf: self.leaves,
-                f_org: &self.rays.org,
-                f_dir: &self.rays.dir,
-                f_pre: &self.rays.pre,
-                f_tris: &self.eng.tris,
-                f_best: self.best,
-                f_cnt: self.counters,
-            },
-            FinalTestsParams {
-                pairs: cap as u32,
-                counters: self.tail(),
-            },
-            Threads::of(Some(&size), cap),
-            256,
-        );
     }
 
     /// The single rays' step over `pairs` (a copy of their stack; its count in the state,
@@ -276,37 +168,12 @@ impl GpuDual<'_> {
                 r_below_ray: &pairs.0,
                 r_below_obj: &pairs.1,
             },
-            self.round_params(cap, 0, pad),
+            self.pair_params(cap, 0, cap as u32, pad),
             cap,
             256,
         );
         ex.sort_pairs_all(&pairs.0, &pairs.1, cap, bits);
-        let t = self.tail();
-        ex.run(
-            launch::DualRoundWalk {
-                d_leaf: self.leaves,
-                d_org: &self.rays.org,
-                d_dir: &self.rays.dir,
-                d_pre: &self.rays.pre,
-                d_kl: &self.rays.kl,
-                t_child: &self.tree.child,
-                t_cbox: &self.tree.child_box,
-                d_tris: &self.eng.tris,
-                w_key: &pairs.0,
-                p_obj: &pairs.1,
-                d_best: self.best,
-                cnt: self.counters,
-                r_state: state,
-            },
-            DualWalkParams {
-                pairs: cap as u32,
-                any: self.any as u32,
-                finals: t,
-                boxes: t + 10,
-            },
-            cap,
-            64,
-        );
+        self.walks(ex, state, pairs, cap);
         ex.phase(Phase::Traversal);
     }
 }
