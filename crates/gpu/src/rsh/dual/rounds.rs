@@ -23,12 +23,14 @@ use trace::Phase;
 pub const ROUNDS: usize = 12;
 
 impl GpuDual<'_> {
-    /// The pairs every buffer of the rounds holds: room for 8 pairs per ray, below the
-    /// chunk (so that no stack reaches it), at least the top level's nodes; `None` where
-    /// the rounds cannot keep the host's schedule (the top level alone fills a chunk).
+    /// The pairs every buffer of the rounds holds: room for 8 pairs per ray, or 64 Ki pairs
+    /// (half a MiB a buffer) for small batches, whose incoherent rays (BART kitchen's
+    /// reflections at 128²: 1,422 rays) passed 8 a ray; below the chunk (so that no stack
+    /// reaches it), at least the top level's nodes; `None` where the rounds cannot keep the
+    /// host's schedule (the top level alone fills a chunk).
     pub(super) fn round_cap(&self, chunk: u64) -> Option<u64> {
         let nt = self.levels.last()?.len() as u64;
-        let own = (8 * self.m).max(4096).min(chunk.saturating_sub(1));
+        let own = (8 * self.m).max(1 << 16).min(chunk.saturating_sub(1));
         let cap = self.rounds.1.map_or(own, |c| c.min(own));
         (nt <= cap && nt > 0).then_some(cap)
     }
