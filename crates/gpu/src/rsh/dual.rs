@@ -18,9 +18,8 @@
 use super::build::Level;
 use super::device_scene::DeviceScene;
 use super::objects::DeviceTree;
-use crate::kernels::params::{
-    DualBeamParams, DualPairParams, DualWalkParams, FinalTestsParams, PermuteParams,
-};
+use super::traverse::GpuTraversal;
+use crate::kernels::params::{DualBeamParams, DualPairParams, DualWalkParams, PermuteParams};
 use crate::kernels::{launch, Exec, Threads};
 use crate::rays::DeviceRays;
 use ::rsh::dual::{ANY_HIT_SIZE_RATIO, SMALL_SUBTREE};
@@ -125,7 +124,7 @@ impl Stack {
     }
 }
 
-/// `count` words of `buf` at the element indices `at`, in one read-back.
+/// The words of `buf` at the element indices `at`, in one read-back.
 fn read_words(ex: &mut Exec, buf: &wgpu::Buffer, at: &[u64]) -> Vec<u32> {
     let tmp = ex.g.storage("dual sizes", at.len() as u64 * 4);
     for (j, &i) in at.iter().enumerate() {
@@ -396,30 +395,16 @@ impl GpuDual<'_> {
     /// The final tests (thesis §3.2.9, `final.wgsl`) of the (level-1 node, triangle) pairs
     /// `fin`, over `threads` (their count `pairs`, or a count on the device).
     fn final_tests(&self, ex: &mut Exec, fin: &Region, pairs: u64, threads: Threads) {
-        ex.phase(Phase::FinalTests);
-        let l1 = &self.levels[0];
-        ex.run_on(
-            launch::FinalTests {
-                f_node: &fin.0,
-                f_tri: &fin.1,
-                f_first: &l1.first,
-                f_sc: &l1.sc,
-                f_leaf: self.leaves,
-                f_org: &self.rays.org,
-                f_dir: &self.rays.dir,
-                f_pre: &self.rays.pre,
-                f_tris: &self.eng.tris,
-                f_best: self.best,
-                f_cnt: self.counters,
-            },
-            FinalTestsParams {
-                pairs: pairs as u32,
-                counters: self.tail(),
-            },
-            threads,
-            256,
-        );
-        ex.phase(Phase::Traversal);
+        // The mesh-sphere traversal's launch: the same kernel, buffers and counter words.
+        let trav = GpuTraversal {
+            eng: self.eng,
+            levels: self.levels,
+            rays: self.rays,
+            leaves: self.leaves,
+            best: self.best,
+            counters: self.counters,
+        };
+        trav.final_tests(ex, (&fin.0, &fin.1), pairs, threads);
     }
 
     /// The single rays' walks over `pairs` sorted by ray (their count in `state`), `bound`

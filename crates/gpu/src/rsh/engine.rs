@@ -4,8 +4,9 @@
 //! upload the rays, order them ([`super::order`]), build the hierarchy ([`super::build`]),
 //! traverse it with the final tests ([`super::traverse`]; with the object tree built on
 //! the device ([`super::objects`]), the dual traversal, [`super::dual`], or single rays
-//! through the tree, [`super::single`]), then recompute the records and read them back. The host only sequences the kernels, reads back the few totals that size
-//! the next buffers (as a CUDA/CUB version would), and mirrors the CPU's batching decisions
+//! through the tree, [`super::single`]), then recompute the records and read them back.
+//! The host only sequences the kernels, reads back the few totals that size the next
+//! buffers (as a CUDA/CUB version would), and mirrors the CPU's batching decisions
 //! (triangle batches, budget splits), so the pair streams, and therefore all counters, are
 //! the CPU's.
 
@@ -74,8 +75,8 @@ enum Pending {
     },
 }
 
-/// Counters and the device's counter block of a dual traversal not yet read: its buffer
-/// and the hierarchy's levels.
+/// A dual traversal's counter block still on the device, with the hierarchy's levels (none
+/// for the mesh-sphere traversal, whose counters the host has read).
 type DualCounts = Option<(wgpu::Buffer, usize)>;
 
 /// The object tree of the scene's current frame, built on the device.
@@ -565,22 +566,37 @@ impl GpuRsh {
     }
 
     /// [`crate::GpuEngine::trace_device`]: rays `dr` (at most the engine's part size) traced
-    /// on the device; the records stay there and only the hit count comes back.
+    /// on the device ([`GpuRsh::trace_on_device`]); the records and counts stay there.
     pub(crate) fn trace_device_part(
         &self,
         dr: &DeviceRays,
         mode: TraceMode,
         stats: &mut TraceStats,
     ) -> wgpu::Buffer {
+        self.trace_on_device(dr, mode, stats, None)
+    }
+
+    /// Rays `dr` (of the first `count.n` only, where given) traced on the device, the
+    /// records left there and the counts too, until the frame's end (`GpuEngine::settle`):
+    /// single rays read nothing back; the bundles' first read-back is the trim's count (the
+    /// hash runs over the device's count), and their traversal reads the sizes its passes
+    /// need.
+    fn trace_on_device(
+        &self,
+        dr: &DeviceRays,
+        mode: TraceMode,
+        stats: &mut TraceStats,
+        count: Option<&DevSize>,
+    ) -> wgpu::Buffer {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
-        if let Some(t) = self.single_tree() {
-            // The counts stay on the device until the frame's end (`GpuEngine::settle`).
-            let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, None);
-            self.pending.lock().unwrap().push(Pending::Single(w.cnt));
-            ex.report(stats, &self.times);
-            return rec;
-        }
-        let rec = self.bundles_on_device(&mut ex, dr, mode, stats, None);
+        let rec = match self.single_tree() {
+            Some(t) => {
+                let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, count);
+                self.pending.lock().unwrap().push(Pending::Single(w.cnt));
+                rec
+            }
+            None => self.bundles_on_device(&mut ex, dr, mode, stats, count),
+        };
         ex.report(stats, &self.times);
         rec
     }
@@ -626,9 +642,7 @@ impl GpuRsh {
             .filter(|_| self.s.cfg.path == RayPath::Single)
     }
 
-    /// [`crate::GpuEngine::trace_device_counted`]: single rays read nothing back; the
-    /// bundles' first read-back is the trim's count (the hash runs over the device's count),
-    /// and their traversal reads the sizes its passes need.
+    /// [`crate::GpuEngine::trace_device_counted`] ([`GpuRsh::trace_on_device`]).
     pub(crate) fn trace_device_counted(
         &self,
         dr: &DeviceRays,
@@ -636,17 +650,7 @@ impl GpuRsh {
         mode: TraceMode,
         stats: &mut TraceStats,
     ) -> Option<wgpu::Buffer> {
-        let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
-        let rec = match self.single_tree() {
-            Some(t) => {
-                let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, Some(count));
-                self.pending.lock().unwrap().push(Pending::Single(w.cnt));
-                rec
-            }
-            None => self.bundles_on_device(&mut ex, dr, mode, stats, Some(count)),
-        };
-        ex.report(stats, &self.times);
-        Some(rec)
+        Some(self.trace_on_device(dr, mode, stats, Some(count)))
     }
 
     /// [`crate::GpuEngine::take_pending`].

@@ -11,7 +11,7 @@ use super::device_scene::DeviceScene;
 use crate::kernels::params::{
     ChildParams, FinalTestsParams, MeshTestParams, PairTestParams, TopParams,
 };
-use crate::kernels::{launch, Exec};
+use crate::kernels::{launch, Exec, Threads};
 use crate::rays::DeviceRays;
 use ::rsh::traverse::Counters;
 use ::rsh::NodeTest;
@@ -203,16 +203,27 @@ impl GpuTraversal<'_> {
             self.expand(ex, li, pairs, c);
             return;
         }
+        let n = pairs.len;
+        self.final_tests(ex, (&pairs.node, &pairs.tri), n, Threads::Host(n));
+    }
+
+    /// The final tests (thesis §3.2.9, `final.wgsl`) of the (level-1 node, triangle) pairs
+    /// `(node, tri)`, over `threads` (their count `pairs`, or a count on the device that
+    /// replaces it); the tests per kind go to the counters from word 16 · levels (the dual
+    /// traversal's layout too, [`super::dual`]).
+    pub fn final_tests(
+        &self,
+        ex: &mut Exec,
+        (node, tri): (&wgpu::Buffer, &wgpu::Buffer),
+        pairs: u64,
+        threads: Threads,
+    ) {
         ex.phase(Phase::FinalTests);
         let l1 = &self.levels[0];
-        let prm = FinalTestsParams {
-            pairs: pairs.len as u32,
-            counters: 16 * self.levels.len() as u32,
-        };
-        ex.run(
+        ex.run_on(
             launch::FinalTests {
-                f_node: &pairs.node,
-                f_tri: &pairs.tri,
+                f_node: node,
+                f_tri: tri,
                 f_first: &l1.first,
                 f_sc: &l1.sc,
                 f_leaf: self.leaves,
@@ -223,8 +234,11 @@ impl GpuTraversal<'_> {
                 f_best: self.best,
                 f_cnt: self.counters,
             },
-            prm,
-            pairs.len,
+            FinalTestsParams {
+                pairs: pairs as u32,
+                counters: 16 * self.levels.len() as u32,
+            },
+            threads,
             256,
         );
         ex.phase(Phase::Traversal);

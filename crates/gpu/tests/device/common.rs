@@ -37,6 +37,28 @@ pub fn rah_dual() -> RshConfig {
     }
 }
 
+/// Traces `rays` on the CPU engine and on its GPU twin: every hit record and every
+/// comparable counter must be equal. Returns both stats (CPU, GPU).
+pub fn compare_traces(
+    cpu: &rsh::RshEngine,
+    gpu: &gpu::GpuRsh,
+    rays: &trace::RayBatch,
+    mode: trace::TraceMode,
+    what: &str,
+) -> (trace::TraceStats, trace::TraceStats) {
+    use trace::{Hit, TraceStats, Tracer};
+    let (mut hc, mut hg) = (vec![Hit::MISS; rays.len()], vec![Hit::MISS; rays.len()]);
+    let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
+    cpu.trace(rays, mode, &mut hc, &mut sc);
+    gpu.trace(rays, mode, &mut hg, &mut sg);
+    for i in 0..rays.len() {
+        assert_eq!(hg[i], hc[i], "{what}: ray {i} ({mode:?}) GPU vs CPU");
+    }
+    let counters = gpu::rsh::engine::comparable_counters;
+    assert_eq!(counters(&sg), counters(&sc), "{what}: counters ({mode:?})");
+    (sc, sg)
+}
+
 /// Dabrovic Sponza from the shared scenes, or `None` (said: `SKIPPED`, or a failure where
 /// the scenes are required) when they are absent.
 pub fn sponza() -> Option<scene::Scene> {

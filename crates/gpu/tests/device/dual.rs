@@ -7,7 +7,6 @@
 //! CRSH and RAH, every descent rule, a pair budget small enough to cut every level into many
 //! steps, on every built-in scene's recorded Whitted batches and on Sponza.
 
-use gpu::rsh::engine::comparable_counters as counters;
 use gpu::{Gpu, GpuRsh};
 use rsh::{Descent, RshConfig, RshEngine};
 use scene::{builtin, Geometry, Scene};
@@ -18,16 +17,10 @@ fn gpu() -> Option<Gpu> {
     testkit::or_skip(Gpu::new(), "gpu")
 }
 
-/// Traces `rays` on both and compares records and counters.
+/// Traces `rays` on both and compares records and counters; the pairs met inner object nodes
+/// and no walk overflowed.
 fn compare(cpu: &RshEngine, gpu: &GpuRsh, rays: &RayBatch, mode: TraceMode, what: &str) {
-    let (mut hc, mut hg) = (vec![Hit::MISS; rays.len()], vec![Hit::MISS; rays.len()]);
-    let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
-    cpu.trace(rays, mode, &mut hc, &mut sc);
-    gpu.trace(rays, mode, &mut hg, &mut sg);
-    for i in 0..rays.len() {
-        assert_eq!(hg[i], hc[i], "{what}: ray {i} ({mode:?}) GPU vs CPU");
-    }
-    assert_eq!(counters(&sg), counters(&sc), "{what}: counters ({mode:?})");
+    let (sc, sg) = crate::common::compare_traces(cpu, gpu, rays, mode, what);
     assert_eq!(
         sg.counters.get(Counter::GpuStackOverflows),
         Some(0),

@@ -6,7 +6,6 @@
 //! and with a private stack too small for the walks, the rays that overflow it are walked
 //! again by the second pass (its stack in storage memory) with the same result.
 
-use gpu::rsh::engine::comparable_counters as counters;
 use gpu::{Gpu, GpuRsh};
 use rsh::RshEngine;
 use scene::{builtin, Geometry};
@@ -17,16 +16,9 @@ fn gpu() -> Option<Gpu> {
     testkit::or_skip(Gpu::new(), "gpu")
 }
 
-/// Traces `rays` on both; returns the GPU's stack overflows.
+/// Traces `rays` on both (records and counters equal); returns the GPU's stack overflows.
 fn compare(cpu: &RshEngine, gpu: &GpuRsh, rays: &RayBatch, mode: TraceMode, what: &str) -> u64 {
-    let (mut hc, mut hg) = (vec![Hit::MISS; rays.len()], vec![Hit::MISS; rays.len()]);
-    let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
-    cpu.trace(rays, mode, &mut hc, &mut sc);
-    gpu.trace(rays, mode, &mut hg, &mut sg);
-    for i in 0..rays.len() {
-        assert_eq!(hg[i], hc[i], "{what}: ray {i} ({mode:?}) GPU vs CPU");
-    }
-    assert_eq!(counters(&sg), counters(&sc), "{what}: counters");
+    let (sc, sg) = crate::common::compare_traces(cpu, gpu, rays, mode, what);
     assert!(sc.node_tri_tests > 0 || rays.is_empty(), "{what}: walked");
     sg.counters.get(Counter::GpuStackOverflows).unwrap_or(0)
 }
