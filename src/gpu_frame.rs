@@ -144,18 +144,19 @@ impl GpuFrame {
         keep_gbuffer: bool,
     ) -> Result<(Rendered, Vec<(String, f64)>)> {
         self.check_size(opts)?;
-        let ((mut out, in_parts), moved) = self.traffic(|| {
-            let mut b = gpu::frame::GpuBackend::new(
+        let (f, moved) = self.traffic(|| {
+            gpu::frame::render_frame(
                 self.engine.as_ref(),
                 &self.raster,
                 scene,
+                geo,
                 opts,
+                progress,
                 keep_gbuffer,
             )
-            .map_err(|e| anyhow!("`backend`=gpu: {e}"))?;
-            let out = render::whitted::run(&mut b, scene, geo, opts, progress);
-            Ok((out, b.in_parts))
+            .map_err(|e| anyhow!("`backend`=gpu: {e}"))
         })?;
+        let (mut out, in_parts, again) = (f.out, f.in_parts, f.again);
         let stats = &mut out.stats;
         stats.put_build(build_seconds, self.engine.build_passes());
         (
@@ -163,14 +164,14 @@ impl GpuFrame {
             stats.host_read_backs,
             stats.gpu_dispatches,
         ) = (Some(moved[0]), Some(moved[1]), Some(moved[2]));
-        stats.gpu_frame = Some(
-            if in_parts {
-                "device-resident, a generation in parts (it exceeded one binding)"
-            } else {
-                "device-resident"
-            }
-            .into(),
-        );
+        let mut how = String::from("device-resident");
+        if in_parts {
+            how += ", a generation in parts (it exceeded one binding)";
+        }
+        if again {
+            how += ", traced twice (a trace the device paced alone did not finish; the second paced by the host)";
+        }
+        stats.gpu_frame = Some(how);
         Ok((out, self.phases()))
     }
 

@@ -24,8 +24,10 @@
 //! rays per surface, as the scene's materials allow), and every launch over them, the engine's included
 //! ([`GpuEngine::trace_device_counted`]), reads it there through an indirect dispatch. Only
 //! where the bound would not fit (one binding, the engine's part, the memory budget), or the
-//! engine sizes its passes on the host (CRSH/RAH in bundles), is a size read back (4 bytes)
-//! to allocate exactly. The launches' parameter blocks go the other way.
+//! engine sizes its passes on the host (CRSH's bundles, and RAH's behind mesh spheres), is a
+//! size read back (4 bytes) to allocate exactly. RAH's dual traversal is paced by the
+//! device alone; where one of its traces did not finish (too few rounds, too little room),
+//! [`render_frame`] traces the frame again with the host pacing. The launches' parameter blocks go the other way.
 //! [`crate::Gpu::bytes_moved`] counts every one of them.
 //!
 //! The pixel accumulation is order-independent of scheduling: one thread per run of equal
@@ -117,6 +119,56 @@ pub fn too_big(gpu: &Gpu, opts: &RenderOptions) -> Option<String> {
         ));
     }
     None
+}
+
+/// A frame rendered on the device ([`render_frame`]).
+pub struct DeviceFrame {
+    /// The frame.
+    pub out: Rendered,
+    /// Whether a generation came in more than one part ([`GpuBackend::in_parts`]).
+    pub in_parts: bool,
+    /// Whether it was traced twice: a trace the device paced alone did not finish, so the
+    /// host paced the second ([`GpuEngine::take_incomplete`]).
+    pub again: bool,
+}
+
+/// One frame of `scene` (its geometry `geo`) on `engine`'s device: [`render::whitted::run`]
+/// over a [`GpuBackend`] (with `keep_gbuffer`, the G-buffer read back too). Where a trace
+/// that the device paced alone did not finish (it is seen with the image, in the frame's
+/// one read-back), the frame is traced again with the host pacing every trace, and the
+/// engine takes more rounds or room in later frames; the read-backs and dispatches of both
+/// are the frame's.
+pub fn render_frame(
+    engine: &dyn GpuEngine,
+    raster: &GpuRaster,
+    scene: &Scene,
+    geo: &scene::Geometry,
+    opts: &RenderOptions,
+    progress: &dyn render::whitted::Progress,
+    keep_gbuffer: bool,
+) -> Result<DeviceFrame, GpuError> {
+    let mut b = GpuBackend::new(engine, raster, scene, opts, keep_gbuffer)?;
+    let out = render::whitted::run(&mut b, scene, geo, opts, progress);
+    if !engine.take_incomplete() {
+        let in_parts = b.in_parts;
+        return Ok(DeviceFrame {
+            out,
+            in_parts,
+            again: false,
+        });
+    }
+    engine.pace(true);
+    let again = GpuBackend::new(engine, raster, scene, opts, keep_gbuffer).map(|mut b| {
+        let out = render::whitted::run(&mut b, scene, geo, opts, progress);
+        (out, b.in_parts)
+    });
+    engine.pace(false);
+    let (out, in_parts) = again?;
+    Ok(DeviceFrame {
+        out,
+        in_parts,
+        again: true,
+    })
 }
 
 /// A frame of one scene on `engine`'s device (see the module's documentation).

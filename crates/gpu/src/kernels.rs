@@ -220,6 +220,15 @@ pub enum Threads<'s> {
         /// Threads launched.
         threads: u64,
     },
+    /// `over.n` threads, the first `words` parameter words copied from `over`'s block
+    /// after its 4 size words: for kernels whose whole parameter block the device laid
+    /// out (the hierarchy's levels, `rsh/kinds.wgsl`'s `level_layout`).
+    Laid {
+        /// Its block holds the workgroups, then the parameter words.
+        over: &'s DevSize,
+        /// Parameter words copied.
+        words: u64,
+    },
 }
 
 impl<'s> Threads<'s> {
@@ -244,6 +253,10 @@ enum Dispatch<'b> {
     Patched {
         first: &'b DevSize,
         groups: (u32, u32),
+    },
+    Laid {
+        args: &'b DevSize,
+        words: u64,
     },
 }
 
@@ -355,6 +368,9 @@ impl<'a> Exec<'a> {
                 let groups = self.g.grid(threads, wg);
                 self.record(launch, params, Dispatch::Patched { first, groups });
             }
+            Threads::Laid { over, words } => {
+                self.record(launch, params, Dispatch::Laid { args: over, words })
+            }
         }
     }
 
@@ -366,15 +382,7 @@ impl<'a> Exec<'a> {
             (1..=4).contains(&each.len()),
             "one to four size blocks a launch"
         );
-        let block = self.g.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("size blocks"),
-            size: 16 * each.len() as u64,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::INDIRECT
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let block = self.g.indirect("size blocks", 16 * each.len() as u64);
         let at = u32::try_from(len.at).expect("a count's word indexes in u32");
         let (mut mul, mut wg) = ([0u32; 4], [1u32; 4]);
         for (k, &(m, w)) in each.iter().enumerate() {
@@ -458,6 +466,9 @@ impl<'a> Exec<'a> {
             // the block lands before this command buffer runs).
             enc.copy_buffer_to_buffer(&first.block, first.at, &ub, 0, 4);
         }
+        if let Dispatch::Laid { args, words } = dispatch {
+            enc.copy_buffer_to_buffer(&args.block, args.at + 16, &ub, 0, 4 * words);
+        }
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(kernel.entry()),
@@ -470,7 +481,7 @@ impl<'a> Exec<'a> {
                 | Dispatch::Patched {
                     groups: (gx, gy), ..
                 } => pass.dispatch_workgroups(gx, gy, 1),
-                Dispatch::Indirect { args, .. } => {
+                Dispatch::Indirect { args, .. } | Dispatch::Laid { args, .. } => {
                     pass.dispatch_workgroups_indirect(&args.block, args.at + 4)
                 }
             }

@@ -96,6 +96,16 @@ pub trait GpuEngine: trace::Tracer {
     /// The words of [`GpuEngine::take_pending`]'s blocks (in its order, concatenated) into
     /// `stats`: the counts those traces did not report.
     fn settle(&self, _words: &[u32], _stats: &mut trace::TraceStats) {}
+    /// Whether a trace whose counts [`GpuEngine::settle`] read since the last call did not
+    /// finish on the device (a traversal the device paced alone ran out of rounds or of
+    /// room): its records are not the CPU's, so the frame must be traced again with the
+    /// host pacing ([`GpuEngine::pace`]; [`frame::render_frame`] does). Cleared.
+    fn take_incomplete(&self) -> bool {
+        false
+    }
+    /// With `on`, every trace is paced by the host (reading back the sizes its steps need)
+    /// until called with `false`.
+    fn pace(&self, _on: bool) {}
 }
 
 impl GpuEngine for GpuRsh {
@@ -146,6 +156,12 @@ impl GpuEngine for GpuRsh {
     }
     fn settle(&self, words: &[u32], stats: &mut trace::TraceStats) {
         GpuRsh::settle(self, words, stats)
+    }
+    fn take_incomplete(&self) -> bool {
+        GpuRsh::take_incomplete(self)
+    }
+    fn pace(&self, on: bool) {
+        GpuRsh::pace(self, on)
     }
 }
 

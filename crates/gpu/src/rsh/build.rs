@@ -1,11 +1,13 @@
 //! The hierarchy's construction on the GPU, the twin of `crates/rsh/src/build.rs`: level 1
 //! over the sorted leaves, then unions level by level (thesis §3.2.7; `build.wgsl`), with
 //! the CPU's stop rules; the leaves per kind come from the ordering (`kinds.wgsl`, read back
-//! with the trim's count).
+//! with the trim's count). Where the host reads nothing ([`build_laid`]), the device lays the
+//! levels out itself (`kinds.wgsl`'s `level_layout`) in buffers of the batch's bound, and
+//! each launch reads its size and parameters there.
 
 use super::device_scene::DeviceScene;
-use crate::kernels::params::LevelParams;
-use crate::kernels::{launch, Exec};
+use crate::kernels::params::{LevelLayoutParams, LevelParams};
+use crate::kernels::{launch, DevSize, Exec, Threads};
 use crate::rays::DeviceRays;
 use ::rsh::Union;
 
@@ -24,10 +26,36 @@ pub struct Level {
     /// Children per kind in the level below (leaves for level 1): each kind's nodes take
     /// `b` of them but the last, which takes the rest.
     pub children: [u32; 4],
+    /// Laid out on the device ([`build_laid`]): the level's size block (n: its nodes) and
+    /// parameters there; `per_kind` and `children` are then zero, and [`Level::cap`] bounds
+    /// the nodes.
+    pub sized: Option<DevSize>,
+    /// Most nodes the level's buffers hold.
+    pub cap: u32,
+}
+
+/// Words of one level's block in the device's layout (`kinds.wgsl`'s `LAYOUT_WORDS`): its
+/// size block, then its `LevelParams`.
+pub const LAYOUT_WORDS: u64 = 20;
+
+/// The layout the device computed for a hierarchy ([`build_laid`]): per level
+/// [`LAYOUT_WORDS`] words, then the levels built and the top level's nodes.
+pub struct Laid {
+    /// The blocks.
+    pub block: wgpu::Buffer,
+    /// Levels laid out (a bound of those built).
+    pub levels: usize,
+}
+
+impl Laid {
+    /// The byte of the word holding the levels built (the top level's nodes follow).
+    pub fn tail_byte(&self) -> u64 {
+        4 * LAYOUT_WORDS * self.levels as u64
+    }
 }
 
 impl Level {
-    /// Nodes in the level.
+    /// Nodes in the level (laid out on the host).
     pub fn len(&self) -> u32 {
         self.per_kind.iter().sum()
     }
@@ -70,6 +98,8 @@ pub fn build(
             first: g.storage("node first", (total as u64 + 1) * 4),
             per_kind: nodes,
             children: below,
+            sized: None,
+            cap: total,
         };
         let prm = LevelParams {
             nodes: total,
@@ -119,4 +149,121 @@ pub fn build(
         below = top.per_kind;
     }
     levels
+}
+
+/// [`build`] with nothing read back: the leaves' kinds are counted on the device (`kinds`, 4
+/// words), the trimmed leaves at most `n`. The device lays the levels out (`level_layout`)
+/// by `build`'s rules; the host allocates each level at its bound (a level has at most
+/// ⌈below / b⌉ + 3 nodes, one partial node per kind) for as many levels as the rules could
+/// build from `n` leaves, and every launch reads its size and parameters from the layout.
+/// Levels past those the rules build stay empty.
+pub fn build_laid(
+    eng: &DeviceScene,
+    ex: &mut Exec,
+    rays: &DeviceRays,
+    leaves: &wgpu::Buffer,
+    kinds: &wgpu::Buffer,
+    n: u64,
+) -> (Vec<Level>, Laid) {
+    let g = &eng.gpu;
+    let b = eng.cfg.branching as u64;
+    let caps = laid_caps(n, b, eng.cfg.levels);
+    let levels = caps.len();
+    let laid = Laid {
+        block: g.indirect("hierarchy layout", 4 * (LAYOUT_WORDS * levels as u64 + 2)),
+        levels,
+    };
+    ex.run(
+        launch::LevelLayout {
+            x_a: kinds,
+            y_a: &laid.block,
+        },
+        LevelLayoutParams {
+            b: b as u32,
+            union_thesis: (eng.cfg.union == Union::Thesis) as u32,
+            levels: eng.cfg.levels,
+            max_levels: levels as u32,
+            maxd: g.limits.max_compute_workgroups_per_dimension,
+        },
+        1,
+        1,
+    );
+    let mut out: Vec<Level> = Vec::with_capacity(levels);
+    for (l, &cap) in caps.iter().enumerate() {
+        let lv = Level {
+            sphere: g.storage("node spheres", cap * 16),
+            cone: g.storage("node cones", cap * 16),
+            sc: g.storage("node sc", cap * 16),
+            first: g.storage("node first", (cap + 1) * 4),
+            per_kind: [0; 4],
+            children: [0; 4],
+            sized: Some(DevSize {
+                block: laid.block.clone(),
+                at: 4 * LAYOUT_WORDS * l as u64,
+                cap,
+            }),
+            cap: cap as u32,
+        };
+        let over = lv.sized.as_ref().unwrap();
+        let threads = Threads::Laid { over, words: 16 };
+        // The parameters come from the layout; the host's block is overwritten.
+        let prm = LevelParams::default();
+        match out.last() {
+            None => ex.run_on(
+                launch::BuildLeafLevel {
+                    b_leaf: leaves,
+                    b_org: &rays.org,
+                    b_dir: &rays.dir,
+                    b_shuffle: &eng.shuffles,
+                    o_sphere: &lv.sphere,
+                    o_cone: &lv.cone,
+                    o_sc: &lv.sc,
+                    o_first: &lv.first,
+                },
+                prm,
+                threads,
+                64,
+            ),
+            Some(c) => ex.run_on(
+                launch::BuildUpperLevel {
+                    c_sphere: &c.sphere,
+                    c_cone: &c.cone,
+                    c_sc: &c.sc,
+                    o_sphere: &lv.sphere,
+                    o_cone: &lv.cone,
+                    o_sc: &lv.sc,
+                    o_first: &lv.first,
+                },
+                prm,
+                threads,
+                64,
+            ),
+        }
+        out.push(lv);
+    }
+    (out, laid)
+}
+
+/// The nodes [`build_laid`] allocates per level for at most `n` leaves, branching `b` and
+/// `levels` configured levels (0: until one root per kind): a level has at most one node
+/// per child, and ⌈children / b⌉ + 3 (one partial node per kind); as many levels as the
+/// rules could build (one root per kind: a kind of all `n` leaves needs ⌈log_b n⌉).
+pub fn laid_caps(n: u64, b: u64, levels: u32) -> Vec<u64> {
+    let count = if levels > 0 {
+        levels as usize
+    } else {
+        let (mut l, mut c) = (1, n.div_ceil(b));
+        while c > 1 {
+            c = c.div_ceil(b);
+            l += 1;
+        }
+        l
+    };
+    let mut below = n;
+    (0..count)
+        .map(|_| {
+            below = below.min(below.div_ceil(b) + 3).max(1);
+            below
+        })
+        .collect()
 }

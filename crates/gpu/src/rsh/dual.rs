@@ -15,7 +15,7 @@
 //! stay on the device. So hits and every counter are the CPU's `--schedule breadth` with the same
 //! object builder (the LBVH), tested on lavapipe (`tests/device/dual.rs`).
 
-use super::build::Level;
+use super::build::{Laid, Level};
 use super::device_scene::DeviceScene;
 use super::objects::DeviceTree;
 use super::traverse::GpuTraversal;
@@ -29,7 +29,7 @@ use ::rsh::{Descent, NodeTest};
 use trace::Phase;
 
 mod rounds;
-pub use rounds::ROUNDS;
+pub use rounds::{rounds_cap, ROUNDS};
 
 // `dual.wgsl` writes the CPU's small-subtree rule with this constant.
 const _: () = assert!(SMALL_SUBTREE == 8, "dual.wgsl's SMALL_SUBTREE is 8");
@@ -63,6 +63,35 @@ pub struct GpuDual<'a> {
     /// The device rounds' per-pass rounds ([`ROUNDS`]) and a bound on their buffers
     /// (`None`: their own; tests make traces take many passes or overflow).
     pub rounds: (usize, Option<u64>),
+    /// The hierarchy as the device laid it out ([`super::build::build_laid`]): the
+    /// traversal is then one pass of rounds that the host never looks at; whether it
+    /// finished is read with the counters ([`GpuDual::outcome`]). `None`: the host paces it.
+    pub laid: Option<&'a Laid>,
+    /// The pairs the rounds' buffers are to hold: 8 per leaf, or as the engine grew it
+    /// after a device-laid trace overflowed ([`rounds_cap`]).
+    pub room: u64,
+}
+
+/// How a device-laid traversal ended ([`GpuDual::outcome`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Outcome {
+    /// A round's output passed its buffers (nothing after it ran).
+    pub overflowed: bool,
+    /// The single rays' step ran (else the pass's rounds did not reach it).
+    pub walked: bool,
+    /// The most rounds one ray level took.
+    pub most_rounds: u32,
+    /// The hierarchy's levels (the layout's bound may be more).
+    pub levels: usize,
+    /// The top level's nodes.
+    pub top: u64,
+}
+
+impl Outcome {
+    /// Whether every pair was traversed (the hits and counts are the CPU's).
+    pub fn finished(&self) -> bool {
+        !self.overflowed && self.walked
+    }
 }
 
 /// A stack of (ray node, object node) pairs on the device; its length lives on the host.
@@ -136,7 +165,7 @@ fn read_words(ex: &mut Exec, buf: &wgpu::Buffer, at: &[u64]) -> Vec<u32> {
 impl GpuDual<'_> {
     /// Words of the counter buffer for a hierarchy of `levels` levels.
     pub fn counter_words(levels: usize) -> u64 {
-        16 * levels as u64 + 18
+        16 * levels as u64 + 24
     }
 
     /// The first word of the counters after the levels'.
@@ -145,9 +174,13 @@ impl GpuDual<'_> {
     }
 
     /// The most children of any node of any level: each kind's nodes take `b` children
-    /// but the last, which takes the rest (`build`'s layout, the CPU's).
+    /// but the last, which takes the rest (`build`'s layout, the CPU's); `b` where the
+    /// device laid the levels out (a smaller chunk: the rounds' bound stays below the CPU's).
     fn widest(&self) -> usize {
         let b = self.eng.cfg.branching;
+        if self.laid.is_some() {
+            return b as usize;
+        }
         self.levels
             .iter()
             .flat_map(|l| l.children)
@@ -167,6 +200,13 @@ impl GpuDual<'_> {
         ex.phase(Phase::Traversal);
         let chunk = (self.eng.cfg.pair_budget / self.widest().max(2)).max(1) as u64;
         let beams = self.beams(ex);
+        if self.laid.is_some() {
+            let cap = self
+                .round_cap(chunk)
+                .expect("a device-laid trace fits the rounds (GpuRsh checks)");
+            self.run_rounds(ex, &beams, cap);
+            return;
+        }
         if let Some(cap) = self.round_cap(chunk) {
             if self.run_rounds(ex, &beams, cap) {
                 return;
@@ -244,21 +284,39 @@ impl GpuDual<'_> {
         at(t + 14)
     }
 
+    /// How the traversal whose counter block is `w` (of `levels` levels laid out) ended:
+    /// words 16 · levels + 17.. (the rounds' overflow flag, walked, most rounds a level
+    /// took; for a device-laid hierarchy, its levels and top nodes).
+    pub fn outcome(w: &[u32], levels: usize) -> Outcome {
+        let t = 16 * levels;
+        Outcome {
+            overflowed: w[t + 17] != 0,
+            walked: w[t + 18] != 0,
+            most_rounds: w[t + 19],
+            levels: w[t + 20] as usize,
+            top: w[t + 21] as u64,
+        }
+    }
+
     /// Every level's beams and reaches (`Traversal::ray_nodes`): level 1's from its rays,
     /// each level above from its children's.
     fn beams(&self, ex: &mut Exec) -> Vec<wgpu::Buffer> {
         let scale = if self.any { ANY_HIT_SIZE_RATIO } else { 1.0 };
         let mut out: Vec<wgpu::Buffer> = Vec::with_capacity(self.levels.len());
         for lv in self.levels {
-            let nodes = lv.len();
+            let nodes = lv.cap;
             let beam = ex.g.storage("dual beams", nodes as u64 * 64);
             let prm = DualBeamParams {
                 nodes,
                 scale,
                 diag: self.diag,
             };
+            let threads = match &lv.sized {
+                Some(s) => Threads::Device { first: s, over: s },
+                None => Threads::Host(nodes as u64),
+            };
             match out.last() {
-                None => ex.run(
+                None => ex.run_on(
                     launch::DualBeamsLeaf {
                         n_sphere: &lv.sphere,
                         n_cone: &lv.cone,
@@ -270,10 +328,10 @@ impl GpuDual<'_> {
                         d_dir: &self.rays.dir,
                     },
                     prm,
-                    nodes as u64,
+                    threads,
                     64,
                 ),
-                Some(below) => ex.run(
+                Some(below) => ex.run_on(
                     launch::DualBeamsUpper {
                         n_sphere: &lv.sphere,
                         n_cone: &lv.cone,
@@ -283,7 +341,7 @@ impl GpuDual<'_> {
                         b_beam: &beam,
                     },
                     prm,
-                    nodes as u64,
+                    threads,
                     64,
                 ),
             }
@@ -310,6 +368,7 @@ impl GpuDual<'_> {
             room,
             pad,
             stage: l as u32,
+            maxd: self.eng.gpu.limits.max_compute_workgroups_per_dimension,
         }
     }
 
@@ -456,6 +515,7 @@ impl GpuDual<'_> {
             act: g.storage("dual actions", n * 4),
             counts: g.storage("dual stream counts", 3 * n * 4),
             offs: g.storage("dual stream offsets", (3 * n + 1) * 4),
+            size: g.storage("unused", 4),
         };
         self.classify(ex, beams, l, pairs, &state, &s, prm);
         ex.scan(&s.counts, &s.offs, 3 * n);
@@ -490,9 +550,14 @@ impl GpuDual<'_> {
 }
 
 /// The state of one host step of `n` pairs at ray level `l` (`dual_rounds.wgsl`'s layout).
-fn step_state(n: u64, l: usize) -> [u32; 7] {
-    [0, n as u32, 0, 0, 0, l as u32, 0]
+fn step_state(n: u64, l: usize) -> [u32; STATE_WORDS] {
+    let mut w = [0; STATE_WORDS];
+    (w[1], w[5]) = (n as u32, l as u32);
+    w
 }
+
+/// Words of the device's state (`dual_rounds.wgsl`).
+const STATE_WORDS: usize = 9;
 
 /// A buffer pair of `len` (ray node, object node) pairs.
 type Region = (wgpu::Buffer, wgpu::Buffer);
@@ -504,9 +569,11 @@ fn region(ex: &Exec, what: &str, len: u64) -> Region {
     )
 }
 
-/// A step's scratch: actions, stream counts and their offsets.
+/// A step's scratch: actions, stream counts and their offsets, and (the rounds') the size
+/// block of a round's final tests.
 struct Scratch {
     act: wgpu::Buffer,
     counts: wgpu::Buffer,
     offs: wgpu::Buffer,
+    size: wgpu::Buffer,
 }

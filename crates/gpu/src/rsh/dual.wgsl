@@ -40,6 +40,7 @@ struct DualPairParams {
     room: u32, // pairs each output buffer holds (the rounds' overflow; the host's steps: all)
     pad: u32, // dual_round_pad: the key past the last leaf position
     stage: u32, // the ray level the kernel serves (level index + 1; 0: single rays)
+    maxd: u32, // the device's most workgroups per dimension (dual_round_update's size block)
 }
 
 // Parameters of dual_walk.
@@ -90,6 +91,8 @@ const R_PEAK: u32 = 3u;
 const R_FINALS: u32 = 4u;
 const R_LEVEL: u32 = 5u;
 const R_WALKED: u32 = 6u;
+const R_MOST: u32 = 7u;
+const R_ROUNDS: u32 = 8u;
 
 const LEAF: u32 = 0x80000000u;
 // What a tested pair becomes (rsh::dual's DROP, FINAL, RAY, OBJECT).

@@ -8,13 +8,17 @@
 //! The host only sequences the kernels, reads back the few totals that size the next
 //! buffers (as a CUDA/CUB version would), and mirrors the CPU's batching decisions
 //! (triangle batches, budget splits), so the pair streams, and therefore all counters, are
-//! the CPU's.
+//! the CPU's. In a frame, RAH's bundles through the object tree read nothing back: the
+//! trimmed rays' count and kinds stay on the device, which lays the hierarchy's levels out
+//! ([`super::build::build_laid`]) and paces the dual traversal alone; whether it finished
+//! comes back with the frame's image, and a frame whose trace did not is traced again with
+//! the host pacing ([`crate::frame::render_frame`]).
 
-use super::build::build;
-use super::device_scene::{DeviceScene, SceneArrays};
-use super::dual::GpuDual;
+use super::build::{build, build_laid, laid_caps};
+use super::device_scene::{shuffle_table, DeviceScene, SceneBuffers};
+use super::dual::{rounds_cap, GpuDual};
 use super::objects::{self, DeviceTree, TreeInput};
-use super::order::leaf_order;
+use super::order::{leaf_order, leaf_order_laid};
 use super::single;
 use super::traverse::GpuTraversal;
 use crate::device::{Gpu, GpuError};
@@ -23,8 +27,8 @@ use crate::kernels::{launch, DevSize, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
 use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, Schedule};
-use geom::Pcg32;
 use scene::Geometry;
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use trace::{Counter, OptionError};
 use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
@@ -44,6 +48,21 @@ pub struct GpuRsh {
     /// The dual traversal's device rounds: rounds per level of a pass, and a bound on their
     /// buffers' pairs (tests only; `None`: [`GpuDual`]'s own).
     rounds: (usize, Option<u64>),
+    /// Rounds per level a device-laid dual traversal encodes: [`GpuRsh::rounds`]'s first,
+    /// then learned from each frame's traces ([`GpuRsh::take_incomplete`]).
+    learned: AtomicUsize,
+    /// The most rounds a level of this frame's device-laid traces took.
+    frame_most: AtomicUsize,
+    /// Pairs per leaf a device-laid dual traversal's buffers hold ([`GpuDual::room`]):
+    /// 8, doubled after one overflowed.
+    per_ray: AtomicU64,
+    /// No more device-laid traces: one overflowed buffers that cannot grow.
+    laid_off: AtomicBool,
+    /// Every trace paced by the host ([`crate::GpuEngine::pace`]).
+    paced: AtomicBool,
+    /// Device-laid traces since the last look that did not finish
+    /// ([`crate::GpuEngine::take_incomplete`]): bit 0 for want of rounds, bit 1 of room.
+    incomplete: AtomicU32,
     /// The single-ray walks' second-pass stacks ([`single::deep_stacks`]).
     deep: wgpu::Buffer,
     /// Counter blocks of traces on the device not yet read ([`crate::GpuEngine::settle`]).
@@ -57,27 +76,10 @@ pub struct GpuRsh {
     counter_bias: std::sync::atomic::AtomicU32,
 }
 
-/// A trace's counts left on the device until the frame reads them with its image.
-#[derive(Clone)]
-enum Pending {
-    /// A single-ray walk's counter block ([`single::HEAD`] words).
-    Single(wgpu::Buffer),
-    /// The bundles' counts: a dual traversal's counters ([`GpuDual::counter_words`] words,
-    /// where `levels` is some), then the records' totals (`frame::totals_on_device`), with
-    /// what the host counted (the mesh-sphere traversal's counters, the dual's peaks) and
-    /// the hierarchy's top nodes.
-    Bundles {
-        block: wgpu::Buffer,
-        words: u64,
-        levels: Option<usize>,
-        c: Counters,
-        top: u64,
-    },
-}
-
-/// A dual traversal's counter block still on the device, with the hierarchy's levels (none
-/// for the mesh-sphere traversal, whose counters the host has read).
-type DualCounts = Option<(wgpu::Buffer, usize)>;
+/// A dual traversal's counter block still on the device, with the hierarchy's levels and
+/// whether the device laid them out (none for the mesh-sphere traversal, whose counters the
+/// host has read).
+type DualCounts = Option<(wgpu::Buffer, usize, bool)>;
 
 /// The object tree of the scene's current frame, built on the device.
 struct TreeState {
@@ -105,70 +107,6 @@ impl TreeState {
             dev,
             secs: t0.elapsed().as_secs_f64(),
         }
-    }
-}
-
-/// The CPU's fixed minimal-ball shuffle (`geom::miniball`) for every count 1..=b, as rows of
-/// source indices; row c starts at c·(c−1)/2.
-fn shuffle_table(b: u32) -> Vec<u32> {
-    let mut out = Vec::new();
-    for c in 1..=b as usize {
-        let mut perm: Vec<u32> = (0..c as u32).collect();
-        let mut rng = Pcg32::new(0x6d696e69, 0x62616c6c);
-        for i in (1..c).rev() {
-            let j = rng.below(i as u32 + 1) as usize;
-            perm.swap(i, j);
-        }
-        out.extend(perm);
-    }
-    out
-}
-
-/// What the engine uploads of one frame's scene.
-pub(super) struct SceneBuffers {
-    tris: wgpu::Buffer,
-    tri_sphere: wgpu::Buffer,
-    tri_mesh: wgpu::Buffer,
-    mesh_sphere: wgpu::Buffer,
-    mesh_first: Vec<u32>,
-    ntri: u32,
-    box_min: [f32; 3],
-    box_ext: [f32; 3],
-    diag: f32,
-    max_rays: usize,
-}
-
-impl SceneBuffers {
-    fn new(gpu: &Gpu, geo: &Geometry, cfg: &RshConfig) -> Result<SceneBuffers, GpuError> {
-        let ntri = geo.tris.len();
-        let max_tris = gpu.max_binding() / 48;
-        if ntri as u64 > max_tris {
-            return Err(GpuError::Limits(format!(
-                "{ntri} triangles exceed one binding ({max_tris} at most)"
-            )));
-        }
-        let a = SceneArrays::of(geo);
-        let nm = geo.mesh_first.len() - 1;
-        let ext = geo.bounds.extent().max(geom::Vec3::splat(1e-30));
-        let b = geo.bounds.min;
-        // Rays: 16 bytes of origin and of direction per ray in one binding. The top level has
-        // at most ⌈rays / b⌉ + 3 nodes, and its node × mesh pass bits must fit one binding
-        // too (and index in u32); a larger batch is traced in parts.
-        let bit_entries = (gpu.max_binding() * 8).min(1 << 31);
-        let by_pass = (bit_entries / nm.max(1) as u64).saturating_sub(4) * cfg.branching as u64;
-        let max_rays = (gpu.max_binding() / 16).min(1 << 26).min(by_pass).max(1) as usize;
-        Ok(SceneBuffers {
-            tris: gpu.upload("triangles", &a.tris),
-            tri_sphere: gpu.upload("triangle spheres", &a.spheres),
-            tri_mesh: gpu.upload("triangle meshes", &a.tri_mesh),
-            mesh_sphere: gpu.upload("mesh spheres", &a.meshes),
-            mesh_first: geo.mesh_first.clone(),
-            ntri: ntri as u32,
-            box_min: [b.x, b.y, b.z],
-            box_ext: [ext.x, ext.y, ext.z],
-            diag: geo.bounds.diagonal(),
-            max_rays,
-        })
     }
 }
 
@@ -271,6 +209,12 @@ impl GpuRsh {
             tree: None,
             stack: single::STACK,
             rounds: (super::dual::ROUNDS, None),
+            learned: AtomicUsize::new(super::dual::ROUNDS),
+            frame_most: AtomicUsize::new(0),
+            per_ray: AtomicU64::new(8),
+            laid_off: AtomicBool::new(false),
+            paced: AtomicBool::new(false),
+            incomplete: AtomicU32::new(0),
             deep: gpu_deep,
             pending: Mutex::new(Vec::new()),
             settling: Mutex::new(Vec::new()),
@@ -297,6 +241,7 @@ impl GpuRsh {
     #[doc(hidden)]
     pub fn with_rounds(mut self, per_pass: usize, cap: Option<u64>) -> GpuRsh {
         self.rounds = (per_pass.max(1), cap);
+        *self.learned.get_mut() = per_pass.max(1);
         self
     }
 
@@ -400,10 +345,19 @@ impl GpuRsh {
         }
         let n = dr.len;
         let g = &self.s.gpu;
-        let (leaves, m, per_kind) = leaf_order(&self.s, ex, dr, stats, count);
-        // Hierarchy (thesis §3.2.7).
-        ex.phase(Phase::HierarchyCreation);
-        let levels = build(&self.s, ex, dr, &leaves, per_kind);
+        let (leaves, m, levels, laid) = if self.lays_out(n, count) {
+            // Nothing read back: the device counts, lays out and paces it all.
+            let (leaves, kinds) = leaf_order_laid(&self.s, ex, dr, count);
+            ex.phase(Phase::HierarchyCreation);
+            let (levels, laid) = build_laid(&self.s, ex, dr, &leaves, &kinds, n);
+            (leaves, n, levels, Some(laid))
+        } else {
+            let (leaves, m, per_kind) = leaf_order(&self.s, ex, dr, stats, count);
+            // Hierarchy (thesis §3.2.7).
+            ex.phase(Phase::HierarchyCreation);
+            let levels = build(&self.s, ex, dr, &leaves, per_kind);
+            (leaves, m, levels, None)
+        };
         // Traversal and final tests (thesis §3.2.8–3.2.9).
         // Every ray's best hit starts as none (u64::MAX), set on the device.
         let best = ex.filled("best", 2 * n, u32::MAX);
@@ -427,10 +381,20 @@ impl GpuRsh {
                 counters: &counters,
                 any: mode == TraceMode::Any,
                 diag: self.s.diag,
-                rounds: self.rounds,
+                // Paced by the host: passes of the configured rounds; laid out on the
+                // device: one pass of the rounds the engine learned.
+                rounds: match laid {
+                    Some(_) => (self.learned.load(Ordering::Relaxed), self.rounds.1),
+                    None => self.rounds,
+                },
+                laid: laid.as_ref(),
+                room: match laid {
+                    Some(_) => self.per_ray.load(Ordering::Relaxed) * n,
+                    None => 8 * m,
+                },
             };
             trav.run(ex, &mut c);
-            on_device = Some((counters, levels.len()));
+            on_device = Some((counters, levels.len(), laid.is_some()));
         } else if self.s.ntri > 0 && levels.last().is_some_and(|l| !l.is_empty()) {
             let words = GpuTraversal::counter_words(levels.len());
             let counters = g.storage("traversal counters", words * 4);
@@ -455,8 +419,34 @@ impl GpuRsh {
         // Records: the winner's hit recomputed with the shared kernel, as on the CPU.
         ex.phase(Phase::FinalTests);
         let rec = self.hit_records(ex, dr, &best);
-        let top = levels.last().map(|l| l.len() as u64).unwrap_or(0);
+        // (Laid out on the device: its own count, read with the counters.)
+        let top = match (&laid, levels.last()) {
+            (None, Some(l)) => l.len() as u64,
+            _ => 0,
+        };
         (rec, c, top, on_device)
+    }
+
+    /// Whether a trace of `n` rays (of which the device holds the count) is laid out and
+    /// paced by the device, reading nothing back: RAH's bundles through the object tree
+    /// (CRSH's order reads its runs' count), in a frame not paced by the host, where the
+    /// rounds' buffers keep the host's schedule (their bound below the smallest chunk, the
+    /// top level's bound within it).
+    fn lays_out(&self, n: u64, count: Option<&DevSize>) -> bool {
+        if count.is_none()
+            || self.tree.is_none()
+            || self.s.ntri == 0
+            || self.s.cfg.method != Method::Rah
+            || self.paced.load(Ordering::Relaxed)
+            || self.laid_off.load(Ordering::Relaxed)
+        {
+            return false;
+        }
+        let b = self.s.cfg.branching as u64;
+        let chunk = (self.s.cfg.pair_budget as u64 / b.max(2)).max(1);
+        let nt = *laid_caps(n, b, self.s.cfg.levels).last().unwrap_or(&0);
+        let room = self.per_ray.load(Ordering::Relaxed) * n;
+        rounds_cap(room, nt, chunk, self.rounds.1).is_some()
     }
 
     /// One record per ray of `dr` from its best (triangle, t bits) in `best`: the winner's
@@ -548,7 +538,7 @@ impl GpuRsh {
         ex.phase(Phase::ReadBack);
         match dual {
             None => records_to_hits(&ex.read(&rec, n), hits),
-            Some((cnt, levels)) => {
+            Some((cnt, levels, _)) => {
                 // The records and the counters in one read-back.
                 let (bytes, words) = (n as u64 * 16, GpuDual::counter_words(levels));
                 let both = g.storage("records and counters", bytes + words * 4);
@@ -618,7 +608,7 @@ impl GpuRsh {
         let totals = crate::frame::totals_on_device(ex, &rec, None, dr.len, count);
         let tw = totals.as_ref().map_or(0, |t| t.1);
         let block = self.s.gpu.storage("bundles' counts", (cw + tw) * 4);
-        if let Some((cnt, _)) = &dual {
+        if let Some((cnt, ..)) = &dual {
             ex.copy(cnt, 0, &block, cw * 4);
         }
         if let Some((t, w)) = &totals {
@@ -627,9 +617,10 @@ impl GpuRsh {
         self.pending.lock().unwrap().push(Pending::Bundles {
             block,
             words: cw + tw,
-            levels: dual.map(|d| d.1),
+            levels: dual.as_ref().map(|d| d.1),
             c,
             top,
+            laid: dual.is_some_and(|d| d.2),
         });
         rec
     }
@@ -651,50 +642,6 @@ impl GpuRsh {
         stats: &mut TraceStats,
     ) -> Option<wgpu::Buffer> {
         Some(self.trace_on_device(dr, mode, stats, Some(count)))
-    }
-
-    /// [`crate::GpuEngine::take_pending`].
-    pub(crate) fn take_pending(&self) -> Vec<(wgpu::Buffer, u64)> {
-        let taken = std::mem::take(&mut *self.pending.lock().unwrap());
-        let out = taken
-            .iter()
-            .map(|p| match p {
-                Pending::Single(b) => (b.clone(), single::HEAD as u64),
-                Pending::Bundles { block, words, .. } => (block.clone(), *words),
-            })
-            .collect();
-        *self.settling.lock().unwrap() = taken;
-        out
-    }
-
-    /// [`crate::GpuEngine::settle`].
-    pub(crate) fn settle(&self, words: &[u32], stats: &mut TraceStats) {
-        let mut at = 0;
-        for p in std::mem::take(&mut *self.settling.lock().unwrap()) {
-            match p {
-                Pending::Single(_) => {
-                    Self::settle_single(&words[at..at + single::HEAD], stats);
-                    at += single::HEAD;
-                }
-                Pending::Bundles {
-                    words: n,
-                    levels,
-                    mut c,
-                    top,
-                    ..
-                } => {
-                    let w = &words[at..at + n as usize];
-                    let cw = levels.map_or(0, |l| GpuDual::counter_words(l) as usize);
-                    if let Some(levels) = levels {
-                        let over = GpuDual::counts(&w[..cw], levels, &mut c);
-                        stats.count(Counter::GpuStackOverflows, over);
-                    }
-                    let hits = crate::frame::sum_totals(&w[cw..]).hits;
-                    self.report(&c, top, hits, stats);
-                    at += n as usize;
-                }
-            }
-        }
     }
 
     /// The scene's triangles on the device (3 × vec4 per triangle).
@@ -769,6 +716,9 @@ impl Tracer for GpuRsh {
         }
     }
 }
+
+mod pending;
+use pending::Pending;
 
 #[cfg(test)]
 mod tests;

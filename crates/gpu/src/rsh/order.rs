@@ -4,7 +4,7 @@
 
 use super::device_scene::DeviceScene;
 use super::hash::hash_keys;
-use crate::kernels::params::TrimKindsParams;
+use crate::kernels::params::{CompactParams, TrimKindsParams, TrimPadParams};
 use crate::kernels::{launch, DevSize, Exec};
 use crate::rays::DeviceRays;
 use ::rsh::Method;
@@ -61,6 +61,77 @@ pub fn leaf_order(
         m,
         [per_kind[0], per_kind[1], per_kind[2], per_kind[3]],
     )
+}
+
+/// RAH's leaf order with nothing read back (`count`: of the first `count.n` rays only, as
+/// in [`leaf_order`]): the trimmed rays compacted into buffers of the batch's `n` slots, the
+/// slots past their count padded with the largest key (`kinds.wgsl`'s `trim_pad`), and every
+/// slot sorted, stably, so the first `m` are [`leaf_order`]'s leaves. Returns the leaves and
+/// the trimmed rays' count per kind, both on the device (their sum is `m`).
+pub fn leaf_order_laid(
+    eng: &DeviceScene,
+    ex: &mut Exec,
+    rays: &DeviceRays,
+    count: Option<&DevSize>,
+) -> (wgpu::Buffer, wgpu::Buffer) {
+    assert_eq!(
+        eng.cfg.method,
+        Method::Rah,
+        "CRSH's order reads its runs' count"
+    );
+    let n = rays.len;
+    ex.phase(Phase::ScreenOrder);
+    let (keys, valid) = hash_keys(eng, ex, rays, true, count);
+    ex.phase(Phase::Trim);
+    let kinds = eng.gpu.upload("kind counts", &[0u32; 4]);
+    ex.run(
+        launch::TrimKinds {
+            x_flag: &valid,
+            x_a: &rays.kl,
+            y_kinds: &kinds,
+        },
+        TrimKindsParams { rays: n as u32 },
+        n,
+        256,
+    );
+    let offs = eng.gpu.storage("compact offsets", (n + 1) * 4);
+    ex.scan(&valid, &offs, n);
+    let (tk, tv) = (
+        eng.gpu.storage("trimmed keys", n * 4),
+        eng.gpu.storage("trimmed rays", n * 4),
+    );
+    ex.run(
+        launch::Compact {
+            x_flag: &valid,
+            x_off: &offs,
+            x_a: &keys,
+            x_b: &keys,
+            y_a: &tk,
+            y_b: &tv,
+        },
+        CompactParams {
+            n: n as u32,
+            index_as_b: 1,
+        },
+        n,
+        256,
+    );
+    ex.run(
+        launch::TrimPad {
+            x_off: &offs,
+            y_a: &tk,
+            y_b: &tv,
+        },
+        TrimPadParams {
+            n: n as u32,
+            value: u32::MAX,
+        },
+        n,
+        256,
+    );
+    ex.phase(Phase::ScreenOrder);
+    ex.sort_pairs_all(&tk, &tv, n, 32);
+    (tv, kinds)
 }
 
 /// Trim is done; compress → sort → decompress (thesis §3.2.4–3.2.6).

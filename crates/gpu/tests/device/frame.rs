@@ -48,9 +48,8 @@ fn gpu_frame(
     geo: &Geometry,
     opts: &RenderOptions,
 ) -> (render::whitted::Rendered, bool) {
-    let mut b = GpuBackend::new(e, raster, s, opts, false).unwrap();
-    let out = run(&mut b, s, geo, opts, &());
-    (out, b.in_parts)
+    let f = gpu::frame::render_frame(e, raster, s, geo, opts, &(), false).unwrap();
+    (f.out, f.in_parts)
 }
 
 /// The same frame as [`gpu_frame`] on the CPU backend, over the GPU's G-buffer.
@@ -112,6 +111,9 @@ fn gpu_frames_equal_cpu_frames_over_the_gpu_gbuffer() {
         ("office", 64, 48, 2),
         ("stadium", 48, 40, 1),
         ("soup", 40, 32, 0),
+        // Batches of at most 8 rays: a ray hierarchy of one level below its configured two
+        // (the device lays out two and builds one).
+        ("cornell", 2, 2, 2),
     ] {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
@@ -284,6 +286,8 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
         let sized: Vec<Box<dyn GpuEngine>> = vec![
             Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
             Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
+            // RAH's bundles through the object tree: laid out and paced by the device.
+            Box::new(GpuRsh::new(g.clone(), &geo, common::rah_dual()).unwrap()),
         ];
         for e in sized {
             assert!(e.counts_on_device(), "{name} {}", e.name());
@@ -308,11 +312,11 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
             assert_eq!(*reads, 1, "{what}: the image and the counts, once");
             assert!(runs[1].2 > 1, "{}: reads the later counts", runs[1].0);
         }
-        // The bundles (the thesis's behind mesh spheres, and the dual traversal) take
-        // device-sized batches too: their traversals still read the sizes their passes need,
-        // so a sized frame reads back fewer times than one that reads every count, but
-        // more than once; the image and every count are the same.
-        for c in [RshConfig::rah(), RshConfig::crsh(), common::rah_dual()] {
+        // The thesis's bundles behind mesh spheres (and CRSH's order) take device-sized
+        // batches too: their traversals still read the sizes their passes need, so a sized
+        // frame reads back fewer times than one that reads every count, but more than once;
+        // the image and every count are the same.
+        for c in [RshConfig::rah(), RshConfig::crsh()] {
             let e = GpuRsh::new(g.clone(), &geo, c).unwrap();
             assert!(e.counts_on_device(), "{name} {}", e.name());
             let mut runs = Vec::new();
@@ -361,6 +365,7 @@ fn real_scene_frames_read_back_once_and_equal_cpu_frames() {
         let sized: Vec<Box<dyn GpuEngine>> = vec![
             Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
             Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
+            Box::new(GpuRsh::new(g.clone(), &geo, common::rah_dual()).unwrap()),
         ];
         for e in sized {
             let what = format!("{name} {}", e.name());
@@ -372,4 +377,77 @@ fn real_scene_frames_read_back_once_and_equal_cpu_frames() {
             same_frame(&what, &host, &dev);
         }
     }
+}
+
+#[test]
+fn device_paced_traces_that_do_not_finish_trace_the_frame_again() {
+    // RAH's dual traversal, laid out and paced by the device, given one round per level (its
+    // traces need more) or buffers of 64 pairs (its rounds overflow): the frame sees it with
+    // its image, is traced again with the host pacing, and equals the CPU's frame; the
+    // engine then takes more rounds, so the next frame finishes on the device and reads
+    // back once. Buffers that cannot grow past the bound overflow again, until the engine
+    // stops laying traces out.
+    let Some(g) = gpu() else { return };
+    let s = builtin::by_name("office").unwrap();
+    let geo = Geometry::from_scene(&s);
+    let opts = RenderOptions {
+        width: 32,
+        height: 24,
+        bounces: 2,
+        spp: 1,
+    };
+    let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
+    let frame = |e: &GpuRsh| {
+        let reads = g.read_backs();
+        let f = gpu::frame::render_frame(e, &raster, &s, &geo, &opts, &(), false).unwrap();
+        (f.out, f.again, g.read_backs() - reads)
+    };
+    let e = GpuRsh::new(g.clone(), &geo, common::rah_dual())
+        .unwrap()
+        .with_rounds(1, None);
+    let host = cpu_frame(&e, &raster, &s, &geo, &opts);
+    let (dev, again, reads) = frame(&e);
+    assert!(again, "one round per level does not finish");
+    assert!(reads > 2, "the second trace is paced: {reads} read-backs");
+    same_frame("office, one round", &host, &dev);
+    let (next, again, reads) = frame(&e);
+    assert!(!again, "the engine learned the rounds");
+    assert_eq!(reads, 1, "the next frame reads back once");
+    same_frame("office, learned rounds", &host, &next);
+
+    let e = GpuRsh::new(g.clone(), &geo, common::rah_dual())
+        .unwrap()
+        .with_rounds(12, Some(64));
+    let mut agains = 0;
+    for k in 0..5 {
+        let (dev, again, _) = frame(&e);
+        same_frame(&format!("office, 64 pairs, frame {k}"), &host, &dev);
+        agains += again as usize;
+    }
+    // 8 → 16 → 32 → 64 pairs per ray, then none laid out.
+    assert_eq!(agains, 4, "overflowing frames");
+
+    // Levels until one root per kind: the device lays out as many as the batch's bound
+    // could need and builds fewer (a bounce batch holds fewer rays than its bound), so the
+    // traversal starts below the layout's top, at a level of several nodes.
+    let cfg = RshConfig {
+        levels: 0,
+        ..common::rah_dual()
+    };
+    let opts = RenderOptions {
+        width: 48,
+        height: 40,
+        ..opts
+    };
+    let e = GpuRsh::new(g.clone(), &geo, cfg).unwrap();
+    let host = cpu_frame(&e, &raster, &s, &geo, &opts);
+    let reads = g.read_backs();
+    let f = gpu::frame::render_frame(&e, &raster, &s, &geo, &opts, &(), false).unwrap();
+    assert!(!f.again, "levels to one root: finished on the device");
+    assert_eq!(
+        g.read_backs() - reads,
+        1,
+        "levels to one root: one read-back"
+    );
+    same_frame("office, levels to one root", &host, &f.out);
 }

@@ -11,10 +11,13 @@
 //! while the device is at its level, so the rounds a level does not need do nothing. Every
 //! buffer holds `cap` pairs (below the chunk, so the schedule is the host's); a round that
 //! would pass it flags the trace, which the host then traces again with its own steps
-//! ([`GpuDual::run`] resets the best hits and the counters).
+//! ([`GpuDual::run`] resets the best hits and the counters). Where the device laid the
+//! hierarchy out ([`GpuDual::laid`]), the host never looks: one pass is encoded, the device
+//! starts at the top level it built, and the state's flag, walked word and most rounds go
+//! into the counter block ([`GpuDual::outcome`]), read with the frame's image.
 
 use super::{region, GpuDual, Region, Scratch};
-use crate::kernels::{launch, DevLen, Exec, Threads};
+use crate::kernels::{launch, DevSize, Exec, Threads};
 use ::rsh::objects::LEAF;
 use trace::Phase;
 
@@ -22,28 +25,41 @@ use trace::Phase;
 /// levels; office's 3-bounce batches 2–6).
 pub const ROUNDS: usize = 12;
 
+/// The pairs every buffer of the rounds holds for room for `pairs` (8 per ray: [`GpuDual::room`]),
+/// a top level of `nt` nodes (at most) and the schedule's `chunk`: `pairs`, or 64 Ki pairs (half a MiB a
+/// buffer) for small batches, whose incoherent rays (BART kitchen's reflections at 128²:
+/// 1,422 rays) passed 8 a ray; below the chunk (so that no stack reaches it), at most
+/// `bound` (tests), at least the top level's nodes; `None` where the rounds cannot keep the
+/// host's schedule (the top level alone fills a chunk).
+pub fn rounds_cap(pairs: u64, nt: u64, chunk: u64, bound: Option<u64>) -> Option<u64> {
+    let own = pairs.max(1 << 16).min(chunk.saturating_sub(1));
+    let cap = bound.map_or(own, |c| c.min(own));
+    (nt <= cap && nt > 0).then_some(cap)
+}
+
 impl GpuDual<'_> {
-    /// The pairs every buffer of the rounds holds: room for 8 pairs per ray, or 64 Ki pairs
-    /// (half a MiB a buffer) for small batches, whose incoherent rays (BART kitchen's
-    /// reflections at 128²: 1,422 rays) passed 8 a ray; below the chunk (so that no stack
-    /// reaches it), at least the top level's nodes; `None` where the rounds cannot keep the
-    /// host's schedule (the top level alone fills a chunk).
+    /// The pairs every buffer of the rounds holds ([`rounds_cap`] of this trace).
     pub(super) fn round_cap(&self, chunk: u64) -> Option<u64> {
-        let nt = self.levels.last()?.len() as u64;
-        let own = (8 * self.m).max(1 << 16).min(chunk.saturating_sub(1));
-        let cap = self.rounds.1.map_or(own, |c| c.min(own));
-        (nt <= cap && nt > 0).then_some(cap)
+        let nt = self.levels.last()?.cap as u64;
+        rounds_cap(self.room, nt, chunk, self.rounds.1)
     }
 
     /// The traversal in rounds over buffers of `cap` pairs; the beams are `beams`. Returns
     /// whether it finished (else a round overflowed, and its work must be traced again).
+    /// Laid out on the device ([`GpuDual::laid`]): one pass, never read, and `true`; the
+    /// counters then say whether it finished ([`GpuDual::outcome`]).
     /// The most pairs held at once goes into the counter block (word 16 · levels + 16).
     pub(super) fn run_rounds(&self, ex: &mut Exec, beams: &[wgpu::Buffer], cap: u64) -> bool {
         let g = ex.g;
         let nl = self.levels.len();
-        let nt = self.levels[nl - 1].len();
+        let nt = self.levels[nl - 1].cap;
         let root = if self.tree.leaves == 1 { LEAF } else { 0 };
-        let state = g.upload("dual round state", &[0u32, nt, 0, 0, 0, nl as u32, 0]);
+        let state = g.upload("dual round state", &super::step_state(nt as u64, nl));
+        if let Some(laid) = self.laid {
+            // The levels built and the top level's nodes: the device's own.
+            ex.copy_at(&laid.block, laid.tail_byte(), &state, 20, 4);
+            ex.copy_at(&laid.block, laid.tail_byte() + 4, &state, 4, 4);
+        }
         // Per ray level L ≥ 1 (index L): its input and the next round's (swapped each
         // round), and its stack of pairs one level down (the input of level L − 1).
         let mut io: Vec<Option<(Region, Region)>> = (0..=nl + 1).map(|_| None).collect();
@@ -53,11 +69,23 @@ impl GpuDual<'_> {
         ex.copy(&g.upload("dual top nodes", &ids), 0, &top.0, nt as u64 * 4);
         let roots = g.upload("dual top roots", &vec![root; nt as usize]);
         ex.copy(&roots, 0, &top.1, nt as u64 * 4);
+        if self.laid.is_some() {
+            // The device starts at the top level it built, which may be below the layout's
+            // last: every level's input starts as the top nodes (a level above the one
+            // built never runs; one that does overwrites its stack from its start).
+            for b in below.iter_mut().take(nl + 1).skip(2) {
+                let r = region(ex, "dual round stack below", cap);
+                ex.copy(&top.0, 0, &r.0, nt as u64 * 4);
+                ex.copy(&top.1, 0, &r.1, nt as u64 * 4);
+                *b = Some(r);
+            }
+        }
         io[nl] = Some((top, region(ex, "dual round output", cap)));
         let scratch = Scratch {
             act: g.storage("dual round actions", cap * 4),
             counts: g.storage("dual round counts", 3 * cap * 4),
             offs: g.storage("dual round offsets", (3 * cap + 1) * 4),
+            size: g.indirect("dual round final tests' size", 16),
         };
         let fin = region(ex, "dual round final tests", cap);
         let walk = region(ex, "dual round single rays", cap);
@@ -93,6 +121,10 @@ impl GpuDual<'_> {
             ex.copy(&stack.0, 0, &walk.0, cap * 4);
             ex.copy(&stack.1, 0, &walk.1, cap * 4);
             self.round_walks(ex, &state, &walk, cap);
+            if self.laid.is_some() {
+                // Nobody looks: whether the pass finished is read with the counters.
+                break;
+            }
             // The overflow flag, the device's level and whether the single rays walked.
             let w: Vec<u32> = ex.read(&state, 7);
             if w[0] != 0 {
@@ -108,8 +140,21 @@ impl GpuDual<'_> {
                 *x = None;
             }
         }
-        // The peak next to the counters (read with them).
-        ex.copy_at(&state, 12, self.counters, (self.tail() as u64 + 16) * 4, 4);
+        // The peak next to the counters (read with them), then the outcome
+        // ([`GpuDual::outcome`]): the flag, walked, the most rounds a level took and, laid
+        // out on the device, its levels and top nodes.
+        let t = self.tail() as u64 * 4;
+        ex.copy_at(&state, 12, self.counters, t + 64, 4);
+        ex.copy_at(&state, 0, self.counters, t + 68, 4);
+        ex.copy_at(&state, 24, self.counters, t + 72, 8);
+        match self.laid {
+            Some(laid) => ex.copy_at(&laid.block, laid.tail_byte(), self.counters, t + 80, 8),
+            None => {
+                let shape = [nl as u32, nt];
+                let w = g.upload("dual hierarchy shape", &shape);
+                ex.copy_at(&w, 0, self.counters, t + 80, 8);
+            }
+        }
         true
     }
 
@@ -133,22 +178,23 @@ impl GpuDual<'_> {
         self.classify(ex, beams, l, input, state, s, prm);
         ex.scan(&s.counts, &s.offs, 3 * cap);
         self.emit(ex, l, input, state, s, out, prm);
+        let size = DevSize {
+            block: s.size.clone(),
+            at: 0,
+            cap,
+        };
         ex.run(
             launch::DualRoundUpdate {
                 p_cnt: &s.offs,
                 r_state: state,
+                r_size: &size.block,
             },
             prm,
             1,
             1,
         );
         if l == 1 {
-            let len = DevLen {
-                buf: state.clone(),
-                at: 4,
-                cap,
-            };
-            let size = ex.sizes(&len, &[(1, 256)]).remove(0);
+            // Over the count the update left (its size block).
             self.final_tests(ex, out.0, cap, Threads::of(Some(&size), cap));
         }
     }
