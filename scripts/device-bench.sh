@@ -64,6 +64,10 @@ done
 step 150 "render kitchen 1024 b3 crsh frames" "$R" render kitchen -W 1024 -H 1024 --bounces 3 \
     --backend gpu --engine crsh --frames 6 --frame-csv "$OUT/kitchen-1024-b3-crsh.csv" \
     --out "$OUT/kitchen-%04d.png"
+# RAH's dual traversal, laid out and paced by the device (one read-back a frame on lavapipe).
+step 150 "render kitchen 1024 b3 rah frames" "$R" render kitchen -W 1024 -H 1024 --bounces 3 \
+    --backend gpu --engine rah --frames 6 --frame-csv "$OUT/kitchen-1024-b3-rah.csv" \
+    --out "$OUT/kitchen-rah-%04d.png"
 # The GPU tests (the GPU frame against the CPU loop over its G-buffer, in parts; the minimal-ball
 # fix eb34266 is checked by hierarchies_match_the_cpu_node_for_node).
 for m in objects single dual frame grid_build grid agreement; do
