@@ -24,10 +24,11 @@
 //! rays per surface, as the scene's materials allow), and every launch over them, the engine's included
 //! ([`GpuEngine::trace_device_counted`]), reads it there through an indirect dispatch. Only
 //! where the bound would not fit (one binding, the engine's part, the memory budget), or the
-//! engine sizes its passes on the host (CRSH's bundles, and RAH's behind mesh spheres), is a
-//! size read back (4 bytes) to allocate exactly. RAH's dual traversal is paced by the
-//! device alone; where one of its traces did not finish (too few rounds, too little room),
-//! [`render_frame`] traces the frame again with the host pacing. The launches' parameter blocks go the other way.
+//! engine sizes its passes on the host (the thesis's bundles behind mesh spheres), is a size
+//! read back (4 bytes) to allocate exactly. The dual traversal (CRSH's or RAH's bundles
+//! through the object tree) is paced by the device alone; where one of its traces did not
+//! finish (too few rounds, too little room), [`render_frame`] traces the frame again with
+//! the host pacing. The launches' parameter blocks go the other way.
 //! [`crate::Gpu::bytes_moved`] counts every one of them.
 //!
 //! The pixel accumulation is order-independent of scheduling: one thread per run of equal

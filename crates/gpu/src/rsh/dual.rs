@@ -85,6 +85,8 @@ pub struct Outcome {
     pub levels: usize,
     /// The top level's nodes.
     pub top: u64,
+    /// CRSH's chunks where its order was laid out on the device (else 0).
+    pub chunks: u64,
 }
 
 impl Outcome {
@@ -286,7 +288,7 @@ impl GpuDual<'_> {
 
     /// How the traversal whose counter block is `w` (of `levels` levels laid out) ended:
     /// words 16 · levels + 17.. (the rounds' overflow flag, walked, most rounds a level
-    /// took; for a device-laid hierarchy, its levels and top nodes).
+    /// took; for a device-laid hierarchy, its levels and top nodes, and CRSH's chunks).
     pub fn outcome(w: &[u32], levels: usize) -> Outcome {
         let t = 16 * levels;
         Outcome {
@@ -295,6 +297,7 @@ impl GpuDual<'_> {
             most_rounds: w[t + 19],
             levels: w[t + 20] as usize,
             top: w[t + 21] as u64,
+            chunks: w[t + 22] as u64,
         }
     }
 

@@ -8,8 +8,9 @@
 //! The host only sequences the kernels, reads back the few totals that size the next
 //! buffers (as a CUDA/CUB version would), and mirrors the CPU's batching decisions
 //! (triangle batches, budget splits), so the pair streams, and therefore all counters, are
-//! the CPU's. In a frame, RAH's bundles through the object tree read nothing back: the
-//! trimmed rays' count and kinds stay on the device, which lays the hierarchy's levels out
+//! the CPU's. In a frame, the bundles through the object tree read nothing back: the
+//! trimmed rays' count and kinds (and CRSH's runs) stay on the device
+//! ([`super::order::leaf_order_laid`]), which lays the hierarchy's levels out
 //! ([`super::build::build_laid`]) and paces the dual traversal alone; whether it finished
 //! comes back with the frame's image, and a frame whose trace did not is traced again with
 //! the host pacing ([`crate::frame::render_frame`]).
@@ -345,9 +346,11 @@ impl GpuRsh {
         }
         let n = dr.len;
         let g = &self.s.gpu;
+        let mut chunks = None;
         let (leaves, m, levels, laid) = if self.lays_out(n, count) {
             // Nothing read back: the device counts, lays out and paces it all.
-            let (leaves, kinds) = leaf_order_laid(&self.s, ex, dr, count);
+            let (leaves, kinds, runs) = leaf_order_laid(&self.s, ex, dr, count);
+            chunks = runs;
             ex.phase(Phase::HierarchyCreation);
             let (levels, laid) = build_laid(&self.s, ex, dr, &leaves, &kinds, n);
             (leaves, n, levels, Some(laid))
@@ -370,6 +373,11 @@ impl GpuRsh {
         if let (Some(t), Some(_)) = (dual, levels.last()) {
             let words = GpuDual::counter_words(levels.len());
             let counters = g.storage("dual traversal counters", words * 4);
+            if let Some(w) = &chunks {
+                // CRSH's chunks, counted on the device (GpuDual::outcome).
+                let at = 4 * (GpuDual::counter_words(levels.len()) - 2);
+                ex.copy_at(w, 0, &counters, at, 4);
+            }
             let trav = GpuDual {
                 eng: &self.s,
                 tree: &t.dev,
@@ -428,15 +436,14 @@ impl GpuRsh {
     }
 
     /// Whether a trace of `n` rays (of which the device holds the count) is laid out and
-    /// paced by the device, reading nothing back: RAH's bundles through the object tree
-    /// (CRSH's order reads its runs' count), in a frame not paced by the host, where the
+    /// paced by the device, reading nothing back: the bundles through the object tree, in
+    /// a frame not paced by the host, where the
     /// rounds' buffers keep the host's schedule (their bound below the smallest chunk, the
     /// top level's bound within it).
     fn lays_out(&self, n: u64, count: Option<&DevSize>) -> bool {
         if count.is_none()
             || self.tree.is_none()
             || self.s.ntri == 0
-            || self.s.cfg.method != Method::Rah
             || self.paced.load(Ordering::Relaxed)
             || self.laid_off.load(Ordering::Relaxed)
         {

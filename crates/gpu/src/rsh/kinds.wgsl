@@ -126,3 +126,16 @@ fn level_layout(@builtin(global_invocation_id) gid: vec3<u32>) {
     y_a[LAYOUT_WORDS * p.max_levels] = built;
     y_a[LAYOUT_WORDS * p.max_levels + 1u] = top;
 }
+
+// Parameters of runs_below.
+struct RunsBelowParams {
+    n: u32, // slots; the trimmed rays' count is x_a[n] (the trim's offsets)
+}
+
+// One thread: CRSH's chunks of the trimmed rays (the runs that start before their count,
+// x_off being the run heads' offsets), leaving out the run of the padding past them.
+@compute @workgroup_size(1)
+fn runs_below(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = runs_below_params();
+    y_a[0] = x_off[x_a[p.n]];
+}

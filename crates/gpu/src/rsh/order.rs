@@ -4,8 +4,11 @@
 
 use super::device_scene::DeviceScene;
 use super::hash::hash_keys;
-use crate::kernels::params::{CompactParams, TrimKindsParams, TrimPadParams};
-use crate::kernels::{launch, DevSize, Exec};
+use crate::kernels::params::{
+    CompactParams, RunsBelowParams, RunsParams, TrimKindsParams, TrimPadParams,
+};
+use crate::kernels::{launch, DevLen, DevSize, Exec, Threads};
+use crate::prims::Runs;
 use crate::rays::DeviceRays;
 use ::rsh::Method;
 use trace::Counter;
@@ -63,25 +66,29 @@ pub fn leaf_order(
     )
 }
 
-/// RAH's leaf order with nothing read back (`count`: of the first `count.n` rays only, as
-/// in [`leaf_order`]): the trimmed rays compacted into buffers of the batch's `n` slots, the
-/// slots past their count padded with the largest key (`kinds.wgsl`'s `trim_pad`), and every
-/// slot sorted, stably, so the first `m` are [`leaf_order`]'s leaves. Returns the leaves and
-/// the trimmed rays' count per kind, both on the device (their sum is `m`).
+/// [`leaf_order`] with nothing read back (`count`: of the first `count.n` rays only): the
+/// trimmed rays compacted into buffers of the batch's `n` slots, the slots past their
+/// count padded with the largest key (`kinds.wgsl`'s `trim_pad`); RAH sorts every slot,
+/// stably, so the first `m` are [`leaf_order`]'s leaves; CRSH compresses every slot into
+/// runs, pads the runs' slots past their count the same way, sorts and expands them: the
+/// padding's own run (or the last real run, which it joins) sorts last, so again the first
+/// `m` leaves are [`leaf_order`]'s. Returns the leaves and the trimmed rays' count per kind,
+/// both on the device (their sum is `m`), and for CRSH a word there holding its chunks
+/// (the runs before the padding: `Counter::Chunks`).
 pub fn leaf_order_laid(
     eng: &DeviceScene,
     ex: &mut Exec,
     rays: &DeviceRays,
     count: Option<&DevSize>,
-) -> (wgpu::Buffer, wgpu::Buffer) {
-    assert_eq!(
-        eng.cfg.method,
-        Method::Rah,
-        "CRSH's order reads its runs' count"
-    );
+) -> (wgpu::Buffer, wgpu::Buffer, Option<wgpu::Buffer>) {
+    let crsh = eng.cfg.method == Method::Crsh;
     let n = rays.len;
-    ex.phase(Phase::ScreenOrder);
-    let (keys, valid) = hash_keys(eng, ex, rays, true, count);
+    ex.phase(if crsh {
+        Phase::Hash
+    } else {
+        Phase::ScreenOrder
+    });
+    let (keys, valid) = hash_keys(eng, ex, rays, !crsh, count);
     ex.phase(Phase::Trim);
     let kinds = eng.gpu.upload("kind counts", &[0u32; 4]);
     ex.run(
@@ -116,22 +123,111 @@ pub fn leaf_order_laid(
         n,
         256,
     );
+    pad_past(ex, &offs, (&tk, &tv), n, u32::MAX);
+    if !crsh {
+        ex.phase(Phase::ScreenOrder);
+        ex.sort_pairs_all(&tk, &tv, n, 32);
+        return (tv, kinds, None);
+    }
+    // Compress every slot (thesis §3.2.4): the runs' count stays on the device.
+    ex.phase(Phase::Compress);
+    let g = &eng.gpu;
+    let heads = g.storage("heads", n * 4);
     ex.run(
-        launch::TrimPad {
-            x_off: &offs,
-            y_a: &tk,
-            y_b: &tv,
+        launch::RunHeads {
+            x_a: &tk,
+            y_a: &heads,
         },
-        TrimPadParams {
+        RunsParams {
             n: n as u32,
-            value: u32::MAX,
+            total: 0,
         },
         n,
         256,
     );
-    ex.phase(Phase::ScreenOrder);
-    ex.sort_pairs_all(&tk, &tv, n, 32);
-    (tv, kinds)
+    let hoffs = g.storage("head offsets", (n + 1) * 4);
+    ex.scan(&heads, &hoffs, n);
+    // Sizes past the runs' count stay zero (a fresh buffer), so they expand to nothing.
+    let runs = Runs {
+        keys: g.storage("chunk keys", n * 4),
+        bases: g.storage("chunk bases", n * 4),
+        sizes: g.storage("chunk sizes", n * 4),
+        len: n,
+    };
+    ex.run(
+        launch::RunChunks {
+            x_flag: &heads,
+            x_off: &hoffs,
+            x_a: &tk,
+            y_a: &runs.keys,
+            y_b: &runs.bases,
+        },
+        RunsParams {
+            n: n as u32,
+            total: 0,
+        },
+        n,
+        256,
+    );
+    let nruns = DevLen {
+        buf: hoffs.clone(),
+        at: n,
+        cap: n,
+    };
+    let size = ex.size(&nruns, 1, 256);
+    ex.run_on(
+        launch::RunSizes {
+            x_b: &runs.bases,
+            y_c: &runs.sizes,
+        },
+        RunsParams {
+            n: 0,
+            total: n as u32,
+        },
+        Threads::Patched {
+            first: &size,
+            threads: n,
+        },
+        256,
+    );
+    let spare = g.storage("padding", n * 4);
+    pad_past(ex, &hoffs, (&runs.keys, &spare), n, u32::MAX);
+    let chunks = g.storage("chunks", 4);
+    ex.run(
+        launch::RunsBelow {
+            x_off: &hoffs,
+            x_a: &offs,
+            y_a: &chunks,
+        },
+        RunsBelowParams { n: n as u32 },
+        1,
+        1,
+    );
+    ex.phase(Phase::Sort);
+    let order = ex.iota(n);
+    ex.sort_pairs_all(&runs.keys, &order, n, 32);
+    ex.phase(Phase::Decompress);
+    (ex.expand_runs(&runs, &order, &tv, n), kinds, Some(chunks))
+}
+
+/// Slots `i ≥ offs[n]` (a scan's total) of both buffers of `ab` set to `value`.
+fn pad_past(
+    ex: &mut Exec,
+    offs: &wgpu::Buffer,
+    ab: (&wgpu::Buffer, &wgpu::Buffer),
+    n: u64,
+    value: u32,
+) {
+    ex.run(
+        launch::TrimPad {
+            x_off: offs,
+            y_a: ab.0,
+            y_b: ab.1,
+        },
+        TrimPadParams { n: n as u32, value },
+        n,
+        256,
+    );
 }
 
 /// Trim is done; compress → sort → decompress (thesis §3.2.4–3.2.6).

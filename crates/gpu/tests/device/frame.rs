@@ -36,6 +36,7 @@ fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
         Box::new(GpuRsh::new(g.clone(), geo, RshConfig::crsh()).unwrap()),
         Box::new(GpuRsh::new(g.clone(), geo, RshConfig::rah()).unwrap()),
         Box::new(GpuRsh::new(g.clone(), geo, crate::common::rah_dual()).unwrap()),
+        Box::new(GpuRsh::new(g.clone(), geo, crate::common::crsh_dual()).unwrap()),
         Box::new(GpuGrid::new(g.clone(), geo, &GridConfig::default()).unwrap()),
     ]
 }
@@ -100,6 +101,10 @@ fn same_counts(what: &str, a: &render::stats::RenderStats, b: &render::stats::Re
     assert_eq!(a.trace.hits, b.trace.hits, "{what}: hits");
     assert_eq!(a.total_tests, b.total_tests, "{what}: tests");
     assert_eq!(a.brute_force_tests, b.brute_force_tests, "{what}");
+    // Every engine counter (CRSH's chunks, the levels' tests, the batches' paths), the
+    // GPU's own aside.
+    let counters = |t: &TraceStats| gpu::rsh::engine::comparable_counters(t).counters;
+    assert_eq!(counters(&a.trace), counters(&b.trace), "{what}: counters");
 }
 
 #[test]
@@ -286,8 +291,9 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
         let sized: Vec<Box<dyn GpuEngine>> = vec![
             Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
             Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
-            // RAH's bundles through the object tree: laid out and paced by the device.
+            // The bundles through the object tree: laid out and paced by the device.
             Box::new(GpuRsh::new(g.clone(), &geo, common::rah_dual()).unwrap()),
+            Box::new(GpuRsh::new(g.clone(), &geo, common::crsh_dual()).unwrap()),
         ];
         for e in sized {
             assert!(e.counts_on_device(), "{name} {}", e.name());
@@ -312,7 +318,7 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
             assert_eq!(*reads, 1, "{what}: the image and the counts, once");
             assert!(runs[1].2 > 1, "{}: reads the later counts", runs[1].0);
         }
-        // The thesis's bundles behind mesh spheres (and CRSH's order) take device-sized
+        // The thesis's bundles behind mesh spheres take device-sized
         // batches too: their traversals still read the sizes their passes need, so a sized
         // frame reads back fewer times than one that reads every count, but more than once;
         // the image and every count are the same.
@@ -366,6 +372,7 @@ fn real_scene_frames_read_back_once_and_equal_cpu_frames() {
             Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
             Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
             Box::new(GpuRsh::new(g.clone(), &geo, common::rah_dual()).unwrap()),
+            Box::new(GpuRsh::new(g.clone(), &geo, common::crsh_dual()).unwrap()),
         ];
         for e in sized {
             let what = format!("{name} {}", e.name());

@@ -80,6 +80,9 @@ impl GpuRsh {
                             c.tests.truncate(o.levels);
                             c.hits.truncate(o.levels);
                             top = o.top;
+                            if self.s.cfg.method == ::rsh::Method::Crsh {
+                                stats.count(Counter::Chunks, o.chunks);
+                            }
                         }
                         let most = o.most_rounds as usize;
                         self.learned.fetch_max(most, Ordering::Relaxed);
