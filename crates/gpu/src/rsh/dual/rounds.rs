@@ -25,12 +25,13 @@ use trace::Phase;
 /// levels; office's 3-bounce batches 2–6).
 pub const ROUNDS: usize = 12;
 
-/// The pairs every buffer of the rounds holds for room for `pairs` (8 per ray: [`GpuDual::room`]),
-/// a top level of `nt` nodes (at most) and the schedule's `chunk`: `pairs`, or 64 Ki pairs (half a MiB a
-/// buffer) for small batches, whose incoherent rays (BART kitchen's reflections at 128²:
-/// 1,422 rays) passed 8 a ray; below the chunk (so that no stack reaches it), at most
-/// `bound` (tests), at least the top level's nodes; `None` where the rounds cannot keep the
-/// host's schedule (the top level alone fills a chunk).
+/// The pairs every buffer of the rounds holds, for a trace that asks room for `pairs` (8 per
+/// leaf: [`GpuDual::room`]), a top level of at most `nt` nodes and the schedule's `chunk`:
+/// `pairs`, or 64 Ki pairs (half a MiB a buffer) for small batches, whose incoherent rays
+/// (BART kitchen's reflections at 128²: 1,422 rays) passed 8 a ray; below the chunk (so
+/// that no stack reaches it), at most `bound` (tests), at least the top level's nodes;
+/// `None` where the rounds cannot keep the host's schedule (the top level alone fills a
+/// chunk).
 pub fn rounds_cap(pairs: u64, nt: u64, chunk: u64, bound: Option<u64>) -> Option<u64> {
     let own = pairs.max(1 << 16).min(chunk.saturating_sub(1));
     let cap = bound.map_or(own, |c| c.min(own));
