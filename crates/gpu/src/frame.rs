@@ -172,7 +172,10 @@ pub fn render_frame(
     })
 }
 
-/// A frame of one scene on `engine`'s device (see the module's documentation).
+/// A frame of one scene on `engine`'s device (see the module's documentation). A caller
+/// that runs [`render::whitted::run`] over it directly, not through [`render_frame`], must
+/// check [`GpuEngine::take_incomplete`] afterwards: a trace the device paced alone that did
+/// not finish leaves a frame that is not the CPU's.
 pub struct GpuBackend<'a> {
     engine: &'a dyn GpuEngine,
     raster: &'a GpuRaster,

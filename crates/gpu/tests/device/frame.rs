@@ -305,6 +305,8 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
                     .unwrap()
                     .with_sized_budget(budget);
                 let out = run(&mut b, &s, &geo, &opts, &());
+                // (Outside render_frame: a trace that did not finish would go unseen.)
+                assert!(!e.take_incomplete(), "{what}: every trace finished");
                 runs.push((what, out, g.read_backs() - reads));
             }
             let (what0, base, reads0) = &runs[0];
