@@ -252,12 +252,18 @@ impl Gpu {
 
     /// A storage buffer of `bytes` (at least 4), usable as copy source and destination.
     pub fn storage(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        self.buffer(label, bytes, wgpu::BufferUsages::empty())
+    }
+
+    /// A buffer of `bytes` (at least 4, a multiple of 4) for storage and copies, and `more`.
+    fn buffer(&self, label: &str, bytes: u64, more: wgpu::BufferUsages) -> wgpu::Buffer {
         self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
             size: bytes.max(4).next_multiple_of(4),
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
+                | wgpu::BufferUsages::COPY_DST
+                | more,
             mapped_at_creation: false,
         })
     }
@@ -265,15 +271,7 @@ impl Gpu {
     /// A storage buffer of `bytes` that launches may also read their workgroups from
     /// (`dispatch_workgroups_indirect`).
     pub fn indirect(&self, label: &str, bytes: u64) -> wgpu::Buffer {
-        self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size: bytes.max(4).next_multiple_of(4),
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::INDIRECT
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        })
+        self.buffer(label, bytes, wgpu::BufferUsages::INDIRECT)
     }
 
     /// A storage buffer holding `data` (padded to at least 4 bytes).

@@ -76,7 +76,6 @@ pub fn build(
     per_kind: [u32; 4],
 ) -> Vec<Level> {
     let g = &eng.gpu;
-    let (org, dir) = (&rays.org, &rays.dir);
     let b = eng.cfg.branching;
     let union = (eng.cfg.union == Union::Thesis) as u32;
     let mut levels: Vec<Level> = Vec::new();
@@ -110,31 +109,16 @@ pub fn build(
             cum,
             below,
         };
-        if levels.is_empty() {
-            let l = launch::BuildLeafLevel {
-                b_leaf: leaves,
-                b_org: org,
-                b_dir: dir,
-                b_shuffle: &eng.shuffles,
-                o_sphere: &lv.sphere,
-                o_cone: &lv.cone,
-                o_sc: &lv.sc,
-                o_first: &lv.first,
-            };
-            ex.run(l, prm, total as u64, 64);
-        } else {
-            let c = levels.last().unwrap();
-            let l = launch::BuildUpperLevel {
-                c_sphere: &c.sphere,
-                c_cone: &c.cone,
-                c_sc: &c.sc,
-                o_sphere: &lv.sphere,
-                o_cone: &lv.cone,
-                o_sc: &lv.sc,
-                o_first: &lv.first,
-            };
-            ex.run(l, prm, total as u64, 64);
-        }
+        launch_level(
+            eng,
+            ex,
+            rays,
+            leaves,
+            levels.last(),
+            &lv,
+            prm,
+            Threads::Host(total as u64),
+        );
         levels.push(lv);
         // Stop rules of rsh::build.
         let top = levels.last().unwrap();
@@ -205,43 +189,59 @@ pub fn build_laid(
             cap: cap as u32,
         };
         let over = lv.sized.as_ref().unwrap();
-        let threads = Threads::Laid { over, words: 16 };
         // The parameters come from the layout; the host's block is overwritten.
+        let threads = Threads::Laid { over, words: 16 };
         let prm = LevelParams::default();
-        match out.last() {
-            None => ex.run_on(
-                launch::BuildLeafLevel {
-                    b_leaf: leaves,
-                    b_org: &rays.org,
-                    b_dir: &rays.dir,
-                    b_shuffle: &eng.shuffles,
-                    o_sphere: &lv.sphere,
-                    o_cone: &lv.cone,
-                    o_sc: &lv.sc,
-                    o_first: &lv.first,
-                },
-                prm,
-                threads,
-                64,
-            ),
-            Some(c) => ex.run_on(
-                launch::BuildUpperLevel {
-                    c_sphere: &c.sphere,
-                    c_cone: &c.cone,
-                    c_sc: &c.sc,
-                    o_sphere: &lv.sphere,
-                    o_cone: &lv.cone,
-                    o_sc: &lv.sc,
-                    o_first: &lv.first,
-                },
-                prm,
-                threads,
-                64,
-            ),
-        }
+        launch_level(eng, ex, rays, leaves, out.last(), &lv, prm, threads);
         out.push(lv);
     }
     (out, laid)
+}
+
+/// One level's build launch: level 1 over the sorted leaves (`below` none), a level above
+/// from the level `below`, with the level's parameters `prm` over `threads`.
+#[allow(clippy::too_many_arguments)]
+fn launch_level(
+    eng: &DeviceScene,
+    ex: &mut Exec,
+    rays: &DeviceRays,
+    leaves: &wgpu::Buffer,
+    below: Option<&Level>,
+    lv: &Level,
+    prm: LevelParams,
+    threads: Threads,
+) {
+    match below {
+        None => ex.run_on(
+            launch::BuildLeafLevel {
+                b_leaf: leaves,
+                b_org: &rays.org,
+                b_dir: &rays.dir,
+                b_shuffle: &eng.shuffles,
+                o_sphere: &lv.sphere,
+                o_cone: &lv.cone,
+                o_sc: &lv.sc,
+                o_first: &lv.first,
+            },
+            prm,
+            threads,
+            64,
+        ),
+        Some(c) => ex.run_on(
+            launch::BuildUpperLevel {
+                c_sphere: &c.sphere,
+                c_cone: &c.cone,
+                c_sc: &c.sc,
+                o_sphere: &lv.sphere,
+                o_cone: &lv.cone,
+                o_sc: &lv.sc,
+                o_first: &lv.first,
+            },
+            prm,
+            threads,
+            64,
+        ),
+    }
 }
 
 /// The nodes [`build_laid`] allocates per level for at most `n` leaves, branching `b` and

@@ -601,7 +601,8 @@ impl GpuRsh {
     /// The bundles' trace of rays `dr` on the device (of the first `count.n` only where
     /// given), its counts left there until the frame reads them with its image
     /// (`GpuEngine::settle`): the dual traversal's counter block, then the records'
-    /// totals. (The traversals themselves read back the sizes their passes need.)
+    /// totals. (The mesh-sphere traversal, and a dual traversal the host paces, read back
+    /// the sizes their passes need; one laid out on the device reads nothing.)
     fn bundles_on_device(
         &self,
         ex: &mut Exec,

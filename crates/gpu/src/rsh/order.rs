@@ -26,27 +26,8 @@ pub fn leaf_order(
     count: Option<&DevSize>,
 ) -> (wgpu::Buffer, u64, [u32; 4]) {
     let crsh = eng.cfg.method == Method::Crsh;
-    ex.phase(if crsh {
-        Phase::Hash
-    } else {
-        Phase::ScreenOrder
-    });
-    let (keys, valid) = hash_keys(eng, ex, rays, !crsh, count);
-    ex.phase(Phase::Trim);
     // The trimmed rays per kind, read with their count.
-    let kinds = eng.gpu.upload("kind counts", &[0u32; 4]);
-    ex.run(
-        launch::TrimKinds {
-            x_flag: &valid,
-            x_a: &rays.kl,
-            y_kinds: &kinds,
-        },
-        TrimKindsParams {
-            rays: rays.len as u32,
-        },
-        rays.len,
-        256,
-    );
+    let (keys, valid, kinds) = hashed_kinds(eng, ex, rays, count);
     let (tk, tv, m, per_kind) =
         ex.compact_reading(&valid, &keys, None, rays.len, Some((&kinds, 4)));
     drop((keys, valid));
@@ -83,24 +64,7 @@ pub fn leaf_order_laid(
 ) -> (wgpu::Buffer, wgpu::Buffer, Option<wgpu::Buffer>) {
     let crsh = eng.cfg.method == Method::Crsh;
     let n = rays.len;
-    ex.phase(if crsh {
-        Phase::Hash
-    } else {
-        Phase::ScreenOrder
-    });
-    let (keys, valid) = hash_keys(eng, ex, rays, !crsh, count);
-    ex.phase(Phase::Trim);
-    let kinds = eng.gpu.upload("kind counts", &[0u32; 4]);
-    ex.run(
-        launch::TrimKinds {
-            x_flag: &valid,
-            x_a: &rays.kl,
-            y_kinds: &kinds,
-        },
-        TrimKindsParams { rays: n as u32 },
-        n,
-        256,
-    );
+    let (keys, valid, kinds) = hashed_kinds(eng, ex, rays, count);
     let offs = eng.gpu.storage("compact offsets", (n + 1) * 4);
     ex.scan(&valid, &offs, n);
     let (tk, tv) = (
@@ -208,6 +172,39 @@ pub fn leaf_order_laid(
     ex.sort_pairs_all(&runs.keys, &order, n, 32);
     ex.phase(Phase::Decompress);
     (ex.expand_runs(&runs, &order, &tv, n), kinds, Some(chunks))
+}
+
+/// The hash (CRSH's key, or RAH's screen key) of rays `rays` (of the first `count.n` only,
+/// where given), their trim flags, and the trimmed rays per kind counted on the device
+/// (`kinds.wgsl`'s `trim_kinds`, 4 words).
+fn hashed_kinds(
+    eng: &DeviceScene,
+    ex: &mut Exec,
+    rays: &DeviceRays,
+    count: Option<&DevSize>,
+) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer) {
+    let crsh = eng.cfg.method == Method::Crsh;
+    ex.phase(if crsh {
+        Phase::Hash
+    } else {
+        Phase::ScreenOrder
+    });
+    let (keys, valid) = hash_keys(eng, ex, rays, !crsh, count);
+    ex.phase(Phase::Trim);
+    let kinds = eng.gpu.upload("kind counts", &[0u32; 4]);
+    ex.run(
+        launch::TrimKinds {
+            x_flag: &valid,
+            x_a: &rays.kl,
+            y_kinds: &kinds,
+        },
+        TrimKindsParams {
+            rays: rays.len as u32,
+        },
+        rays.len,
+        256,
+    );
+    (keys, valid, kinds)
 }
 
 /// Slots `i ≥ offs[n]` (a scan's total) of both buffers of `ab` set to `value`.
