@@ -345,52 +345,56 @@ fn walk_ray(
             // inner children. The passing leaf lanes' triangles as (block, lanes) runs in
             // leaf order: a node's lanes follow each other in leaf order, so they share a
             // block or two.
-            let mut m = mask & node.leaves as u8;
+            let m = mask & node.leaves as u8;
             if m != 0 {
-                // The runs, and per position (from the first passing lane's `p0`) whether
-                // it is tested and whether it ends its lane: an any-hit walk stops at the
-                // end of the first lane with a hit, as a walk testing lane by lane in lane
-                // order does (the GPU's), so the same triangle is recorded.
-                let mut runs = [(0u32, 0u8); 8 * crate::objects::LANE_TRIS as usize];
-                let mut nr = 0;
-                let p0 = node.child[m.trailing_zeros() as usize] & !LEAF;
+                // The node's leaf lanes hold consecutive positions from `base`, lane after
+                // lane ([`crate::objects::number_level`]): a lane's first position is `base`
+                // plus the triangles of the leaf lanes before it, a byte-wise prefix sum
+                // of `ntri` (at most 16 in all: no byte carries). Per position from `base`:
+                // whether it is tested and whether it ends its lane: an any-hit walk stops
+                // at the end of the first lane with a hit, as a walk testing lane by lane
+                // in lane order does (the GPU's), so the same triangle is recorded.
+                let leaf_lanes = node.leaves as u8;
+                let base = node.child[leaf_lanes.trailing_zeros() as usize] & !LEAF;
+                let counts = u64::from_le_bytes(node.ntri) & lane_bytes(leaf_lanes);
+                let before = counts.wrapping_mul(0x0101_0101_0101_0101) - counts;
                 let (mut tested, mut ends) = (0u32, 0u32);
-                while m != 0 {
-                    let l = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    let p = node.child[l] & !LEAF;
-                    let k = node.ntri[l] as u32;
-                    tested |= ((1u32 << k) - 1) << (p - p0);
-                    ends |= 1 << (p + k - 1 - p0);
-                    for q in p..p + k {
-                        let bit = 1u8 << (q % 8);
-                        if nr > 0 && runs[nr - 1].0 == q / 8 {
-                            runs[nr - 1].1 |= bit;
-                        } else {
-                            runs[nr] = (q / 8, bit);
-                            nr += 1;
-                        }
-                    }
+                let mut mm = m;
+                while mm != 0 {
+                    let l = mm.trailing_zeros();
+                    mm &= mm - 1;
+                    let off = (before >> (8 * l)) as u8 as u32;
+                    let k = node.ntri[l as usize] as u32;
+                    tested |= ((1u32 << k) - 1) << off;
+                    ends |= 1 << (off + k - 1);
                 }
-                // Any hit: the last position tested (the end of the first lane that hit).
+                // The tested positions by block of `leaf_tris` (at most three), in position
+                // order; the lanes the vector test cannot rule out are decided by the
+                // scalar kernel in position order (a lone triangle goes to it straight
+                // away). Any hit: `stop`, the last position tested (from `base`).
+                let first = base / 8;
+                let mut bits = (tested as u64) << (base % 8);
                 let mut stop = u32::MAX;
-                'runs: for &(b, lanes) in &runs[..nr] {
+                'runs: while bits != 0 {
+                    let byte = bits.trailing_zeros() / 8;
+                    let lanes = (bits >> (8 * byte)) as u8;
+                    bits &= !(0xffu64 << (8 * byte));
+                    let b = first + byte;
                     let blk = &tree.leaf_tris[b as usize];
-                    // The lanes the vector test cannot rule out, decided by the scalar
-                    // kernel in position order (a lone triangle goes to it straight away).
                     let mut redo = if lanes & (lanes - 1) == 0 {
                         lanes
                     } else {
                         tris8(&pre, blk, lanes)
                     };
                     while redo != 0 {
-                        let j = redo.trailing_zeros() as usize;
+                        let j = redo.trailing_zeros();
                         redo &= redo - 1;
-                        let q = 8 * b + j as u32;
-                        if q > stop {
+                        let q = 8 * b + j;
+                        let r = q - base;
+                        if r > stop {
                             break 'runs;
                         }
-                        let [a, b2, cc] = blk.tri(j);
+                        let [a, b2, cc] = blk.tri(j as usize);
                         if let Some(hit) = intersect_inlined(&pre, a, b2, cc) {
                             let key = pack(hit.t, tree.leaf_ids[q as usize]);
                             if key < best {
@@ -398,17 +402,17 @@ fn walk_ray(
                                 uv = (hit.u, hit.v);
                             }
                             if any && stop == u32::MAX {
-                                stop = q + (ends >> (q - p0)).trailing_zeros();
+                                stop = r + (ends >> r).trailing_zeros();
                             }
                         }
                     }
-                    if 8 * b + 7 >= stop {
+                    if stop != u32::MAX && 8 * b + 7 >= base + stop {
                         break;
                     }
                 }
                 if stop != u32::MAX {
                     // The lanes up to the one that hit were tested.
-                    let upto = (2u64 << (stop - p0)) - 1;
+                    let upto = (2u64 << stop) - 1;
                     c.final_tests[kind] += (tested as u64 & upto).count_ones() as u64;
                     break 'walk;
                 }
@@ -472,6 +476,19 @@ fn walk_ray(
             v: uv.1,
         }
     }
+}
+
+// The walk's per-node position masks are u32, shifted by up to 7 into a u64 and summed
+// byte-wise (`walk_ray`): a node's leaf triangles must fit them.
+const _: () = assert!(8 * crate::objects::LANE_TRIS <= 32);
+
+/// Byte `i` all ones where bit `i` of `m` is set, else zero.
+#[inline(always)]
+fn lane_bytes(m: u8) -> u64 {
+    // Byte i keeps bit i of m (at bit i of the byte); adding 0x7f carries it to the byte's
+    // top bit without reaching the next byte.
+    let spread = (m as u64).wrapping_mul(0x0101_0101_0101_0101) & 0x8040_2010_0804_0201;
+    (((spread + 0x7f7f_7f7f_7f7f_7f7f) >> 7) & 0x0101_0101_0101_0101) * 0xff
 }
 
 /// How CRSH and RAH trace a batch over the object tree.
@@ -650,5 +667,23 @@ mod tests {
         let far = batch(3000, f32::INFINITY, &mut random);
         let l = locality(&far, diag);
         assert!(l < COHERENT_SHARE / 2.0, "{l}");
+    }
+
+    /// Every lane mask spreads to its bytes.
+    #[test]
+    fn lane_bytes_spreads_each_bit_to_its_byte() {
+        for m in 0..=255u8 {
+            let want =
+                u64::from_le_bytes(std::array::from_fn(
+                    |i| {
+                        if m >> i & 1 != 0 {
+                            0xff
+                        } else {
+                            0
+                        }
+                    },
+                ));
+            assert_eq!(lane_bytes(m), want, "{m:08b}");
+        }
     }
 }
