@@ -342,15 +342,15 @@ fn walk_ray(
             box_tests += node.count as u64;
             box_passes += mask.count_ones() as u64;
             // Triangles first (they shorten the ray for the inner children), then the
-            // inner children. The passing leaf lanes' triangles as (block, lanes) runs in
-            // leaf order: a node's lanes follow each other in leaf order, so they share a
-            // block or two.
+            // inner children. The passing leaf lanes' triangles block by block of
+            // `leaf_tris`: a node's leaf lanes follow each other in the box order, so they
+            // share a block or two.
             let m = mask & node.leaves as u8;
             if m != 0 {
                 // The node's leaf lanes hold consecutive positions from `base`, lane after
                 // lane ([`crate::objects::number_level`]): a lane's first position is `base`
                 // plus the triangles of the leaf lanes before it, a byte-wise prefix sum
-                // of `ntri` (at most 16 in all: no byte carries). Per position from `base`:
+                // of `ntri` (at most 8 × `LANE_TRIS` in all: no byte carries). Per position from `base`:
                 // whether it is tested and whether it ends its lane: an any-hit walk stops
                 // at the end of the first lane with a hit, as a walk testing lane by lane
                 // in lane order does (the GPU's), so the same triangle is recorded.
