@@ -45,25 +45,21 @@ step 200 "bench gpu 512 shadows" "$R" bench gpu --scenes cornell,office,$S/sponz
     --width 512 --height 512 --bounces 0 --rah --md "$OUT/bench-gpu-512-shadows.md"
 step 200 "bench gpu 1024 b3" "$R" bench gpu --scenes office,$S/sponza.toml \
     --width 1024 --height 1024 --bounces 3 --md "$OUT/bench-gpu-1024-b3.md"
-# Issue 46: CRSH with the object tree built and walked on the device (the tree's build is
-# the stats' `build: object hierarchy`), against the thesis's bundles, Sponza 512² shadow
-# frames (target ≤ 2 ms); Kitchen 1024², 3 bounces, animated (target ≤ 16 ms a frame).
-for h in bvh mesh-spheres; do
-    step 120 "render sponza 512 shadows crsh $h" "$R" render $S/sponza.toml -W 512 -H 512 \
-        --bounces 0 --backend gpu --engine crsh --object-hierarchy $h \
-        --stats "$OUT/sponza-512-crsh-$h.json" --out "$OUT/sponza-512-crsh-$h.png"
-done
-# The dual traversal on the device (RAH's default there; CRSH with --ray-path bundles),
-# against RAH's thesis bundles and the grid, Sponza 512² shadow frames.
-for run in "rah" "rah --object-hierarchy mesh-spheres" "crsh --ray-path bundles" "grid"; do
+# The object tree built and walked on the device by single rays (`bvh`; the tree's build is
+# the stats' `build: object hierarchy`), the dual traversal (CRSH's and RAH's default there)
+# against the thesis's bundles behind mesh spheres, and the grid: Sponza 512² shadow frames.
+for run in "bvh" "crsh" "crsh --object-hierarchy mesh-spheres" "rah" "rah --object-hierarchy mesh-spheres" "grid"; do
     tag=$(echo "$run" | tr ' ' '_' | tr -d '-')
     step 120 "render sponza 512 shadows $run" "$R" render $S/sponza.toml -W 512 -H 512 \
         --bounces 0 --backend gpu --engine $run \
         --stats "$OUT/sponza-512-$tag.json" --out "$OUT/sponza-512-$tag.png"
 done
+step 150 "render kitchen 1024 b3 bvh frames" "$R" render kitchen -W 1024 -H 1024 --bounces 3 \
+    --backend gpu --engine bvh --frames 6 --frame-csv "$OUT/kitchen-1024-b3-bvh.csv" \
+    --out "$OUT/kitchen-%04d.png"
 step 150 "render kitchen 1024 b3 crsh frames" "$R" render kitchen -W 1024 -H 1024 --bounces 3 \
     --backend gpu --engine crsh --frames 6 --frame-csv "$OUT/kitchen-1024-b3-crsh.csv" \
-    --out "$OUT/kitchen-%04d.png"
+    --out "$OUT/kitchen-crsh-%04d.png"
 # RAH's dual traversal, laid out and paced by the device (one read-back a frame on lavapipe).
 step 150 "render kitchen 1024 b3 rah frames" "$R" render kitchen -W 1024 -H 1024 --bounces 3 \
     --backend gpu --engine rah --frames 6 --frame-csv "$OUT/kitchen-1024-b3-rah.csv" \

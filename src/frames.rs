@@ -5,7 +5,7 @@
 //! [`frame`], so their images and records agree by construction; `--backend gpu` renders
 //! through [`gpu_frame`] with the same record.
 
-use crate::engines::{self, Engine, EngineError, EngineOptions};
+use crate::engines::{self, Config, Engine, EngineError};
 use render::whitted::{RenderOptions, Rendered};
 use scene::Geometry;
 use serde::Serialize;
@@ -38,7 +38,7 @@ pub struct FrameRow {
 
 /// The engine phases `--frame-csv` reports (the CPU's: no transfers; absent phases are 0).
 pub fn engine_phases() -> impl Iterator<Item = Phase> {
-    Phase::ALL.into_iter().filter(|p| !p.is_transfer())
+    engines::phases().into_iter().filter(|p| !p.is_transfer())
 }
 
 impl FrameRow {
@@ -93,13 +93,14 @@ fn update(scene: &scene::Scene, t: f32, geo: &mut Geometry) -> (scene::Scene, f6
     (s, t0.elapsed().as_secs_f64())
 }
 
-/// Frame `index` of `scene` at time `t`: update the transforms, rebuild `engine`, render.
+/// Frame `index` of `scene` at time `t`: update the transforms, rebuild `engine` with its
+/// configuration `cfg` ([`engines::config::config`] of a frame), render.
 pub fn frame(
     scene: &scene::Scene,
     t: f32,
     index: u32,
     engine: Engine,
-    eopts: &EngineOptions,
+    cfg: &Config,
     opts: &RenderOptions,
 ) -> Result<(Rendered, FrameRow), EngineError> {
     frame_with(
@@ -108,7 +109,7 @@ pub fn frame(
         t,
         index,
         engine,
-        eopts,
+        cfg,
         opts,
     )
 }
@@ -121,13 +122,13 @@ pub fn frame_with(
     t: f32,
     index: u32,
     engine: Engine,
-    eopts: &EngineOptions,
+    cfg: &Config,
     opts: &RenderOptions,
 ) -> Result<(Rendered, FrameRow), EngineError> {
     let (s, update_s) = update(scene, t, &mut buffers.geo);
     let geo = &buffers.geo;
     let t1 = Instant::now();
-    let tracer = engines::build(engine, eopts, geo)?.tracer;
+    let tracer = engines::build(engine, cfg, geo)?.tracer;
     let build_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let arena = std::mem::take(&mut buffers.arena);

@@ -3,13 +3,13 @@
 //!
 //! The frame is `render`'s one Whitted loop ([`render::whitted::run`]) on the GPU backend
 //! ([`gpu::frame::GpuBackend`]), so it stays on the device: the G-buffer from the GPU's
-//! render pipeline, CRSH/RAH or the grid (built and traversed by kernels), the surfaces, the
+//! render pipeline, the engine (built and traversed by kernels), the surfaces, the
 //! ray generations, the shading and the pixel accumulation are kernels, and only the sRGB
 //! image and a few totals come back (and the G-buffer, for the viewer's view of it). A
 //! generation too large for one binding of the device is held in parts. The bytes moved
 //! between host and device during the frame are reported (`host_device_bytes`).
 
-use crate::engines::{Engine, EngineOptions};
+use crate::engines::{Config, Engine};
 use anyhow::{anyhow, Result};
 use render::whitted::{Progress, RenderOptions, Rendered};
 use scene::{Geometry, Scene};
@@ -43,24 +43,16 @@ pub struct GpuFrame {
 }
 
 impl GpuFrame {
-    /// Build `engine` (crsh, rah, grid or grid2l) over `geo` on a new device; `on_error`
-    /// is called if the device is lost later.
+    /// Build `engine` (bvh, crsh, rah, grid or grid2l) with `cfg`, its configuration on the
+    /// GPU backend ([`crate::engines::config::config`] with `Backend::Gpu`), over `geo` on a
+    /// new device; `on_error` is called if the device is lost later.
     pub fn new(
         engine: Engine,
-        eopts: &EngineOptions,
+        cfg: &Config,
         scene: &Scene,
         geo: &Geometry,
         on_error: impl Fn(String) + Send + Sync + 'static,
     ) -> Result<GpuFrame> {
-        if !matches!(
-            engine,
-            Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l
-        ) {
-            anyhow::bail!(
-                "`backend`=gpu: only the engines crsh, rah, grid and grid2l run on the GPU (not `engine`={})",
-                engine.name()
-            );
-        }
         let g = gpu::Gpu::new().map_err(|e| anyhow!("`backend`=gpu: {e}"))?;
         g.on_device_error(move |e| on_error(e.to_string()));
         let describe = g.describe();
@@ -70,20 +62,17 @@ impl GpuFrame {
                 "wall clock, waiting at every phase boundary: this adapter has no timestamp queries that time kernels"
             }
         };
-        let engine: Box<dyn gpu::GpuEngine> = match engine.rsh_method() {
-            Some(method) => Box::new(
-                gpu::GpuRsh::new(g, geo, eopts.gpu_rsh_config(method))
-                    .map_err(|e| anyhow!("`backend`=gpu: {e}"))?,
+        let fail = |e: gpu::GpuError| anyhow!("`backend`=gpu `engine`={}: {e}", engine.name());
+        let engine: Box<dyn gpu::GpuEngine> = match cfg {
+            Config::Rsh(c) => Box::new(gpu::GpuRsh::new(g, geo, c.clone()).map_err(fail)?),
+            Config::Bvh(c) => Box::new(gpu::GpuBvh::new(g, geo, c.clone()).map_err(fail)?),
+            // The grid is built and traversed by kernels (gpu::grid::PASS_DEVICE).
+            Config::Grid(c) => Box::new(gpu::GpuGrid::new(g, geo, c).map_err(fail)?),
+            Config::Plain => anyhow::bail!(
+                "`backend`=gpu: `engine`={} has no GPU path (the GPU runs {})",
+                engine.name(),
+                Engine::gpu_names().join(", ")
             ),
-            None => {
-                // The grid is built and traversed by kernels (gpu::grid::PASS_DEVICE).
-                let cfg = eopts.grid_config(engine == Engine::Grid2l);
-                eopts.validate(engine)?;
-                Box::new(
-                    gpu::GpuGrid::new(g, geo, &cfg)
-                        .map_err(|e| anyhow!("`backend`=gpu `engine`={}: {e}", engine.name()))?,
-                )
-            }
         };
         // The rasterizer's inputs are checked now, so that a scene it cannot take fails here.
         let raster = raster_over(engine.as_ref(), scene, geo)?;

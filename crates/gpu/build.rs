@@ -28,8 +28,8 @@ const MODULES: &[(&str, &[&str])] = &[
     ("Build", &["shaders/geom.wgsl", "rsh/build.wgsl"]),
     ("Traverse", &["shaders/geom.wgsl", "rsh/traverse.wgsl"]),
     ("Final", &["shaders/geom.wgsl", "rsh/final.wgsl"]),
-    ("Objects", &["shaders/geom.wgsl", "rsh/objects.wgsl"]),
-    ("Single", &["shaders/geom.wgsl", "rsh/single.wgsl"]),
+    ("Objects", &["shaders/geom.wgsl", "bvh/objects.wgsl"]),
+    ("Single", &["shaders/geom.wgsl", "bvh/single.wgsl"]),
     (
         "Dual",
         &["shaders/geom.wgsl", "rsh/dual.wgsl", "rsh/dual_rounds.wgsl"],

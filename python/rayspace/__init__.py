@@ -1,10 +1,12 @@
 """rayspace from Python: load scenes, make rays, trace them with any engine, render frames.
 
-The engines are rayspace's own (Rust, through PyO3): CRSH and RAH (ray-space hierarchies),
-the irregular grid and its two-level baseline, brute force (the oracle) and the obvhs
-peers. Engine options are the command line's, spelled with ``_`` for ``-``
-(``Engine(scene, "crsh", ray_path="bundles", pair_budget=1 << 20)``), and every result
-is the command line's: the same hits bit for bit, the same image bytes, the same counters.
+The engines are rayspace's own (Rust, through PyO3): ``bvh`` (the object tree walked by
+packets or single rays, the default), CRSH and RAH (ray-space hierarchies), the irregular
+grid and its two-level baseline, brute force (the oracle) and the obvhs peers. Engine
+options are the command line's, spelled with ``_`` for ``-``
+(``Engine(scene, "crsh", branching=16, levels=3)``; :func:`engine_options` lists them),
+and every result is the command line's: the same hits bit for bit, the same image bytes,
+the same counters.
 
 Arrays in and out are NumPy: rays as ``(N, 3)`` origins and directions of any real dtype
 and any strides (converted to float32 once; float32 C arrays are used as they are) with
@@ -46,7 +48,9 @@ __all__ = [
     "Error",
     "Scene",
     "Engine",
+    "DEFAULT_ENGINE",
     "engines",
+    "engine_options",
     "rays",
     "render",
     "png_bytes",
@@ -60,9 +64,19 @@ __all__ = [
 PathLike = Union[str, "_os.PathLike[str]"]
 
 
+DEFAULT_ENGINE: str = _rayspace.DEFAULT_ENGINE
+"""The engine used when none is named (the command line's default too)."""
+
+
 def engines() -> List[str]:
     """The engine names this build has (``--engine``'s values)."""
     return list(_rayspace.engine_names())
+
+
+def engine_options() -> List[Dict[str, Any]]:
+    """Every engine option: ``{"name", "takes", "doc", "engines", "default"}`` each, from
+    the engines' own declarations (``rayspace engines`` on the command line)."""
+    return [dict(o) for o in _rayspace.engine_options()]
 
 
 def _array(name: str, a: Any, dtype: Any, shape: Tuple[Optional[int], ...]) -> _np.ndarray:
@@ -117,12 +131,8 @@ class Engine:
     """An engine built over a scene: ``Engine(scene, "grid", grid_top_density=0.1)``.
 
     ``name`` is any of :func:`engines`; ``options`` are the command line's engine options
-    with ``_`` for ``-`` (``branching``, ``levels``, ``hash``, ``hash_bits``, ``union``,
-    ``node_test``, ``mesh_culling``, ``pair_budget``, ``object_hierarchy``, ``descent``,
-    ``schedule``, ``ray_path``, ``object_builder``, ``grid_top_density``,
-    ``grid_leaf_density``, ``grid_alpha``, ``grid_merge``, ``grid_expansion``,
-    ``grid_max_depth``, ``grid_subdivision``, ``grid_merge_rule``);
-    booleans mean on/off.
+    with ``_`` for ``-`` (:func:`engine_options` lists each with the engines that take it);
+    booleans mean on/off. An option the engine does not take raises :class:`Error`.
     """
 
     def __init__(self, scene: Scene, name: str, **options: Any) -> None:
@@ -193,7 +203,7 @@ def rays(
 
 def render(
     scene: Scene,
-    engine: str = "crsh",
+    engine: str = DEFAULT_ENGINE,
     width: int = 512,
     height: int = 512,
     bounces: int = 3,

@@ -6,6 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 MISS: int
+DEFAULT_ENGINE: str
 
 class Error(ValueError): ...
 
@@ -89,7 +90,7 @@ def write_hits(
 ) -> None: ...
 def render(
     scene: Scene,
-    engine: str = "crsh",
+    engine: Optional[str] = None,
     width: int = 512,
     height: int = 512,
     bounces: int = 3,
@@ -102,7 +103,7 @@ def frame(
     scene: Scene,
     t: float,
     index: int,
-    engine: str = "crsh",
+    engine: Optional[str] = None,
     width: int = 512,
     height: int = 512,
     bounces: int = 3,
@@ -112,3 +113,4 @@ def frame_csv_header() -> str: ...
 def png_bytes(image: npt.NDArray[np.uint8]) -> bytes: ...
 def write_atomic(path: str, data: bytes) -> None: ...
 def engine_names() -> List[str]: ...
+def engine_options() -> List[Dict[str, Any]]: ...

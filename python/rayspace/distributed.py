@@ -26,7 +26,7 @@ import re
 import time
 from typing import Any, Dict, Iterator, List, Optional, Sequence, Union
 
-from . import Engine, Error, Scene, _rayspace, rays
+from . import DEFAULT_ENGINE, Engine, Error, Scene, _rayspace, rays
 
 __all__ = ["render_frames", "sweep"]
 
@@ -152,7 +152,7 @@ def _write_manifest(out_dir: str, params: Dict[str, Any], frames: Dict[int, Dict
 def render_frames(
     scene_path: str,
     frames: Union[int, Sequence[float]],
-    engine: str = "crsh",
+    engine: str = DEFAULT_ENGINE,
     width: int = 512,
     height: int = 512,
     bounces: int = 3,

@@ -12,12 +12,12 @@ use std::time::Instant;
 
 /// `rayspace render`'s image and `--stats` JSON (as a string) for one frame.
 #[pyfunction(name = "render")]
-#[pyo3(signature = (scene, engine = "crsh", width = 512, height = 512, bounces = 3, time = None, dynamic = false, spp = 1, **options))]
+#[pyo3(signature = (scene, engine = None, width = 512, height = 512, bounces = 3, time = None, dynamic = false, spp = 1, **options))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_frame<'py>(
     py: Python<'py>,
     scene: &Scene,
-    engine: &str,
+    engine: Option<&str>,
     width: u32,
     height: u32,
     bounces: u32,
@@ -26,8 +26,7 @@ pub(crate) fn render_frame<'py>(
     spp: u32,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyArray3<u8>>, String)> {
-    let (engine, mut opts) = parse_engine(engine, options, dynamic)?;
-    let (engine_kind, objects) = (engine, opts.objects);
+    let (engine, mut cfg) = parse_engine(engine, options, dynamic)?;
     check_image(width, height, bounces)?;
     if !(1..=render::whitted::MAX_SPP).contains(&spp) {
         return Err(err(format!(
@@ -40,7 +39,10 @@ pub(crate) fn render_frame<'py>(
         None => None,
     };
     let s = frame.as_ref().unwrap_or(scene);
-    opts.grid.max_bytes = render_memory(width, height, s.scene.lights.len())?;
+    let adapted = fit(
+        &mut cfg,
+        render_memory(width, height, s.scene.lights.len())?,
+    )?;
     let (sc, geo, load_seconds) = (s.scene.clone(), s.geo.clone(), s.load_seconds);
     let ropts = render::whitted::RenderOptions {
         width,
@@ -53,24 +55,30 @@ pub(crate) fn render_frame<'py>(
         // the build's clock: it reads and writes /proc).
         let watch = trace::memory::PeakWatch::start();
         let t1 = Instant::now();
-        let engine = engines::build(engine, &opts, &geo).map_err(err)?.tracer;
+        let tracer = engines::build(engine, &cfg, &geo).map_err(err)?.tracer;
         let build_s = t1.elapsed().as_secs_f64();
         let build_peak = watch.and_then(|w| w.added());
-        let mut out = render::whitted::render(&sc, &geo, engine.as_ref(), &ropts, &());
-        out.stats.put_build(build_s, engine.build_passes());
+        let mut out = render::whitted::render(&sc, &geo, tracer.as_ref(), &ropts, &());
+        out.stats.put_build(build_s, tracer.build_passes());
         let rgb = render::output::to_rgb8(&out.pixels, width, height).into_raw();
         let mut v = serde_json::to_value(&out.stats).map_err(err)?;
         v["load_seconds"] = load_seconds.into();
         v["degenerate_skipped"] = sc.report.degenerate_skipped.into();
         v["raster_setup_triangles"] = out.raster.setup.into();
         v["raster_fragments"] = out.raster.fragments.into();
-        // The object side CRSH/RAH ran with, as `render --stats` says it.
-        if let Some(o) = engines::object_hierarchy_name(engine_kind, objects, false) {
+        // The object side CRSH/RAH ran with, the engine's configuration and what it changed
+        // to fit the memory limit, as `render --stats` says them.
+        if let Some(o) = cfg.object_hierarchy() {
             v["object_hierarchy"] = o.into();
+        }
+        v["engine_config"] =
+            serde_json::to_value(engines::config::values(engine, &cfg)).map_err(err)?;
+        if adapted.as_object().is_some_and(|o| !o.is_empty()) {
+            v["engine_adapted"] = adapted;
         }
         // The structure's bytes, the process's peak memory and the build's, as `render
         // --stats` has them.
-        if let Some(b) = engine.structure_bytes() {
+        if let Some(b) = tracer.structure_bytes() {
             v["structure_bytes"] = b.into();
         }
         if let Some(b) = trace::memory::peak_rss() {
@@ -91,20 +99,20 @@ pub(crate) fn render_frame<'py>(
 /// engine options of a frame: the grid's single expansion pass): the PNG bytes and the
 /// `--frame-csv` line.
 #[pyfunction]
-#[pyo3(signature = (scene, t, index, engine = "crsh", width = 512, height = 512, bounces = 3, **options))]
+#[pyo3(signature = (scene, t, index, engine = None, width = 512, height = 512, bounces = 3, **options))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn frame<'py>(
     py: Python<'py>,
     scene: &Scene,
     t: f32,
     index: u32,
-    engine: &str,
+    engine: Option<&str>,
     width: u32,
     height: u32,
     bounces: u32,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyBytes>, String)> {
-    let (engine, mut opts) = parse_engine(engine, options, true)?;
+    let (engine, mut cfg) = parse_engine(engine, options, true)?;
     check_image(width, height, bounces)?;
     if !t.is_finite() {
         return Err(err(format!("t={t}: not a finite time")));
@@ -115,7 +123,10 @@ pub(crate) fn frame<'py>(
             scene.scene.name
         )));
     }
-    opts.grid.max_bytes = render_memory(width, height, scene.scene.lights.len())?;
+    fit(
+        &mut cfg,
+        render_memory(width, height, scene.scene.lights.len())?,
+    )?;
     let sc = scene.scene.clone();
     let ropts = render::whitted::RenderOptions {
         width,
@@ -130,7 +141,7 @@ pub(crate) fn frame<'py>(
         let (out, row) = FRAME_BUFFERS
             .with(|b| {
                 let mut b = b.borrow_mut();
-                rayspace::frames::frame_with(&mut b, &sc, t, index, engine, &opts, &ropts)
+                rayspace::frames::frame_with(&mut b, &sc, t, index, engine, &cfg, &ropts)
             })
             .map_err(err)?;
         let png = render::output::png_bytes(&out.pixels, width, height).map_err(err)?;
@@ -181,6 +192,26 @@ fn render_memory(width: u32, height: u32, lights: usize) -> PyResult<u64> {
         )));
     }
     Ok(limit - need)
+}
+
+/// `cfg` fitted to the `bytes` the render leaves, as `render` fits it (the grid's build
+/// checks its model against them; CRSH and RAH lower their pair budget): what it changed,
+/// as `--stats`'s `engine_adapted` object.
+fn fit(cfg: &mut engines::Config, bytes: u64) -> PyResult<serde_json::Value> {
+    let changes = cfg.fit_memory(bytes).ok_or_else(|| {
+        err(format!(
+            "pair_budget: even 1024 pairs need more than the {} the memory limit leaves after the render",
+            trace::memory::gib(bytes)
+        ))
+    })?;
+    let mut out = serde_json::Map::new();
+    for (name, asked, used) in changes {
+        out.insert(
+            name.replace('_', "-"),
+            serde_json::json!({ "asked": asked, "used": used }),
+        );
+    }
+    Ok(serde_json::Value::Object(out))
 }
 
 /// PNG bytes of an H×W×3 uint8 image, encoded as the command line encodes its images.

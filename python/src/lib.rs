@@ -17,10 +17,11 @@ use pyo3::create_exception;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rayspace::engines;
-use rayspace::keywords::{self, KeywordError, Value};
+use rayspace::engines::{Backend, Config, EngineError, EngineOptions};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
+use trace::options::Value;
 use trace::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 
 mod image;
@@ -257,23 +258,26 @@ fn keyword_values(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<(String, 
     Ok(out)
 }
 
-/// The engine named `engine` and its options from keyword arguments (the command line's
-/// defaults for the rest), validated.
-fn parse_engine(
-    engine: &str,
+/// The engine named `engine` (the registry's default engine when `None`) and its
+/// configuration from keyword arguments (each checked against the engine's declarations;
+/// the engine's defaults for the rest). An unknown keyword is a `TypeError`, as Python's own.
+pub(crate) fn parse_engine(
+    engine: Option<&str>,
     options: Option<&Bound<'_, PyDict>>,
     dynamic: bool,
-) -> PyResult<(engines::Engine, engines::EngineOptions)> {
-    let e = engines::Engine::parse(engine).map_err(err)?;
-    let opts =
-        keywords::engine_options(&keyword_values(options)?, dynamic).map_err(|k| match k {
-            KeywordError::Unknown { .. } => {
-                pyo3::exceptions::PyTypeError::new_err(pythonic(&k.to_string()))
-            }
-            _ => err(k),
-        })?;
-    opts.validate(e).map_err(err)?;
-    Ok((e, opts))
+) -> PyResult<(engines::Engine, Config)> {
+    let e = match engine {
+        Some(n) => engines::Engine::parse(n).map_err(err)?,
+        None => engines::DEFAULT_ENGINE,
+    };
+    let asked = EngineOptions::new(keyword_values(options)?, dynamic);
+    let cfg = engines::config::config(e, Backend::Cpu, &asked).map_err(|k| match k {
+        EngineError::Unknown { .. } => {
+            pyo3::exceptions::PyTypeError::new_err(pythonic(&k.to_string()))
+        }
+        _ => err(k),
+    })?;
+    Ok((e, cfg))
 }
 
 /// An engine built over a scene.
@@ -295,11 +299,11 @@ impl Engine {
         name: &str,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Engine> {
-        let (engine, opts) = parse_engine(name, options, false)?;
+        let (engine, cfg) = parse_engine(Some(name), options, false)?;
         let geo = scene.geo.clone();
         py.detach(move || {
             let t0 = Instant::now();
-            let b = engines::build(engine, &opts, &geo).map_err(err)?;
+            let b = engines::build(engine, &cfg, &geo).map_err(err)?;
             Ok(Engine {
                 tracer: b.tracer,
                 report: b.report,
@@ -606,6 +610,27 @@ fn write_hits(
         .map_err(err)
 }
 
+/// Every engine option, from the engines' declarations: per option its keyword, what it
+/// takes, its one-line doc, the engines that take it and its default.
+#[pyfunction]
+fn engine_options(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
+    engines::config::options()
+        .into_iter()
+        .map(|o| {
+            let d = PyDict::new(py);
+            d.set_item("name", o.name)?;
+            d.set_item("takes", o.kind.range())?;
+            d.set_item("doc", o.doc)?;
+            d.set_item(
+                "engines",
+                o.engines.iter().map(|e| e.name()).collect::<Vec<_>>(),
+            )?;
+            d.set_item("default", o.default_text())?;
+            Ok(d)
+        })
+        .collect()
+}
+
 /// The engines this build can name (`--engine`'s values).
 #[pyfunction]
 fn engine_names() -> Vec<String> {
@@ -632,5 +657,7 @@ fn _rayspace(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(frame_csv_header, m)?)?;
     m.add_function(wrap_pyfunction!(write_atomic, m)?)?;
     m.add_function(wrap_pyfunction!(engine_names, m)?)?;
+    m.add_function(wrap_pyfunction!(engine_options, m)?)?;
+    m.add("DEFAULT_ENGINE", engines::DEFAULT_ENGINE.name())?;
     Ok(())
 }

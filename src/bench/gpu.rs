@@ -16,8 +16,7 @@ use anyhow::Result;
 use render::raster::{default_near, rasterize};
 
 use render::View;
-use trace::Counter;
-use trace::{Hit, Phase, TraceStats, Tracer};
+use trace::{Hit, TraceStats, Tracer};
 
 use std::time::Instant;
 
@@ -101,56 +100,62 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
         } else {
             &[rsh::Method::Crsh]
         };
-        // The thesis's configurations (bundles behind the mesh spheres), then CRSH's
-        // default on the GPU: single rays through the object tree built on the device, and
-        // the dual traversal.
-        let mut runs: Vec<(String, rsh::RshConfig)> = Vec::new();
+        // The thesis's configurations (bundles behind the mesh spheres), then the dual
+        // traversal (the bundles and the object tree descended together, level by level:
+        // the breadth schedule, the GPU's), then `bvh`'s single rays through the same tree.
+        let mut runs: Vec<(String, Run)> = Vec::new();
+        let base = |method| match method {
+            rsh::Method::Crsh => rsh::RshConfig::crsh(),
+            rsh::Method::Rah => rsh::RshConfig::rah(),
+        };
         for &(b, d) in &spec.configs {
             for &method in methods {
                 let cfg = rsh::RshConfig {
                     branching: b,
                     levels: d,
-                    ..match method {
-                        rsh::Method::Crsh => rsh::RshConfig::crsh(),
-                        rsh::Method::Rah => rsh::RshConfig::rah(),
-                    }
+                    objects: rsh::ObjectHierarchy::MeshSpheres,
+                    ..base(method)
                 };
-                runs.push((format!("{method:?} {b}/{d}"), cfg));
+                runs.push((format!("{method:?} {b}/{d}, mesh spheres"), Run::Rsh(cfg)));
             }
         }
-        runs.push((
-            "Crsh, object BVH (LBVH), single rays".into(),
-            rsh::RshConfig {
-                objects: rsh::ObjectHierarchy::Bvh,
-                path: rsh::RayPath::Single,
-                builder: rsh::ObjectBuilder::Lbvh,
-                ..rsh::RshConfig::crsh()
-            },
-        ));
-        // The bundles and the object tree descended together, level by level (the dual
-        // traversal's breadth schedule, the GPU's; RAH's default there).
         for &method in methods {
             runs.push((
                 format!("{method:?}, object BVH (LBVH), bundles, level by level"),
-                rsh::RshConfig {
+                Run::Rsh(rsh::RshConfig {
                     objects: rsh::ObjectHierarchy::Bvh,
-                    path: rsh::RayPath::Bundles,
                     builder: rsh::ObjectBuilder::Lbvh,
                     schedule: rsh::Schedule::Breadth,
-                    ..match method {
-                        rsh::Method::Crsh => rsh::RshConfig::crsh(),
-                        rsh::Method::Rah => rsh::RshConfig::rah(),
-                    }
-                },
+                    ..base(method)
+                }),
             ));
         }
-        for (label, cfg) in runs {
-            let method = cfg.method;
+        runs.push((
+            "bvh (LBVH), single rays".into(),
+            Run::Bvh(accel::BvhConfig {
+                builder: accel::bvh::ObjectBuilder::Lbvh,
+                path: accel::bvh::RayPath::Single,
+            }),
+        ));
+        for (label, run) in runs {
             progress(&format!("{name}: {label} on the CPU"));
-            let cpu = rsh::RshEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?;
             let g = device()?;
-            let hash_bits = cfg.hash_bits;
-            let gpu = gpu::GpuRsh::new(g, &geo, cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let fail = |e: gpu::GpuError| anyhow::anyhow!("{e}");
+            let (cpu, dev, rsh_cfg): (Box<dyn Tracer>, Dev, _) = match run {
+                Run::Rsh(cfg) => (
+                    Box::new(rsh::RshEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?),
+                    Dev::Rsh(Box::new(
+                        gpu::GpuRsh::new(g, &geo, cfg.clone()).map_err(fail)?,
+                    )),
+                    Some(cfg),
+                ),
+                Run::Bvh(cfg) => (
+                    Box::new(accel::BvhEngine::new(&geo, cfg.clone()).map_err(anyhow::Error::msg)?),
+                    Dev::Bvh(Box::new(gpu::GpuBvh::new(g, &geo, cfg).map_err(fail)?)),
+                    None,
+                ),
+            };
+            let gpu = dev.engine();
             // Warm-up on the first batch: drivers compile pipelines at first use (lavapipe
             // JIT-compiles every kernel), which is not the pipeline's cost.
             if let Some((rays, mode, _)) = batches.first() {
@@ -189,13 +194,18 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
                     "Counters that differ (CPU → GPU): {}.\n\n",
                     counter_differences(&counters(&sc), &counters(&sg)).join("; ")
                 );
-                if method == rsh::Method::Crsh {
-                    md += &hash_agreement(&gpu, &batches, &geo, &hash_bits);
+                if let (Some(cfg), Dev::Rsh(g)) = (&rsh_cfg, &dev) {
+                    if cfg.method == rsh::Method::Crsh {
+                        md += &hash_agreement(g, &batches, &geo, &cfg.hash_bits);
+                    }
                 }
             }
             md += "| phase | CPU ms | GPU ms | GPU / CPU |\n|---|---:|---:|---:|\n";
             let mut shown = Vec::new();
-            for p in Phase::ALL.into_iter().chain(gt.iter().map(|x| x.0)) {
+            for p in crate::engines::phases()
+                .into_iter()
+                .chain(gt.iter().map(|x| x.0))
+            {
                 if shown.contains(&p) {
                     continue;
                 }
@@ -220,9 +230,9 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
             );
             md += &format!(
                 "\nGPU kernel launches: {}; chunks {}; top nodes {}.\n",
-                sg.counters.get(Counter::GpuKernelLaunches).unwrap_or(0),
-                sg.counters.get(Counter::Chunks).unwrap_or(0),
-                sg.counters.get(Counter::TopNodes).unwrap_or(0)
+                sg.counters.get(gpu::stats::KERNEL_LAUNCHES).unwrap_or(0),
+                sg.counters.get(rsh::stats::CHUNKS).unwrap_or(0),
+                sg.counters.get(rsh::stats::TOP_NODES).unwrap_or(0)
             );
         }
         progress(&format!("{name}: irregular grid"));
@@ -231,6 +241,29 @@ pub fn run(spec: &Spec, rah: bool, grid_only: bool, progress: &dyn Fn(&str)) -> 
         md += &frames_section(&s, &geo, spec, rah)?;
     }
     Ok(md)
+}
+
+/// A configuration the trace rows compare on both backends.
+enum Run {
+    /// CRSH or RAH.
+    Rsh(rsh::RshConfig),
+    /// The object-tree walk.
+    Bvh(accel::BvhConfig),
+}
+
+/// Its GPU engine.
+enum Dev {
+    Rsh(Box<gpu::GpuRsh>),
+    Bvh(Box<gpu::GpuBvh>),
+}
+
+impl Dev {
+    fn engine(&self) -> &dyn gpu::GpuEngine {
+        match self {
+            Dev::Rsh(g) => g.as_ref(),
+            Dev::Bvh(g) => g.as_ref(),
+        }
+    }
 }
 
 /// Bounces of the whole-frame rows: shadow frames (the rasterized surfaces' shadow rays and
@@ -249,19 +282,18 @@ fn frames_section(
     spec: &Spec,
     rah: bool,
 ) -> Result<String> {
-    use crate::engines::{self, Engine, EngineOptions};
+    use crate::engines::{self, Backend, Engine};
     use render::whitted::{render, RenderOptions};
-    let eopts = EngineOptions::default();
     let rgb = |out: &render::whitted::Rendered| -> Vec<[u8; 3]> {
         out.rgb8().chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
     };
     let image = spec.width as u64 * spec.height as u64 * 3;
     let mut md = format!(
-        "\n### Whole frames: engine build + render, the better of two after a warm-up\n\nThe CPU engines use their defaults (CRSH/RAH with the object hierarchy; on {} threads), the GPU backend its pipeline (CRSH/RAH with mesh spheres), the frame resident on the device unless the table says otherwise. The target for the traffic is the image's sRGB bytes ({:.2} MB) + 1 MiB.\n\n| bounces | engine | CPU frame ms | GPU frame ms | GPU / CPU | GPU frame | GPU host↔device MB | ≤ image + 1 MiB | pixels off by > 2/255 |\n|---:|---|---:|---:|---:|---|---:|---|---:|\n",
+        "\n### Whole frames: engine build + render, the better of two after a warm-up\n\nEvery engine runs with its defaults on each backend (on the CPU on {} threads; `rayspace engines` lists them), the frame resident on the device unless the table says otherwise. The target for the traffic is the image's sRGB bytes ({:.2} MB) + 1 MiB.\n\n| bounces | engine | CPU frame ms | GPU frame ms | GPU / CPU | GPU frame | GPU host↔device MB | ≤ image + 1 MiB | pixels off by > 2/255 |\n|---:|---|---:|---:|---:|---|---:|---|---:|\n",
         rayon::current_num_threads(),
         image as f64 / 1e6
     );
-    let mut list = vec![Engine::Crsh];
+    let mut list = vec![Engine::Bvh, Engine::Crsh];
     if rah {
         list.push(Engine::Rah);
     }
@@ -276,7 +308,7 @@ fn frames_section(
         for &engine in &list {
             let cpu_frame = || -> Result<(f64, Vec<[u8; 3]>)> {
                 let t0 = Instant::now();
-                let tracer = engines::build(engine, &eopts, geo)?.tracer;
+                let tracer = engines::build(engine, &engines::Config::of(engine), geo)?.tracer;
                 let out = render(s, geo, tracer.as_ref(), &opts, &());
                 let t = t0.elapsed().as_secs_f64();
                 Ok((t, rgb(&out)))
@@ -284,7 +316,8 @@ fn frames_section(
             cpu_frame()?;
             let (c1, img) = cpu_frame()?;
             let c2 = cpu_frame()?.0;
-            let mut gf = crate::gpu_frame::GpuFrame::new(engine, &eopts, s, geo, |e| {
+            let gcfg = engines::config::defaults(engine, Backend::Gpu, false);
+            let mut gf = crate::gpu_frame::GpuFrame::new(engine, &gcfg, s, geo, |e| {
                 eprintln!("error: bench gpu: the device failed ({e}); a smaller image may fit");
                 std::process::exit(1);
             })?;
@@ -366,7 +399,7 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
     let total = |g: &gpu::GpuGrid| {
         g.build_passes()
             .iter()
-            .filter(|p| p.pass != trace::BuildPass::KernelCompilation)
+            .filter(|p| p.pass != gpu::stats::KERNEL_COMPILATION)
             .map(|p| p.seconds)
             .sum::<f64>()
     };
@@ -397,7 +430,7 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
     let gpu_passes: Vec<String> = gpu
         .build_passes()
         .iter()
-        .filter(|p| p.pass != trace::BuildPass::KernelCompilation)
+        .filter(|p| p.pass != gpu::stats::KERNEL_COMPILATION)
         .map(|p| format!("{} {:.1}", p.name(), p.seconds * 1e3))
         .collect();
     let mut md = format!(
@@ -410,7 +443,7 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
         passes.join(", "),
         total(&gpu) * 1e3,
         gpu_passes.join(", "),
-        pass_ms(&gpu, trace::BuildPass::KernelCompilation),
+        pass_ms(&gpu, gpu::stats::KERNEL_COMPILATION),
         rayon::current_num_threads()
     );
     md += "The GPU traces the grid it built; the agreement column compares it with the CPU-built grid's hits and counts, so a build that differs shows there.\n\n";
@@ -427,9 +460,9 @@ fn grid_section(s: &scene::Scene, geo: &scene::Geometry, spec: &Spec) -> Result<
         let kernel = gpu
             .take_times()
             .into_iter()
-            .find(|(p, _)| *p == Phase::Traversal)
+            .find(|(p, _)| *p == trace::TRAVERSAL)
             .map(|(_, t)| t / GRID_REPEATS as f64);
-        let steps = |st: &TraceStats| st.counters.get(Counter::TraversalSteps);
+        let steps = |st: &TraceStats| st.counters.get(accel::grid::TRAVERSAL_STEPS);
         let same = hc == hg
             && sc.ray_tri_tests == sg.ray_tri_tests
             && steps(&sc) == steps(&sg)
@@ -549,12 +582,12 @@ mod tests {
         };
         a.levels.tests = vec![[1, 2, 3, 4], [5, 6, 7, 8]];
         a.levels.hits = vec![[1, 1, 1, 1], [2, 2, 2, 2]];
-        a.counters.record(trace::Counter::Chunks, 3);
+        a.counters.record(rsh::stats::CHUNKS, 3);
         let mut b = a.clone();
         assert!(counter_differences(&a, &b).is_empty());
         b.ray_tri_tests = 11;
         b.levels.tests[1][2] = 9;
-        b.counters.record(trace::Counter::Chunks, 1);
+        b.counters.record(rsh::stats::CHUNKS, 1);
         assert_eq!(
             counter_differences(&a, &b),
             [

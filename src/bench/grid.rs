@@ -26,7 +26,6 @@ use render::View;
 use scene::{Geometry, LoadOptions};
 use serde::Serialize;
 use std::time::Instant;
-use trace::Counter;
 use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 pub struct Spec {
@@ -147,7 +146,7 @@ pub(crate) fn time_all(
 fn per_ray(st: &TraceStats, n: usize) -> (f64, f64) {
     let n = n.max(1) as f64;
     (
-        st.counters.get(Counter::TraversalSteps).unwrap_or(0) as f64 / n,
+        st.counters.get(accel::grid::TRAVERSAL_STEPS).unwrap_or(0) as f64 / n,
         st.ray_tri_tests as f64 / n,
     )
 }
@@ -276,7 +275,10 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
                     rays: rays.len() as u64,
                     seconds: *secs,
                     mrays_per_s: rays.len() as f64 / secs / 1e6,
-                    n_t: st.counters.contains(Counter::TraversalSteps).then_some(n_t),
+                    n_t: st
+                        .counters
+                        .contains(accel::grid::TRAVERSAL_STEPS)
+                        .then_some(n_t),
                     n_i: counted.then_some(n_i),
                     build_seconds: *build,
                     memory_bytes: *mem,

@@ -12,7 +12,7 @@
 use super::{record, Spec};
 use anyhow::Result;
 use serde::Serialize;
-use trace::{Hit, Phase, TraceStats, Tracer};
+use trace::{Hit, TraceStats, Tracer};
 
 #[derive(Serialize, Clone)]
 pub struct Row {
@@ -141,7 +141,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
                 cb.build_seconds * 1e3,
                 rb.build_seconds * 1e3
             );
-            let phases = Phase::ALL
+            let phases = crate::engines::phases()
                 .into_iter()
                 .filter(|p| pair.iter().any(|x| x.stats.phases.contains_key(p)));
             for p in phases {
@@ -221,7 +221,7 @@ pub fn charts(rows: &[Row], dir: &std::path::Path) -> Result<Vec<std::path::Path
         levels.dedup();
         let mut series: Vec<String> = levels.iter().map(|l| format!("level {l}")).collect();
         series.push("final".into());
-        let ray_box = trace::Counter::RayBoxTests;
+        let ray_box = trace::RAY_BOX_TESTS;
         if rs.iter().any(|r| r.stats.counters.contains(ray_box)) {
             series.push(ray_box.to_string());
         }

@@ -12,7 +12,7 @@
 //! against the triangle count is fitted on a log–log scale (1: linear growth).
 
 use super::charts;
-use crate::engines::{self, Engine, EngineOptions};
+use crate::engines::{self, Config, Engine};
 use accel::oracle::Agreement;
 use anyhow::Result;
 use render::raygen::{generate, Kind, Options};
@@ -89,7 +89,7 @@ pub struct Slope {
 fn counts_tests(e: Engine) -> bool {
     matches!(
         e,
-        Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l | Engine::Brute
+        Engine::Bvh | Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l | Engine::Brute
     )
 }
 
@@ -149,7 +149,7 @@ pub fn run(
                 .map(|(k, _)| generate(&s, &geo, *k, &opts))
                 .collect();
             // The reference records: the irregular grid's (brute force's, by the tests).
-            let reference = engines::build(Engine::Grid, &EngineOptions::default(), &geo)?.tracer;
+            let reference = engines::build(Engine::Grid, &Config::of(Engine::Grid), &geo)?.tracer;
             let expect: Vec<Vec<Hit>> = rays
                 .iter()
                 .zip(&kinds)
@@ -166,7 +166,7 @@ pub fn run(
                     continue;
                 }
                 let t = Instant::now();
-                let built = engines::build(e, &EngineOptions::default(), &geo)?;
+                let built = engines::build(e, &Config::of(e), &geo)?;
                 let build_ms = t.elapsed().as_secs_f64() * 1e3;
                 let tracer = built.tracer;
                 let mut mrays = [0.0; 3];

@@ -3,10 +3,11 @@
 //! feature), and defaults come from the library's own (`RshConfig::crsh()`,
 //! `GridConfig::default()`), so nothing here restates the engines' choices.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand};
 use rayspace::bench::Spec;
-use rayspace::engines::Engine;
-pub use rayspace::options::{defaults, engine_options, GridArgs, LoadArgs, LookArgs, RshArgs};
+pub use rayspace::engines::Backend;
+use rayspace::engines::{Engine, DEFAULT_ENGINE};
+pub use rayspace::options::{EngineFlags, LoadArgs, LookArgs};
 use render::raygen::Kind;
 use render::whitted::{MAX_BOUNCES, MAX_SIDE};
 use std::path::PathBuf;
@@ -40,7 +41,9 @@ fn version() -> &'static str {
 #[command(
     name = "rayspace",
     version = version(),
-    about = "Ray tracing with ray-space hierarchies and irregular grids"
+    about = "Ray tracing with ray-space hierarchies and irregular grids",
+    max_term_width = 100,
+    after_help = "Engines and their options: `rayspace engines`; the manual: README.md and docs/."
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -55,6 +58,8 @@ pub enum Command {
     Rays(RaysArgs),
     /// Trace a ray file with an engine: prints MRays/s and counters, writes the hits.
     Trace(TraceArgs),
+    /// List every engine: what it runs, its paper, and its options with their defaults.
+    Engines(EnginesArgs),
     /// Reproduce the papers' evaluation tables.
     Bench {
         #[command(subcommand)]
@@ -74,7 +79,7 @@ pub struct ViewArgs {
     /// or BART .aff file.
     #[arg(default_value = "spheres")]
     pub scene: String,
-    #[arg(long, value_enum, default_value_t = Engine::Grid)]
+    #[arg(long, value_enum, default_value_t = DEFAULT_ENGINE)]
     pub engine: Engine,
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     pub backend: Backend,
@@ -118,6 +123,14 @@ pub struct ViewArgs {
     pub load: LoadArgs,
     #[command(flatten)]
     pub look: LookArgs,
+}
+
+#[derive(Args, Clone)]
+pub struct EnginesArgs {
+    /// As JSON: `{"engines": [{"name", "summary", "gpu", "options": {NAME: default}, "gpu_options": {...}}]}`
+    /// (option names as the command line spells them, without the dashes).
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args, Clone)]
@@ -365,12 +378,10 @@ pub struct TraceArgs {
     /// The scene the rays were made for.
     #[arg(long)]
     pub scene: String,
-    #[arg(short = 'e', long, value_enum, default_value_t = Engine::Crsh)]
+    #[arg(short = 'e', long, value_enum, default_value_t = DEFAULT_ENGINE)]
     pub engine: Engine,
     #[command(flatten)]
-    pub rsh: RshArgs,
-    #[command(flatten)]
-    pub grid: GridArgs,
+    pub options: EngineFlags,
     /// Any-hit (occlusion) queries instead of closest hit.
     #[arg(long = "any-hit")]
     pub any_hit: bool,
@@ -394,20 +405,10 @@ pub struct TraceArgs {
     pub format: Option<render::rayfile::RayFormat>,
 }
 
-/// Where a render runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Backend {
-    Cpu,
-    Gpu,
-}
-
 #[derive(Args, Clone)]
 pub struct RenderArgs {
-    /// A built-in scene (cornell, spheres, soup, stadium, office), a shared real scene by
-    /// name (sponza, conference, kitchen, museum; read from $RAYSPACE_SCENES), a generated
-    /// scene of any size (hairball:2M, city:500k, nested:10M, optionally :SEED), or an .obj,
-    /// .gltf/.glb, .toml or BART .aff file. The default, `spheres`: mirror, glass and
-    /// diffuse spheres on a reflective checkerboard under two lights.
+    /// Built-in (spheres, cornell, office, ...), shared (sponza, kitchen, ...), generated
+    /// (hairball:2M) or a file (.obj .gltf .glb .toml .aff)
     #[arg(default_value = "spheres")]
     pub scene: String,
     /// Image width in pixels.
@@ -416,28 +417,23 @@ pub struct RenderArgs {
     /// Image height in pixels.
     #[arg(short = 'H', long, default_value_t = 512, value_parser = side(), help_heading = "Image")]
     pub height: u32,
-    /// Whitted recursion depth: reflection/refraction generations after the rasterized one.
+    /// Whitted depth: reflection/refraction generations
     #[arg(short = 'b', long, default_value_t = 3, value_parser = bounces(), help_heading = "Image")]
     pub bounces: u32,
-    /// Samples per pixel (antialiasing): each sample a jittered view of the whole frame,
-    /// its rays traced by the engine, the pixels averaged (a box filter); 1 samples the
-    /// pixel centres (the papers' counts).
+    /// Samples per pixel, jittered views averaged (1: the pixel centres)
     #[arg(short = 's', long, default_value_t = 1, value_parser = spp(), help_heading = "Image")]
     pub spp: u32,
-    /// Output PNG (default: the scene's name, e.g. spheres.png; with --frames a folder of
-    /// the scene's name with %04d.png, or a temporary folder when only --gif is asked for).
+    /// Output PNG [default: SCENE.png; with --frames SCENE/%04d.png]
     #[arg(short = 'o', long, value_name = "F.png", help_heading = "Output")]
     pub out: Option<PathBuf>,
-    /// Also write the statistics as JSON to this file (with --frames: every frame's).
+    /// Also write the statistics as JSON (with --frames: every frame's)
     #[arg(long, value_name = "F.json", help_heading = "Output")]
     pub stats: Option<PathBuf>,
-    /// Tracing engine.
-    #[arg(short = 'e', long, value_enum, default_value_t = Engine::Crsh, help_heading = "Engine")]
+    /// bvh, crsh, rah, grid, grid2l, brute or a peer (`rayspace engines`)
+    #[arg(short = 'e', long, value_enum, value_name = "NAME", hide_possible_values = true, default_value_t = DEFAULT_ENGINE, help_heading = "Engine")]
     pub engine: Engine,
-    /// Where the render runs: `gpu` rasterizes the G-buffer with a render pipeline and runs
-    /// the engine (crsh, rah, grid, grid2l), secondary-ray generation and shading as compute
-    /// kernels (wgpu).
-    #[arg(long, value_enum, default_value_t = Backend::Cpu, help_heading = "Engine")]
+    /// gpu: rasterize, trace and shade as wgpu kernels
+    #[arg(long, value_enum, value_name = "cpu|gpu", hide_possible_values = true, default_value_t = Backend::Cpu, help_heading = "Engine")]
     pub backend: Backend,
     #[command(flatten, next_help_heading = "Animation")]
     pub anim: AnimArgs,
@@ -445,40 +441,35 @@ pub struct RenderArgs {
     pub look: LookArgs,
     #[command(flatten, next_help_heading = "Scene loading")]
     pub load: LoadArgs,
-    /// Most memory the render may use, in MiB (default: 80 % of this machine's memory);
-    /// a size whose memory model needs more is refused before anything is allocated.
-    #[arg(long = "max-memory", value_parser = clap::value_parser!(u64).range(1..), help_heading = "Scene loading")]
+    /// Most memory in MiB; more is refused before allocating [default: 80 % of the machine]
+    #[arg(long = "max-memory", value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..), help_heading = "Scene loading")]
     pub max_memory: Option<u64>,
-    #[command(flatten, next_help_heading = "CRSH and RAH (--engine crsh, rah)")]
-    pub rsh: RshArgs,
-    #[command(flatten, next_help_heading = "Irregular grid (--engine grid, grid2l)")]
-    pub grid: GridArgs,
+    #[command(flatten)]
+    pub options: EngineFlags,
 }
 
 /// An animated scene's time or frames.
 #[derive(Args, Clone)]
 pub struct AnimArgs {
-    /// Render one instant of an animated scene (seconds, in the scene's time).
+    /// One instant of an animated scene (seconds)
     #[arg(
         short = 't',
         long,
+        value_name = "T",
         conflicts_with = "frames",
         allow_hyphen_values = true
     )]
     pub time: Option<f32>,
-    /// Render N frames of an animated scene; `--out` then needs a `%0Nd`-style frame number
-    /// (e.g. frames/%04d.png; its folder is made). Engines are rebuilt every frame.
-    #[arg(short = 'n', long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    /// N frames of an animation, the engine rebuilt per frame
+    #[arg(short = 'n', long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000))]
     pub frames: Option<u32>,
-    /// With --frames: frames per second (default: spread the frames over the scene's
-    /// animation interval).
-    #[arg(long, allow_hyphen_values = true)]
+    /// Frames per second [default: the frames spread over the animation]
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
     pub fps: Option<f32>,
-    /// With --frames: per-frame statistics (update, build, phase times, rays, tests) as CSV.
+    /// Per-frame statistics (update, build, phases, rays, tests) as CSV
     #[arg(long = "frame-csv", value_name = "F.csv")]
     pub frame_csv: Option<PathBuf>,
-    /// With --frames: also assemble the frames into this animated GIF (alone, without
-    /// --out, the frames are kept only while the GIF is made).
+    /// Also an animated GIF of the frames (alone: no PNGs kept)
     #[arg(long, value_name = "F.gif")]
     pub gif: Option<PathBuf>,
 }

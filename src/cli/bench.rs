@@ -1,15 +1,12 @@
 //! `rayspace bench ...`: options in, the reports of [`rayspace::bench`] out (stdout and the
 //! `--md/--json/--csv/--charts` files), each report headed by the provenance line.
 
-use super::args::{
-    defaults, engine_options, BenchBudgetArgs, BenchGpuArgs, BenchGridArgs, BenchRshArgs,
-    BenchScaleArgs, GridArgs, RshArgs,
-};
+use super::args::{BenchBudgetArgs, BenchGpuArgs, BenchGridArgs, BenchRshArgs, BenchScaleArgs};
 use super::progress::step_bar;
 use super::{check_dir, check_out_dir};
 use anyhow::{Context, Result};
 use rayspace::bench::{self, provenance};
-use rayspace::engines::{self, Engine, OBVHS_VERSION};
+use rayspace::engines::{self, Backend, Engine, OBVHS_VERSION};
 use scene::Geometry;
 use std::path::PathBuf;
 
@@ -179,13 +176,12 @@ pub fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
         .collect::<Result<_>>()?;
     let scene = super::load_scene(&a.scene, &a.load.options(None))?;
     // The engines' defaults, with the grid's dynamic-scene expansion (one pass per frame).
-    let opts = engine_options(&defaults::<RshArgs>(), &defaults::<GridArgs>(), true);
     let closures: Vec<(String, Box<bench::budget::BuildFn>)> = engines
         .iter()
         .map(|&e| {
-            let o = opts.clone();
+            let cfg = engines::config::defaults(e, Backend::Cpu, true);
             let f: Box<bench::budget::BuildFn> =
-                Box::new(move |geo: &Geometry| Ok(engines::build(e, &o, geo)?.tracer));
+                Box::new(move |geo: &Geometry| Ok(engines::build(e, &cfg, geo)?.tracer));
             (e.name().to_string(), f)
         })
         .collect();

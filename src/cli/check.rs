@@ -1,123 +1,26 @@
-//! `render`'s options checked in one place, before anything is loaded: options that do not
-//! apply to the chosen engine, backend or mode, outputs whose names do not fit what is
-//! written, and where the outputs go when none is named. Every refusal is one line and a
-//! usage error (exit 2); only options the user gave are refused (defaults adapt).
+//! `render`'s options checked in one place, before anything is loaded: the engine's options
+//! against its declarations (the registry's [`engines::config::config`]: options of another
+//! engine or backend, values out of range), options that do not apply to the mode, outputs
+//! whose names do not fit what is written, and where the outputs go when none is named.
+//! Every refusal is one line and a usage error (exit 2); only options the user gave are
+//! refused (defaults adapt).
 
-use super::args::{Backend, RenderArgs};
+use super::args::{Backend, EngineFlags, RenderArgs};
 use super::UsageError;
-use clap::parser::ValueSource;
-use clap::{ArgMatches, Args, Command};
-use rayspace::engines::{self, Engine};
-use rayspace::keywords;
-use rayspace::options::{GridArgs, RshArgs};
+use rayspace::engines::{self, Config, Engine};
 use std::path::{Path, PathBuf};
 
-/// Whether the user gave option `id` on the command line.
-fn given(m: &ArgMatches, id: &str) -> bool {
-    matches!(m.try_get_raw(id), Ok(Some(_))) && m.value_source(id) == Some(ValueSource::CommandLine)
-}
-
-/// The engine options (CRSH/RAH's and the grid's) the user gave: (flag, keyword).
-pub fn given_engine_options(m: &ArgMatches) -> Vec<(String, String)> {
-    let mut v = Vec::new();
-    for cmd in [
-        RshArgs::augment_args(Command::new("rsh")),
-        GridArgs::augment_args(Command::new("grid")),
-    ] {
-        for arg in cmd.get_arguments() {
-            if let Some(long) = arg.get_long() {
-                if given(m, arg.get_id().as_str()) {
-                    v.push((format!("--{long}"), long.replace('-', "_")));
-                }
-            }
-        }
-    }
-    v
-}
-
-/// Refuse engine options that `engine` does not take (`--levels` with a grid, a grid
-/// option with CRSH), naming the engines that do.
-pub fn engine_options_apply(m: &ArgMatches, engine: Engine) -> Result<(), UsageError> {
-    for (flag, kw) in given_engine_options(m) {
-        if !engine.takes(&kw) {
-            let takers: Vec<&str> = Engine::NAMES
-                .iter()
-                .filter(|(_, e)| e.takes(&kw))
-                .map(|(n, _)| *n)
-                .collect();
-            return Err(UsageError(format!(
-                "{flag} does not apply to --engine {} (it is an option of --engine {})",
-                engine.name(),
-                takers.join(", ")
-            )));
-        }
-    }
-    Ok(())
-}
-
-/// Refuse CRSH/RAH options that the run would not read: the object tree's where there is
-/// none (`--object-hierarchy mesh-spheres`), the ones the GPU backend's tree does not take
-/// (the depth-first schedule, the SAH builder, a path other than single rays or bundles),
-/// and the ray hierarchy's where every batch goes as single rays through the tree. `what`
-/// names the command in the message.
-pub fn rsh_options_apply(
-    m: &ArgMatches,
+/// The configuration `engine` runs with on `backend` with the engine options given (every
+/// option checked against the engine's declarations: its name, whether this engine and
+/// backend take it, its value); a refusal is a usage error naming the flag.
+pub fn engine_config(
     engine: Engine,
-    r: &RshArgs,
-    gpu: bool,
-    what: &str,
-) -> Result<(), UsageError> {
-    let Some(method) = engine.rsh_method() else {
-        return Ok(());
-    };
-    let default = if gpu {
-        engines::gpu_default_path(method)
-    } else {
-        engines::method_default_path(method)
-    };
-    let no_bvh = engines::objects_for(method, r.objects, gpu) == rsh::ObjectHierarchy::MeshSpheres;
-    for (flag, kw) in given_engine_options(m) {
-        if no_bvh && ["descent", "schedule", "ray_path", "object_builder"].contains(&kw.as_str()) {
-            return Err(UsageError(format!(
-                "{flag} applies to the object BVH (--object-hierarchy bvh), which this {what} does not use"
-            )));
-        }
-        if gpu && !no_bvh {
-            let refuse = match kw.as_str() {
-                "schedule" if r.schedule != rsh::Schedule::Breadth => Some(
-                    "the CPU backend: the GPU backend runs the dual traversal level by level (--schedule breadth)",
-                ),
-                "object_builder" if r.builder != rsh::ObjectBuilder::Lbvh => {
-                    Some("the CPU backend: the GPU backend builds the LBVH only (--object-builder lbvh)")
-                }
-                "ray_path"
-                    if !matches!(r.path, Some(rsh::RayPath::Single | rsh::RayPath::Bundles)) =>
-                {
-                    Some(
-                        "the CPU backend: the GPU backend takes the object BVH with single rays or bundles (--ray-path single or bundles)",
-                    )
-                }
-                _ => None,
-            };
-            if let Some(why) = refuse {
-                return Err(UsageError(format!("{flag} applies to {why}")));
-            }
-        }
-    }
-    // The ray hierarchy's options do nothing where every batch goes as single rays through
-    // the object tree.
-    if !no_bvh && r.path.unwrap_or(default).tree_only() {
-        for (flag, kw) in given_engine_options(m) {
-            if keywords::RAY_HIERARCHY.contains(&kw.as_str()) {
-                return Err(UsageError(format!(
-                    "{flag} applies to the ray hierarchy (--ray-path bundles or auto, or --object-hierarchy mesh-spheres), and --engine {} traces {} through its object tree here",
-                    engine.name(),
-                    if r.path.unwrap_or(default) == rsh::RayPath::Packets { "packets of rays" } else { "single rays" }
-                )));
-            }
-        }
-    }
-    Ok(())
+    backend: Backend,
+    flags: &EngineFlags,
+    dynamic: bool,
+) -> Result<Config, UsageError> {
+    engines::config::config(engine, backend, &flags.asked(dynamic))
+        .map_err(|e| UsageError(super::spell::flags_in(&e.to_string())))
 }
 
 /// Where `render` writes, settled before the scene loads.
@@ -163,8 +66,9 @@ fn extension(opt: &str, out: &Path, ext: &str) -> Result<(), UsageError> {
 }
 
 /// Every check of `render`'s options that needs no file, in the order a reader would
-/// expect them; returns where the outputs go.
-pub fn render(a: &RenderArgs, m: &ArgMatches) -> Result<Outputs, UsageError> {
+/// expect them (the engine's options are [`engine_config`]'s); returns where the outputs
+/// go.
+pub fn render(a: &RenderArgs) -> Result<Outputs, UsageError> {
     let anim = &a.anim;
     if anim.frames.is_none() {
         for (given, opt) in [
@@ -189,15 +93,6 @@ pub fn render(a: &RenderArgs, m: &ArgMatches) -> Result<Outputs, UsageError> {
             return Err(UsageError(format!("--time {t}: not a finite time")));
         }
     }
-    engine_options_apply(m, a.engine)?;
-    if a.backend == Backend::Gpu && !a.engine.has_gpu() {
-        return Err(UsageError(format!(
-            "--backend gpu: --engine {} has no GPU path (the GPU runs {})",
-            a.engine.name(),
-            Engine::gpu_names().join(", ")
-        )));
-    }
-    rsh_options_apply(m, a.engine, &a.rsh, a.backend == Backend::Gpu, "render")?;
     if let Some(p) = &a.stats {
         extension("--stats", p, "json")?;
     }

@@ -7,7 +7,7 @@ use super::args::{Backend, RenderArgs};
 use super::check::{frame_path, Outputs};
 use super::progress::step_bar;
 use anyhow::{bail, Context, Result};
-use rayspace::engines::EngineOptions;
+use rayspace::engines::Config;
 use rayspace::frames::{frame_with, FrameBuffers, FrameRow};
 use render::whitted::RenderOptions;
 use std::path::PathBuf;
@@ -16,7 +16,7 @@ use std::path::PathBuf;
 /// rebuild the engine, render; build and trace times apart.
 pub fn render_frames(
     a: &RenderArgs,
-    eopts: &EngineOptions,
+    cfg: &Config,
     scene: &scene::Scene,
     n: u32,
     outs: &Outputs,
@@ -52,9 +52,9 @@ pub fn render_frames(
     for (i, &t) in times.iter().enumerate() {
         bar.step(&format!("frame {i} (t = {t:.3})"));
         let (out, row) = if a.backend == Backend::Gpu {
-            gpu.frame(a, eopts, scene, t, i as u32, &opts)?
+            gpu.frame(a, cfg, scene, t, i as u32, &opts)?
         } else {
-            frame_with(&mut buffers, scene, t, i as u32, a.engine, eopts, &opts)?
+            frame_with(&mut buffers, scene, t, i as u32, a.engine, cfg, &opts)?
         };
         let path = frame_path(&outs.out, i as u32)?;
         render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &path)
@@ -143,7 +143,7 @@ impl GpuFrames {
     fn frame(
         &mut self,
         a: &RenderArgs,
-        eopts: &EngineOptions,
+        cfg: &Config,
         scene: &scene::Scene,
         t: f32,
         index: u32,
@@ -154,7 +154,7 @@ impl GpuFrames {
             let geo = scene::Geometry::from_scene(&s);
             self.frame = Some(rayspace::gpu_frame::GpuFrame::new(
                 a.engine,
-                eopts,
+                cfg,
                 &s,
                 &geo,
                 |e| {
@@ -173,7 +173,7 @@ impl GpuFrames {
     fn frame(
         &mut self,
         _a: &RenderArgs,
-        _eopts: &EngineOptions,
+        _cfg: &Config,
         _scene: &scene::Scene,
         _t: f32,
         _index: u32,

@@ -1,7 +1,9 @@
-//! The command line: `render`, `rays`, `trace`, `bench`, `report` and `view`. Each room holds one part:
-//! [`args`] the grammar, [`render`] and [`frames`] the renderer's commands, [`trace`] the ray
-//! files, [`bench`] the papers' evaluations, [`report`] the HTML report of them all, [`view`] the interactive window, [`progress`] the progress display. Engines are
-//! named and built by the library's registry (`rayspace::engines`).
+//! The command line: `render`, `rays`, `trace`, `engines`, `bench`, `report` and `view`.
+//! Each room holds one part: [`args`] the grammar, [`render`] and [`frames`] the renderer's
+//! commands, [`trace`] the ray files, [`engines`] the engines and their options, [`bench`]
+//! the papers' evaluations, [`report`] the HTML report of them all, [`view`] the interactive
+//! window, [`progress`] the progress display. Engines are named, configured and built by
+//! the library's registry (`rayspace::engines`).
 
 /// `println!` that ignores a closed stdout (`rayspace … | head` must not panic).
 macro_rules! say {
@@ -14,6 +16,7 @@ macro_rules! say {
 mod args;
 mod bench;
 mod check;
+mod engines;
 mod frames;
 mod progress;
 mod render;
@@ -66,21 +69,16 @@ pub fn run() -> Result<()> {
     let parsed = Cli::command()
         .try_get_matches()
         .and_then(|m| Cli::from_arg_matches(&m).map(|c| (c, m)));
-    let (cli, matches) = match parsed {
-        Ok(c) => c,
+    let cli = match parsed {
+        Ok((c, _)) => c,
         Err(e) if !e.use_stderr() => e.exit(),
         Err(e) => return Err(UsageError(one_line(&e)).into()),
     };
-    let sub = |name: &str| {
-        matches
-            .subcommand_matches(name)
-            .cloned()
-            .unwrap_or_default()
-    };
     match cli.command {
-        Some(Command::Render(a)) => render::cmd_render(&a, &sub("render")),
+        Some(Command::Render(a)) => render::cmd_render(&a),
         Some(Command::Rays(a)) => trace::cmd_rays(&a),
-        Some(Command::Trace(a)) => trace::cmd_trace(&a, &sub("trace")),
+        Some(Command::Trace(a)) => trace::cmd_trace(&a),
+        Some(Command::Engines(a)) => engines::cmd_engines(&a),
         Some(Command::Bench { what }) => match what {
             BenchCommand::Rsh(a) => bench::cmd_bench_rsh(&a),
             BenchCommand::Grid(a) => bench::cmd_bench_grid(&a),
@@ -90,7 +88,7 @@ pub fn run() -> Result<()> {
         },
         Some(Command::Report(a)) => report::cmd_report(&a),
         Some(Command::View(a)) => view::cmd_view(&a),
-        None => render::cmd_render(&args::defaults(), &clap::ArgMatches::default()),
+        None => render::cmd_render(&rayspace::options::defaults()),
     }
 }
 

@@ -3,15 +3,17 @@
 //! Whitted generations, shade (thesis §3.1, §3.2.6), write the PNG and the statistics. With
 //! `--backend gpu` every pass runs as a wgpu kernel (`crates/gpu`).
 
-use super::args::{engine_options, Backend, RenderArgs};
+use super::args::{Backend, RenderArgs};
 use super::progress::progress_bar;
-use super::{check, check_memory, check_not_input, check_out_dir, UsageError};
+use super::{check, check_memory, check_not_input, check_out_dir};
 use anyhow::{bail, Context, Result};
-use rayspace::engines;
+use rayspace::engines::{self, Config};
 use render::whitted::{render, RenderOptions};
 use scene::Geometry;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::time::Instant;
+use trace::options::Value;
 
 /// `--stats`: the render's statistics and the load's.
 #[derive(Serialize)]
@@ -28,6 +30,13 @@ struct StatsFile<'a> {
     /// CRSH/RAH: the object side the traversal used (`bvh` or `mesh-spheres`).
     #[serde(skip_serializing_if = "Option::is_none")]
     object_hierarchy: Option<&'static str>,
+    /// Every option of the engine with the value it ran with (defaults filled in), keyed as
+    /// `rayspace engines --json` keys them.
+    engine_config: BTreeMap<String, Value>,
+    /// Options whose value the engine changed to fit (the pair budget lowered to fit the
+    /// memory limit): option → {"asked", "used"}.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    engine_adapted: BTreeMap<String, Adapted>,
     /// Bytes of the engine's structure (`Tracer::structure_bytes`; CPU engines that say).
     #[serde(skip_serializing_if = "Option::is_none")]
     structure_bytes: Option<u64>,
@@ -42,18 +51,18 @@ struct StatsFile<'a> {
     build_peak_bytes: Option<u64>,
 }
 
-/// The object hierarchy CRSH/RAH ran with (`engines::object_hierarchy_name`).
-fn object_hierarchy(a: &RenderArgs) -> Option<&'static str> {
-    engines::object_hierarchy_name(a.engine, a.rsh.objects, a.backend == Backend::Gpu)
+/// An option the engine changed to fit: the value asked for and the one used.
+#[derive(Serialize)]
+struct Adapted {
+    asked: Value,
+    used: Value,
 }
 
-pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
-    // Options first, in one place, before anything is loaded (usage errors, exit 2): their
-    // values, then whether they apply.
-    let mut opts = engine_options(&a.rsh, &a.grid, a.anim.frames.is_some());
-    opts.validate(a.engine)
-        .map_err(|e| UsageError(super::spell::flags_in(&e.to_string())))?;
-    let outs = check::render(a, m)?;
+pub fn cmd_render(a: &RenderArgs) -> Result<()> {
+    // Options first, in one place, before anything is loaded (usage errors, exit 2): the
+    // engine's against its declarations, then the mode's and the outputs'.
+    let mut cfg = check::engine_config(a.engine, a.backend, &a.options, a.anim.frames.is_some())?;
+    let outs = check::render(a)?;
     // Every output is checked before the work: its folder made, none an input, none
     // unwritable.
     let scene_file = std::path::Path::new(&a.scene);
@@ -81,26 +90,25 @@ pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
     let render_bytes = render::whitted::render_bytes(a.width, a.height, scene.lights.len());
     check_memory("the render", "--width/--height", render_bytes, a.max_memory)?;
     // The engine's structure gets what the render leaves (the grid checks its model level
-    // by level against it).
+    // by level against it; CRSH/RAH lower their pair budget to fit: more, smaller batches,
+    // no pair dropped).
     let left = super::memory_limit(a.max_memory).saturating_sub(render_bytes);
-    opts.grid.max_bytes = left;
-    // CRSH/RAH batch their pairs by the budget: a budget whose model exceeds what is left
-    // is lowered to fit (more, smaller batches; no pair dropped), or refused below 1024.
-    if a.engine.rsh_method().is_some() && opts.rsh.pair_bytes() > left {
-        match opts.rsh.budget_within(left) {
-            Some(b) => {
+    let mut adapted = BTreeMap::new();
+    match cfg.fit_memory(left) {
+        Some(changes) => {
+            for (name, asked, used) in changes {
                 say!(
-                    "pair budget lowered from {} to {b} pairs to fit --max-memory ({} left after the render)",
-                    opts.rsh.pair_budget,
+                    "{} lowered from {asked} to {used} to fit --max-memory ({} left after the render)",
+                    super::args::EngineFlags::flag(name),
                     trace::memory::gib(left)
                 );
-                opts.rsh.pair_budget = b;
+                adapted.insert(name.replace('_', "-"), Adapted { asked, used });
             }
-            None => bail!(
-                "--pair-budget: even 1024 pairs need more than the {} --max-memory leaves after the render; raise --max-memory or lower --width/--height",
-                trace::memory::gib(left)
-            ),
         }
+        None => bail!(
+            "--pair-budget: even 1024 pairs need more than the {} --max-memory leaves after the render; raise --max-memory or lower --width/--height",
+            trace::memory::gib(left)
+        ),
     }
     let r = scene.report.clone();
     say!(
@@ -122,22 +130,8 @@ pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
             format!(" ({})", r.notes.join("; "))
         },
     );
-    if a.backend == Backend::Gpu {
-        // Said, not silent: which object side CRSH/RAH take on the device.
-        match object_hierarchy(a) {
-            Some("bvh") => say!(
-                "GPU backend: {} walks the object BVH (LBVH, built on the device) with single rays",
-                a.engine.name()
-            ),
-            Some(o) => say!(
-                "GPU backend: {} with --object-hierarchy {o}",
-                a.engine.name()
-            ),
-            None => {}
-        }
-    }
     if let Some(n) = a.anim.frames {
-        return super::frames::render_frames(a, &opts, &scene, n, &outs);
+        return super::frames::render_frames(a, &cfg, &scene, n, &outs);
     }
     let (scene, geo) = match a.anim.time {
         Some(t) => {
@@ -166,9 +160,9 @@ pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
     let mut structure = None;
     let mut build_peak = None;
     let (out, gpu_phases, gpu_timer) = if a.backend == Backend::Gpu {
-        render_on_gpu(a, &opts, &scene, &geo, &ropts, t1)?
+        render_on_gpu(a, &cfg, &scene, &geo, &ropts, t1)?
     } else {
-        let built = engines::build(a.engine, &opts, &geo)?;
+        let built = engines::build(a.engine, &cfg, &geo)?;
         build_peak = watch.and_then(|w| w.added());
         if let Some(r) = &built.report {
             say!("{r}");
@@ -201,7 +195,9 @@ pub fn cmd_render(a: &RenderArgs, m: &clap::ArgMatches) -> Result<()> {
             raster_setup_triangles: out.raster.setup,
             raster_fragments: out.raster.fragments,
             gpu_phase_seconds: gpu_phases.clone(),
-            object_hierarchy: object_hierarchy(a),
+            object_hierarchy: cfg.object_hierarchy(),
+            engine_config: engines::config::values(a.engine, &cfg),
+            engine_adapted: adapted,
             structure_bytes: structure,
             peak_rss_bytes: trace::memory::peak_rss(),
             build_peak_bytes: build_peak,
@@ -222,14 +218,14 @@ type GpuRender = (render::whitted::Rendered, Vec<(String, f64)>, &'static str);
 #[cfg(feature = "gpu")]
 fn render_on_gpu(
     a: &RenderArgs,
-    eopts: &engines::EngineOptions,
+    cfg: &Config,
     scene: &scene::Scene,
     geo: &Geometry,
     opts: &RenderOptions,
     t1: Instant,
 ) -> Result<GpuRender> {
     // Outputs are written atomically after the render, so ending here leaves none behind.
-    let f = rayspace::gpu_frame::GpuFrame::new(a.engine, eopts, scene, geo, |e| {
+    let f = rayspace::gpu_frame::GpuFrame::new(a.engine, cfg, scene, geo, |e| {
         eprintln!("error: --backend gpu: the device failed ({e}); lower --width/--height");
         std::process::exit(1);
     })?;
@@ -244,7 +240,7 @@ fn render_on_gpu(
 #[cfg(not(feature = "gpu"))]
 fn render_on_gpu(
     _a: &RenderArgs,
-    _eopts: &engines::EngineOptions,
+    _cfg: &Config,
     _scene: &scene::Scene,
     _geo: &Geometry,
     _opts: &RenderOptions,

@@ -2,7 +2,7 @@
 //! file (hits, MRays/s and the engine's counters). The file format is
 //! `render::rayfile`'s; hagrid's headerless ray files are read too.
 
-use super::args::{engine_options, RaysArgs, TraceArgs};
+use super::args::{Backend, RaysArgs, TraceArgs};
 use super::{check, check_memory, check_not_input, check_out_dir};
 use anyhow::{bail, Result};
 use rayspace::engines;
@@ -88,12 +88,9 @@ pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn cmd_trace(a: &TraceArgs, m: &clap::ArgMatches) -> Result<()> {
-    let opts = engine_options(&a.rsh, &a.grid, false);
-    opts.validate(a.engine)?;
-    // Options the engine would not read are refused, as `render` refuses them.
-    check::engine_options_apply(m, a.engine)?;
-    check::rsh_options_apply(m, a.engine, &a.rsh, false, "trace")?;
+pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
+    // The engine's options against its declarations, as `render` checks them.
+    let cfg = check::engine_config(a.engine, Backend::Cpu, &a.options, false)?;
     if let Some(o) = &a.out {
         check_out_dir("--out", o)?;
         check_not_input("--out", o, &[&a.rays, std::path::Path::new(&a.scene)])?;
@@ -144,7 +141,7 @@ pub fn cmd_trace(a: &TraceArgs, m: &clap::ArgMatches) -> Result<()> {
     let mut name = String::new();
     for rep in 0..a.repeat {
         let t0 = Instant::now();
-        let built = engines::build(a.engine, &opts, &geo)?;
+        let built = engines::build(a.engine, &cfg, &geo)?;
         if rep == 0 {
             if let Some(r) = &built.report {
                 say!("{r}");
@@ -218,7 +215,7 @@ pub fn cmd_trace(a: &TraceArgs, m: &clap::ArgMatches) -> Result<()> {
     for (k, v) in st.counters.iter() {
         say!(
             "  {k}: {v}{}",
-            if k == trace::Counter::TraversalSteps {
+            if k == accel::grid::TRAVERSAL_STEPS {
                 format!(" ({:.2}/ray)", v as f64 / n)
             } else {
                 String::new()

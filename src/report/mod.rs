@@ -13,7 +13,7 @@ pub mod html;
 pub mod published;
 
 use crate::bench::{self, charts};
-use crate::engines::{self, Engine, EngineOptions};
+use crate::engines::{self, Config, Engine};
 use accel::oracle::Recorder;
 use anyhow::{anyhow, Context, Result};
 use render::whitted::{render, RenderOptions};
@@ -149,11 +149,15 @@ pub fn engine_list() -> Vec<Engine> {
 }
 
 /// Engines whose tests are counted: CRSH and RAH count all of theirs (node and triangle
-/// tests), the grid its ray–triangle tests (its traversal steps visit cells, they test
-/// nothing); the peers count only the triangle tests of our kernel at their leaves, without
-/// their box tests, so they are left out rather than shown as cheaper than they are.
+/// tests), `bvh` its ray–box and ray–triangle tests, the grid its ray–triangle tests (its
+/// traversal steps visit cells, they test nothing); the peers count only the triangle tests
+/// of our kernel at their leaves, without their box tests, so they are left out rather than
+/// shown as cheaper than they are.
 fn counts_tests(e: Engine) -> bool {
-    matches!(e, Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Brute)
+    matches!(
+        e,
+        Engine::Bvh | Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Brute
+    )
 }
 
 #[derive(Serialize, Clone, Debug)]
@@ -325,7 +329,7 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
     for &e in &list {
         progress(&format!("{}: {}", s.name, e.name()));
         let t0 = Instant::now();
-        let built = engines::build(e, &EngineOptions::default(), &geo)?;
+        let built = engines::build(e, &Config::of(e), &geo)?;
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
         let rec = Recorder::new(built.tracer.as_ref());
         let t0 = Instant::now();
@@ -425,7 +429,7 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
 /// One frame (build + render) of `engine` on `s` at `side`².
 fn frame_point(s: &Scene, geo: &Geometry, e: Engine, side: u32) -> Result<ScalePoint> {
     let t0 = Instant::now();
-    let built = engines::build(e, &EngineOptions::default(), geo)?;
+    let built = engines::build(e, &Config::of(e), geo)?;
     let build_seconds = t0.elapsed().as_secs_f64();
     let out = render(
         s,
@@ -557,7 +561,7 @@ fn draw_charts(r: &Report, spec: &Spec) -> Result<Vec<(String, String)>> {
     scenes.dedup();
     for sc in scenes {
         let rows: Vec<&bench::rsh::Row> = r.rsh.iter().filter(|x| x.scene == sc).take(4).collect();
-        let phases: Vec<trace::Phase> = trace::Phase::ALL
+        let phases: Vec<trace::Phase> = crate::engines::phases()
             .into_iter()
             .filter(|p| rows.iter().any(|x| x.stats.phases.contains_key(p)))
             .collect();

@@ -4,7 +4,7 @@
 //! contains is testable headless, and a screenshot is exactly what `render` writes for the
 //! same view.
 
-use crate::engines::{self, Engine, EngineOptions};
+use crate::engines::{self, Config, Engine};
 use accel::oracle::Recorder;
 use anyhow::{anyhow, Result};
 use geom::{Vec3, NO_HIT};
@@ -139,7 +139,6 @@ pub struct Session {
     pub time: f32,
     pub playing: bool,
     pub orbit: Orbit,
-    opts: EngineOptions,
     /// The CPU renderer's buffers, kept from one frame to the next.
     arena: render::cpu::FrameArena,
     built: Option<(Engine, Backend, Built)>,
@@ -159,10 +158,7 @@ pub fn engine_cycle() -> Vec<Engine> {
 }
 
 fn gpu_capable(e: Engine) -> bool {
-    matches!(
-        e,
-        Engine::Crsh | Engine::Rah | Engine::Grid | Engine::Grid2l
-    )
+    e.has_gpu()
 }
 
 impl Session {
@@ -178,7 +174,8 @@ impl Session {
     ) -> Result<Session> {
         if backend == Backend::Gpu && !gpu_capable(engine) {
             anyhow::bail!(
-                "`backend`=gpu: only the engines crsh, rah, grid and grid2l run on the GPU (not `engine`={})",
+                "`backend`=gpu: only the engines {} run on the GPU (not `engine`={})",
+                Engine::gpu_names().join(", "),
                 engine.name()
             );
         }
@@ -208,7 +205,6 @@ impl Session {
             time: t,
             playing: false,
             orbit,
-            opts: EngineOptions::default(),
             arena: Default::default(),
             built: None,
             moved: false,
@@ -346,11 +342,13 @@ impl Session {
         }
         let t0 = Instant::now();
         let built = match self.backend {
-            Backend::Cpu => Built::Cpu(engines::build(self.engine, &self.opts, &self.geo)?.tracer),
+            Backend::Cpu => {
+                Built::Cpu(engines::build(self.engine, &Config::of(self.engine), &self.geo)?.tracer)
+            }
             #[cfg(feature = "gpu")]
             Backend::Gpu => Built::Gpu(Box::new(crate::gpu_frame::GpuFrame::new(
                 self.engine,
-                &self.opts,
+                &engines::config::defaults(self.engine, engines::Backend::Gpu, false),
                 &self.scene,
                 &self.geo,
                 |e| {
@@ -526,7 +524,8 @@ impl Session {
     /// Build the grid that draws per-ray views for engines without per-ray counts.
     fn aux_grid(&mut self) -> Result<()> {
         if self.aux_grid.is_none() {
-            self.aux_grid = Some(engines::build(Engine::Grid, &self.opts, &self.geo)?.tracer);
+            self.aux_grid =
+                Some(engines::build(Engine::Grid, &Config::of(Engine::Grid), &self.geo)?.tracer);
         }
         Ok(())
     }

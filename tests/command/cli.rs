@@ -76,7 +76,8 @@ fn render_writes_png_and_stats() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert!(v["total_tests"].as_u64().unwrap() > 0);
     assert!(v["brute_force_tests"].as_u64().unwrap() >= v["total_tests"].as_u64().unwrap());
-    assert_eq!(v["engine"], "crsh");
+    assert_eq!(v["engine"], "bvh");
+    assert_eq!(v["engine_config"]["ray-path"], "packets");
     // Same command again: identical image bytes.
     let png2 = d.join("b.png");
     let out = bin()
@@ -163,28 +164,31 @@ fn bad_options() {
         &["--engine", "warp"],
     );
     fails(&["render", "cornell", "--meshes", "blobs"], &["--meshes"]);
-    fails(&["render", "cornell", "--branching", "1"], &["--branching"]);
-    fails(&["render", "cornell", "--levels", "99"], &["--levels"]);
     fails(
-        &["render", "cornell", "--pair-budget", "10"],
+        &words("render cornell -e crsh --branching 1"),
+        &["--branching"],
+    );
+    fails(&words("render cornell -e crsh --levels 99"), &["--levels"]);
+    fails(
+        &words("render cornell -e crsh --pair-budget 10"),
         &["--pair-budget"],
     );
-    fails(&["render", "cornell", "--hash", "sha256"], &["--hash"]);
+    fails(&words("render cornell -e crsh --hash sha256"), &["--hash"]);
     fails(
-        &["render", "cornell", "--hash-bits", "4,13,9,7"],
+        &words("render cornell -e crsh --hash-bits 4,13,9,7"),
         &["--hash-bits", "30 bits"],
     );
     fails(
-        &["render", "cornell", "--hash-bits", "4,13"],
+        &words("render cornell -e crsh --hash-bits 4,13"),
         &["--hash-bits"],
     );
     fails(
         &words("render cornell --engine grid --grid-top-density 0"),
-        &["--engine grid", "densities"],
+        &["--grid-top-density", "(0, 10000]"],
     );
     fails(
         &["render", "cornell", "--engine", "grid", "--grid-alpha", "2"],
-        &["--engine grid", "alpha"],
+        &["--grid-alpha", "0..=1"],
     );
     fails(
         &words("trace r.rays --scene cornell --repeat 0"),
@@ -529,16 +533,23 @@ fn absurd_sizes_are_refused_before_allocating() {
         &words(&format!("{small} --max-memory 1")),
         &["--max-memory"],
     );
-    // CRSH's pairs fit what is left by a lower budget (more batches, the same hits).
+    // CRSH's pairs fit what is left by a lower budget (more batches, the same hits), and
+    // the stats say so.
     let o = ok(&words(&format!(
-        "{small} --max-memory 64 --stats {}",
+        "{small} -e crsh --max-memory 64 --stats {}",
         d.join("s.json").display()
     )));
     assert!(
-        String::from_utf8_lossy(&o.stdout).contains("pair budget lowered"),
+        String::from_utf8_lossy(&o.stdout).contains("--pair-budget lowered from 16777216"),
         "{}",
         String::from_utf8_lossy(&o.stdout)
     );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("s.json")).unwrap()).unwrap();
+    let adapted = &v["engine_adapted"]["pair-budget"];
+    assert_eq!(adapted["asked"], 16777216, "{v}");
+    assert!(adapted["used"].as_u64().unwrap() < 16777216);
+    assert_eq!(v["engine_config"]["pair-budget"], adapted["used"]);
     // The grid's memory model gets what the render leaves: densities in range but beyond
     // 64 MiB are refused as the cells are made, before storing (the bunny at λ = 10⁴ used to
     // take 7 GB and abort), and the message names the options on both sides.

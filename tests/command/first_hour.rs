@@ -178,7 +178,7 @@ fn options_that_do_not_apply_are_refused_before_loading() {
         ),
         (
             &["--grid-alpha", "0.9"],
-            "--grid-alpha does not apply to --engine crsh",
+            "--grid-alpha does not apply to --engine bvh (it is an option of grid)",
         ),
         (
             &["--engine", "rah", "--hash", "morton64"],
@@ -191,36 +191,34 @@ fn options_that_do_not_apply_are_refused_before_loading() {
         (&["--backend", "gpu", "--engine", "brute"], "no GPU path"),
         (
             &["--backend", "gpu", "--object-builder", "sah"],
-            "the GPU backend builds the LBVH only",
+            "--object-builder sah: the GPU backend takes only lbvh",
         ),
         (
             &[
+                "--engine",
+                "crsh",
                 "--object-hierarchy",
                 "mesh-spheres",
                 "--schedule",
                 "breadth",
             ],
-            "--schedule applies to the object BVH",
+            "--schedule applies with --object-hierarchy bvh",
         ),
         (
-            &["--object-hierarchy", "mesh-spheres", "--ray-path", "single"],
-            "--ray-path applies to the object BVH",
+            &["--engine", "crsh", "--ray-path", "single"],
+            "--ray-path does not apply to --engine crsh (it is an option of bvh)",
         ),
         (
             &["--schedule", "breadth"],
-            "--schedule applies to the ray hierarchy",
+            "--schedule does not apply to --engine bvh (it is an option of crsh, rah)",
         ),
-        (&["--levels", "4"], "--levels applies to the ray hierarchy"),
         (
-            &[
-                "--ray-path",
-                "single",
-                "--engine",
-                "rah",
-                "--descent",
-                "size",
-            ],
-            "--descent applies to the ray hierarchy",
+            &["--levels", "4"],
+            "--levels does not apply to --engine bvh",
+        ),
+        (
+            &["--engine", "bvh", "--descent", "size"],
+            "--descent does not apply to --engine bvh",
         ),
         (
             &["--engine", "grid", "--object-builder", "lbvh"],
@@ -404,7 +402,8 @@ fn output_in_the_users_words() {
         "-H, --height",
         "--spp",
         "Animation:",
-        "CRSH and RAH",
+        "Ray hierarchy (--engine crsh, rah):",
+        "BVH (--engine bvh):",
     ] {
         assert!(help.contains(want), "'{want}' not in render --help");
     }

@@ -198,7 +198,7 @@ fn gpu_backend_renders_animation_frames() {
 fn gpu_backend_rejects_what_it_does_not_run() {
     fails(
         &["render", "cornell", "--backend", "gpu", "--engine", "brute"],
-        &["--backend gpu", "grid2l", "brute"],
+        &["--engine brute", "no GPU path", "grid2l"],
     );
     fails(
         &words("render cornell --backend gpu --frames 2 --out x%d.png"),
@@ -206,15 +206,15 @@ fn gpu_backend_rejects_what_it_does_not_run() {
     );
     fails(
         &words("render cornell --backend gpu --object-builder sah"),
-        &["--object-builder", "LBVH only"],
+        &["--object-builder sah", "the GPU backend takes only lbvh"],
     );
     fails(
-        &words("render cornell --backend gpu --ray-path auto"),
-        &["--ray-path", "single rays or bundles"],
+        &words("render cornell --backend gpu --ray-path packets"),
+        &["--ray-path packets", "the GPU backend takes only single"],
     );
     fails(
-        &words("render cornell --backend gpu --ray-path bundles --schedule depth"),
-        &["--schedule", "level by level", "--schedule breadth"],
+        &words("render cornell --backend gpu -e crsh --schedule depth"),
+        &["--schedule depth", "the GPU backend takes only breadth"],
     );
 }
 

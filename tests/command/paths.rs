@@ -1,6 +1,6 @@
-//! CRSH's ray paths and object builders from the command line: every combination renders
-//! the same image, the stats say which path each batch took, and `trace` reports the
-//! paths' counters.
+//! The engines over the object tree from the command line (`bvh`'s ray paths, `crsh` and
+//! `rah`'s ray hierarchy, both builders): every combination renders the same image, the
+//! stats say what ran, and `trace` reports the paths' counters.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -36,84 +36,96 @@ fn counter(json: &serde_json::Value, name: &str) -> u64 {
         .unwrap_or(0)
 }
 
-/// `render office` (reflections, refractions, shadows) with every ray path and builder, for
-/// CRSH and RAH: one image whatever the path and builder, and the batches counted by path.
+/// `render office` (reflections, refractions, shadows) with every engine that walks the
+/// object tree, every builder and, for `bvh`, every ray path: one image whatever the engine,
+/// path and builder; `bvh` counts its batches by path and has no ray hierarchy, `crsh` and
+/// `rah` bundle every batch and show the thesis's phases.
 #[test]
 fn every_path_and_builder_renders_the_same_image() {
     let d = tmp("render");
     let mut first: Option<Vec<u8>> = None;
-    for engine in ["crsh", "rah"] {
-        for path in ["", "packets", "single", "bundles", "auto"] {
-            for builder in ["sah", "lbvh"] {
-                let png = d.join(format!("{engine}-{path}-{builder}.png"));
-                let json = d.join(format!("{engine}-{path}-{builder}.json"));
-                let mut args: Vec<String> = [
-                    "render",
-                    "office",
-                    "-W",
-                    "48",
-                    "-H",
-                    "36",
-                    "--engine",
-                    engine,
-                    "--object-builder",
-                    builder,
-                ]
-                .iter()
-                .map(|s| s.to_string())
-                .collect();
-                if !path.is_empty() {
-                    args.extend(["--ray-path".into(), path.into()]);
-                }
-                args.extend(["--out".into(), png.display().to_string()]);
-                args.extend(["--stats".into(), json.display().to_string()]);
-                ok(&args);
-                let img = std::fs::read(&png).unwrap();
-                match &first {
-                    None => first = Some(img),
-                    Some(f) => assert!(*f == img, "{engine} {path} {builder}: another image"),
-                }
-                let stats: serde_json::Value =
-                    serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-                let (single, packets, bundled) = (
-                    counter(&stats, "single-ray batches"),
-                    counter(&stats, "packet batches"),
-                    counter(&stats, "bundled batches"),
-                );
-                let batches = single + packets + bundled;
-                assert!(batches >= 3, "{engine} {path}: {stats}");
-                // The default path: packets (or single rays) for CRSH, bundles for RAH.
-                let want = match (path, engine) {
-                    ("single", _) => (batches, 0, 0),
-                    ("packets", _) | ("", "crsh") => (single, batches - single, 0),
-                    ("bundles", _) | ("", "rah") => (0, 0, batches),
-                    _ => (single, 0, bundled),
-                };
-                assert_eq!(
-                    (single, packets, bundled),
-                    want,
-                    "{engine} {path} {builder}"
-                );
-                if matches!((path, engine), ("packets", _) | ("", "crsh")) {
-                    assert!(
-                        packets > 0,
-                        "{engine} {path} {builder}: a view's batches as packets"
-                    );
-                }
-                assert!(counter(&stats, "ray-box tests") > 0);
+    let runs = [
+        ("bvh", ""),
+        ("bvh", "packets"),
+        ("bvh", "single"),
+        ("crsh", ""),
+        ("rah", ""),
+    ];
+    for (engine, path) in runs {
+        for builder in ["sah", "lbvh"] {
+            let png = d.join(format!("{engine}-{path}-{builder}.png"));
+            let json = d.join(format!("{engine}-{path}-{builder}.json"));
+            let mut args: Vec<String> = [
+                "render",
+                "office",
+                "-W",
+                "48",
+                "-H",
+                "36",
+                "--engine",
+                engine,
+                "--object-builder",
+                builder,
+            ]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+            if !path.is_empty() {
+                args.extend(["--ray-path".into(), path.into()]);
             }
+            args.extend(["--out".into(), png.display().to_string()]);
+            args.extend(["--stats".into(), json.display().to_string()]);
+            ok(&args);
+            let img = std::fs::read(&png).unwrap();
+            match &first {
+                None => first = Some(img),
+                Some(f) => assert!(*f == img, "{engine} {path} {builder}: another image"),
+            }
+            let stats: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+            let (single, packets, bundled) = (
+                counter(&stats, "single-ray batches"),
+                counter(&stats, "packet batches"),
+                counter(&stats, "bundled batches"),
+            );
+            let batches = single + packets + bundled;
+            assert!(batches >= 3, "{engine} {path}: {stats}");
+            let what = format!("{engine} {path} {builder}");
+            match (engine, path) {
+                ("bvh", "single") => {
+                    assert_eq!((single, packets, bundled), (batches, 0, 0), "{what}")
+                }
+                ("bvh", _) => {
+                    assert_eq!(bundled, 0, "{what}");
+                    assert!(packets > 0, "{what}: a view's batches as packets");
+                }
+                _ => assert_eq!((single, packets, bundled), (0, 0, batches), "{what}"),
+            }
+            let phases = &stats["trace"]["phases"];
+            if engine == "bvh" {
+                assert!(
+                    stats["trace"].get("levels").is_none(),
+                    "{what}: no ray hierarchy"
+                );
+                assert_eq!(counter(&stats, "top nodes"), 0, "{what}");
+            } else {
+                for p in ["hierarchy creation", "traversal"] {
+                    assert!(phases[p].as_f64().is_some_and(|t| t > 0.0), "{what}: {p}");
+                }
+                assert!(counter(&stats, "top nodes") > 0, "{what}");
+            }
+            assert!(counter(&stats, "ray-box tests") > 0);
         }
     }
 }
 
-/// `trace` on random rays takes the single-ray path under `auto` and says so; on shadow
-/// rays of a view, the bundles.
+/// `trace` on random rays: `bvh` takes single rays and says so; on shadow rays of a view,
+/// packets; `crsh` bundles either.
 #[test]
-fn auto_takes_single_rays_for_random_rays() {
+fn bvh_takes_packets_for_neighbouring_rays() {
     let d = tmp("trace");
-    for (kind, single, bundled) in [("random", 1, 0), ("shadow", 0, 1)] {
+    for (kind, single, packets) in [("random", 1, 0), ("shadow", 0, 1)] {
         let rays = d.join(format!("{kind}.rays"));
-        let json = d.join(format!("{kind}.json"));
         let s = |x: &str| x.to_string();
         ok(&[
             s("rays"),
@@ -127,26 +139,35 @@ fn auto_takes_single_rays_for_random_rays() {
             s("-o"),
             rays.display().to_string(),
         ]);
-        let mut args = vec![s("trace"), rays.display().to_string()];
-        args.extend(["--scene", "office", "-e", "crsh", "--ray-path", "auto"].map(s));
-        if kind == "shadow" {
-            args.push(s("--any-hit"));
+        for engine in ["bvh", "crsh"] {
+            let json = d.join(format!("{kind}-{engine}.json"));
+            let mut args = vec![s("trace"), rays.display().to_string()];
+            args.extend(["--scene", "office", "-e", engine].map(s));
+            if kind == "shadow" {
+                args.push(s("--any-hit"));
+            }
+            args.extend([s("--json"), json.display().to_string()]);
+            let out = ok(&args);
+            let stats: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+            let got = (
+                counter(&stats, "single-ray batches"),
+                counter(&stats, "packet batches"),
+                counter(&stats, "bundled batches"),
+            );
+            let want = if engine == "bvh" {
+                (single, packets, 0)
+            } else {
+                (0, 0, 1)
+            };
+            assert_eq!(got, want, "{kind} {engine}: {out}");
         }
-        args.extend([s("--json"), json.display().to_string()]);
-        let out = ok(&args);
-        let stats: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-        assert_eq!(
-            counter(&stats, "single-ray batches"),
-            single,
-            "{kind}: {out}"
-        );
-        assert_eq!(counter(&stats, "bundled batches"), bundled, "{kind}: {out}");
     }
 }
 
 /// `trace` refuses, in one line and before tracing, the options its engine would not read:
-/// the ray hierarchy's where CRSH traces single rays, any CRSH option with a grid.
+/// a ray-hierarchy option with `bvh` or a grid, `bvh`'s path with CRSH, the object tree's
+/// with the mesh spheres.
 #[test]
 fn trace_refuses_options_that_do_nothing() {
     let d = tmp("refuse");
@@ -166,12 +187,16 @@ fn trace_refuses_options_that_do_nothing() {
     ]);
     for (extra, needle) in [
         (
-            &["-e", "crsh", "--levels", "4"][..],
-            "--levels applies to the ray hierarchy",
+            &["-e", "bvh", "--levels", "4"][..],
+            "--levels does not apply to --engine bvh (it is an option of crsh, rah)",
         ),
         (
             &["-e", "grid", "--levels", "4"],
             "--levels does not apply to --engine grid",
+        ),
+        (
+            &["-e", "crsh", "--ray-path", "single"],
+            "--ray-path does not apply to --engine crsh (it is an option of bvh)",
         ),
         (
             &[
@@ -179,10 +204,10 @@ fn trace_refuses_options_that_do_nothing() {
                 "crsh",
                 "--object-hierarchy",
                 "mesh-spheres",
-                "--ray-path",
-                "single",
+                "--descent",
+                "size",
             ],
-            "--ray-path applies to the object BVH",
+            "--descent applies with --object-hierarchy bvh",
         ),
     ] {
         let mut args = vec![
@@ -198,13 +223,27 @@ fn trace_refuses_options_that_do_nothing() {
         assert!(err.contains(needle), "{args:?}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
-    // With the bundles asked for, the ray hierarchy's options are read.
-    let mut args = vec![
-        s("trace"),
-        rays.display().to_string(),
-        s("--scene"),
-        s("office"),
-    ];
-    args.extend(["-e", "crsh", "--ray-path", "bundles", "--levels", "3"].map(s));
-    ok(&args);
+    // The thesis's own configurations of its own engine run.
+    for extra in [
+        &["-e", "crsh", "--branching", "8", "--levels", "2"][..],
+        &["-e", "crsh", "--branching", "16", "--levels", "3"],
+        &[
+            "-e",
+            "crsh",
+            "--object-hierarchy",
+            "bvh",
+            "--schedule",
+            "breadth",
+        ],
+        &["-e", "rah", "--branching", "4", "--levels", "0"],
+    ] {
+        let mut args = vec![
+            s("trace"),
+            rays.display().to_string(),
+            s("--scene"),
+            s("office"),
+        ];
+        args.extend(extra.iter().map(|x| s(x)));
+        ok(&args);
+    }
 }

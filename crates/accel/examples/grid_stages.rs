@@ -54,7 +54,7 @@ fn main() {
         let n = rays.len() as f64;
         println!(
             "| {name} | {cells} | {refs} | {:.2} | {:.2} | {:.2} | {:.0} | {mc}/{mr}/{mv} |",
-            st.counters[trace::Counter::TraversalSteps] as f64 / n,
+            st.counters[accel::grid::TRAVERSAL_STEPS] as f64 / n,
             st.ray_tri_tests as f64 / n,
             n / best / 1e6,
             build * 1e3

@@ -68,7 +68,7 @@ fn main() {
         println!(
             "{name:>8}: {:7.2} MRays/s  N_T {:6.2}  N_I {:6.2}",
             n / best / 1e6,
-            st.counters.get(trace::Counter::TraversalSteps).unwrap_or(0) as f64 / n,
+            st.counters.get(accel::grid::TRAVERSAL_STEPS).unwrap_or(0) as f64 / n,
             st.ray_tri_tests as f64 / n
         );
     }

@@ -1,4 +1,5 @@
-//! Object-space engines behind [`trace::Tracer`]: brute force and the irregular grid.
+//! Object-space engines behind [`trace::Tracer`]: brute force, the irregular grid
+//! ([`grid`]), the object-tree walk ([`bvh`]) and other people's structures ([`peers`]).
 //!
 //! [`BruteForce`] tests every ray against every triangle with the shared watertight kernel.
 //! It is the oracle: every other engine must return the same closest hits (same triangle,
@@ -8,9 +9,11 @@
 #![warn(missing_docs)]
 
 pub mod brute;
+pub mod bvh;
 pub mod grid;
 pub mod oracle;
 pub mod peers;
 
 pub use brute::BruteForce;
+pub use bvh::{BvhConfig, BvhEngine, BvhError};
 pub use grid::{GridConfig, GridEngine, GridError};

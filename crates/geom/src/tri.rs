@@ -213,6 +213,14 @@ pub fn is_degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
     !(l2 > 0.0 && l2.is_finite())
 }
 
+/// A hit's (t, triangle) packed so that the u64 order is (smallest t, then smallest id):
+/// positive f32 bit patterns order like the floats. Every engine keeps its best hit so far
+/// in this form (an atomic minimum where rays are shared between tasks).
+#[inline]
+pub fn pack(t: f32, tri: u32) -> u64 {
+    (t.to_bits() as u64) << 32 | tri as u64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

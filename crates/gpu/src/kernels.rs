@@ -299,7 +299,7 @@ impl<'a> Exec<'a> {
             g,
             k,
             enc: None,
-            phase: Phase::Upload,
+            phase: crate::stats::UPLOAD,
             timer,
             times: Vec::new(),
             launches: 0,
@@ -565,7 +565,7 @@ impl<'a> Exec<'a> {
                 None => totals.push((p, t)),
             }
         }
-        stats.count(trace::Counter::GpuKernelLaunches, self.launches);
+        stats.count(crate::stats::KERNEL_LAUNCHES, self.launches);
     }
 
     /// One u32 at index `i` of `buf`.

@@ -6,9 +6,11 @@
 //!   launch recorder with per-phase timestamp queries.
 //! - [`prims`]: the GPU's `par` — reduce-then-scan, compaction, runs, stable radix sort
 //!   (`src/prims/*.wgsl`).
+//! - [`bvh`]: the object tree built on the device (LBVH) and the `bvh` engine's single-ray
+//!   walk as a [`trace::Tracer`] (`src/bvh/*` beside `accel/src/bvh/*`).
 //! - [`rsh`]: CRSH and RAH as a [`trace::Tracer`], file for file the `rsh` crate's pipeline
 //!   (`hash → order → build → traverse`, `src/rsh/*.rs` beside `src/rsh/*.wgsl`), with the
-//!   same counters.
+//!   same counters; their dual traversal descends [`bvh`]'s tree.
 //! - [`grid`]: the irregular grid's traversal as a [`trace::Tracer`] (`src/grid/*`
 //!   beside `accel/src/grid/*`): every build pass and the traversal as kernels.
 //! - [`raster`]: primary visibility by real rasterization (render pipeline, depth test) into
@@ -25,6 +27,7 @@
 
 #![warn(missing_docs)]
 
+pub mod bvh;
 pub mod device;
 pub mod frame;
 pub mod grid;
@@ -34,7 +37,9 @@ pub mod raster;
 pub mod rays;
 pub mod rsh;
 pub mod stages;
+pub mod stats;
 
+pub use crate::bvh::GpuBvh;
 pub use crate::rsh::GpuRsh;
 pub use device::{Gpu, GpuError};
 pub use grid::GpuGrid;
@@ -133,13 +138,12 @@ impl GpuEngine for GpuRsh {
         mode: trace::TraceMode,
         stats: &mut trace::TraceStats,
     ) -> wgpu::Buffer {
-        // The bundles find the closest hit of every ray in either mode, as trace does;
-        // single rays stop at their first hit in any-hit mode, as the CPU's.
+        // The bundles find the closest hit of every ray in either mode, as trace does.
         GpuRsh::trace_device_part(self, rays, mode, stats)
     }
     fn counts_on_device(&self) -> bool {
-        // Every path takes a batch whose size the device holds (the bundles' first
-        // read-back is then their trim's count).
+        // A batch whose size the device holds (the bundles' first read-back is then their
+        // trim's count, or none where the device lays the hierarchy out).
         true
     }
     fn trace_device_counted(

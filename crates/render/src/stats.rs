@@ -300,8 +300,8 @@ mod tests {
         s.put_build(
             3.0,
             vec![
-                PassTime::on(BuildPass::Octrees, Device::Gpu, 1.0),
-                PassTime::new(BuildPass::Merge, 2.0),
+                PassTime::on(BuildPass::new("octrees"), Device::Gpu, 1.0),
+                PassTime::new(BuildPass::new("merge"), 2.0),
             ],
         );
         assert_eq!(s.phase_seconds(&FramePhase::Trace), 2.5);

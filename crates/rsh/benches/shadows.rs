@@ -1,5 +1,5 @@
-//! One trace call of CRSH with the object hierarchy (the CPU default) on a frame's shadow
-//! rays, and the per-frame object-hierarchy build: Dabrovic Sponza at 512² when the shared
+//! One trace call of CRSH with the object hierarchy (the dual traversal, its default) on a
+//! frame's shadow rays, and the per-frame object-hierarchy build: Dabrovic Sponza at 512² when the shared
 //! scenes are present (`RAYSPACE_SCENES`), else the built-in office at 256². The figures of
 //! issue 16's "build + trace" come from these two. Throughput is in rays.
 

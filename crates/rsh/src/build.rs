@@ -15,7 +15,6 @@ use trace::RayBatch;
 
 /// Which union formulas build the nodes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Union {
     /// Minimal enclosing ball of the level-1 origins; exact minimal sphere and cone unions.
     Exact,

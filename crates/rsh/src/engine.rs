@@ -4,10 +4,9 @@
 use crate::build::{build, Union};
 use crate::dual::{Descent, RaySide, Schedule};
 use crate::hash::{HashBits, HashKind};
-use crate::objects::{self, ObjectBuilder, ObjectTree};
 use crate::order::{leaf_order, Grouping};
-use crate::single::{self, RayPath};
 use crate::traverse::{unpack_uv, Counters, NodeTest, SceneData, Traversal};
+use accel::bvh::objects::{self, ObjectBuilder, ObjectTree};
 use geom::tri::RayPre;
 use geom::tri8::RayLanes;
 use geom::{intersect, Aabb, Sphere, Vec3};
@@ -16,8 +15,8 @@ use rayon::prelude::*;
 use scene::Geometry;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
-use trace::{Counter, LevelCounts, OptionError};
-use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
+use trace::OptionError;
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// Which paper's method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,25 +29,14 @@ pub enum Method {
 
 /// What the traversal pushes through the ray hierarchy.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ObjectHierarchy {
     /// The thesis (§3.2.8): every triangle, culled at the top by the per-mesh spheres when
     /// mesh culling is on.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "every triangle behind the per-mesh bounding spheres (the thesis)")
-    )]
     MeshSpheres,
-    /// A BVH over the triangles, built per frame ([`crate::objects`]), traced by single rays
-    /// ([`crate::single`]) or descended together with the ray hierarchy ([`crate::dual`]),
-    /// as [`RayPath`] says; the mesh spheres bound the meshes' subtrees when mesh culling
-    /// is on.
-    #[cfg_attr(
-        feature = "clap",
-        value(
-            help = "a BVH over the triangles, built per frame, descended with the ray hierarchy"
-        )
-    )]
+    /// A BVH over the triangles, built per frame (`accel::bvh::objects`, the `bvh` engine's
+    /// tree), descended together with the ray hierarchy ([`crate::dual`]: the thesis's
+    /// future work, §5.1); the mesh spheres bound the meshes' subtrees when mesh culling is
+    /// on.
     Bvh,
 }
 
@@ -61,7 +49,7 @@ impl ObjectHierarchy {
 }
 
 /// Configuration of CRSH or RAH (the thesis's parameters and ours).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RshConfig {
     /// Which paper's method.
     pub method: Method,
@@ -87,9 +75,6 @@ pub struct RshConfig {
     pub descent: Descent,
     /// With [`ObjectHierarchy::Bvh`]: in which order the pairs are taken.
     pub schedule: Schedule,
-    /// With [`ObjectHierarchy::Bvh`]: bundles, single rays, packets, or each batch as its
-    /// coherence says ([`crate::single`], [`crate::packet`]).
-    pub path: RayPath,
     /// With [`ObjectHierarchy::Bvh`]: how the object tree is built.
     pub builder: ObjectBuilder,
 }
@@ -119,7 +104,8 @@ impl RshConfig {
 }
 
 impl RshConfig {
-    /// CRSH's defaults: B = 8, D = 2, thesis hash, exact unions, RAH node test, mesh culling.
+    /// CRSH's defaults: B = 8, D = 2, thesis hash, exact unions, RAH node test, mesh culling,
+    /// the dual traversal over the SAH object tree, depth first.
     pub fn crsh() -> Self {
         RshConfig {
             method: Method::Crsh,
@@ -131,49 +117,27 @@ impl RshConfig {
             node_test: NodeTest::Rah,
             mesh_culling: true,
             pair_budget: DEFAULT_PAIR_BUDGET,
-            objects: ObjectHierarchy::MeshSpheres,
+            objects: ObjectHierarchy::Bvh,
             descent: Descent::Size,
             schedule: Schedule::Depth,
-            path: RayPath::Packets,
             builder: ObjectBuilder::Sah,
         }
     }
 
-    /// RAH's defaults: CRSH's without mesh culling (the leaf order is RAH's screen order),
-    /// always in bundles (RAH is the paper CRSH is measured against).
+    /// RAH's defaults: CRSH's without mesh culling (the leaf order is RAH's screen order).
     pub fn rah() -> Self {
         RshConfig {
             method: Method::Rah,
             mesh_culling: false,
-            path: RayPath::Bundles,
             ..Self::crsh()
         }
     }
 
     /// The one check of a configuration (the CLI, the bindings, the benchmarks, the CPU and
-    /// GPU engines all call it).
+    /// GPU engines all call it): every option against its declaration
+    /// ([`crate::options::OPTIONS`]), and the hash's bit budgets.
     pub fn validate(&self) -> Result<(), OptionError> {
-        if !(2..=64).contains(&self.branching) {
-            return Err(OptionError::new(
-                "branching",
-                self.branching,
-                "the branching factor must be in 2..=64",
-            ));
-        }
-        if self.levels > 16 {
-            return Err(OptionError::new(
-                "levels",
-                self.levels,
-                "at most 16 levels above the leaves",
-            ));
-        }
-        if self.pair_budget < 1024 || self.pair_budget > 1 << 31 {
-            return Err(OptionError::new(
-                "pair_budget",
-                self.pair_budget,
-                "must be in 1024..=2^31",
-            ));
-        }
+        trace::options::check_all(crate::options::OPTIONS, self)?;
         self.hash_bits
             .validate()
             .map_err(|e| OptionError::new("hash_bits", self.hash_bits, e.to_string()))
@@ -205,64 +169,6 @@ pub struct RshEngine {
     bounds: Aabb,
     /// The object hierarchy ([`ObjectHierarchy::Bvh`]) and its build time.
     tree: Option<(ObjectTree, f64)>,
-}
-
-/// The traversal's counters into `stats` (also used by the GPU backend, whose counters are
-/// the same): per level and ray kind, and the named ones of `render::stats::counter`.
-pub fn report_counters(c: &Counters, mesh_culling: bool, top_nodes: u64, stats: &mut TraceStats) {
-    stats.levels.add(&LevelCounts {
-        tests: c.tests.clone(),
-        hits: c.hits.clone(),
-        final_tests: c.final_tests,
-    });
-    stats.node_tri_tests += c.tests.iter().flatten().sum::<u64>();
-    stats.ray_tri_tests += c.final_tests.iter().sum::<u64>();
-    if mesh_culling {
-        stats.count(Counter::MeshSphereTests, c.mesh_tests);
-        stats.count(Counter::MeshSpherePasses, c.mesh_passes);
-    }
-    stats.count(Counter::TriangleBatches, c.batches);
-    stats.count(Counter::BudgetSplits, c.splits);
-    stats.count(Counter::TopNodes, top_nodes);
-}
-
-/// The single-ray path's counts into `stats` (the CPU engine and its GPU twin report them
-/// alike): hits, final tests, its slab tests as the dual traversal's `ray-box tests`.
-pub fn report_single(c: &single::SingleCounts, stats: &mut TraceStats) {
-    stats.hits += c.hits;
-    stats.levels.add(&LevelCounts {
-        tests: Vec::new(),
-        hits: Vec::new(),
-        final_tests: c.final_tests,
-    });
-    stats.ray_tri_tests += c.final_tests.iter().sum::<u64>();
-    stats.count(Counter::RayBoxTests, c.box_tests);
-    stats.count(Counter::RayBoxPasses, c.box_passes);
-    stats.node_tri_tests += c.box_tests;
-    // The bundles' counters, which this path has none of: reported as zeros, so that a
-    // CRSH render's stats name the same counters whichever path its batches took.
-    for k in [
-        Counter::BudgetSplits,
-        Counter::Chunks,
-        Counter::ObjectNodeTests,
-        Counter::PeakPairBytes,
-        Counter::PeakPairs,
-        Counter::TopNodes,
-        Counter::TriangleBatches,
-    ] {
-        stats.count(k, 0);
-    }
-}
-
-/// The object tree's counters into `stats` (every ray-box test counts towards the total
-/// tests, the thesis's % of brute force).
-pub fn object_counters(c: &Counters, stats: &mut TraceStats) {
-    stats.count(Counter::ObjectNodeTests, c.object_tests);
-    stats.count(Counter::RayBoxTests, c.ray_box_tests);
-    stats.count(Counter::RayBoxPasses, c.ray_box_passes);
-    stats.node_tri_tests += c.ray_box_tests;
-    stats.count(Counter::PeakPairs, c.peak_pairs);
-    stats.count(Counter::PeakPairBytes, c.peak_pair_bytes);
 }
 
 /// The rays' geometric fields (origin, direction, t range, kind) gathered into leaf order,
@@ -311,10 +217,10 @@ impl RshEngine {
         let tree = (cfg.objects == ObjectHierarchy::Bvh).then(|| {
             let t0 = Instant::now();
             let spheres = cfg.mesh_culling.then_some(&geo.mesh_sphere[..]);
-            // Only the records of the paths this configuration can take.
+            // The dual traversal's records only (the single rays' are the `bvh` engine's).
             let parts = objects::Parts {
-                dual: !cfg.path.tree_only(),
-                single: cfg.path != RayPath::Bundles,
+                dual: true,
+                single: false,
             };
             let t = objects::build(&geo.tris, &geo.mesh_first, spheres, cfg.builder, parts);
             (t, t0.elapsed().as_secs_f64())
@@ -357,7 +263,7 @@ impl RshEngine {
             self.cfg.levels,
             self.cfg.union,
         );
-        stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
+        stats.time(crate::stats::HIERARCHY_CREATION, t0.elapsed().as_secs_f64());
         let best: Vec<AtomicU64> = (0..n)
             .into_par_iter()
             .map(|_| AtomicU64::new(u64::MAX))
@@ -373,8 +279,8 @@ impl RshEngine {
             trav.run(&mut c);
         }
         let total = t1.elapsed().as_secs_f64();
-        stats.time(Phase::Traversal, total - c.final_seconds);
-        stats.time(Phase::FinalTests, c.final_seconds);
+        stats.time(trace::TRAVERSAL, total - c.final_seconds);
+        stats.time(crate::stats::FINAL_TESTS, c.final_seconds);
         stats.hits += hits
             .par_iter_mut()
             .enumerate()
@@ -389,10 +295,10 @@ impl RshEngine {
             })
             .sum::<u64>();
         let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
-        report_counters(&c, self.cfg.mesh_culling && self.tree.is_none(), top, stats);
+        crate::stats::report_counters(&c, self.cfg.mesh_culling && self.tree.is_none(), top, stats);
         if self.tree.is_some() {
             // An object tree over no triangles: its counters are reported, as zeros.
-            object_counters(&c, stats);
+            crate::stats::object_counters(&c, stats);
         }
     }
 
@@ -425,7 +331,7 @@ impl RshEngine {
             self.cfg.levels,
             self.cfg.union,
         );
-        stats.time(Phase::HierarchyCreation, t0.elapsed().as_secs_f64());
+        stats.time(crate::stats::HIERARCHY_CREATION, t0.elapsed().as_secs_f64());
         let leaf_rays = &order[..];
         let best: Vec<AtomicU64> = (0..leaf_rays.len())
             .into_par_iter()
@@ -461,11 +367,11 @@ impl RshEngine {
             &mut c,
         );
         let total = t1.elapsed().as_secs_f64();
-        stats.time(Phase::Traversal, total - c.final_seconds);
+        stats.time(trace::TRAVERSAL, total - c.final_seconds);
         // The depth-first schedule interleaves the final tests with the pair tests (timing
         // each would cost more than many of them): its traversal phase holds both.
         if !keep_bary {
-            stats.time(Phase::FinalTests, c.final_seconds);
+            stats.time(crate::stats::FINAL_TESTS, c.final_seconds);
         }
         // Best hits by leaf position, the rays' constants read back from the lanes in that
         // order (not regathered from the batch); rays outside the leaves (t_min ≥ t_max)
@@ -501,32 +407,8 @@ impl RshEngine {
             })
             .sum::<u64>();
         let top = h.levels.last().map(|l| l.len() as u64).unwrap_or(0);
-        report_counters(&c, false, top, stats);
-        object_counters(&c, stats);
-    }
-
-    /// The paths without the ray hierarchy: every ray alone through the collapsed object
-    /// tree ([`crate::single`]), or with `packets` 16 neighbouring rays at a time
-    /// ([`crate::packet`]); no hashing, sorting or bundles. Their slab and triangle tests
-    /// are reported as the dual traversal's (`ray-box tests`, final tests of level 1).
-    fn trace_single(
-        &self,
-        tree: &ObjectTree,
-        rays: &RayBatch,
-        mode: TraceMode,
-        hits: &mut [Hit],
-        stats: &mut TraceStats,
-        packets: bool,
-    ) {
-        let t0 = Instant::now();
-        let isa = single::Isa::best();
-        let c = if packets {
-            crate::packet::trace(tree, &self.tris, rays, mode, hits, isa)
-        } else {
-            single::trace(tree, &self.tris, rays, mode, hits, isa)
-        };
-        stats.time(Phase::Traversal, t0.elapsed().as_secs_f64());
-        report_single(&c, stats);
+        crate::stats::report_counters(&c, false, top, stats);
+        crate::stats::object_counters(&c, stats);
     }
 
     /// The traversal's view of the scene and of one trace's hierarchy, lanes and results.
@@ -588,24 +470,8 @@ impl Tracer for RshEngine {
             Method::Rah => Grouping::Screen,
         };
         let tree = self.tree.as_ref().filter(|_| !self.tris.is_empty());
-        if let Some((tree, _)) = tree {
-            let (single, packets) = match self.cfg.path {
-                RayPath::Bundles => (false, false),
-                RayPath::Single => (true, false),
-                RayPath::Auto => (single::coherence(rays) < single::COHERENT_SHARE, false),
-                RayPath::Packets => {
-                    let diag = self.bounds.extent().length();
-                    let p = single::locality(rays, diag) >= single::COHERENT_SHARE;
-                    (!p, p)
-                }
-            };
-            // Every path's batch counters, every call (the reports keep one set of names).
-            stats.count(Counter::SingleRayBatches, single as u64);
-            stats.count(Counter::PacketBatches, packets as u64);
-            stats.count(Counter::BundledBatches, (!single && !packets) as u64);
-            if single || packets {
-                return self.trace_single(tree, rays, mode, hits, stats, packets);
-            }
+        if tree.is_some() {
+            stats.count(crate::stats::BUNDLED_BATCHES, 1);
         }
         let order = leaf_order(rays, grouping, &self.bounds, &self.cfg.hash_bits, stats);
         match tree {
@@ -625,10 +491,7 @@ impl Tracer for RshEngine {
 
     fn build_passes(&self) -> Vec<trace::PassTime> {
         match &self.tree {
-            Some((_, secs)) => vec![trace::PassTime::new(
-                trace::BuildPass::ObjectHierarchy,
-                *secs,
-            )],
+            Some((_, secs)) => vec![trace::PassTime::new(accel::bvh::OBJECT_HIERARCHY, *secs)],
             None => Vec::new(),
         }
     }

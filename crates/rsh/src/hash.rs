@@ -28,7 +28,6 @@ use trace::{RayBatch, RayKind};
 
 /// Which key orders CRSH's leaves (thesis §3.2.3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum HashKind {
     /// The thesis's typed 32-bit hash.
     Thesis,

@@ -2,7 +2,7 @@
 //! - eight ray nodes against one object node (`test8`): the pairs a ray-side expansion
 //!   makes (a node's children, contiguous in their level, against the object the node met);
 //! - one ray node against eight object nodes (`test8_objects`): the pairs an object-side
-//!   expansion makes (the children of a collapsed node, [`crate::objects::WideNode`]).
+//!   expansion makes (the children of a collapsed node, [`accel::bvh::objects::WideNode`]).
 //!
 //! The test is the scalar one, lane by lane, with the same IEEE operations in the same order
 //! and no fused multiply-add, so every lane's answer equals the scalar test's bit for bit
@@ -14,7 +14,7 @@
 //!
 //! The exact cone test ([`crate::NodeTest::Exact`]) and CPUs without AVX take the scalar path.
 
-use crate::objects::WideNode;
+use accel::bvh::objects::WideNode;
 use geom::{Aabb, Vec3};
 
 /// One ray level's node records as lanes (structure of arrays, padded by 8 so a window of 8
@@ -168,7 +168,7 @@ pub(crate) fn test8(l: &NodeLanes, first: usize, p: Vec3, d: f32, b: &Aabb) -> u
 }
 
 /// One ray node against the 8 children of a collapsed object node
-/// ([`crate::objects::WideNode`]): bit i set when child i passes both tests, the same tests as
+/// ([`accel::bvh::objects::WideNode`]): bit i set when child i passes both tests, the same tests as
 /// [`test8`] with the roles of the lanes swapped (the node broadcast, the objects in lanes).
 /// Lanes past the node's `count` are masked off. Needs [`available`].
 #[inline]
@@ -189,7 +189,7 @@ pub(crate) fn test8_objects(n: &NodeFields, w: &WideNode) -> u8 {
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::{NodeFields, NodeLanes};
-    use crate::objects::WideNode;
+    use accel::bvh::objects::WideNode;
     use geom::{Aabb, Vec3};
     use std::arch::x86_64::*;
 

@@ -7,7 +7,6 @@ use geom::Aabb;
 use par::{compact_pairs, compress_runs, expand_runs, sort_pairs, SortScratch};
 use rayon::prelude::*;
 use std::time::Instant;
-use trace::Counter;
 use trace::{Phase, RayBatch, TraceStats};
 
 /// How leaves are ordered before they are grouped into nodes.
@@ -42,7 +41,7 @@ pub fn leaf_order(
         .collect();
     match grouping {
         Grouping::Hash(HashKind::Thesis) => {
-            let keys: Vec<u32> = timed(stats, Phase::Hash, || {
+            let keys: Vec<u32> = timed(stats, crate::stats::HASH, || {
                 // 8 rays' spherical angles and keys at a time (AVX lanes, the scalar bits).
                 let mut keys = vec![0u32; n];
                 keys.par_chunks_mut(8)
@@ -57,7 +56,7 @@ pub fn leaf_order(
             chunked_order(keys, ids, &valid, 32, stats)
         }
         Grouping::Hash(HashKind::Morton64) => {
-            let keys: Vec<u64> = timed(stats, Phase::Hash, || {
+            let keys: Vec<u64> = timed(stats, crate::stats::HASH, || {
                 (0..n)
                     .into_par_iter()
                     .map(|i| morton64_key(rays, i, scene))
@@ -66,19 +65,19 @@ pub fn leaf_order(
             chunked_order(keys, ids, &valid, 64, stats)
         }
         Grouping::Screen => {
-            let keys: Vec<u32> = timed(stats, Phase::ScreenOrder, || {
+            let keys: Vec<u32> = timed(stats, crate::stats::SCREEN_ORDER, || {
                 (0..n)
                     .into_par_iter()
                     .map(|i| screen_key(rays, i))
                     .collect()
             });
             let (mut k, mut v) = (vec![0u32; n], vec![0u32; n]);
-            let m = timed(stats, Phase::Trim, || {
+            let m = timed(stats, crate::stats::TRIM, || {
                 compact_pairs(&keys, &ids, &valid, &mut k, &mut v)
             });
             k.truncate(m);
             v.truncate(m);
-            timed(stats, Phase::ScreenOrder, || {
+            timed(stats, crate::stats::SCREEN_ORDER, || {
                 sort_pairs(&mut k, &mut v, 32, &mut SortScratch::new())
             });
             v
@@ -97,23 +96,23 @@ fn chunked_order<K: par::RadixKey + PartialEq>(
     let n = keys.len();
     // Trim (§3.2.3): drop rays that cannot hit (empty t range), keeping key and ray index.
     let (mut tk, mut tv) = (vec![K::default(); n], vec![0u32; n]);
-    let m = timed(stats, Phase::Trim, || {
+    let m = timed(stats, crate::stats::TRIM, || {
         compact_pairs(&keys, &ids, valid, &mut tk, &mut tv)
     });
     // Compress (§3.2.4): runs of equal consecutive keys become (key, base, size) chunks.
     let (mut ck, mut cb, mut cs) = (vec![K::default(); m], vec![0u32; m], vec![0u32; m]);
-    let chunks = timed(stats, Phase::Compress, || {
+    let chunks = timed(stats, crate::stats::COMPRESS, || {
         compress_runs(&tk[..m], &mut ck, &mut cb, &mut cs)
     });
-    stats.count(Counter::Chunks, chunks as u64);
+    stats.count(crate::stats::CHUNKS, chunks as u64);
     ck.truncate(chunks);
     // Sort (§3.2.5): the chunk keys with the chunk index as value (stable radix sort).
     let mut order: Vec<u32> = (0..chunks as u32).collect();
-    timed(stats, Phase::Sort, || {
+    timed(stats, crate::stats::SORT, || {
         sort_pairs(&mut ck, &mut order, bits, &mut SortScratch::new())
     });
     // Decompress (§3.2.6): expand the sorted chunks back to positions, then to ray indices.
-    timed(stats, Phase::Decompress, || {
+    timed(stats, crate::stats::DECOMPRESS, || {
         let mut offs = vec![0u32; chunks];
         let mut pos = vec![0u32; m];
         expand_runs(&order, &cb[..chunks], &cs[..chunks], &mut offs, &mut pos);

@@ -23,7 +23,6 @@ use std::time::Instant;
 
 /// The conservative test of a node against a triangle's bounding sphere.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum NodeTest {
     /// Roger et al.'s test (thesis eq. 3.16); wide cones pass.
     Rah,
@@ -156,12 +155,7 @@ pub fn batches(
     out
 }
 
-/// (t, triangle) packed so that the u64 order is (smallest t, then smallest id): positive
-/// f32 bit patterns order like the floats.
-#[inline]
-pub fn pack(t: f32, tri: u32) -> u64 {
-    (t.to_bits() as u64) << 32 | tri as u64
-}
+pub use geom::tri::pack;
 
 /// A hit's barycentrics in one word (u bits << 32 | v bits), as [`Traversal::bary`] keeps them.
 #[inline]

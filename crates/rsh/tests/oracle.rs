@@ -10,15 +10,22 @@ use accel::oracle::assert_same_hits;
 use accel::BruteForce;
 use geom::{Pcg32, Ray, Vec3};
 use proptest::prelude::*;
-use rsh::single::Isa;
 use rsh::{
-    Descent, HashKind, NodeTest, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, RshEngine,
-    Schedule, Union,
+    Descent, HashKind, NodeTest, ObjectBuilder, ObjectHierarchy, RshConfig, RshEngine, Schedule,
+    Union,
 };
 use scene::{builtin, Geometry};
 use testkit::record_render;
 use testkit::soup_case as random_case;
 use trace::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
+
+/// `base` with the thesis's object side: every triangle behind the per-mesh spheres.
+fn mesh_spheres(base: RshConfig) -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::MeshSpheres,
+        ..base
+    }
+}
 
 #[test]
 fn builtin_scenes_all_configs_match_brute_force() {
@@ -30,7 +37,10 @@ fn builtin_scenes_all_configs_match_brute_force() {
             batches.len() >= 3,
             "{name}: shadow and secondary batches were traced"
         );
-        for base in [RshConfig::crsh(), RshConfig::rah()] {
+        for base in [
+            mesh_spheres(RshConfig::crsh()),
+            mesh_spheres(RshConfig::rah()),
+        ] {
             for b in [4u32, 8, 16] {
                 for d in [1u32, 2, 3, 4] {
                     let cfg = RshConfig {
@@ -76,8 +86,7 @@ fn object_hierarchy_matches_brute_force() {
                             levels: d,
                             pair_budget: budget,
                             mesh_culling: base.mesh_culling ^ (k == 1),
-                            // The dual traversal itself, over either builder's tree.
-                            path: RayPath::Bundles,
+                            // Either builder's tree.
                             builder: if schedule == Schedule::Breadth {
                                 ObjectBuilder::Sah
                             } else {
@@ -139,7 +148,6 @@ fn bvh(descent: Descent, schedule: Schedule) -> RshConfig {
         objects: ObjectHierarchy::Bvh,
         descent,
         schedule,
-        path: RayPath::Bundles,
         ..RshConfig::crsh()
     }
 }
@@ -182,38 +190,38 @@ fn variants_match_brute_force() {
         let variants = [
             RshConfig {
                 hash: HashKind::Morton64,
-                ..RshConfig::crsh()
+                ..mesh_spheres(RshConfig::crsh())
             },
             RshConfig {
                 union: Union::Thesis,
-                ..RshConfig::crsh()
+                ..mesh_spheres(RshConfig::crsh())
             },
             RshConfig {
                 node_test: NodeTest::Exact,
-                ..RshConfig::crsh()
+                ..mesh_spheres(RshConfig::crsh())
             },
             RshConfig {
                 mesh_culling: false,
-                ..RshConfig::crsh()
+                ..mesh_spheres(RshConfig::crsh())
             },
             RshConfig {
                 mesh_culling: true,
-                ..RshConfig::rah()
+                ..mesh_spheres(RshConfig::rah())
             },
             RshConfig {
                 branching: 4,
                 levels: 0,
-                ..RshConfig::rah()
+                ..mesh_spheres(RshConfig::rah())
             },
             RshConfig {
                 pair_budget: 1024,
-                ..RshConfig::crsh()
+                ..mesh_spheres(RshConfig::crsh())
             },
             RshConfig {
                 branching: 2,
                 levels: 6,
                 pair_budget: 1500,
-                ..RshConfig::rah()
+                ..mesh_spheres(RshConfig::rah())
             },
         ];
         for cfg in variants {
@@ -258,7 +266,7 @@ fn tiny_budget_forces_batches_and_keeps_every_pair() {
         &geo,
         RshConfig {
             pair_budget: 1024,
-            ..RshConfig::crsh()
+            ..mesh_spheres(RshConfig::crsh())
         },
     )
     .unwrap();
@@ -267,11 +275,11 @@ fn tiny_budget_forces_batches_and_keeps_every_pair() {
     e.trace(&rays, TraceMode::Closest, &mut got, &mut st);
     assert_eq!(got, expect);
     assert!(
-        st.counters[trace::Counter::TriangleBatches] > 1,
+        st.counters[rsh::stats::TRIANGLE_BATCHES] > 1,
         "the budget forced triangle batches"
     );
     assert!(
-        st.counters[trace::Counter::BudgetSplits] > 0,
+        st.counters[rsh::stats::BUDGET_SPLITS] > 0,
         "the budget forced split expansions"
     );
 }
@@ -280,13 +288,13 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
     #[test]
-    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4, breadth in any::<bool>(), path in 0usize..4, sah in any::<bool>()) {
+    fn random_scenes_match_brute_force(seed in 0u64..1_000_000, ntri in 1usize..400, nray in 1usize..1500, b in 2u32..17, d in 0u32..5, rah in any::<bool>(), exact in any::<bool>(), any_hit in any::<bool>(), objects in 0usize..4, breadth in any::<bool>(), sah in any::<bool>()) {
         let (geo, rays) = random_case(seed, ntri, nray);
         let base = if rah { RshConfig::rah() } else { RshConfig::crsh() };
         // 0: the thesis's mesh spheres; 1–3: the object hierarchy with each descent rule.
         let descents = [Descent::RayFirst, Descent::RayFirst, Descent::Size, Descent::ObjectFirst];
         let objects_kind = if objects == 0 { ObjectHierarchy::MeshSpheres } else { ObjectHierarchy::Bvh };
-        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, objects: objects_kind, descent: descents[objects], schedule: if breadth { Schedule::Breadth } else { Schedule::Depth }, path: RayPath::NAMES[path].1, builder: if sah { ObjectBuilder::Sah } else { ObjectBuilder::Lbvh }, ..base };
+        let cfg = RshConfig { branching: b, levels: d, node_test: if exact { NodeTest::Exact } else { NodeTest::Rah }, union: if exact { Union::Exact } else { Union::Thesis }, objects: objects_kind, descent: descents[objects], schedule: if breadth { Schedule::Breadth } else { Schedule::Depth }, builder: if sah { ObjectBuilder::Sah } else { ObjectBuilder::Lbvh }, ..base };
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];
         BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
@@ -312,7 +320,7 @@ fn schedules_test_the_same_pairs() {
                     let mut st = TraceStats::default();
                     let mut got = vec![Hit::MISS; rays.len()];
                     e.trace(rays, *mode, &mut got, &mut st);
-                    let object = st.counters[trace::Counter::ObjectNodeTests];
+                    let object = st.counters[rsh::stats::OBJECT_NODE_TESTS];
                     (*mode, st.levels.clone(), object)
                 })
                 .collect::<Vec<_>>()
@@ -359,14 +367,14 @@ proptest! {
         let mode = if any_hit { TraceMode::Any } else { TraceMode::Closest };
         let mut expect = vec![Hit::MISS; rays.len()];
         BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
-        let (objects, schedule, path) = [
-            (ObjectHierarchy::MeshSpheres, Schedule::Depth, RayPath::Bundles),
-            (ObjectHierarchy::Bvh, Schedule::Depth, RayPath::Bundles),
-            (ObjectHierarchy::Bvh, Schedule::Breadth, RayPath::Bundles),
-            (ObjectHierarchy::Bvh, Schedule::Depth, RayPath::Single),
+        let (objects, schedule, builder) = [
+            (ObjectHierarchy::MeshSpheres, Schedule::Depth, ObjectBuilder::Sah),
+            (ObjectHierarchy::Bvh, Schedule::Depth, ObjectBuilder::Sah),
+            (ObjectHierarchy::Bvh, Schedule::Breadth, ObjectBuilder::Lbvh),
+            (ObjectHierarchy::Bvh, Schedule::Depth, ObjectBuilder::Lbvh),
         ][objects];
         for base in [RshConfig::crsh(), RshConfig::rah()] {
-            let cfg = RshConfig { objects, schedule, path, ..base };
+            let cfg = RshConfig { objects, schedule, builder, ..base };
             assert_same_hits(&RshEngine::new(&geo, cfg).unwrap(), &rays, mode, &expect, "unnormalised");
         }
     }
@@ -405,177 +413,20 @@ fn short_directions_reach_far_triangles() {
     assert!(expect.iter().all(|h| h.is_hit()));
     for objects in [ObjectHierarchy::MeshSpheres, ObjectHierarchy::Bvh] {
         for schedule in [Schedule::Depth, Schedule::Breadth] {
-            for path in [RayPath::Bundles, RayPath::Single, RayPath::Packets] {
-                let cfg = RshConfig {
-                    objects,
-                    schedule,
-                    mesh_culling: false,
-                    path,
-                    ..RshConfig::crsh()
-                };
-                let e = RshEngine::new(&geo, cfg).unwrap();
-                assert_same_hits(
-                    &e,
-                    &rays,
-                    TraceMode::Closest,
-                    &expect,
-                    &format!("{objects:?} {schedule:?} {path:?}"),
-                );
-            }
-        }
-    }
-}
-
-/// The walks without the ray hierarchy, single rays (`rsh::single`) and packets
-/// (`rsh::packet`), on every built-in scene's Whitted batches and on random rays, over both
-/// builders' trees: brute force's hits (closest hit bit for bit, the kernel's own records for
-/// any hit too), and the AVX2 and AVX-512 builds give the scalar build's hits and counts
-/// exactly.
-#[test]
-fn single_rays_and_packets_match_brute_force_and_the_scalar_path() {
-    type Batches = Vec<(RayBatch, TraceMode, Vec<Hit>)>;
-    let mut cases: Vec<(String, Geometry, Batches)> = Vec::new();
-    for name in builtin::NAMES {
-        let s = builtin::by_name(name).unwrap();
-        let geo = Geometry::from_scene(&s);
-        let batches = record_render(&s, &geo, 40, 30, 2);
-        cases.push((name.to_string(), geo, batches));
-    }
-    for seed in 0..4u64 {
-        let (geo, rays) = random_case(seed, 300 + 200 * seed as usize, 3000);
-        let mut batches = Vec::new();
-        for mode in [TraceMode::Closest, TraceMode::Any] {
-            let mut expect = vec![Hit::MISS; rays.len()];
-            BruteForce::new(&geo).trace(&rays, mode, &mut expect, &mut TraceStats::default());
-            batches.push((rays.clone(), mode, expect));
-        }
-        cases.push((format!("soup {seed}"), geo, batches));
-    }
-    for (name, geo, batches) in &cases {
-        for builder in [ObjectBuilder::Lbvh, ObjectBuilder::Sah] {
-            let tree = rsh::objects::build(
-                &geo.tris,
-                &geo.mesh_first,
-                None,
-                builder,
-                rsh::objects::Parts::ALL,
+            let cfg = RshConfig {
+                objects,
+                schedule,
+                mesh_culling: false,
+                ..RshConfig::crsh()
+            };
+            let e = RshEngine::new(&geo, cfg).unwrap();
+            assert_same_hits(
+                &e,
+                &rays,
+                TraceMode::Closest,
+                &expect,
+                &format!("{objects:?} {schedule:?}"),
             );
-            for (j, (rays, mode, expect), packets) in batches
-                .iter()
-                .enumerate()
-                .flat_map(|(j, b)| [(j, b, false), (j, b, true)])
-            {
-                let walk = if packets { "packets" } else { "single" };
-                let what = format!("{name} {builder:?} batch {j} {mode:?} {walk}");
-                let run = |isa| {
-                    let mut got = vec![Hit::MISS; rays.len()];
-                    let f = if packets {
-                        rsh::packet::trace
-                    } else {
-                        rsh::single::trace
-                    };
-                    let c = f(&tree, &geo.tris, rays, *mode, &mut got, isa);
-                    (got, c)
-                };
-                let (scalar, sc) = run(Isa::Scalar);
-                for isa in [Isa::Avx2, Isa::Avx512] {
-                    if !isa.available() {
-                        let need = if isa == Isa::Avx2 { "avx2" } else { "avx512" };
-                        testkit::skip(need, format!("{what}: this CPU lacks {isa:?}"));
-                        continue;
-                    }
-                    let (lanes, lc) = run(isa);
-                    assert_eq!(lc, sc, "{what}: {isa:?} counts");
-                    assert!(
-                        lanes == scalar,
-                        "{what}: {isa:?} hits against the scalar path's"
-                    );
-                }
-                for (i, (l, e)) in scalar.iter().zip(expect).enumerate() {
-                    match mode {
-                        TraceMode::Closest => assert_eq!(l, e, "{what}: ray {i}"),
-                        TraceMode::Any => assert_eq!(l.is_hit(), e.is_hit(), "{what}: ray {i}"),
-                    }
-                    if l.is_hit() {
-                        let [a, b, c] = geo.tris[l.tri as usize];
-                        let k = geom::intersect(&geom::tri::RayPre::new(&rays.ray(i)), a, b, c)
-                            .expect("a recorded hit repeats");
-                        assert_eq!((l.t, l.u, l.v), (k.t, k.u, k.v), "{what}: ray {i} record");
-                    }
-                }
-                assert_eq!(sc.hits, scalar.iter().filter(|h| h.is_hit()).count() as u64);
-            }
         }
-    }
-}
-
-/// `RayPath::Auto` takes the bundles for a batch of neighbouring, near-parallel rays
-/// (a view's shadow rays) and single rays for rays scattered at random through the scene,
-/// `RayPath::Packets` packets and single rays, and each says which in the counters; the
-/// hits are brute force's either way.
-#[test]
-fn auto_path_follows_the_batch_coherence() {
-    let s = builtin::office(7);
-    let geo = Geometry::from_scene(&s);
-    let batches = record_render(&s, &geo, 64, 48, 0);
-    let (primary, pmode, pexpect) = batches[0].clone();
-    // Rays from anywhere in the scene's box, in any direction, unbounded.
-    let mut rng = geom::Pcg32::new(3, 11);
-    let b = geo.bounds;
-    let mut random = RayBatch::default();
-    for i in 0..4000u32 {
-        let mut f = || rng.next_f32();
-        let o = b.min + (b.max - b.min) * Vec3::new(f(), f(), f());
-        let d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).normalize_or(Vec3::Y);
-        let r = Ray::new(o, d, 0.0, f32::INFINITY);
-        random.push(r, RayKind::Reflection, i, 0, Vec3::ONE, 0);
-    }
-    let mut rexpect = vec![Hit::MISS; random.len()];
-    BruteForce::new(&geo).trace(
-        &random,
-        TraceMode::Closest,
-        &mut rexpect,
-        &mut TraceStats::default(),
-    );
-    assert!(rsh::single::coherence(&primary) >= rsh::single::COHERENT_SHARE);
-    let diag = geo.bounds.extent().length();
-    assert!(rsh::single::locality(&primary, diag) >= rsh::single::COHERENT_SHARE);
-    assert!(rsh::single::locality(&random, diag) < rsh::single::COHERENT_SHARE);
-    assert!(rsh::single::coherence(&random) < rsh::single::COHERENT_SHARE);
-    for (path, (rays, mode, expect, coherent)) in
-        [RayPath::Auto, RayPath::Packets].into_iter().flat_map(|p| {
-            [
-                (p, (&primary, pmode, &pexpect, 1)),
-                (p, (&random, TraceMode::Closest, &rexpect, 0)),
-            ]
-        })
-    {
-        let cfg = RshConfig {
-            objects: ObjectHierarchy::Bvh,
-            path,
-            ..RshConfig::crsh()
-        };
-        let e = RshEngine::new(&geo, cfg).unwrap();
-        let mut st = TraceStats::default();
-        let mut got = vec![Hit::MISS; rays.len()];
-        e.trace(rays, mode, &mut got, &mut st);
-        for (g, x) in got.iter().zip(expect.iter()) {
-            match mode {
-                TraceMode::Closest => assert_eq!(g, x),
-                TraceMode::Any => assert_eq!(g.is_hit(), x.is_hit()),
-            }
-        }
-        let count = |c| st.counters.get(c).unwrap_or(0);
-        let (bundled, packets) = match path {
-            RayPath::Auto => (coherent, 0),
-            _ => (0, coherent),
-        };
-        assert_eq!(count(trace::Counter::BundledBatches), bundled, "{path:?}");
-        assert_eq!(count(trace::Counter::PacketBatches), packets, "{path:?}");
-        assert_eq!(
-            count(trace::Counter::SingleRayBatches),
-            1 - coherent,
-            "{path:?}"
-        );
     }
 }

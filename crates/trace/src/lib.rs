@@ -15,6 +15,7 @@ pub mod batch;
 pub mod error;
 pub mod fill;
 pub mod memory;
+pub mod options;
 pub mod stats;
 pub mod tracer;
 
@@ -22,6 +23,6 @@ pub use batch::{BatchError, Hit, RayBatch, RayKind};
 pub use error::{by_name, NameError, OptionError};
 pub use stats::{
     BuildPass, Counter, CounterKind, Counters, Device, LevelCounts, LevelRow, PassTime, Phase,
-    TraceStats,
+    PhaseKind, TraceStats, RAY_BOX_TESTS, TRAVERSAL,
 };
 pub use tracer::{trace_per_ray, TraceMode, Tracer};

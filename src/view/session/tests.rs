@@ -15,7 +15,7 @@ fn a_full_frame_is_the_render() {
     let rgb = s.frame(1).unwrap();
     let scene = scene::builtin::cornell();
     let geo = Geometry::from_scene(&scene);
-    let t = engines::build(Engine::Grid, &EngineOptions::default(), &geo).unwrap();
+    let t = engines::build(Engine::Grid, &Config::of(Engine::Grid), &geo).unwrap();
     let out = render(
         &scene,
         &geo,
@@ -96,7 +96,7 @@ fn controls_change_the_view_and_the_engine() {
     s.engine = Engine::Grid2l;
     s.backend = Backend::Gpu;
     s.cycle_engine();
-    assert_eq!(s.engine, Engine::Crsh);
+    assert_eq!(s.engine, Engine::Bvh);
     s.backend = Backend::Cpu;
     s.engine = Engine::ObvhsCwbvh;
     s.toggle_backend();

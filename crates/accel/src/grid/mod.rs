@@ -28,28 +28,18 @@ pub mod traverse;
 pub mod voxelmap;
 
 use geom::{Aabb, Vec3};
+use trace::options::{float, int, name_of, named, single, switch, Kind, OnGpu, Spec, Value};
 use trace::{by_name, NameError, OptionError};
 
 pub use voxelmap::NODE;
 
 /// Which octree nodes split during the initial subdivision (see [`build`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Subdivision {
     /// One depth per top cell from eq. 1 with the top cell's count (the paper's rule).
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "one octree depth per top cell, from its count (the paper's §4.1)")
-    )]
     Paper,
     /// The paper's depth, and below it every node whose own count of small triangles calls
     /// for a split (see [`build`]), up to the maximum depth.
-    #[cfg_attr(
-        feature = "clap",
-        value(
-            help = "also split deeper nodes whose own count calls for it, up to --grid-max-depth"
-        )
-    )]
     Adaptive,
 }
 
@@ -70,21 +60,12 @@ impl std::str::FromStr for Subdivision {
 
 /// How a merge pass cuts its chains of candidates into merges (see [`merge`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MergeRule {
     /// Cells at even positions of a chain absorb their successor (the paper's §4.2).
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "even positions of a chain absorb their successor (the paper's §4.2)")
-    )]
     Pairs,
     /// A cell absorbs its successor and every next one, up to [`merge::MAX_RUN`] cells,
     /// while the SAH cost of the run so far still drops: in one pass, merges that pairs reach
     /// over several rounds.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "a cell absorbs its successors (up to 8) while the SAH cost still drops")
-    )]
     Runs,
 }
 
@@ -185,48 +166,149 @@ impl GridConfig {
     }
 
     /// The one check of a configuration (the CLI, the bindings, the benchmarks and the
-    /// engine call it).
+    /// engine call it): every option against its declaration ([`OPTIONS`]).
     pub fn validate(&self) -> Result<(), OptionError> {
-        let ok = |x: f32| x.is_finite() && x > 0.0 && x <= 1e4;
-        let density = "grid densities must be in (0, 10^4]";
-        if !ok(self.top_density) {
-            return Err(OptionError::new(
-                "grid_top_density",
-                self.top_density,
-                density,
-            ));
-        }
-        if !ok(self.leaf_density) {
-            return Err(OptionError::new(
-                "grid_leaf_density",
-                self.leaf_density,
-                density,
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.alpha) {
-            return Err(OptionError::new(
-                "grid_alpha",
-                self.alpha,
-                "the merge alpha must be in [0, 1]",
-            ));
-        }
-        if self.expansion_passes > 16 {
-            return Err(OptionError::new(
-                "grid_expansion",
-                self.expansion_passes,
-                "at most 16 expansion passes",
-            ));
-        }
-        if self.max_depth > 12 {
-            return Err(OptionError::new(
-                "grid_max_depth",
-                self.max_depth,
-                "octree depth at most 12",
-            ));
-        }
-        Ok(())
+        trace::options::check_all(OPTIONS, self)
     }
 }
+
+/// Grid densities (λ₁, λ₂) lie in (0, 10⁴].
+const DENSITY: Kind = Kind::Float {
+    min: 0.0,
+    above_min: true,
+    max: 1e4,
+};
+
+/// Every option of the irregular grid and the two-level grid (which stops after the initial
+/// cells, so merging and expansion are not its options).
+pub const OPTIONS: &[Spec<GridConfig>] = &[
+    Spec {
+        name: "grid_top_density",
+        kind: DENSITY,
+        doc: "top-level density, lambda1 (§4.1, eq. 1)",
+        engines: None,
+        requires: None,
+        gpu: OnGpu::Any,
+        get: |c| single(c.top_density),
+        set: |c, v| {
+            c.top_density = float(v) as f32;
+            Ok(())
+        },
+    },
+    Spec {
+        name: "grid_leaf_density",
+        kind: DENSITY,
+        doc: "second-level (octree) density, lambda2 (§4.1)",
+        engines: None,
+        requires: None,
+        gpu: OnGpu::Any,
+        get: |c| single(c.leaf_density),
+        set: |c, v| {
+            c.leaf_density = float(v) as f32;
+            Ok(())
+        },
+    },
+    Spec {
+        name: "grid_alpha",
+        kind: Kind::Float {
+            min: 0.0,
+            above_min: false,
+            max: 1.0,
+        },
+        doc: "merging stops when a round keeps this share of cells (§4.2)",
+        engines: Some(&["grid"]),
+        requires: None,
+        gpu: OnGpu::Any,
+        get: |c| single(c.alpha),
+        set: |c, v| {
+            c.alpha = float(v) as f32;
+            Ok(())
+        },
+    },
+    Spec {
+        name: "grid_merge",
+        kind: Kind::Switch,
+        doc: "SAH cell merging (§4.2)",
+        engines: Some(&["grid"]),
+        requires: None,
+        gpu: OnGpu::Any,
+        get: |c| Value::Bool(c.merge),
+        set: |c, v| {
+            c.merge = switch(v);
+            Ok(())
+        },
+    },
+    Spec {
+        name: "grid_merge_rule",
+        kind: Kind::Choice(&[
+            (
+                "runs",
+                "a cell absorbs its successors (up to 8) while the SAH cost still drops",
+            ),
+            (
+                "pairs",
+                "even positions of a chain absorb their successor (the paper's §4.2)",
+            ),
+        ]),
+        doc: "how a merge pass cuts its chains of candidates into merges",
+        engines: Some(&["grid"]),
+        requires: None,
+        gpu: OnGpu::Any,
+        get: |c| Value::Str(name_of(&MergeRule::NAMES, c.merge_rule).into()),
+        set: |c, v| {
+            c.merge_rule = named(&MergeRule::NAMES, v)?;
+            Ok(())
+        },
+    },
+    Spec {
+        name: "grid_expansion",
+        kind: Kind::Int { min: 0, max: 16 },
+        doc: "cell expansion passes (§4.3)",
+        engines: Some(&["grid"]),
+        requires: None,
+        gpu: OnGpu::Any,
+        get: |c| Value::Int(c.expansion_passes as i64),
+        set: |c, v| {
+            c.expansion_passes = int(v) as u32;
+            Ok(())
+        },
+    },
+    Spec {
+        name: "grid_max_depth",
+        kind: Kind::Int { min: 0, max: 12 },
+        doc: "largest octree depth per top-level cell",
+        engines: None,
+        requires: None,
+        gpu: OnGpu::Any,
+        get: |c| Value::Int(c.max_depth as i64),
+        set: |c, v| {
+            c.max_depth = int(v) as u32;
+            Ok(())
+        },
+    },
+    Spec {
+        name: "grid_subdivision",
+        kind: Kind::Choice(&[
+            (
+                "paper",
+                "one octree depth per top cell, from its count (the paper's §4.1)",
+            ),
+            (
+                "adaptive",
+                "also split deeper nodes whose own count calls for it",
+            ),
+        ]),
+        doc: "which octree nodes split",
+        engines: None,
+        requires: None,
+        gpu: OnGpu::Any,
+        get: |c| Value::Str(name_of(&Subdivision::NAMES, c.subdivision).into()),
+        set: |c, v| {
+            c.subdivision = named(&Subdivision::NAMES, v)?;
+            Ok(())
+        },
+    },
+];
 
 /// Why an irregular grid cannot be built.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -310,7 +392,16 @@ pub struct BuildStats {
 /// result; the GPU runs them level by level.)
 /// The GPU build (`gpu::grid`) states where it runs each one against this list, so a pass
 /// added here and not there fails its test.
-pub const PASSES: [trace::BuildPass; 5] = trace::BuildPass::GRID;
+pub const PASSES: [trace::BuildPass; 5] = [
+    trace::BuildPass::new("top_refs"),
+    trace::BuildPass::new("octrees"),
+    trace::BuildPass::new("cells"),
+    trace::BuildPass::new("merge"),
+    trace::BuildPass::new("expansion"),
+];
+
+/// Cells visited per ray, summed (the paper's N_T).
+pub const TRAVERSAL_STEPS: trace::Counter = trace::Counter::sum("traversal steps");
 
 impl BuildStats {
     /// Each build pass's time in seconds, in build order ([`PASSES`]).
@@ -636,7 +727,7 @@ impl trace::Tracer for GridEngine {
         stats.rays += rays.len() as u64;
         stats.ray_tri_tests += tests;
         stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
-        stats.count(trace::Counter::TraversalSteps, steps);
+        stats.count(TRAVERSAL_STEPS, steps);
     }
 }
 

@@ -1,4 +1,6 @@
-//! The irregular grid and the peers against brute force: one test binary.
+//! The object-tree walk, the irregular grid and the peers against brute force: one test
+//! binary.
 
+mod bvh;
 mod grid;
 mod peers;

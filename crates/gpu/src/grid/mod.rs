@@ -31,11 +31,11 @@ use trace::{BuildPass, Device, PassTime, Phase};
 /// checks the passes, so a pass added to the CPU build must be placed here): as WGSL kernels
 /// ([`Device::Gpu`]) or as the CPU pass of `accel::grid` on read-back data.
 pub const PASS_DEVICE: [(BuildPass, Device); 5] = [
-    (BuildPass::TopRefs, Device::Gpu),
-    (BuildPass::Octrees, Device::Gpu),
-    (BuildPass::Cells, Device::Gpu),
-    (BuildPass::Merge, Device::Gpu),
-    (BuildPass::Expansion, Device::Gpu),
+    (accel::grid::PASSES[0], Device::Gpu),
+    (accel::grid::PASSES[1], Device::Gpu),
+    (accel::grid::PASSES[2], Device::Gpu),
+    (accel::grid::PASSES[3], Device::Gpu),
+    (accel::grid::PASSES[4], Device::Gpu),
 ];
 
 /// A grid being built on the device: its cells, references and voxel map in buffers, and
@@ -371,11 +371,14 @@ impl trace::Tracer for GpuGrid {
             })
             .collect();
         v.push(PassTime::new(
-            BuildPass::KernelCompilation,
+            crate::stats::KERNEL_COMPILATION,
             self.compile_seconds,
         ));
         if !self.built_on_gpu {
-            v.push(PassTime::new(BuildPass::Upload, self.upload_seconds));
+            v.push(PassTime::new(
+                crate::stats::UPLOAD_PASS,
+                self.upload_seconds,
+            ));
         }
         v
     }

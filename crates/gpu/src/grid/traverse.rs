@@ -10,8 +10,7 @@ use super::GpuGrid;
 use crate::kernels::params::GridTraceParams;
 use crate::kernels::{launch, DevSize, Exec, Threads};
 use crate::rays::{records_to_hits, upload_segments, DeviceRays};
-use trace::Counter;
-use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats};
+use trace::{Hit, RayBatch, TraceMode, TraceStats};
 
 /// Trace `rays` (in parts of at most as many rays as one binding holds) into `hits`,
 /// counting into `stats` as `accel::GridEngine` does.
@@ -53,7 +52,7 @@ fn records(
     let g = &grid.gpu;
     let rec = g.storage("grid records", n * 16);
     let cnt = g.storage("grid counts", n * 8);
-    ex.phase(Phase::Traversal);
+    ex.phase(trace::TRAVERSAL);
     let p = GridTraceParams {
         rays: n as u32,
         any_hit: (mode == TraceMode::Any) as u32,
@@ -88,7 +87,7 @@ fn trace_part(
     let mut ex = Exec::new(g, &grid.kernels);
     let (org, dir) = upload_segments(g, rays);
     let (rec, cnt) = records(grid, &mut ex, &org, &dir, n as u64, mode, None);
-    ex.phase(Phase::ReadBack);
+    ex.phase(crate::stats::READ_BACK);
     records_to_hits(&ex.read(&rec, n), hits);
     let counts: Vec<[u32; 2]> = ex.read(&cnt, n);
     ex.report(stats, &grid.times);
@@ -97,7 +96,7 @@ fn trace_part(
         .fold((0u64, 0u64), |(s, t), c| (s + c[0] as u64, t + c[1] as u64));
     stats.ray_tri_tests += tests;
     stats.hits += hits.iter().filter(|h| h.is_hit()).count() as u64;
-    stats.count(Counter::TraversalSteps, steps);
+    stats.count(accel::grid::TRAVERSAL_STEPS, steps);
 }
 
 /// [`crate::GpuEngine::trace_device`]: rays already on the device (at most `max_rays`);
@@ -144,5 +143,5 @@ pub(crate) fn settle(words: &[u32], stats: &mut TraceStats) {
     let t = crate::frame::sum_totals(words);
     stats.ray_tri_tests += t.tests;
     stats.hits += t.hits;
-    stats.count(Counter::TraversalSteps, t.steps);
+    stats.count(accel::grid::TRAVERSAL_STEPS, t.steps);
 }

@@ -4,10 +4,11 @@
 //! minimal-ball shuffles). [`super::GpuRsh`] owns one and hands it to the passes, so the
 //! passes depend on this file and not on the engine's.
 
+use crate::bvh::objects::SceneArrays;
 use crate::device::{Gpu, GpuError};
 use crate::kernels::Kernels;
 use ::rsh::RshConfig;
-use geom::{Pcg32, Sphere};
+use geom::Pcg32;
 use scene::Geometry;
 
 /// The engine's device-side state, as the passes read it.
@@ -38,42 +39,6 @@ pub struct DeviceScene {
     pub box_ext: [f32; 3],
     /// The scene box's diagonal (the dual traversal's cap on unbounded rays).
     pub diag: f32,
-}
-
-/// The scene's per-triangle and per-mesh arrays in the layouts the kernels read: triangles
-/// (3 × vec4), their spheres and the mesh spheres (centre, radius), each triangle's mesh.
-pub(crate) struct SceneArrays {
-    pub tris: Vec<[f32; 4]>,
-    pub spheres: Vec<[f32; 4]>,
-    pub tri_mesh: Vec<u32>,
-    pub meshes: Vec<[f32; 4]>,
-}
-
-impl SceneArrays {
-    pub fn of(geo: &scene::Geometry) -> SceneArrays {
-        let v4 = |s: &Sphere| [s.center.x, s.center.y, s.center.z, s.radius];
-        let nm = geo.mesh_first.len().saturating_sub(1);
-        let mut tri_mesh = vec![0u32; geo.tris.len()];
-        for m in 0..nm {
-            for t in geo.mesh_first[m]..geo.mesh_first[m + 1] {
-                tri_mesh[t as usize] = m as u32;
-            }
-        }
-        SceneArrays {
-            tris: geo
-                .tris
-                .iter()
-                .flat_map(|t| t.map(|v| [v.x, v.y, v.z, 0.0]))
-                .collect(),
-            spheres: geo
-                .tris
-                .iter()
-                .map(|t| v4(&Sphere::of_triangle(t[0], t[1], t[2])))
-                .collect(),
-            tri_mesh,
-            meshes: geo.mesh_sphere.iter().map(v4).collect(),
-        }
-    }
 }
 
 /// The CPU's fixed minimal-ball shuffle (`geom::miniball`) for every count 1..=b, as rows of

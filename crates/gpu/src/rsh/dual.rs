@@ -1,7 +1,7 @@
 //! The dual traversal on the device, level by level: the twin of `crates/rsh/src/dual/`
 //! (`breadth.rs`'s schedule, `mod.rs`'s ray nodes, pair tests and single-ray walks;
 //! kernels in `dual.wgsl`). CRSH's or RAH's ray hierarchy and the object tree (the LBVH
-//! built on the device, [`super::objects`]) descend together as (ray node, object node)
+//! built on the device, [`crate::bvh::objects`]) descend together as (ray node, object node)
 //! pairs, the thesis's future work (§5.1) on the GPU it was written for.
 //!
 //! The host keeps the CPU's schedule exactly: one stack of pairs per ray level, each step a
@@ -17,16 +17,15 @@
 
 use super::build::{Laid, Level};
 use super::device_scene::DeviceScene;
-use super::objects::DeviceTree;
 use super::traverse::GpuTraversal;
+use crate::bvh::objects::DeviceTree;
 use crate::kernels::params::{DualBeamParams, DualPairParams, DualWalkParams, PermuteParams};
 use crate::kernels::{launch, Exec, Threads};
 use crate::rays::DeviceRays;
 use ::rsh::dual::{ANY_HIT_SIZE_RATIO, SMALL_SUBTREE};
-use ::rsh::objects::LEAF;
 use ::rsh::traverse::Counters;
 use ::rsh::{Descent, NodeTest};
-use trace::Phase;
+use accel::bvh::objects::LEAF;
 
 mod rounds;
 pub use rounds::{rounds_cap, ROUNDS};
@@ -199,7 +198,7 @@ impl GpuDual<'_> {
     /// steps' peaks go into `c` now.
     pub fn run(&self, ex: &mut Exec, c: &mut Counters) {
         let nl = self.levels.len();
-        ex.phase(Phase::Traversal);
+        ex.phase(trace::TRAVERSAL);
         let chunk = (self.eng.cfg.pair_budget / self.widest().max(2)).max(1) as u64;
         let beams = self.beams(ex);
         if self.laid.is_some() {
@@ -543,12 +542,12 @@ impl GpuDual<'_> {
     /// The host's step of `n` single rays' pairs (leaf positions): sorted by ray, then
     /// walked; nothing is read back.
     fn ray_step(&self, ex: &mut Exec, pairs: &Region, n: u64) {
-        ex.phase(Phase::FinalTests);
+        ex.phase(::rsh::stats::FINAL_TESTS);
         let bits = (32 - (self.m as u32).leading_zeros()).max(1);
         ex.sort_pairs_all(&pairs.0, &pairs.1, n, bits);
         let state = ex.g.upload("dual step state", &step_state(n, 0));
         self.walks(ex, &state, pairs, n);
-        ex.phase(Phase::Traversal);
+        ex.phase(trace::TRAVERSAL);
     }
 }
 

@@ -3,8 +3,8 @@
 //! the same counters as [`::rsh::RshEngine`], every step a WGSL kernel. Per trace call:
 //! upload the rays, order them ([`super::order`]), build the hierarchy ([`super::build`]),
 //! traverse it with the final tests ([`super::traverse`]; with the object tree built on
-//! the device ([`super::objects`]), the dual traversal, [`super::dual`], or single rays
-//! through the tree, [`super::single`]), then recompute the records and read them back.
+//! the device ([`crate::bvh::objects`]), the dual traversal, [`super::dual`]), then
+//! recompute the records and read them back.
 //! The host only sequences the kernels, reads back the few totals that size the next
 //! buffers (as a CUDA/CUB version would), and mirrors the CPU's batching decisions
 //! (triangle batches, budget splits), so the pair streams, and therefore all counters, are
@@ -18,20 +18,19 @@
 use super::build::{build, build_laid, laid_caps};
 use super::device_scene::{shuffle_table, DeviceScene, SceneBuffers};
 use super::dual::{rounds_cap, GpuDual};
-use super::objects::{self, DeviceTree, TreeInput};
 use super::order::{leaf_order, leaf_order_laid};
-use super::single;
 use super::traverse::GpuTraversal;
+use crate::bvh::objects::{self, DeviceTree, TreeInput};
 use crate::device::{Gpu, GpuError};
 use crate::kernels::params::RecordsParams;
 use crate::kernels::{launch, DevSize, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
-use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, Schedule};
+use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RshConfig, Schedule};
 use scene::Geometry;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
-use trace::{Counter, OptionError};
+use trace::OptionError;
 use trace::{Hit, Phase, RayBatch, TraceMode, TraceStats, Tracer};
 
 /// The GPU engine. Scene data is uploaded once; each trace call builds its hierarchy.
@@ -42,10 +41,8 @@ pub struct GpuRsh {
     max_rays: usize,
     /// GPU seconds per phase of the last trace calls (drained by [`GpuRsh::take_times`]).
     times: Mutex<Vec<(Phase, f64)>>,
-    /// With [`ObjectHierarchy::Bvh`]: the object tree on the device (single rays).
+    /// With [`ObjectHierarchy::Bvh`]: the object tree on the device.
     tree: Option<TreeState>,
-    /// Stack entries a single ray's walk may use in private memory ([`single::STACK`]).
-    stack: u32,
     /// The dual traversal's device rounds: rounds per level of a pass, and a bound on their
     /// buffers' pairs (tests only; `None`: [`GpuDual`]'s own).
     rounds: (usize, Option<u64>),
@@ -64,8 +61,6 @@ pub struct GpuRsh {
     /// Device-laid traces since the last look that did not finish
     /// ([`crate::GpuEngine::take_incomplete`]): bit 0 for want of rounds, bit 1 of room.
     incomplete: AtomicU32,
-    /// The single-ray walks' second-pass stacks ([`single::deep_stacks`]).
-    deep: wgpu::Buffer,
     /// Counter blocks of traces on the device not yet read ([`crate::GpuEngine::settle`]).
     pending: Mutex<Vec<Pending>>,
     /// The blocks [`GpuRsh::take_pending`] handed out last, in its order: what
@@ -100,7 +95,7 @@ impl TreeState {
             tri_mesh: &s.tri_mesh,
             mesh_sphere: s.cfg.mesh_culling.then_some(&s.mesh_sphere),
             mesh_first: &s.mesh_first,
-            single: s.cfg.path == RayPath::Single,
+            single: false,
         };
         let dev = objects::build(&mut ex, &inp, s.ntri);
         ex.finish();
@@ -117,33 +112,18 @@ impl GpuRsh {
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: RshConfig) -> Result<GpuRsh, GpuError> {
         cfg.validate()?;
         if cfg.objects == ObjectHierarchy::Bvh {
-            // The object tree is walked by single rays, or descended with the ray
-            // hierarchy's bundles level by level (the dual traversal's breadth schedule);
-            // the per-batch choice and packets are the CPU's, and so is the SAH builder.
-            match cfg.path {
-                RayPath::Single => {}
-                RayPath::Bundles if cfg.schedule == Schedule::Breadth => {}
-                RayPath::Bundles => {
-                    return Err(OptionError::new(
-                        "schedule",
-                        "depth",
-                        "the GPU backend runs the dual traversal level by level (breadth) only",
-                    )
-                    .into());
-                }
-                _ => {
-                    return Err(OptionError::new(
-                        "ray_path",
-                        cfg.path.name(),
-                        "the GPU backend traces the object tree with single rays or bundles only",
-                    )
-                    .into());
-                }
+            // The object tree is descended with the ray hierarchy's bundles level by level
+            // (the dual traversal's breadth schedule); the depth-first schedule and the SAH
+            // builder are the CPU's.
+            if cfg.schedule != Schedule::Breadth {
+                return Err(OptionError::new(
+                    "schedule",
+                    "depth",
+                    "the GPU backend runs the dual traversal level by level (breadth) only",
+                )
+                .into());
             }
-            if cfg.path == RayPath::Bundles
-                && cfg.method == Method::Crsh
-                && cfg.hash != HashKind::Thesis
-            {
+            if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
                 return Err(OptionError::new(
                     "hash",
                     "morton64",
@@ -184,11 +164,6 @@ impl GpuRsh {
             .into());
         }
         let sb = SceneBuffers::new(&gpu, geo, &cfg)?;
-        let gpu_deep = if cfg.objects == ObjectHierarchy::Bvh {
-            single::deep_stacks(&gpu)
-        } else {
-            gpu.storage("unused", 4)
-        };
         let mut eng = GpuRsh {
             max_rays: sb.max_rays,
             s: DeviceScene {
@@ -208,7 +183,6 @@ impl GpuRsh {
             },
             times: Mutex::new(Vec::new()),
             tree: None,
-            stack: single::STACK,
             rounds: (super::dual::ROUNDS, None),
             learned: AtomicUsize::new(super::dual::ROUNDS),
             frame_most: AtomicUsize::new(0),
@@ -216,7 +190,6 @@ impl GpuRsh {
             laid_off: AtomicBool::new(false),
             paced: AtomicBool::new(false),
             incomplete: AtomicU32::new(0),
-            deep: gpu_deep,
             pending: Mutex::new(Vec::new()),
             settling: Mutex::new(Vec::new()),
             #[cfg(test)]
@@ -226,14 +199,6 @@ impl GpuRsh {
             eng.tree = Some(TreeState::build(&eng.s));
         }
         Ok(eng)
-    }
-
-    /// Tests only (public for the device tests): single rays' walks may use at most
-    /// `entries` stack entries on the device, so that walks overflow to the host's twin.
-    #[doc(hidden)]
-    pub fn with_stack(mut self, entries: u32) -> GpuRsh {
-        self.stack = entries.clamp(1, single::STACK);
-        self
     }
 
     /// Tests only (public for the device tests): the dual traversal's device rounds take
@@ -340,9 +305,7 @@ impl GpuRsh {
     ) -> (wgpu::Buffer, Counters, u64, DualCounts) {
         let dual = self.tree.as_ref().filter(|_| self.s.ntri > 0);
         if dual.is_some() {
-            stats.count(Counter::SingleRayBatches, 0);
-            stats.count(Counter::PacketBatches, 0);
-            stats.count(Counter::BundledBatches, 1);
+            stats.count(::rsh::stats::BUNDLED_BATCHES, 1);
         }
         let n = dr.len;
         let g = &self.s.gpu;
@@ -351,13 +314,13 @@ impl GpuRsh {
             // Nothing read back: the device counts, lays out and paces it all.
             let (leaves, kinds, runs) = leaf_order_laid(&self.s, ex, dr, count);
             chunks = runs;
-            ex.phase(Phase::HierarchyCreation);
+            ex.phase(::rsh::stats::HIERARCHY_CREATION);
             let (levels, laid) = build_laid(&self.s, ex, dr, &leaves, &kinds, n);
             (leaves, n, levels, Some(laid))
         } else {
             let (leaves, m, per_kind) = leaf_order(&self.s, ex, dr, stats, count);
             // Hierarchy (thesis §3.2.7).
-            ex.phase(Phase::HierarchyCreation);
+            ex.phase(::rsh::stats::HIERARCHY_CREATION);
             let levels = build(&self.s, ex, dr, &leaves, per_kind);
             (leaves, m, levels, None)
         };
@@ -425,7 +388,7 @@ impl GpuRsh {
             trav.run(ex, &mut c);
         }
         // Records: the winner's hit recomputed with the shared kernel, as on the CPU.
-        ex.phase(Phase::FinalTests);
+        ex.phase(::rsh::stats::FINAL_TESTS);
         let rec = self.hit_records(ex, dr, &best);
         // (Laid out on the device: its own count, read with the counters.)
         let top = match (&laid, levels.last()) {
@@ -477,44 +440,6 @@ impl GpuRsh {
         rec
     }
 
-    /// Single rays `dr` through the object tree `t` (`single.wgsl`), their records made on
-    /// the device; nothing is read back. Returns the records and the walk (its counters
-    /// still on the device); the batch counters go into `stats` now.
-    /// `count`: only the first `count.n` rays of `dr` (a size on the device).
-    fn records_single(
-        &self,
-        t: &TreeState,
-        ex: &mut Exec,
-        dr: &DeviceRays,
-        mode: TraceMode,
-        stats: &mut TraceStats,
-        count: Option<&DevSize>,
-    ) -> (wgpu::Buffer, single::Walked) {
-        ex.phase(Phase::Traversal);
-        let w = single::walk(
-            ex,
-            &t.dev,
-            dr,
-            mode == TraceMode::Any,
-            self.stack,
-            &self.deep,
-            count,
-        );
-        // The walk wrote the records itself (`single.wgsl`).
-        let rec = w.rec.clone();
-        stats.count(Counter::SingleRayBatches, 1);
-        stats.count(Counter::PacketBatches, 0);
-        stats.count(Counter::BundledBatches, 0);
-        (rec, w)
-    }
-
-    /// A single-ray walk's counter block's words into `stats`.
-    fn settle_single(head: &[u32], stats: &mut TraceStats) {
-        let (c, deep) = single::counts_of(head);
-        stats.count(Counter::GpuStackOverflows, deep);
-        ::rsh::engine::report_single(&c, stats);
-    }
-
     fn trace_part(
         &self,
         rays: &RayBatch,
@@ -526,23 +451,8 @@ impl GpuRsh {
         let g = &self.s.gpu;
         let mut ex = Exec::new(g, &self.s.kernels);
         let dr = DeviceRays::upload(g, rays);
-        if let Some(t) = self.single_tree() {
-            let (rec, w) = self.records_single(t, &mut ex, &dr, mode, stats, None);
-            // The records and the counters in one read-back.
-            ex.phase(Phase::ReadBack);
-            let (head, bytes) = (single::HEAD as u64 * 4, n as u64 * 16);
-            let both = g.storage("records and counters", bytes + head);
-            ex.copy(&rec, 0, &both, bytes);
-            ex.copy_at(&w.cnt, 0, &both, bytes, head);
-            let words: Vec<u32> = ex.read(&both, 4 * n + single::HEAD);
-            let recs: &[[u32; 4]] = bytemuck::cast_slice(&words[..4 * n]);
-            records_to_hits(recs, hits);
-            Self::settle_single(&words[4 * n..], stats);
-            ex.report(stats, &self.times);
-            return;
-        }
         let (rec, mut c, top, dual) = self.records(&mut ex, &dr, mode, stats, None);
-        ex.phase(Phase::ReadBack);
+        ex.phase(crate::stats::READ_BACK);
         match dual {
             None => records_to_hits(&ex.read(&rec, n), hits),
             Some((cnt, levels, _)) => {
@@ -554,7 +464,7 @@ impl GpuRsh {
                 let w: Vec<u32> = ex.read(&both, 4 * n + words as usize);
                 records_to_hits(bytemuck::cast_slice(&w[..4 * n]), hits);
                 let over = GpuDual::counts(&w[4 * n..], levels, &mut c);
-                stats.count(Counter::GpuStackOverflows, over);
+                stats.count(crate::stats::STACK_OVERFLOWS, over);
             }
         }
         ex.report(stats, &self.times);
@@ -575,9 +485,9 @@ impl GpuRsh {
 
     /// Rays `dr` (of the first `count.n` only, where given) traced on the device, the
     /// records left there and the counts too, until the frame's end (`GpuEngine::settle`):
-    /// single rays read nothing back; the bundles' first read-back is the trim's count (the
-    /// hash runs over the device's count), and their traversal reads the sizes its passes
-    /// need.
+    /// the bundles' first read-back is the trim's count (the hash runs over the device's
+    /// count), and their traversal reads the sizes its passes need (none where the device
+    /// lays the hierarchy out).
     fn trace_on_device(
         &self,
         dr: &DeviceRays,
@@ -586,14 +496,7 @@ impl GpuRsh {
         count: Option<&DevSize>,
     ) -> wgpu::Buffer {
         let mut ex = Exec::new(&self.s.gpu, &self.s.kernels);
-        let rec = match self.single_tree() {
-            Some(t) => {
-                let (rec, w) = self.records_single(t, &mut ex, dr, mode, stats, count);
-                self.pending.lock().unwrap().push(Pending::Single(w.cnt));
-                rec
-            }
-            None => self.bundles_on_device(&mut ex, dr, mode, stats, count),
-        };
+        let rec = self.bundles_on_device(&mut ex, dr, mode, stats, count);
         ex.report(stats, &self.times);
         rec
     }
@@ -633,14 +536,6 @@ impl GpuRsh {
         rec
     }
 
-    /// The object tree where batches walk it as single rays (else the bundles descend it,
-    /// or there is none).
-    fn single_tree(&self) -> Option<&TreeState> {
-        self.tree
-            .as_ref()
-            .filter(|_| self.s.cfg.path == RayPath::Single)
-    }
-
     /// [`crate::GpuEngine::trace_device_counted`] ([`GpuRsh::trace_on_device`]).
     pub(crate) fn trace_device_counted(
         &self,
@@ -667,9 +562,9 @@ impl GpuRsh {
         stats.hits += hits;
         // With the object tree the mesh spheres are in the tree, not a pass of their own.
         let tree = self.tree.is_some();
-        ::rsh::engine::report_counters(c, self.s.cfg.mesh_culling && !tree, top, stats);
+        ::rsh::stats::report_counters(c, self.s.cfg.mesh_culling && !tree, top, stats);
         if tree {
-            ::rsh::engine::object_counters(c, stats);
+            ::rsh::stats::object_counters(c, stats);
         }
     }
 }
@@ -683,8 +578,8 @@ pub type LevelRows = [Vec<[f32; 4]>; 3];
 pub fn comparable_counters(s: &TraceStats) -> TraceStats {
     let mut c = s.clone();
     c.phases.clear();
-    c.counters.remove(Counter::GpuKernelLaunches);
-    c.counters.remove(Counter::GpuStackOverflows);
+    c.counters.remove(crate::stats::KERNEL_LAUNCHES);
+    c.counters.remove(crate::stats::STACK_OVERFLOWS);
     c
 }
 
@@ -698,10 +593,7 @@ impl Tracer for GpuRsh {
 
     fn build_passes(&self) -> Vec<trace::PassTime> {
         match &self.tree {
-            Some(t) => vec![trace::PassTime::new(
-                trace::BuildPass::ObjectHierarchy,
-                t.secs,
-            )],
+            Some(t) => vec![trace::PassTime::new(accel::bvh::OBJECT_HIERARCHY, t.secs)],
             None => Vec::new(),
         }
     }

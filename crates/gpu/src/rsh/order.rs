@@ -11,8 +11,7 @@ use crate::kernels::{launch, DevLen, DevSize, Exec, Threads};
 use crate::prims::Runs;
 use crate::rays::DeviceRays;
 use ::rsh::Method;
-use trace::Counter;
-use trace::{Phase, TraceStats};
+use trace::TraceStats;
 
 /// The sorted leaves (ray indices of the rays that can hit anything), their count and
 /// their count per ray kind (the hierarchy's layout: [`super::build::build`]), the counts
@@ -34,7 +33,7 @@ pub fn leaf_order(
     let leaves = if crsh {
         chunked_order(eng, ex, &tk, &tv, m, stats)
     } else {
-        ex.phase(Phase::ScreenOrder);
+        ex.phase(::rsh::stats::SCREEN_ORDER);
         // Every digit sorted (an equal digit's pass is the identity): no read-back of which
         // digits vary.
         ex.sort_pairs_all(&tk, &tv, m, 32);
@@ -55,7 +54,7 @@ pub fn leaf_order(
 /// padding's own run (or the last real run, which it joins) sorts last, so again the first
 /// `m` leaves are [`leaf_order`]'s. Returns the leaves and the trimmed rays' count per kind,
 /// both on the device (their sum is `m`), and for CRSH a word there holding its chunks
-/// (the runs before the padding: `Counter::Chunks`).
+/// (the runs before the padding: `::rsh::stats::CHUNKS`).
 pub fn leaf_order_laid(
     eng: &DeviceScene,
     ex: &mut Exec,
@@ -89,12 +88,12 @@ pub fn leaf_order_laid(
     );
     pad_past(ex, &offs, (&tk, &tv), n, u32::MAX);
     if !crsh {
-        ex.phase(Phase::ScreenOrder);
+        ex.phase(::rsh::stats::SCREEN_ORDER);
         ex.sort_pairs_all(&tk, &tv, n, 32);
         return (tv, kinds, None);
     }
     // Compress every slot (thesis §3.2.4): the runs' count stays on the device.
-    ex.phase(Phase::Compress);
+    ex.phase(::rsh::stats::COMPRESS);
     let g = &eng.gpu;
     let heads = g.storage("heads", n * 4);
     ex.run(
@@ -167,10 +166,10 @@ pub fn leaf_order_laid(
         1,
         1,
     );
-    ex.phase(Phase::Sort);
+    ex.phase(::rsh::stats::SORT);
     let order = ex.iota(n);
     ex.sort_pairs_all(&runs.keys, &order, n, 32);
-    ex.phase(Phase::Decompress);
+    ex.phase(::rsh::stats::DECOMPRESS);
     (ex.expand_runs(&runs, &order, &tv, n), kinds, Some(chunks))
 }
 
@@ -185,12 +184,12 @@ fn hashed_kinds(
 ) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer) {
     let crsh = eng.cfg.method == Method::Crsh;
     ex.phase(if crsh {
-        Phase::Hash
+        ::rsh::stats::HASH
     } else {
-        Phase::ScreenOrder
+        ::rsh::stats::SCREEN_ORDER
     });
     let (keys, valid) = hash_keys(eng, ex, rays, !crsh, count);
-    ex.phase(Phase::Trim);
+    ex.phase(::rsh::stats::TRIM);
     let kinds = eng.gpu.upload("kind counts", &[0u32; 4]);
     ex.run(
         launch::TrimKinds {
@@ -236,17 +235,17 @@ fn chunked_order(
     m: u64,
     stats: &mut TraceStats,
 ) -> wgpu::Buffer {
-    ex.phase(Phase::Compress);
+    ex.phase(::rsh::stats::COMPRESS);
     if m == 0 {
-        stats.count(Counter::Chunks, 0);
+        stats.count(::rsh::stats::CHUNKS, 0);
         return eng.gpu.storage("leaves", 4);
     }
     let runs = ex.compress_runs(keys, m);
-    stats.count(Counter::Chunks, runs.len);
-    ex.phase(Phase::Sort);
+    stats.count(::rsh::stats::CHUNKS, runs.len);
+    ex.phase(::rsh::stats::SORT);
     let order = ex.iota(runs.len);
     // Every digit (no read-back of which vary; an equal digit's pass is the identity).
     ex.sort_pairs_all(&runs.keys, &order, runs.len, 32);
-    ex.phase(Phase::Decompress);
+    ex.phase(::rsh::stats::DECOMPRESS);
     ex.expand_runs(&runs, &order, rays, m)
 }

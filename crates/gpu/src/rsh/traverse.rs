@@ -15,7 +15,6 @@ use crate::kernels::{launch, Exec, Threads};
 use crate::rays::DeviceRays;
 use ::rsh::traverse::Counters;
 use ::rsh::NodeTest;
-use trace::Phase;
 
 /// Triangles per thread of the top-level candidate kernels (more when the per-thread count
 /// buffer would not fit one binding; the pair order, node-major then triangle, is the same).
@@ -61,7 +60,7 @@ impl GpuTraversal<'_> {
     pub fn run(&self, ex: &mut Exec, c: &mut Counters) {
         let eng = self.eng;
         let g = &eng.gpu;
-        ex.phase(Phase::Traversal);
+        ex.phase(trace::TRAVERSAL);
         let top = self.levels.last().unwrap();
         let nt = top.len() as usize;
         let nm = eng.mesh_first.len() - 1;
@@ -218,7 +217,7 @@ impl GpuTraversal<'_> {
         pairs: u64,
         threads: Threads,
     ) {
-        ex.phase(Phase::FinalTests);
+        ex.phase(::rsh::stats::FINAL_TESTS);
         let l1 = &self.levels[0];
         ex.run_on(
             launch::FinalTests {
@@ -241,7 +240,7 @@ impl GpuTraversal<'_> {
             threads,
             256,
         );
-        ex.phase(Phase::Traversal);
+        ex.phase(trace::TRAVERSAL);
     }
 
     /// Test pairs at level index `li`, compact the survivors, go on.

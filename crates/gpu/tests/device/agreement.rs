@@ -47,7 +47,7 @@ fn compare(
         }
     }
     assert_eq!(counters(&sg), counters(&sc), "{what}: counters");
-    assert!(sg.counters.contains(trace::Counter::GpuKernelLaunches));
+    assert!(sg.counters.contains(gpu::stats::KERNEL_LAUNCHES));
 }
 
 #[test]
@@ -60,19 +60,19 @@ fn builtin_scenes_match_cpu_crsh_and_rah() {
         let geo = Geometry::from_scene(&s);
         let batches = record_render(&s, &geo, 48, 40, 2);
         let configs = [
-            RshConfig::crsh(),
-            RshConfig::rah(),
+            crate::common::crsh_spheres(),
+            crate::common::rah_spheres(),
             RshConfig {
                 branching: 16,
                 levels: 3,
-                ..RshConfig::crsh()
+                ..crate::common::crsh_spheres()
             },
             RshConfig {
                 branching: 4,
                 levels: 0,
                 union: Union::Thesis,
                 node_test: NodeTest::Exact,
-                ..RshConfig::crsh()
+                ..crate::common::crsh_spheres()
             },
         ];
         for cfg in configs {
@@ -98,7 +98,7 @@ fn tiny_budget_batches_and_splits_match() {
     let cfg = RshConfig {
         pair_budget: 1024,
         levels: 3,
-        ..RshConfig::crsh()
+        ..crate::common::crsh_spheres()
     };
     let cpu = RshEngine::new(&geo, cfg.clone()).unwrap();
     let gpu = GpuRsh::new(g, &geo, cfg).unwrap();
@@ -108,7 +108,7 @@ fn tiny_budget_batches_and_splits_match() {
         let mut st = TraceStats::default();
         let mut h = vec![Hit::MISS; rays.len()];
         gpu.trace(rays, *mode, &mut h, &mut st);
-        splits += st.counters.get(trace::Counter::BudgetSplits).unwrap_or(0);
+        splits += st.counters.get(::rsh::stats::BUDGET_SPLITS).unwrap_or(0);
     }
     assert!(splits > 0, "the tiny budget forced split expansions");
 }
@@ -121,7 +121,7 @@ fn multi_tile_batches_match() {
     let geo = Geometry::from_scene(&s);
     let batches = record_render(&s, &geo, 192, 144, 1);
     assert!(batches.iter().any(|b| b.0.len() > 20_000));
-    for cfg in [RshConfig::crsh(), RshConfig::rah()] {
+    for cfg in [crate::common::crsh_spheres(), crate::common::rah_spheres()] {
         let cpu = RshEngine::new(&geo, cfg.clone()).unwrap();
         let gpu = GpuRsh::new(Gpu::new().unwrap(), &geo, cfg.clone()).unwrap();
         for (k, (rays, mode, hits)) in batches.iter().enumerate() {
@@ -144,7 +144,7 @@ fn small_bindings_split_the_work_and_keep_the_hits() {
     let geo = Geometry::from_scene(&s);
     let too_big = RshConfig {
         pair_budget: 1 << 20,
-        ..RshConfig::crsh()
+        ..crate::common::crsh_spheres()
     };
     let err = GpuRsh::new(Gpu::new().unwrap(), &geo, too_big.clone());
     assert!(err.is_ok(), "a real device allows 4 MiB bindings");
@@ -155,7 +155,7 @@ fn small_bindings_split_the_work_and_keep_the_hits() {
     let cfg = RshConfig {
         pair_budget: 4096,
         levels: 1,
-        ..RshConfig::crsh()
+        ..crate::common::crsh_spheres()
     };
     let gpu = GpuRsh::new(g, &geo, cfg).unwrap();
     let batches = record_render(&s, &geo, 128, 96, 1);
@@ -182,7 +182,7 @@ fn hash_keys_match_the_cpu_on_random_rays() {
     let Some(g) = gpu() else { return };
     let s = builtin::by_name("office").unwrap();
     let geo = Geometry::from_scene(&s);
-    let cfg = RshConfig::crsh();
+    let cfg = crate::common::crsh_spheres();
     let bits = cfg.hash_bits;
     let gpu = GpuRsh::new(g, &geo, cfg).unwrap();
     let mut rng = geom::Pcg32::new(20261128, 7);
@@ -251,7 +251,7 @@ fn hierarchies_match_the_cpu_node_for_node() {
         let geo = Geometry::from_scene(&s);
         let batches = record_render(&s, &geo, 192, 144, 2);
         for (b, d) in [(8, 2), (16, 3)] {
-            for base in [RshConfig::crsh(), RshConfig::rah()] {
+            for base in [crate::common::crsh_spheres(), crate::common::rah_spheres()] {
                 let cfg = RshConfig {
                     branching: b,
                     levels: d,

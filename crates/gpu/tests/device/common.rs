@@ -1,16 +1,32 @@
 //! Helpers shared by the GPU integration tests.
 
+use accel::bvh::{BvhConfig, RayPath};
 use accel::grid::GridEngine;
-use rsh::{ObjectBuilder, ObjectHierarchy, RayPath, RshConfig, Schedule};
+use rsh::{ObjectBuilder, ObjectHierarchy, RshConfig, Schedule};
 use scene::Geometry;
 
-/// CRSH as the GPU runs it by default: single rays through the object tree (LBVH).
-pub fn crsh_single() -> RshConfig {
-    RshConfig {
-        objects: ObjectHierarchy::Bvh,
-        path: RayPath::Single,
+/// The `bvh` engine as the GPU runs it: single rays through the LBVH.
+pub fn bvh_single() -> BvhConfig {
+    BvhConfig {
         builder: ObjectBuilder::Lbvh,
+        path: RayPath::Single,
+    }
+}
+
+/// CRSH as the thesis runs it: every triangle pushed down the ray hierarchy behind the
+/// per-mesh spheres.
+pub fn crsh_spheres() -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::MeshSpheres,
         ..RshConfig::crsh()
+    }
+}
+
+/// RAH behind no spheres (its own default), every triangle pushed down its pyramid.
+pub fn rah_spheres() -> RshConfig {
+    RshConfig {
+        objects: ObjectHierarchy::MeshSpheres,
+        ..RshConfig::rah()
     }
 }
 
@@ -19,7 +35,6 @@ pub fn crsh_single() -> RshConfig {
 pub fn crsh_dual() -> RshConfig {
     RshConfig {
         objects: ObjectHierarchy::Bvh,
-        path: RayPath::Bundles,
         builder: ObjectBuilder::Lbvh,
         schedule: Schedule::Breadth,
         ..RshConfig::crsh()
@@ -30,7 +45,6 @@ pub fn crsh_dual() -> RshConfig {
 pub fn rah_dual() -> RshConfig {
     RshConfig {
         objects: ObjectHierarchy::Bvh,
-        path: RayPath::Bundles,
         builder: ObjectBuilder::Lbvh,
         schedule: Schedule::Breadth,
         ..RshConfig::rah()
@@ -40,13 +54,13 @@ pub fn rah_dual() -> RshConfig {
 /// Traces `rays` on the CPU engine and on its GPU twin: every hit record and every
 /// comparable counter must be equal. Returns both stats (CPU, GPU).
 pub fn compare_traces(
-    cpu: &rsh::RshEngine,
-    gpu: &gpu::GpuRsh,
+    cpu: &dyn trace::Tracer,
+    gpu: &dyn trace::Tracer,
     rays: &trace::RayBatch,
     mode: trace::TraceMode,
     what: &str,
 ) -> (trace::TraceStats, trace::TraceStats) {
-    use trace::{Hit, TraceStats, Tracer};
+    use trace::{Hit, TraceStats};
     let (mut hc, mut hg) = (vec![Hit::MISS; rays.len()], vec![Hit::MISS; rays.len()]);
     let (mut sc, mut sg) = (TraceStats::default(), TraceStats::default());
     cpu.trace(rays, mode, &mut hc, &mut sc);

@@ -11,7 +11,7 @@ use gpu::{Gpu, GpuRsh};
 use rsh::{Descent, RshConfig, RshEngine};
 use scene::{builtin, Geometry, Scene};
 use testkit::record_render;
-use trace::{Counter, Hit, RayBatch, TraceMode, TraceStats, Tracer};
+use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 fn gpu() -> Option<Gpu> {
     testkit::or_skip(Gpu::new(), "gpu")
@@ -22,12 +22,17 @@ fn gpu() -> Option<Gpu> {
 fn compare(cpu: &RshEngine, gpu: &GpuRsh, rays: &RayBatch, mode: TraceMode, what: &str) {
     let (sc, sg) = crate::common::compare_traces(cpu, gpu, rays, mode, what);
     assert_eq!(
-        sg.counters.get(Counter::GpuStackOverflows),
+        sg.counters.get(gpu::stats::STACK_OVERFLOWS),
         Some(0),
         "{what}"
     );
     assert!(
-        rays.is_empty() || sc.counters.get(Counter::ObjectNodeTests).unwrap_or(0) > 0,
+        rays.is_empty()
+            || sc
+                .counters
+                .get(::rsh::stats::OBJECT_NODE_TESTS)
+                .unwrap_or(0)
+                > 0,
         "{what}: the pairs met inner object nodes"
     );
 }

@@ -10,10 +10,9 @@
 
 use crate::common;
 
-use crate::common::crsh_single;
 use accel::{GridConfig, GridEngine};
 use gpu::frame::GpuBackend;
-use gpu::{Gpu, GpuEngine, GpuGrid, GpuRaster, GpuRsh};
+use gpu::{Gpu, GpuBvh, GpuEngine, GpuGrid, GpuRaster, GpuRsh};
 use render::cpu::CpuBackend;
 use render::whitted::{run, RenderOptions};
 use rsh::RshConfig;
@@ -32,9 +31,9 @@ fn srgb(p: &[geom::Vec3]) -> Vec<u8> {
 
 fn engines(g: &Gpu, geo: &Geometry) -> Vec<Box<dyn GpuEngine>> {
     vec![
-        Box::new(GpuRsh::new(g.clone(), geo, crsh_single()).unwrap()),
-        Box::new(GpuRsh::new(g.clone(), geo, RshConfig::crsh()).unwrap()),
-        Box::new(GpuRsh::new(g.clone(), geo, RshConfig::rah()).unwrap()),
+        Box::new(GpuBvh::new(g.clone(), geo, common::bvh_single()).unwrap()),
+        Box::new(GpuRsh::new(g.clone(), geo, crate::common::crsh_spheres()).unwrap()),
+        Box::new(GpuRsh::new(g.clone(), geo, crate::common::rah_spheres()).unwrap()),
         Box::new(GpuRsh::new(g.clone(), geo, crate::common::rah_dual()).unwrap()),
         Box::new(GpuRsh::new(g.clone(), geo, crate::common::crsh_dual()).unwrap()),
         Box::new(GpuGrid::new(g.clone(), geo, &GridConfig::default()).unwrap()),
@@ -289,7 +288,7 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
         let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
         let first = (w * h) as u64 * gpu::frame::sizes::bytes_per_surface(s.lights.len() as u64);
         let sized: Vec<Box<dyn GpuEngine>> = vec![
-            Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
+            Box::new(GpuBvh::new(g.clone(), &geo, common::bvh_single()).unwrap()),
             Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
             // The bundles through the object tree: laid out and paced by the device.
             Box::new(GpuRsh::new(g.clone(), &geo, common::rah_dual()).unwrap()),
@@ -324,7 +323,7 @@ fn device_sized_generations_read_back_once_and_equal_read_counts() {
         // batches too: their traversals still read the sizes their passes need, so a sized
         // frame reads back fewer times than one that reads every count, but more than once;
         // the image and every count are the same.
-        for c in [RshConfig::rah(), RshConfig::crsh()] {
+        for c in [crate::common::rah_spheres(), crate::common::crsh_spheres()] {
             let e = GpuRsh::new(g.clone(), &geo, c).unwrap();
             assert!(e.counts_on_device(), "{name} {}", e.name());
             let mut runs = Vec::new();
@@ -371,7 +370,7 @@ fn real_scene_frames_read_back_once_and_equal_cpu_frames() {
         };
         let raster = GpuRaster::new(&g, &geo, &s.materials).unwrap();
         let sized: Vec<Box<dyn GpuEngine>> = vec![
-            Box::new(GpuRsh::new(g.clone(), &geo, crsh_single()).unwrap()),
+            Box::new(GpuBvh::new(g.clone(), &geo, common::bvh_single()).unwrap()),
             Box::new(GpuGrid::new(g.clone(), &geo, &GridConfig::default()).unwrap()),
             Box::new(GpuRsh::new(g.clone(), &geo, common::rah_dual()).unwrap()),
             Box::new(GpuRsh::new(g.clone(), &geo, common::crsh_dual()).unwrap()),

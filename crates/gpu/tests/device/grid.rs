@@ -13,7 +13,6 @@ use accel::BruteForce;
 use gpu::{Gpu, GpuGrid};
 use render::raygen::{generate, Kind, Options};
 use scene::{builtin, Geometry};
-use trace::Counter;
 use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
 fn gpu() -> Option<Gpu> {
@@ -42,11 +41,11 @@ fn compare(cpu: &GridEngine, gpu: &GpuGrid, rays: &RayBatch, mode: TraceMode, wh
     assert_eq!(sg.hits, sc.hits, "{what}: hits");
     assert_eq!(sg.ray_tri_tests, sc.ray_tri_tests, "{what}: N_I");
     assert_eq!(
-        sg.counters.get(Counter::TraversalSteps),
-        sc.counters.get(Counter::TraversalSteps),
+        sg.counters.get(accel::grid::TRAVERSAL_STEPS),
+        sc.counters.get(accel::grid::TRAVERSAL_STEPS),
         "{what}: N_T"
     );
-    assert!(sg.counters.contains(Counter::GpuKernelLaunches));
+    assert!(sg.counters.contains(gpu::stats::KERNEL_LAUNCHES));
 }
 
 fn configs() -> [(&'static str, GridConfig); 4] {
@@ -178,7 +177,7 @@ fn small_bindings_split_rays_and_refuse_big_grids() {
     let mut h = vec![Hit::MISS; rays.len()];
     gpu.trace(&rays, TraceMode::Closest, &mut h, &mut st);
     assert!(
-        st.counters[Counter::GpuKernelLaunches] >= 2,
+        st.counters[gpu::stats::KERNEL_LAUNCHES] >= 2,
         "traced in parts"
     );
     compare(&cpu, &gpu, &rays, TraceMode::Closest, "cornell in parts");

@@ -1,13 +1,13 @@
-//! The object tree built on the device (`gpu::rsh::objects`) against the CPU's LBVH
-//! (`rsh::objects::build` with `ObjectBuilder::Lbvh`): every array bit for bit, on the
+//! The object tree built on the device (`gpu::bvh::objects`) against the CPU's LBVH
+//! (`accel::bvh::objects::build` with `ObjectBuilder::Lbvh`): every array bit for bit, on the
 //! built-in scenes, random soups (with and without the mesh spheres), a scene of one and of
 //! two triangles, and the shared real scenes; the single-ray path's box nodes and triangles
 //! in leaf order included.
 
+use accel::bvh::objects::{build, Bounds, BoxNode, ObjectTree, Parts};
+use accel::bvh::ObjectBuilder;
 use geom::{Aabb, Vec3};
 use gpu::Gpu;
-use rsh::objects::{build, Bounds, BoxNode, ObjectTree, Parts};
-use rsh::ObjectBuilder;
 use scene::{builtin, Geometry};
 
 fn gpu() -> Option<Gpu> {
@@ -89,7 +89,7 @@ fn check(g: &Gpu, what: &str, geo: &Geometry) {
     for mesh_spheres in [true, false] {
         let ms = mesh_spheres.then_some(&geo.mesh_sphere[..]);
         let cpu = build(&geo.tris, &geo.mesh_first, ms, ObjectBuilder::Lbvh, parts);
-        let (dev, _) = gpu::rsh::objects::tree_of(g, geo, mesh_spheres);
+        let (dev, _) = gpu::bvh::objects::tree_of(g, geo, mesh_spheres);
         same(&format!("{what} (mesh spheres {mesh_spheres})"), &cpu, &dev);
     }
 }

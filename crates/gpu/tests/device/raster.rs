@@ -16,7 +16,7 @@ use gpu::{Gpu, GpuRaster, GpuRsh, GpuStages};
 use render::raster::{default_near, rasterize};
 use render::whitted::{render, run, RenderOptions};
 use render::View;
-use rsh::{RshConfig, RshEngine};
+use rsh::RshEngine;
 use scene::{builtin, Geometry};
 
 fn gpu() -> Option<Gpu> {
@@ -118,9 +118,10 @@ fn renders_match_cpu_renders() {
     for name in builtin::NAMES {
         let s = builtin::by_name(name).unwrap();
         let geo = Geometry::from_scene(&s);
-        let cpu_engine = RshEngine::new(&geo, RshConfig::crsh()).unwrap();
+        let cpu_engine = RshEngine::new(&geo, crate::common::crsh_spheres()).unwrap();
         let cpu = render(&s, &geo, &cpu_engine, &opts, &());
-        let gpu_engine = GpuRsh::new(Gpu::new().unwrap(), &geo, RshConfig::crsh()).unwrap();
+        let gpu_engine =
+            GpuRsh::new(Gpu::new().unwrap(), &geo, crate::common::crsh_spheres()).unwrap();
         // GPU tracer on the CPU's G-buffer: the same image, byte for byte.
         let mixed = render(&s, &geo, &gpu_engine, &opts, &());
         assert_eq!(
@@ -134,7 +135,7 @@ fn renders_match_cpu_renders() {
         );
         // The GPU frame (GPU raster, ray generation, shading and tracer): within the
         // tolerance.
-        let gpu_engine = GpuRsh::new(g.clone(), &geo, RshConfig::crsh()).unwrap();
+        let gpu_engine = GpuRsh::new(g.clone(), &geo, crate::common::crsh_spheres()).unwrap();
         let r = GpuRaster::new(&g, &geo, &s.materials).unwrap();
         let mut b = GpuBackend::new(&gpu_engine, &r, &s, &opts, false).unwrap();
         let full = run(&mut b, &s, &geo, &opts, &());

@@ -1,4 +1,4 @@
-//! Dual traversal of the ray hierarchy and the object hierarchy ([`crate::objects`]): the
+//! Dual traversal of the ray hierarchy and the object hierarchy (`accel::bvh::objects`): the
 //! thesis's future work (§5.1) built. Instead of pushing every triangle through the ray
 //! hierarchy (§3.2.8), (ray node, object node) pairs descend both trees together:
 //!
@@ -6,7 +6,7 @@
 //!    node's bounding sphere in place of the triangle's; a leaf is a triangle, tested exactly
 //!    as in §3.2.8);
 //! 2. expand each surviving pair on one side ([`Descent`]): the object side gives the up to 8
-//!    children of the node's collapsed node ([`crate::objects::WideNode`]: descendants of the
+//!    children of the node's collapsed node ([`accel::bvh::objects::WideNode`]: descendants of the
 //!    binary node, tested against the ray node 8 at a time), the ray side the node's b
 //!    children one level down;
 //! 3. (level-1 node, triangle) pairs go to the exact final tests (§3.2.9); so do a level-1
@@ -36,8 +36,8 @@
 //! Either way hits and counts are the same from run to run.
 
 use crate::node8::{self, NodeFields, NodeLanes};
-use crate::objects::{ObjectTree, LEAF};
 use crate::traverse::{pack, Counters, NodeTest, Traversal};
+use accel::bvh::objects::{ObjectTree, LEAF};
 use geom::cone::{exact_test, rah_test, ConeSc};
 use geom::{intersect, Vec3};
 use par::{compress_runs, emit_streams, sort_pairs, Pairs, SortScratch};
@@ -52,7 +52,6 @@ pub const ANY_HIT_SIZE_RATIO: f32 = 2.0;
 
 /// Which side of a surviving (ray node, inner object node) pair is expanded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Descent {
     /// The larger one (the default): the object node while its sphere's radius is at least
     /// the ray node's reach (origin radius + sin α · its rays' length, capped at the
@@ -63,20 +62,11 @@ pub enum Descent {
     /// −10.0 %, Kitchen's shadow rays −4.1 %, Kitchen's frames −5.4 % (three times, tried
     /// with a bias of 8: fewer tests still on Sponza, more time). Closest-hit batches keep
     /// once: twice cost Kitchen's 3-bounce frames 9 % more tests.
-    #[cfg_attr(feature = "clap", value(help = "the larger node of the pair"))]
     Size,
     /// The object node until it is a triangle, then the ray node.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "the object node until it is a triangle, then the ray node")
-    )]
     ObjectFirst,
     /// The ray node until single rays, then the object node (each ray walks its subtree;
     /// a subtree of at most 8 triangles gets the level-1 node's final tests instead).
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "the ray node until single rays, then the object node")
-    )]
     RayFirst,
 }
 
@@ -92,7 +82,6 @@ impl Descent {
 /// In which order the pairs are taken (the same pairs are tested either way, except those an
 /// any-hit ray that already hit no longer needs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Schedule {
     /// Each top ray node's pairs depth first on one worker's stack, top nodes in parallel
     /// (the default): no pair array is ever materialised, a ray node's record stays in
@@ -100,18 +89,10 @@ pub enum Schedule {
     /// pairs (an any-hit ray that hit drops out). Every ray belongs to one top node, so a
     /// ray's work happens in one task, in one order: hits and counts do not depend on the
     /// schedule of the workers.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "each top ray node's pairs depth first, in parallel (fast on the CPU)")
-    )]
     Depth,
     /// Level by level, the GPU's shape: one stack of pairs per ray level; each step tests a
     /// chunk of one stack data-parallel and emits the survivors' expansions (count → scan
     /// → emit), memory bounded by the pair budget.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "level by level in data-parallel steps (the GPU's shape)")
-    )]
     Breadth,
 }
 

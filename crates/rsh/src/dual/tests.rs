@@ -155,7 +155,7 @@ proptest! {
         let mut rng = Pcg32::new(seed, 13);
         for _ in 0..8 {
             let x = random_node(&mut rng, scale);
-            let mut w = crate::objects::WideNode {
+            let mut w = accel::bvh::objects::WideNode {
                 center: [[0.0; 8]; 3],
                 radius: [0.0; 8],
                 min: [[0.0; 8]; 3],

@@ -18,8 +18,7 @@
 
 use super::{region, GpuDual, Region, Scratch};
 use crate::kernels::{launch, DevSize, Exec, Threads};
-use ::rsh::objects::LEAF;
-use trace::Phase;
+use accel::bvh::objects::LEAF;
 
 /// Rounds per level of one pass (Sponza's 512² shadow rays take 10–11 at each of their two
 /// levels; office's 3-bounce batches 2–6).
@@ -175,7 +174,7 @@ impl GpuDual<'_> {
         s: &Scratch,
     ) {
         let prm = self.pair_params(cap, l, cap as u32, 0);
-        ex.phase(Phase::Traversal);
+        ex.phase(trace::TRAVERSAL);
         self.classify(ex, beams, l, input, state, s, prm);
         ex.scan(&s.counts, &s.offs, 3 * cap);
         self.emit(ex, l, input, state, s, out, prm);
@@ -204,7 +203,7 @@ impl GpuDual<'_> {
     /// zero until the device reaches them): padded, sorted by ray over all `cap` slots,
     /// each ray's run walked by the thread at its head.
     fn round_walks(&self, ex: &mut Exec, state: &wgpu::Buffer, pairs: &Region, cap: u64) {
-        ex.phase(Phase::FinalTests);
+        ex.phase(::rsh::stats::FINAL_TESTS);
         let bits = (32 - (self.m as u32).leading_zeros()).max(1);
         let pad = if bits >= 32 {
             u32::MAX
@@ -223,6 +222,6 @@ impl GpuDual<'_> {
         );
         ex.sort_pairs_all(&pairs.0, &pairs.1, cap, bits);
         self.walks(ex, state, pairs, cap);
-        ex.phase(Phase::Traversal);
+        ex.phase(trace::TRAVERSAL);
     }
 }

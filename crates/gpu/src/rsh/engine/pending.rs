@@ -3,17 +3,15 @@
 //! engine learns from it: whether a trace the device paced alone finished, and the rounds
 //! and room its later traces take ([`crate::GpuEngine::take_incomplete`]).
 
-use super::{single, GpuRsh};
+use super::GpuRsh;
 use crate::rsh::dual::{GpuDual, Outcome};
 use ::rsh::traverse::Counters;
 use std::sync::atomic::Ordering;
-use trace::{Counter, TraceStats};
+use trace::TraceStats;
 
 /// A trace's counts left on the device until the frame reads them with its image.
 #[derive(Clone)]
 pub(super) enum Pending {
-    /// A single-ray walk's counter block ([`single::HEAD`] words).
-    Single(wgpu::Buffer),
     /// The bundles' counts: a dual traversal's counters ([`GpuDual::counter_words`] words,
     /// where `levels` is some), then the records' totals (`frame::totals_on_device`), with
     /// what the host counted (the mesh-sphere traversal's counters, the dual's peaks) and
@@ -41,7 +39,6 @@ impl GpuRsh {
         let out = taken
             .iter()
             .map(|p| match p {
-                Pending::Single(b) => (b.clone(), single::HEAD as u64),
                 Pending::Bundles { block, words, .. } => (block.clone(), *words),
             })
             .collect();
@@ -54,10 +51,6 @@ impl GpuRsh {
         let mut at = 0;
         for p in std::mem::take(&mut *self.settling.lock().unwrap()) {
             match p {
-                Pending::Single(_) => {
-                    Self::settle_single(&words[at..at + single::HEAD], stats);
-                    at += single::HEAD;
-                }
                 Pending::Bundles {
                     words: n,
                     levels,
@@ -70,7 +63,7 @@ impl GpuRsh {
                     let cw = levels.map_or(0, |l| GpuDual::counter_words(l) as usize);
                     if let Some(levels) = levels {
                         let over = GpuDual::counts(&w[..cw], levels, &mut c);
-                        stats.count(Counter::GpuStackOverflows, over);
+                        stats.count(crate::stats::STACK_OVERFLOWS, over);
                         let o = GpuDual::outcome(&w[..cw], levels);
                         if laid {
                             self.learn(&o);
@@ -81,7 +74,7 @@ impl GpuRsh {
                             c.hits.truncate(o.levels);
                             top = o.top;
                             if self.s.cfg.method == ::rsh::Method::Crsh {
-                                stats.count(Counter::Chunks, o.chunks);
+                                stats.count(::rsh::stats::CHUNKS, o.chunks);
                             }
                         }
                         let most = o.most_rounds as usize;

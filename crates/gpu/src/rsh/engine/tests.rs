@@ -12,7 +12,12 @@ fn device_counters_carry_into_their_high_words() {
     };
     let s = scene::builtin::cornell();
     let geo = Geometry::from_scene(&s);
-    let eng = GpuRsh::new(g, &geo, RshConfig::crsh()).unwrap();
+    // The mesh-sphere traversal (the counter bias is its traversal's).
+    let cfg = RshConfig {
+        objects: ObjectHierarchy::MeshSpheres,
+        ..RshConfig::crsh()
+    };
+    let eng = GpuRsh::new(g, &geo, cfg).unwrap();
     let view = render::View::new(&s.camera, 48, 40);
     let rays = view.primary_rays();
     let run = |bias: u32| {

@@ -1,5 +1,5 @@
 //! CRSH's path for batches of neighbouring rays: a batch's rays in packets of 16 consecutive
-//! rays, each packet walking the object tree's collapsed nodes ([`crate::objects::BoxNode`], 8
+//! rays, each packet walking the object tree's collapsed nodes ([`crate::bvh::objects::BoxNode`], 8
 //! children) together, every child's box slab-tested against the 16 rays at once (one AVX-512
 //! vector, two AVX2 ones, or the same lane loop scalar): the packet traversal of Wald et al.
 //! 2001 ("Interactive rendering with coherent ray tracing") over a wide tree, as Embree's
@@ -7,9 +7,9 @@
 //!
 //! Why: one ray alone through the tree is bound by the latency of each node's loads and of
 //! the tests that depend on them (about 100 cycles a node on Sponza's shadow rays,
-//! [`crate::single`]), and neighbouring rays whose segments stay close (rays made pixel by
+//! [`crate::bvh::single`]), and neighbouring rays whose segments stay close (rays made pixel by
 //! pixel towards a light or a mirror, short ambient-occlusion rays from neighbouring points:
-//! [`crate::single::locality`]) walk nearly the same nodes. A packet pays each node's loads
+//! [`crate::bvh::single::locality`]) walk nearly the same nodes. A packet pays each node's loads
 //! once for all its rays, and its 16 slab tests fill a vector. This is the thesis's bundling
 //! (§3.2.5) at its cheapest: the batch's own order groups the rays, nothing is hashed, sorted
 //! or built.
@@ -30,10 +30,10 @@
 //! Every build (scalar, AVX2, AVX-512) runs the same lane loops, the same IEEE operations
 //! per lane, so the hits and the counts are equal (tested).
 
-use crate::objects::{BoxNode, ObjectTree, LEAF};
-use crate::single::{slab_inverse, SingleCounts};
-use crate::traverse::pack;
+use crate::bvh::objects::{BoxNode, ObjectTree, LEAF};
+use crate::bvh::single::{slab_inverse, SingleCounts};
 use geom::aabb::SLAB_ROBUST;
+use geom::tri::pack;
 use geom::tri::{intersect_inlined, RayPre};
 use geom::{intersect, Isa, Vec3};
 use rayon::prelude::*;
@@ -233,7 +233,7 @@ fn shear(o: [f32; 3], d: [f32; 3], t_min: f32, t_max: f32) -> RayPre {
 type Tested = ([u16; 8], [L<f32>; 8]);
 
 /// The first `count` children of `node` against the lanes `m` of `p`, in the portable build:
-/// per lane the single-ray test's operations ([`crate::single::boxes_scalar`]): per axis
+/// per lane the single-ray test's operations ([`crate::bvh::single::boxes_scalar`]): per axis
 /// `(min − o) · inv` and `(max − o) · inv` ordered, the entry the largest of t_min and the
 /// lower ends, the exit the smallest of the upper ends enlarged by `SLAB_ROBUST` and capped by
 /// the lane's reach; a pass when entry ≤ exit. The vector builds ([`x86`]) make the same

@@ -1,4 +1,4 @@
-//! CRSH's single-ray path on the GPU, the twin of `crates/rsh/src/single.rs`: every ray
+//! The `bvh` engine's single rays on the GPU, the twin of `crates/accel/src/bvh/single.rs`: every ray
 //! walks the object tree built on the device ([`super::objects`]) on its own thread
 //! (`single.wgsl`), with the CPU walk's slab test, order and stopping rules, so hits and
 //! counts are the CPU's; each ray writes its own hit record as it finishes. One launch per
@@ -17,7 +17,7 @@ use super::objects::DeviceTree;
 use crate::kernels::params::SingleWalkParams;
 use crate::kernels::{launch, DevSize, Exec, Threads};
 use crate::rays::DeviceRays;
-use ::rsh::single::SingleCounts;
+use accel::bvh::single::SingleCounts;
 
 /// Most stack entries a ray's walk holds in private memory (`single.wgsl`'s `STACK`).
 pub const STACK: u32 = 64;

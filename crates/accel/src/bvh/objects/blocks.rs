@@ -3,11 +3,11 @@
 //! ([`super::boxes::number_level`]: a node's leaf lanes consecutive), so the lanes a ray
 //! enters at one node
 //! share a block or two: the single-ray walk
-//! ([`crate::single`]) tests all their triangles with one 8-lane vector test per block
+//! ([`crate::bvh::single`]) tests all their triangles with one 8-lane vector test per block
 //! ([`geom::tris8`]) instead of one scalar test each, as Embree's BVH8 tests its leaves
 //! several triangles at a time. The blocks hold the same bytes as triangles side by side
 //! would (36 per triangle, the last block padded), so the layout costs the build nothing;
-//! the packets ([`crate::packet`]) read a triangle's nine floats from its lane.
+//! the packets ([`crate::bvh::packet`]) read a triangle's nine floats from its lane.
 
 use super::ObjectTree;
 use geom::tris8::Tris8;

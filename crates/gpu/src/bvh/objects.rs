@@ -1,21 +1,20 @@
-//! The object tree built on the device, the twin of `crates/rsh/src/objects.rs`'s LBVH
+//! The object tree built on the device, the twin of `crates/accel/src/bvh/objects.rs`'s LBVH
 //! (Karras 2012, §3–4; boxes bottom up as Apetrei 2014): every pass a kernel of
 //! `objects.wgsl`, the keys sorted by [`Exec::sort_pairs_all`], and the result the CPU's
-//! [`::rsh::objects::build`] with [`::rsh::ObjectBuilder::Lbvh`] bit for bit: children, key ranges,
-//! triangles in leaf order, depth, the inner nodes' and leaves' bounds (spheres and grown
+//! [`accel::bvh::objects::build`] with [`accel::bvh::ObjectBuilder::Lbvh`] bit for bit:
+//! children, key ranges, triangles in leaf order, depth, the inner nodes' and leaves' bounds (spheres and grown
 //! boxes) and the children's boxes side by side (tests compare every array).
 //!
 //! Nothing is read back: the key layout ([`KeyBits`]) follows from the triangle and mesh
 //! counts the host knows, the scene and centroid boxes are reduced on the device, and the
 //! sort runs every digit instead of reading back which digits vary. The triangle spheres
-//! come with the scene's upload ([`super::engine`]). The collapsed records (the dual
+//! come with the scene's upload ([`SceneArrays`]). The collapsed records (the dual
 //! traversal's 8-wide nodes, the single-ray path's box nodes) are not built here.
 
-use super::device_scene::SceneArrays;
 use crate::device::Gpu;
 use crate::kernels::params::{ObjNodesParams, ObjTrisParams, PermuteParams};
 use crate::kernels::{launch, Exec};
-use ::rsh::objects::{Bounds, BoxNode, KeyBits, ObjectTree, LEAF};
+use accel::bvh::objects::{Bounds, BoxNode, KeyBits, ObjectTree, LEAF};
 use geom::{Aabb, Sphere, Vec3};
 use scene::Geometry;
 use std::time::Instant;
@@ -36,6 +35,47 @@ pub struct TreeInput<'a> {
     /// buffers are left empty: the dual traversal reads the binary tree only, and the box
     /// nodes are its largest array, 256 bytes per inner node).
     pub single: bool,
+}
+
+/// The scene's per-triangle and per-mesh arrays in the layouts the kernels read: triangles
+/// (3 × vec4), their spheres and the mesh spheres (centre, radius), each triangle's mesh.
+pub struct SceneArrays {
+    /// Triangles, 3 × vec4 (xyz, 0) each.
+    pub tris: Vec<[f32; 4]>,
+    /// Per triangle its sphere ([`Sphere::of_triangle`]: centre, radius).
+    pub spheres: Vec<[f32; 4]>,
+    /// Per triangle its mesh.
+    pub tri_mesh: Vec<u32>,
+    /// Per mesh its sphere (thesis §3.2.2).
+    pub meshes: Vec<[f32; 4]>,
+}
+
+impl SceneArrays {
+    /// The arrays of `geo`.
+    pub fn of(geo: &scene::Geometry) -> SceneArrays {
+        let v4 = |s: &Sphere| [s.center.x, s.center.y, s.center.z, s.radius];
+        let nm = geo.mesh_first.len().saturating_sub(1);
+        let mut tri_mesh = vec![0u32; geo.tris.len()];
+        for m in 0..nm {
+            for t in geo.mesh_first[m]..geo.mesh_first[m + 1] {
+                tri_mesh[t as usize] = m as u32;
+            }
+        }
+        SceneArrays {
+            tris: geo
+                .tris
+                .iter()
+                .flat_map(|t| t.map(|v| [v.x, v.y, v.z, 0.0]))
+                .collect(),
+            spheres: geo
+                .tris
+                .iter()
+                .map(|t| v4(&Sphere::of_triangle(t[0], t[1], t[2])))
+                .collect(),
+            tri_mesh,
+            meshes: geo.mesh_sphere.iter().map(v4).collect(),
+        }
+    }
 }
 
 /// The tree on the device (layouts as `objects.wgsl` writes them).
@@ -280,7 +320,7 @@ fn bounds_of(w: &[[f32; 4]]) -> Bounds {
 /// The device's box nodes (stored at their binary node's index) as the CPU numbers them:
 /// the root's first, then level by level, each level's in the order their references appear
 /// (lane order within node order), references rewritten to those numbers and leaf lanes to
-/// the box order's positions ([`::rsh::objects::number_level`], as
+/// the box order's positions ([`accel::bvh::objects::number_level`], as
 /// `rsh::objects::boxes::collapse_boxes`). Also returns, per box-order position, the binary
 /// leaf position it came from.
 fn box_nodes(words: &[u32]) -> (Vec<BoxNode>, Vec<u32>) {
@@ -307,7 +347,7 @@ fn box_nodes(words: &[u32]) -> (Vec<BoxNode>, Vec<u32>) {
             });
         }
         let next = out.len() as u32;
-        ::rsh::objects::number_level(&mut out[base..], next, &mut heads, &mut at, |lo, k| {
+        accel::bvh::objects::number_level(&mut out[base..], next, &mut heads, &mut at, |lo, k| {
             src.extend(lo..lo + k)
         });
     }
@@ -356,7 +396,7 @@ impl DeviceTree {
         (t.boxes, src) = box_nodes(&words);
         // The triangles in the box order, from their binary leaf positions.
         t.leaf_ids = src.iter().map(|&q| t.tri_order[q as usize]).collect();
-        t.leaf_tris = ::rsh::objects::leaf_blocks(n, |p| {
+        t.leaf_tris = accel::bvh::objects::leaf_blocks(n, |p| {
             let q = src[p] as usize;
             let c = &lt[3 * q..3 * q + 3];
             [0, 1, 2].map(|k| Vec3::new(c[k][0], c[k][1], c[k][2]))
@@ -367,7 +407,7 @@ impl DeviceTree {
 
 /// The tree over `geo` built on `g` and read back, with the build's seconds (its kernels
 /// submitted and waited for; the scene's upload and the read-back not counted). With
-/// `mesh_spheres`, nodes may take their mesh's sphere, as [`::rsh::objects::build`]'s
+/// `mesh_spheres`, nodes may take their mesh's sphere, as [`accel::bvh::objects::build`]'s
 /// `mesh_spheres`. For tests, benchmarks and tools; an engine keeps the tree on the device.
 pub fn tree_of(g: &Gpu, geo: &Geometry, mesh_spheres: bool) -> (ObjectTree, f64) {
     let k = g.kernels();

@@ -1,20 +1,14 @@
-//! CRSH's incoherent path: rays that do not bundle are traced one by one through the object
-//! tree's collapsed nodes ([`crate::objects::WideNode`], 8 children each), the way a wide
-//! BVH traces single rays (Wald et al. 2008, "Getting rid of packets"; Embree's BVH8).
-//!
-//! Why: the thesis's hierarchy (§3.2.5–3.2.7) pays for itself only when a level-1 node's
-//! rays share a cone narrow enough to cull objects for all of them. AO, diffuse and random
-//! rays spread over the sphere, their cones are wide, the node tests pass nearly everything
-//! and every ray ends up walking the tree alone anyway, after the hashing, sorting and
-//! bundling that bought nothing (Sponza random rays: 0.12× Embree). [`coherence`] measures a
-//! batch before any of that work; the engine then takes this path or the bundles
-//! ([`crate::RayPath`]), and reports which in the stats.
+//! The `bvh` engine's single rays: every ray traced alone through the object tree's
+//! collapsed nodes ([`BoxNode`], 8 children each), the way a wide BVH traces single rays
+//! (Wald et al. 2008, "Getting rid of packets"; Embree's BVH8). Batches whose rays are not
+//! neighbours ([`crate::bvh::locality`]) take this path; neighbours go as packets
+//! ([`crate::bvh::packet`]).
 //!
 //! Per ray: the node being visited, and a stack of (collapsed node, entry distance) to
 //! come back to; each visited node's 8 boxes are slab-tested at once (AVX2 lanes, or the
 //! scalar [`boxes_scalar`] on CPUs without it: the same answers, tested); the triangles of
 //! its passing leaf lanes, side by side in the box order's blocks of 8
-//! ([`crate::objects::blocks`]), go through one 8-lane watertight test per block
+//! ([`crate::bvh::objects::blocks`]), go through one 8-lane watertight test per block
 //! ([`geom::tris8`]) that rejects misses, and every triangle it does not reject gets the
 //! shared kernel ([`geom::intersect`], inlined: so every hit is brute force's bit for bit);
 //! an any-hit ray stops at the end of the first leaf lane that gives it a hit (lanes in lane
@@ -27,9 +21,9 @@
 //! culled; ties at equal t are kept (inclusive slabs), so the smallest triangle id wins as
 //! in brute force.
 
-use crate::objects::{BoxNode, ObjectTree, LEAF};
-use crate::traverse::pack;
+use crate::bvh::objects::{BoxNode, ObjectTree, LEAF};
 use geom::tri::intersect_inlined;
+use geom::tri::pack;
 use geom::tri::RayPre;
 use geom::tris8::Tris8;
 use geom::{intersect, Vec3};
@@ -69,7 +63,7 @@ impl SingleCounts {
 /// A ray's reciprocal direction for the slab tests: `1 / d` with an infinite component
 /// (a zero direction component) clamped to ±`f32::MAX`, so that `(plane − o) · inv` is
 /// never `0 · ∞` and no NaN enters the test. Still conservative: along such an axis the
-/// ray stays at its origin's coordinate, and a grown box ([`crate::objects`]: 8 ulps of the
+/// ray stays at its origin's coordinate, and a grown box ([`crate::bvh::objects`]: 8 ulps of the
 /// scene's largest coordinate beyond its triangles) whose slab holds that coordinate at a
 /// triangle's distance `δ` from a face gives the interval `[−δ·MAX, +δ·MAX]` around it,
 /// which holds every parameter a ray can reach a triangle at; an origin outside the slab
@@ -348,7 +342,7 @@ fn walk_ray(
             let m = mask & node.leaves as u8;
             if m != 0 {
                 // The node's leaf lanes hold consecutive positions from `base`, lane after
-                // lane ([`crate::objects::number_level`]): a lane's first position is `base`
+                // lane ([`crate::bvh::objects::number_level`]): a lane's first position is `base`
                 // plus the triangles of the leaf lanes before it, a byte-wise prefix sum
                 // of `ntri` (at most 8 × `LANE_TRIS` in all: no byte carries). Per position from `base`:
                 // whether it is tested and whether it ends its lane: an any-hit walk stops
@@ -480,7 +474,7 @@ fn walk_ray(
 
 // The walk's per-node position masks are u32, shifted by up to 7 into a u64 and summed
 // byte-wise (`walk_ray`): a node's leaf triangles must fit them.
-const _: () = assert!(8 * crate::objects::LANE_TRIS <= 32);
+const _: () = assert!(8 * crate::bvh::objects::LANE_TRIS <= 32);
 
 /// Byte `i` all ones where bit `i` of `m` is set, else zero.
 #[inline(always)]
@@ -491,183 +485,9 @@ fn lane_bytes(m: u8) -> u64 {
     (((spread + 0x7f7f_7f7f_7f7f_7f7f) >> 7) & 0x0101_0101_0101_0101) * 0xff
 }
 
-/// How CRSH and RAH trace a batch over the object tree.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum RayPath {
-    /// Bundles when the batch is coherent ([`coherence`]), single rays when it is not.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "bundles for coherent batches, single rays for incoherent ones")
-    )]
-    Auto,
-    /// Always the ray hierarchy's bundles (the papers' method; RAH's default).
-    #[cfg_attr(feature = "clap", value(help = "always the ray hierarchy's bundles"))]
-    Bundles,
-    /// Always single rays through the object tree (the GPU's path: on this project's
-    /// measurements the bundles lose on every kind of batch, see `crate::single`).
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "always single rays through the object tree")
-    )]
-    Single,
-    /// Batches of neighbouring rays ([`locality`]) in packets of 16 consecutive rays walking
-    /// the object tree together ([`crate::packet`]), others as single rays (CRSH's default
-    /// on the CPU: Sponza's 512² shadow rays in about half the single rays' time, its AO
-    /// rays in 0.7–0.8 of it).
-    #[cfg_attr(
-        feature = "clap",
-        value(
-            help = "packets of 16 rays for batches of neighbouring rays, single rays for others"
-        )
-    )]
-    Packets,
-}
-
-impl RayPath {
-    /// Every value by its name (as options spell it).
-    pub const NAMES: [(&'static str, RayPath); 4] = [
-        ("auto", RayPath::Auto),
-        ("bundles", RayPath::Bundles),
-        ("single", RayPath::Single),
-        ("packets", RayPath::Packets),
-    ];
-
-    /// The value's name (as options spell it).
-    pub fn name(self) -> &'static str {
-        RayPath::NAMES
-            .iter()
-            .find(|(_, p)| *p == self)
-            .map_or("auto", |(n, _)| n)
-    }
-
-    /// Whether every batch walks the object tree without the ray hierarchy (single rays
-    /// or packets): the ray hierarchy's options do nothing then.
-    pub fn tree_only(self) -> bool {
-        matches!(self, RayPath::Single | RayPath::Packets)
-    }
-
-    /// The path a GPU takes for this one: packets are the CPU's way of walking neighbouring
-    /// rays side by side in vector lanes, which a GPU's threads do on their own, so a
-    /// device walks them as single rays; the other paths are themselves.
-    pub fn on_device(self) -> RayPath {
-        match self {
-            RayPath::Packets => RayPath::Single,
-            p => p,
-        }
-    }
-}
-
-/// Rays sampled by [`coherence`] (evenly spaced over the batch).
-const SAMPLES: usize = 4096;
-/// How many following rays of the batch a sampled ray looks among for a near-parallel one.
-const NEIGHBOURS: usize = 8;
-/// Near-parallel: directions within 2° (cos 2°).
-const COS_NEAR: f32 = 0.999_391_2;
-/// A batch is coherent when at least this share of its sampled rays has a near-parallel
-/// neighbour.
-pub const COHERENT_SHARE: f32 = 0.5;
-
-/// The share of a batch's rays (a deterministic sample of at most 4096) that have a
-/// near-parallel ray (within 2°) among the 8 rays that follow them in the batch: rays
-/// made pixel by pixel (primary rays, shadow rays to each light, mirror reflections) have
-/// one, rays scattered at random (AO, diffuse, random rays) do not. It costs a few
-/// microseconds, so the engine decides before it hashes anything.
-pub fn coherence(rays: &RayBatch) -> f32 {
-    let n = rays.len();
-    if n < 2 {
-        return 1.0;
-    }
-    let samples = n.min(SAMPLES);
-    let mut near = 0usize;
-    for s in 0..samples {
-        let i = s * n / samples;
-        let d = rays.dir[i].normalize_or_zero();
-        let end = (i + 1 + NEIGHBOURS).min(n);
-        near += rays.dir[i + 1..end]
-            .iter()
-            .any(|e| d.dot(e.normalize_or_zero()) >= COS_NEAR) as usize;
-    }
-    near as f32 / samples as f32
-}
-
-/// Segments near each other for [`locality`]: within this share of the scene's diagonal.
-const LOCAL: f32 = 0.25;
-
-/// The share of a batch's rays (the sample [`coherence`] takes) whose segment runs near the
-/// segment of one of the 8 rays that follow it in the batch: the distance of their origins
-/// plus their common length (the shorter t_max times the direction's length, capped at the
-/// scene's diagonal `diag`) times the distance of their unit directions, within a quarter of
-/// `diag`. Neighbouring rays whose segments stay close walk mostly the same nodes, which is
-/// what a packet ([`crate::packet`]) needs: rays made pixel by pixel towards a light or a
-/// mirror have it (near-parallel and long), and so do ambient-occlusion rays (random
-/// directions, but short and from neighbouring points); rays scattered from anywhere do
-/// not. On the bench scenes' 512² batches (`bench/results/2026-12-03d-2core/`): shadow
-/// rays 0.998–1, AO rays 0.995–1, random rays 0.002–0.003.
-pub fn locality(rays: &RayBatch, diag: f32) -> f32 {
-    let n = rays.len();
-    if n < 2 {
-        return 1.0;
-    }
-    let samples = n.min(SAMPLES);
-    let reach = LOCAL * diag;
-    let mut near = 0usize;
-    for s in 0..samples {
-        let i = s * n / samples;
-        let (o, d) = (rays.org[i], rays.dir[i]);
-        let (u, len) = (d.normalize_or_zero(), d.length());
-        let end = (i + 1 + NEIGHBOURS).min(n);
-        near += (i + 1..end).any(|j| {
-            let l = (rays.t_max[i].min(rays.t_max[j]) * len).min(diag);
-            let gap = o.distance(rays.org[j]) + l * u.distance(rays.dir[j].normalize_or_zero());
-            gap <= reach
-        }) as usize;
-    }
-    near as f32 / samples as f32
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use geom::{Pcg32, Ray};
-    use trace::RayKind;
-
-    /// Rays from points 0.001 apart along x, directions from `dir`, t_max `t`.
-    fn batch(n: usize, t: f32, mut dir: impl FnMut(usize) -> Vec3) -> RayBatch {
-        let mut b = RayBatch::with_capacity(n);
-        for i in 0..n {
-            let o = Vec3::new(i as f32 * 1e-3, 0.0, 0.0);
-            b.push(
-                Ray::new(o, dir(i), 0.0, t),
-                RayKind::Shadow,
-                i as u32,
-                0,
-                Vec3::ONE,
-                0,
-            );
-        }
-        b
-    }
-
-    /// Packets for rays towards one point and for short rays in random directions from
-    /// neighbouring points; single rays for long rays in random directions.
-    #[test]
-    fn locality_tells_neighbouring_segments() {
-        let mut rng = Pcg32::new(5, 9);
-        let mut random = move |_| {
-            let mut f = || 2.0 * rng.next_f32() - 1.0;
-            Vec3::new(f(), f(), f()).normalize_or(Vec3::Z)
-        };
-        let diag = 10.0;
-        let light = Vec3::new(3.0, 8.0, 2.0);
-        let shadows = batch(3000, 1.0, |i| light - Vec3::new(i as f32 * 1e-3, 0.0, 0.0));
-        assert!(locality(&shadows, diag) >= 0.99);
-        let ao = batch(3000, 0.05 * diag, &mut random);
-        assert!(locality(&ao, diag) >= 0.99);
-        let far = batch(3000, f32::INFINITY, &mut random);
-        let l = locality(&far, diag);
-        assert!(l < COHERENT_SHARE / 2.0, "{l}");
-    }
 
     /// Every lane mask spreads to its bytes.
     #[test]

@@ -19,14 +19,14 @@
 //! With mesh culling on, a node holding exactly one mesh's triangles gets the smaller of its
 //! box sphere and the mesh's minimal sphere (the thesis's per-mesh culling spheres, §3.2.2).
 //!
-//! The dual traversal ([`crate::dual`]) bounds every node by a sphere (the node tests of eq.
-//! 3.16 and the exact cone test take spheres), padded so that it contains its triangles, the
+//! The ray hierarchy's dual traversal (`rsh::dual`) bounds every node by a sphere (the node
+//! tests of eq. 3.16 and the exact cone test take spheres), padded so that it contains its triangles, the
 //! leaves by their own; its depth-first schedule reads the tree 8 children at a time
 //! ([`WideNode`]): each binary node it expands is *collapsed* into up to 8 descendants (the
 //! frontier grown by splitting its largest-sphere inner node, as Embree and Wald et al. 2008
 //! collapse binary BVHs into wide ones), with exactly the binary nodes' bounds, so one ray
 //! node is tested against all 8 in AVX lanes and every lane's answer is the binary node's.
-//! The single-ray path ([`crate::single`]) reads its own collapse ([`BoxNode`], [`boxes`]).
+//! The single-ray path ([`crate::bvh::single`]) reads its own collapse ([`BoxNode`], [`boxes`]).
 //! [`Parts`] says which of the two a tree is built with.
 
 use geom::morton::morton;
@@ -504,10 +504,10 @@ fn lbvh(boxes: &[Aabb], mesh_first: &[u32]) -> (RadixTree, Vec<u32>) {
 /// walked by the ones it was built for).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Parts {
-    /// The dual traversal's ([`crate::dual`]): bounds with spheres, children's boxes,
-    /// [`WideNode`]s.
+    /// The ray hierarchy's dual traversal's (`rsh::dual`): bounds with spheres, children's
+    /// boxes, [`WideNode`]s.
     pub dual: bool,
-    /// The single-ray path's ([`crate::single`]): [`BoxNode`]s and the triangles in leaf
+    /// The single-ray path's ([`crate::bvh::single`]): [`BoxNode`]s and the triangles in leaf
     /// order.
     pub single: bool,
 }
@@ -522,19 +522,10 @@ impl Parts {
 
 /// How the object tree is built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ObjectBuilder {
     /// Karras's linear BVH over Morton codes ([`build`]'s radix tree): the fastest build.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "linear BVH over Morton codes (Karras 2012): the fastest build")
-    )]
     Lbvh,
     /// Binned SAH, top down ([`sah`]): a better tree for a slower build.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "binned SAH, top down (Wald 2007): fewer tests per ray")
-    )]
     Sah,
 }
 

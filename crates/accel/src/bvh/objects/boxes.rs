@@ -1,4 +1,4 @@
-//! The object tree collapsed for single rays ([`crate::single`]): nodes of up to 8 children
+//! The object tree collapsed for single rays ([`crate::bvh::single`]): nodes of up to 8 children
 //! whose boxes one ray tests at once in AVX lanes (a BVH8, as Embree and Wald et al. 2008
 //! collapse binary trees into wide ones), where a child is either another such node or a
 //! *leaf lane* of up to [`LANE_TRIS`] triangles, contiguous in the leaf order.

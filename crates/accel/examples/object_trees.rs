@@ -3,10 +3,10 @@
 //! path's records, or the dual traversal's as well) and the surface-area metric of its
 //! single-ray tree (expected nodes and triangle tests per ray).
 //!
-//! `cargo run --profile ci -p rsh --example object_trees -- SCENE...` (scene files or
+//! `cargo run --profile ci -p accel --example object_trees -- SCENE...` (scene files or
 //! built-in names; default: the bench Sponza).
 
-use rsh::objects::{build, ObjectBuilder, Parts};
+use accel::bvh::objects::{build, ObjectBuilder, Parts};
 use scene::{Geometry, LoadOptions};
 use std::time::Instant;
 
