@@ -12,4 +12,4 @@ def test_readme_example_runs(capsys):
     assert code, "no python example in the README's Python section"
     exec(compile(code.group(1), "README.md", "exec"), {})
     out = capsys.readouterr().out
-    assert "occluded:" in out and "crsh" in out and "grid" in out
+    assert "occluded:" in out and "bvh" in out and "crsh" in out and "grid" in out

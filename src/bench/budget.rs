@@ -130,8 +130,18 @@ pub fn markdown(rows: &[BudgetRow], width: u32, height: u32) -> String {
         .first()
         .map(|r| r.spp.iter().map(|x| x.0).collect())
         .unwrap_or_default();
+    // Each engine as run: its name and every option's value (a frame's defaults).
+    let as_run: Vec<String> = rows
+        .iter()
+        .filter_map(|r| crate::engines::Engine::parse(&r.engine).ok())
+        .map(|e| {
+            let cfg = crate::engines::config::defaults(e, crate::engines::Backend::Cpu, true);
+            format!("`{}`", crate::engines::config::describe(e, &cfg))
+        })
+        .collect();
     let mut md = format!(
-        "| engine | build ms | primary ms | AO ms per spp ({width}×{height}) |{}\n|---|---:|---:|---:|{}\n",
+        "As run: {}.\n\n| engine | build ms | primary ms | AO ms per spp ({width}×{height}) |{}\n|---|---:|---:|---:|{}\n",
+        as_run.join(", "),
         budgets.iter().map(|b| format!(" AO spp in {b} ms |")).collect::<String>(),
         "---:|".repeat(budgets.len())
     );

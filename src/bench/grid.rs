@@ -17,6 +17,8 @@
 //! Timings are the best of `repeats` runs, engines interleaved within each repeat so that
 //! machine noise hits all of them alike.
 
+use crate::engines::config::describe;
+use crate::engines::{Config, Engine};
 use accel::grid::{build_grid, GridConfig, GridEngine};
 use accel::oracle::Agreement;
 use accel::peers::{BvhKind, ObvhsEngine};
@@ -100,6 +102,12 @@ fn engines(geo: &Geometry) -> Result<Vec<Built>> {
         let (c, r, m) = g.grid.memory();
         v.push((Box::new(g), s, Some((c + r + m) as u64)));
     }
+    // Our object-tree walk beside the peers' trees.
+    let t0 = Instant::now();
+    let b = accel::BvhEngine::new(geo, accel::BvhConfig::default()).map_err(anyhow::Error::msg)?;
+    let s = t0.elapsed().as_secs_f64();
+    let m = b.structure_bytes();
+    v.push((Box::new(b), s, m));
     for kind in [BvhKind::CwBvh, BvhKind::Bvh2] {
         let e = ObvhsEngine::new(geo, kind);
         let (s, m) = (e.build_seconds, e.memory_bytes() as u64);
@@ -326,6 +334,12 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
                     .unwrap_or_else(|| "—".into()),
             );
         }
+        md += &format!(
+            "\nAs run: {}; {}; {}; the peers with their own defaults.\n",
+            describe(Engine::Grid, &Config::of(Engine::Grid)),
+            describe(Engine::Grid2l, &Config::of(Engine::Grid2l)),
+            describe(Engine::Bvh, &Config::of(Engine::Bvh)),
+        );
         perf.extend(rows);
 
         // Table 2: densities.

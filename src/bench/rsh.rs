@@ -30,6 +30,8 @@ pub struct Row {
     pub brute_force_tests: u64,
     pub percent_of_brute_force: f64,
     pub trace_seconds: f64,
+    /// Ray–triangle tests alone over rays × triangles (the same figure for every engine).
+    pub ray_tri_percent_of_brute_force: f64,
     pub stats: TraceStats,
 }
 
@@ -49,6 +51,24 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
             spec.height,
             spec.bounces,
             nrays
+        );
+        // The configurations as run, less the B/D each row gives.
+        let as_run = |e: crate::engines::Engine, c: rsh::RshConfig| {
+            crate::engines::config::values(e, &crate::engines::Config::Rsh(c))
+                .into_iter()
+                .filter(|(k, _)| k != "branching" && k != "levels")
+                .map(|(k, v)| format!("--{k} {v}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        let thesis = |c| rsh::RshConfig {
+            objects: rsh::ObjectHierarchy::MeshSpheres,
+            ..c
+        };
+        md += &format!(
+            "As run, with each row's `--branching B --levels D`: CRSH `-e crsh {}`, RAH `-e rah {}` (the thesis's traversal: every triangle behind the mesh spheres); CRSH+BVH and RAH+BVH the same with `--object-hierarchy bvh` (the dual traversal over the per-frame SAH tree, depth first). % of brute force: every test (ray-hierarchy node, ray-box and ray-triangle) over rays × triangles, as the thesis counts them (ray-triangle tests alone: `ray_tri_percent_of_brute_force` in the JSON and CSV).\n\n",
+            as_run(crate::engines::Engine::Crsh, thesis(rsh::RshConfig::crsh())),
+            as_run(crate::engines::Engine::Rah, thesis(rsh::RshConfig::rah())),
         );
         md += "| B/D | CRSH total | CRSH % of brute force | RAH total | RAH % of brute force | RAH / CRSH tests | CRSH trace ms | RAH trace ms | CRSH+BVH % of brute force | RAH+BVH % of brute force | RAH+BVH / CRSH+BVH tests | CRSH+BVH build + trace ms | RAH+BVH build + trace ms | CRSH ÷ CRSH+BVH time |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         let mut detail = String::new();
@@ -104,6 +124,8 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
                     brute_force_tests: bf,
                     percent_of_brute_force: 100.0 * total as f64 / bf.max(1) as f64,
                     trace_seconds: secs,
+                    ray_tri_percent_of_brute_force: 100.0 * st.ray_tri_tests as f64
+                        / bf.max(1) as f64,
                     stats: st,
                 });
             }
@@ -168,10 +190,10 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<(Vec<Row>, String)> {
 
 /// CSV of the summary rows.
 pub fn csv(rows: &[Row]) -> String {
-    let mut s = String::from("scene,engine,branching,levels,objects,build_seconds,rays,triangles,total_tests,brute_force_tests,percent_of_brute_force,node_tri_tests,ray_tri_tests,trace_seconds\n");
+    let mut s = String::from("scene,engine,branching,levels,objects,build_seconds,rays,triangles,total_tests,brute_force_tests,percent_of_brute_force,node_tri_tests,ray_tri_tests,trace_seconds,ray_box_tests,ray_tri_percent_of_brute_force\n");
     for r in rows {
         s += &format!(
-            "{},{},{},{},{},{:.6},{},{},{},{},{:.6},{},{},{:.6}\n",
+            "{},{},{},{},{},{:.6},{},{},{},{},{:.6},{},{},{:.6},{},{:.6}\n",
             r.scene,
             r.engine,
             r.branching,
@@ -185,7 +207,9 @@ pub fn csv(rows: &[Row]) -> String {
             r.percent_of_brute_force,
             r.stats.node_tri_tests,
             r.stats.ray_tri_tests,
-            r.trace_seconds
+            r.trace_seconds,
+            r.stats.counters.get(trace::RAY_BOX_TESTS).unwrap_or(0),
+            r.ray_tri_percent_of_brute_force
         );
     }
     s

@@ -292,6 +292,19 @@ pub fn markdown(rows: &[Row], slopes: &[Slope]) -> String {
             r.wrong
         );
     }
+    // Each engine as run: its name and every option's value (its defaults).
+    let mut seen: Vec<&str> = Vec::new();
+    for r in rows {
+        if !seen.contains(&r.engine.as_str()) {
+            seen.push(&r.engine);
+        }
+    }
+    let as_run: Vec<String> = seen
+        .iter()
+        .filter_map(|n| Engine::parse(n).ok())
+        .map(|e| format!("`{}`", crate::engines::config::describe(e, &Config::of(e))))
+        .collect();
+    md += &format!("\nAs run: {}.\n", as_run.join(", "));
     if let Some(r) = rows.first() {
         md += &format!(
             "\nThe scene model (`Geometry`) takes {:.0} bytes per triangle; every engine also keeps its own copy of the triangles (36 bytes each), not in its structure's bytes.\n",

@@ -186,6 +186,11 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
             String::new()
         }
     );
+    let config = engines::config::values(a.engine, &cfg);
+    if !config.is_empty() {
+        let words: Vec<String> = config.iter().map(|(k, v)| format!("--{k} {v}")).collect();
+        say!("engine configuration: {}", words.join(" "));
+    }
     if runs.len() > 1 {
         let list = runs
             .iter()
@@ -212,6 +217,10 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         );
     }
     say!("hits {}, ray-triangle tests {} ({:.2}/ray), node-triangle tests {}, total tests {} ({:.4} % of brute force)", st.hits, st.ray_tri_tests, st.ray_tri_tests as f64 / n, st.node_tri_tests, st.total_tests(), 100.0 * st.total_tests() as f64 / (n * geo.len() as f64));
+    say!(
+        "ray-triangle tests as % of brute force: {:.4} % (every engine's exact tests against rays × triangles)",
+        st.percent_of_brute_force(geo.len() as u64)
+    );
     for (k, v) in st.counters.iter() {
         say!(
             "  {k}: {v}{}",
@@ -242,6 +251,7 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
             rays: rays.len() as u64,
             triangles: geo.len() as u64,
             engine: name,
+            engine_config: config,
             mode: match mode {
                 trace::TraceMode::Any => "any hit",
                 trace::TraceMode::Closest => "closest hit",
@@ -275,6 +285,9 @@ struct TraceSummary {
     rays: u64,
     triangles: u64,
     engine: String,
+    /// Every option of the engine with the value it ran with, keyed as `rayspace engines
+    /// --json` keys them.
+    engine_config: std::collections::BTreeMap<String, trace::options::Value>,
     mode: &'static str,
     build_seconds: f64,
     trace_seconds: f64,

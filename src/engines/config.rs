@@ -360,6 +360,17 @@ pub fn values(engine: Engine, cfg: &Config) -> BTreeMap<String, Value> {
     }
 }
 
+/// `engine` with its configuration as a command line spells it, for the benchmarks' rows:
+/// `bvh --object-builder sah --ray-path packets`; only the name for an engine without
+/// options.
+pub fn describe(engine: Engine, cfg: &Config) -> String {
+    let mut s = engine.name().to_string();
+    for (k, v) in values(engine, cfg) {
+        s += &format!(" --{k} {v}");
+    }
+    s
+}
+
 impl Config {
     /// The CPU backend's defaults of `engine` for a still image.
     pub fn of(engine: Engine) -> Config {

@@ -99,7 +99,7 @@ impl Spec {
             (
                 vec!["hairball", "city"],
                 vec![2_000, 8_000],
-                vec![Engine::Crsh, Engine::Grid],
+                vec![Engine::Bvh, Engine::Crsh, Engine::Grid],
                 64,
             )
         } else {
@@ -141,7 +141,13 @@ impl Spec {
 /// The engines a report renders with and scales (brute force is added per scene where it
 /// is affordable; its tests are counted, never timed, in the scaling curves).
 pub fn engine_list() -> Vec<Engine> {
-    let mut v = vec![Engine::Crsh, Engine::Rah, Engine::Grid, Engine::ObvhsCwbvh];
+    let mut v = vec![
+        Engine::Bvh,
+        Engine::Crsh,
+        Engine::Rah,
+        Engine::Grid,
+        Engine::ObvhsCwbvh,
+    ];
     if cfg!(feature = "embree") {
         v.push(Engine::Embree);
     }

@@ -4,6 +4,7 @@
 mod bench;
 mod cli;
 mod common;
+mod engines;
 mod first_hour;
 mod gpu;
 mod paths;

@@ -102,7 +102,8 @@ pub struct RenderStats {
     pub rays_primary_traced: u64,
     /// Ray–triangle tests, node tests etc. from the engine.
     pub trace: TraceStats,
-    /// Σ node–triangle + ray–triangle tests.
+    /// Every test: ray-hierarchy node tests + ray–box tests + ray–triangle tests
+    /// ([`trace::TraceStats::total_tests`]).
     pub total_tests: u64,
     /// The brute-force reference: traced rays × triangles.
     pub brute_force_tests: u64,
@@ -272,6 +273,11 @@ impl RenderStats {
         s += &format!(
             "| total as % of brute force | {:.3} % |\n",
             pct(self.total_tests, self.brute_force_tests)
+        );
+        // The same figure for every engine: its exact triangle tests against brute force's.
+        s += &format!(
+            "| ray-triangle tests as % of brute force | {:.4} % |\n",
+            pct(self.trace.ray_tri_tests, self.brute_force_tests)
         );
         if !self.trace.levels.is_empty() {
             s += &self.trace.levels.markdown();

@@ -61,12 +61,12 @@ pub enum SceneError {
         shared: String,
     },
     /// A generated scene's spec (`hairball:2M`) that names a generator but is malformed.
-    #[error("scene '{spec}': {msg}")]
+    #[error("scene '{spec}': {error}")]
     Generator {
         /// The spec given.
         spec: String,
         /// What is wrong with it.
-        msg: String,
+        error: crate::generate::SpecError,
     },
     /// A shared real scene by name, with no scenes directory to find it in.
     #[error("scene '{name}' is {file} in the shared scenes, and there is no scenes directory: set RAYSPACE_SCENES or provide ../shared/scenes")]

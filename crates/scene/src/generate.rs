@@ -39,10 +39,39 @@ pub struct Spec {
     pub seed: u64,
 }
 
+/// Why a generator spec (`hairball:2M`) is malformed.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SpecError {
+    /// Not `GENERATOR:SIZE[:SEED]`.
+    #[error("expected {0}:SIZE[:SEED], e.g. {0}:2M or {0}:250k:7")]
+    Form(&'static str),
+    /// The size is not a count.
+    #[error(
+        "size '{size}' is not a count like 10000, 250k or 2M (expected {generator}:SIZE[:SEED])"
+    )]
+    Size {
+        /// The generator.
+        generator: &'static str,
+        /// The size given.
+        size: String,
+    },
+    /// The size is a count out of range.
+    #[error("size {0} is outside {MIN_TRIANGLES}..={MAX_TRIANGLES} triangles")]
+    Range(u64),
+    /// The seed is not a whole number.
+    #[error("seed '{seed}' is not a whole number (expected {generator}:SIZE[:SEED])")]
+    Seed {
+        /// The generator.
+        generator: &'static str,
+        /// The seed given.
+        seed: String,
+    },
+}
+
 impl Spec {
     /// `spec` as a generator spec: `None` when it does not name a generator (so it may be a
     /// file or another scene), `Some(Err(why))` when it names one but the rest is wrong.
-    pub fn parse(spec: &str) -> Option<Result<Spec, String>> {
+    pub fn parse(spec: &str) -> Option<Result<Spec, SpecError>> {
         let mut parts = spec.split(':');
         let head = parts.next()?;
         let generator = *NAMES.iter().find(|n| **n == head)?;
@@ -50,27 +79,25 @@ impl Spec {
         Some(Self::parse_rest(generator, &rest))
     }
 
-    fn parse_rest(generator: &'static str, rest: &[&str]) -> Result<Spec, String> {
-        let usage =
-            format!("expected {generator}:SIZE[:SEED], e.g. {generator}:2M or {generator}:250k:7");
+    fn parse_rest(generator: &'static str, rest: &[&str]) -> Result<Spec, SpecError> {
         let (size, seed) = match rest {
             [size] => (*size, None),
             [size, seed] => (*size, Some(*seed)),
-            _ => return Err(usage),
+            _ => return Err(SpecError::Form(generator)),
         };
-        let triangles = parse_size(size).ok_or_else(|| {
-            format!("size '{size}' is not a count like 10000, 250k or 2M ({usage})")
+        let triangles = parse_size(size).ok_or_else(|| SpecError::Size {
+            generator,
+            size: size.to_string(),
         })?;
         if !(MIN_TRIANGLES..=MAX_TRIANGLES).contains(&triangles) {
-            return Err(format!(
-                "size {triangles} is outside {MIN_TRIANGLES}..={MAX_TRIANGLES} triangles"
-            ));
+            return Err(SpecError::Range(triangles));
         }
         let seed = match seed {
             None => 1,
-            Some(s) => s
-                .parse::<u64>()
-                .map_err(|_| format!("seed '{s}' is not a whole number ({usage})"))?,
+            Some(s) => s.parse::<u64>().map_err(|_| SpecError::Seed {
+                generator,
+                seed: s.to_string(),
+            })?,
         };
         Ok(Spec {
             generator,

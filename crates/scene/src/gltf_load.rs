@@ -149,9 +149,37 @@ fn import_buffers(
     Ok(out)
 }
 
+/// Why an accessor cannot be read from its buffers (glTF §3.6.2).
+#[derive(Debug, thiserror::Error)]
+enum AccessorError {
+    /// Its buffer view reaches past the end of its buffer.
+    #[error("accessor {accessor}: buffer view {view} (bytes {start}..{end}) runs past the end of buffer {buffer} ({have} bytes)")]
+    ViewPastBuffer {
+        accessor: usize,
+        view: usize,
+        start: u64,
+        end: u64,
+        buffer: usize,
+        have: u64,
+    },
+    /// Its elements reach past the end of its buffer view.
+    #[error("accessor {accessor} ({count} elements of {size} bytes) needs {end} bytes of buffer view {view}, which has {len}")]
+    ElementsPastView {
+        accessor: usize,
+        count: u64,
+        size: u64,
+        end: u64,
+        view: usize,
+        len: u64,
+    },
+}
+
 /// Why accessor `acc` cannot be read from `buffers` (`Ok`: it can): its elements must lie
 /// within its buffer view, and the view within its buffer (glTF §3.6.2).
-fn check_accessor(acc: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> Result<(), String> {
+fn check_accessor(
+    acc: &gltf::Accessor,
+    buffers: &[gltf::buffer::Data],
+) -> Result<(), AccessorError> {
     let Some(view) = acc.view() else {
         // A sparse-only accessor has no view: the reader makes its zeros itself.
         return Ok(());
@@ -160,13 +188,14 @@ fn check_accessor(acc: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> Resul
     let have = buffers.get(buf.index()).map_or(0, |d| d.0.len()) as u64;
     let (start, len) = (view.offset() as u64, view.length() as u64);
     if start + len > have {
-        return Err(format!(
-            "accessor {}: buffer view {} (bytes {start}..{}) runs past the end of buffer {} ({have} bytes)",
-            acc.index(),
-            view.index(),
-            start + len,
-            buf.index()
-        ));
+        return Err(AccessorError::ViewPastBuffer {
+            accessor: acc.index(),
+            view: view.index(),
+            start,
+            end: start + len,
+            buffer: buf.index(),
+            have,
+        });
     }
     let count = acc.count() as u64;
     if count > 0 {
@@ -174,11 +203,14 @@ fn check_accessor(acc: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> Resul
         let stride = view.stride().map_or(size, |s| s as u64);
         let end = acc.offset() as u64 + (count - 1) * stride + size;
         if end > len {
-            return Err(format!(
-                "accessor {} ({count} elements of {size} bytes) needs {end} bytes of buffer view {}, which has {len}",
-                acc.index(),
-                view.index()
-            ));
+            return Err(AccessorError::ElementsPastView {
+                accessor: acc.index(),
+                count,
+                size,
+                end,
+                view: view.index(),
+                len,
+            });
         }
     }
     Ok(())

@@ -233,9 +233,9 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
             None if !path.exists() && generate::Spec::parse(spec).is_some() => {
                 let g = generate::Spec::parse(spec)
                     .expect("a generator")
-                    .map_err(|msg| SceneError::Generator {
+                    .map_err(|error| SceneError::Generator {
                         spec: spec.to_string(),
-                        msg,
+                        error,
                     })?;
                 // The budget is checked before the triangles are made.
                 sb.admit_triangles(path, None, g.triangles)?;

@@ -1,40 +1,8 @@
 //! TOML scene files: compose meshes (files, shapes or built-in scenes), transforms, material
 //! overrides, lights and the camera.
 //!
-//! ```toml
-//! background = [0.1, 0.1, 0.15]
-//! ambient = [0.1, 0.1, 0.1]      # optional ambient light, times each material's ambient (OBJ Ka)
-//! [camera]                       # optional: framed automatically when absent
-//! eye = [0, 1, 5]
-//! target = [0, 1, 0]
-//! up = [0, 1, 0]                 # optional
-//! fov = 45                       # vertical, degrees
-//! [[lights]]                     # optional: one automatic light when absent
-//! position = [2, 4, 3]
-//! color = [1, 1, 1]
-//! intensity = 1.0
-//! attenuation = [1, 0, 0]        # constant, linear, quadratic
-//! [[meshes]]
-//! file = "bunny.obj"             # relative to this file; or shape = "sphere" | "box" | "plane" | "torus"; or builtin = "cornell"
-//! split = "groups"               # groups | materials | single (OBJ only)
-//! translate = [0, 0, 0]
-//! rotate = [0, 45, 0]            # Euler XYZ, degrees
-//! scale = 1.0                    # or [sx, sy, sz]
-//! material = { diffuse = [0.8, 0.2, 0.2], reflectivity = 0.3 }   # overrides, any subset (also ambient)
-//! [meshes.animation]             # optional keyframed rigid motion, after the placement above
-//! loop = true                    # repeat the keyed interval (default false: clamp)
-//! keys = [                       # linear translation and scale, slerp rotation
-//!   { t = 0, translate = [0, 0, 0], rotate = [0, 0, 0], scale = 1 },
-//!   { t = 2, translate = [1, 0, 0], rotate = [0, 180, 0] },
-//! ]
-//! [[meshes]]                     # vertex animation: numbered OBJ files, same topology
-//! sequence = "wave/frame%03d.obj"   # frames 0, 1, ... (relative to this file, or scenes:REL)
-//! frames = 10
-//! fps = 24                       # frame i is shown at time i / fps
-//! [animation]                    # optional: the interval `--frames` spreads frames over
-//! start = 0
-//! end = 2
-//! ```
+//! The format, with every key, is documented for users in `docs/scene-files.md`;
+//! `bench/scenes/*.toml` are real examples.
 
 use crate::anim::{Animation, Interp, RotKey, Track, VecKey, VertexKeys, Xform};
 use crate::error::Invalid;
