@@ -51,8 +51,8 @@ fn bench_grid_writes_tables_and_charts() {
     ] {
         assert!(md.contains(t), "{t} missing:\n{md}");
     }
-    // 3 ray kinds × (2 grids + 2 obvhs [+ 2 Embree]).
-    let engines = if cfg!(feature = "embree") { 6 } else { 4 };
+    // 3 ray kinds × (2 grids + bvh + 2 obvhs [+ 2 Embree]).
+    let engines = if cfg!(feature = "embree") { 7 } else { 5 };
     let t3 = std::fs::read_to_string(&csv).unwrap();
     assert_eq!(t3.lines().count(), 1 + 3 * engines, "{t3}");
     // Every engine agreed with the irregular grid (the `wrong` column).

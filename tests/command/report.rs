@@ -155,11 +155,11 @@ fn quick_report_is_complete_and_its_renders_agree() {
         assert!((shown - x["slope"].as_f64().unwrap()).abs() <= 0.005 + 1e-9);
     }
 
-    // Generated scenes (bench scale): two classes at two sizes, CRSH and the grid at both,
-    // brute force at the smallest; no engine's hits disagree with the grid's, and the page
-    // shows every row.
+    // Generated scenes (bench scale): two classes at two sizes, bvh, CRSH and the grid at
+    // both, brute force at the smallest; no engine's hits disagree with the grid's, and the
+    // page shows every row.
     let rows = json["generated"].as_array().unwrap();
-    assert_eq!(rows.len(), 2 * (2 * 2 + 1), "{rows:?}");
+    assert_eq!(rows.len(), 2 * (2 * 3 + 1), "{rows:?}");
     for x in rows {
         assert_eq!(x["wrong"], 0, "{x}");
         assert!(x["random_mrays"].as_f64().unwrap() > 0.0, "{x}");
