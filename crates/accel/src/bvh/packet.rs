@@ -1,18 +1,17 @@
-//! CRSH's path for batches of neighbouring rays: a batch's rays in packets of 16 consecutive
-//! rays, each packet walking the object tree's collapsed nodes ([`crate::bvh::objects::BoxNode`], 8
-//! children) together, every child's box slab-tested against the 16 rays at once (one AVX-512
+//! The `bvh` engine's walk for batches of neighbouring rays: a batch's rays in packets of 16
+//! consecutive rays, each packet walking the object tree's collapsed nodes
+//! ([`crate::bvh::objects::BoxNode`], 8 children) together, every child's box slab-tested against the 16 rays at once (one AVX-512
 //! vector, two AVX2 ones, or the same lane loop scalar): the packet traversal of Wald et al.
 //! 2001 ("Interactive rendering with coherent ray tracing") over a wide tree, as Embree's
 //! stream mode traces coherent rays.
 //!
 //! Why: one ray alone through the tree is bound by the latency of each node's loads and of
 //! the tests that depend on them (about 100 cycles a node on Sponza's shadow rays,
-//! [`crate::bvh::single`]), and neighbouring rays whose segments stay close (rays made pixel by
-//! pixel towards a light or a mirror, short ambient-occlusion rays from neighbouring points:
-//! [`crate::bvh::single::locality`]) walk nearly the same nodes. A packet pays each node's loads
-//! once for all its rays, and its 16 slab tests fill a vector. This is the thesis's bundling
-//! (§3.2.5) at its cheapest: the batch's own order groups the rays, nothing is hashed, sorted
-//! or built.
+//! [`crate::bvh::single`]), and neighbouring rays whose segments stay close (rays made pixel
+//! by pixel towards a light or a mirror, short ambient-occlusion rays from neighbouring
+//! points: [`crate::bvh::locality`]) walk nearly the same nodes. A packet pays each node's
+//! loads once for all its rays, and its 16 slab tests fill a vector. A packet is a one-level
+//! ray hierarchy in the batch's own order, without cones: nothing is hashed, sorted or built.
 //!
 //! Per packet: a stack of (node, lanes that entered it). Visiting a node tests all its
 //! children against every lane and keeps the lanes that entered the node and are not done

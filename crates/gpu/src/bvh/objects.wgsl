@@ -1,4 +1,4 @@
-// The object tree on the device, the twin of crates/rsh/src/objects.rs's LBVH (Karras 2012,
+// The object tree on the device, the twin of crates/accel/src/bvh/objects.rs's LBVH (Karras 2012,
 // "Maximizing parallelism in the construction of BVHs, octrees and k-d trees", §3–4; the
 // boxes bottom up as in Apetrei 2014 and Karras §4): the same tree, bit for bit.
 //   obj_boxes:  every triangle's box (Aabb::from_points) and the reductions of the scene box

@@ -1,5 +1,5 @@
-// CRSH's single-ray path on the device, the twin of crates/rsh/src/single.rs: one thread per
-// ray walks the object tree's box nodes (objects.wgsl `obj_box_nodes`) with a stack of
+// The `bvh` engine's single rays on the device, the twin of crates/accel/src/bvh/single.rs:
+// one thread per ray walks the object tree's box nodes (objects.wgsl `obj_box_nodes`) with a stack of
 // (node, entry); a popped node entered beyond the closest hit so far is skipped; its lanes
 // get Ize's robust slab test (the same operations as `boxes_scalar`), its passing leaf
 // lanes' triangles the shared watertight kernel in lane order (the closest hit the smallest
