@@ -26,7 +26,7 @@ import re
 import time
 from typing import Any, Dict, Iterator, List, Optional, Sequence, Union
 
-from . import DEFAULT_ENGINE, Engine, Error, Scene, _rayspace, rays
+from . import DEFAULT_ENGINE, Engine, Error, Scene, _rayspace, engine_options, rays
 
 __all__ = ["render_frames", "sweep"]
 
@@ -306,7 +306,8 @@ def sweep(
     """Measure every scene × engine × configuration × ray set as Ray tasks.
 
     ``configs``: engine-option dictionaries (``[{}, {"levels": 4}]``; default one with no
-    options); ``rays``: keyword arguments of :func:`rayspace.rays` (``kind``, ``width``,
+    options), each taken by every engine of ``engines`` (an option of another engine raises
+    :class:`rayspace.Error` before any task runs, as the command line refuses it); ``rays``: keyword arguments of :func:`rayspace.rays` (``kind``, ``width``,
     ``height``, ``spp``, ``seed``, ``ao_distance``) plus ``any_hit`` (default: true for
     shadow and ao rays). One task per point, each on one CPU and one thread (a task whose
 worker is lost runs again, up to 3 times). Returns a pandas DataFrame
@@ -315,6 +316,12 @@ worker is lost runs again, up to 3 times). Returns a pandas DataFrame
     process's.
     """
     configs = list(configs) if configs else [{}]
+    takers = {o["name"]: o["engines"] for o in engine_options()}
+    for e in engines:
+        for c in configs:
+            for k in c:
+                if k in takers and e not in takers[k]:
+                    raise Error(f"sweep: {k} does not apply to engine={e} (it is an option of {', '.join(takers[k])})")
     points = [(_portable(s), e, c, k) for s in scenes for e in engines for c in configs for k in rays]
     if not points:
         raise Error("sweep: no scenes, engines or rays")

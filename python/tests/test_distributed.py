@@ -142,9 +142,14 @@ def test_a_killed_worker_loses_no_frame_and_a_second_call_renders_none(cluster, 
     assert all(r["rendered"] for r in changed)
 
 
+def test_sweep_refuses_an_option_an_engine_does_not_take():
+    with pytest.raises(rs.Error, match="sweep: levels does not apply to engine=grid"):
+        distributed.sweep(["cornell"], ["grid", "crsh"], configs=[{"levels": 2}])
+
+
 def test_sweep_counts_equal_one_process(cluster):
     table = distributed.sweep(
-        ["cornell", "office"], ["grid", "crsh"], configs=[{}, {"levels": 2}],
+        ["cornell", "office"], ["bvh", "crsh"], configs=[{}, {"object_builder": "lbvh"}],
         rays=[{"kind": "shadow", "width": 32, "height": 32}], address=cluster,
     )
     rows = table.to_dict("records") if hasattr(table, "to_dict") else table

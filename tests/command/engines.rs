@@ -85,3 +85,34 @@ fn every_engine_renders_with_the_defaults_engines_lists() {
         .unwrap()
         .success());
 }
+
+/// The thesis's own configurations of its own engine run, and every one renders brute
+/// force's image byte for byte.
+#[test]
+fn crsh_takes_the_thesis_configurations_and_renders_brute_forces_image() {
+    let d = tmp("thesis");
+    let render = |tag: &str, args: &str| {
+        let png = d.join(format!("{tag}.png"));
+        ok(&words(&format!(
+            "render office -W 40 -H 30 {args} --out {}",
+            png.display()
+        )));
+        std::fs::read(png).unwrap()
+    };
+    let brute = render("brute", "-e brute");
+    for (k, args) in [
+        "-e crsh --branching 8 --levels 2",
+        "-e crsh --branching 16 --levels 3",
+        "-e crsh --object-hierarchy bvh --schedule breadth",
+        "-e crsh --object-hierarchy mesh-spheres --branching 8 --levels 2",
+        "-e rah --branching 4 --levels 0",
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        assert!(
+            render(&format!("c{k}"), args) == brute,
+            "{args}: another image"
+        );
+    }
+}

@@ -241,10 +241,12 @@ fn gpu_render(d: &std::path::Path, tag: &str, args: &str) -> Option<(String, Str
     Some((table, stats, std::fs::read(&png).unwrap()))
 }
 
-/// CRSH on the GPU walks the object tree built on the device: the stats say so (its build a
-/// pass, its ray-box tests counted), and the image is the thesis configuration's.
+/// CRSH on the GPU runs its ray hierarchy over the object tree built on the device (the dual
+/// traversal; the tree's build a pass, its ray-box tests counted) or behind the mesh
+/// spheres, and `bvh` walks the same tree with single rays and no ray hierarchy: the stats
+/// say which, and the image is the same.
 #[test]
-fn gpu_crsh_walks_the_object_tree() {
+fn gpu_engines_say_what_they_run() {
     let d = tmp("gpu-objects");
     let mut images = Vec::new();
     for (k, extra) in ["", "--object-hierarchy mesh-spheres"]
@@ -261,11 +263,28 @@ fn gpu_crsh_walks_the_object_tree() {
         assert_eq!(v["object_hierarchy"], side, "{stats}");
         assert_eq!(stats.contains("ray-box tests"), k == 0, "{stats}");
         assert!(stats.contains("gpu_dispatches"), "{stats}");
+        let c = &v["trace"]["counters"];
+        assert!(c["top nodes"].as_u64().unwrap() > 0, "{stats}");
+        assert!(
+            v["trace"]["phases"]["hierarchy creation"].is_number(),
+            "{stats}"
+        );
         images.push(png);
     }
-    assert_eq!(
-        images[0], images[1],
-        "the same image with either object side"
+    let Some((table, stats, png)) = gpu_render(&d, "bvh", "--engine bvh --width 40 --height 30")
+    else {
+        return;
+    };
+    assert!(table.contains("build: object hierarchy"), "{table}");
+    let v: serde_json::Value = serde_json::from_str(&stats).unwrap();
+    let c = &v["trace"]["counters"];
+    assert!(c["single-ray batches"].as_u64().unwrap() > 0, "{stats}");
+    assert!(c.get("top nodes").is_none() && v["trace"].get("levels").is_none());
+    assert_eq!(v["engine_config"]["ray-path"], "single", "{stats}");
+    images.push(png);
+    assert!(
+        images.iter().all(|i| *i == images[0]),
+        "the same image with either object side and either engine"
     );
 }
 
