@@ -185,6 +185,16 @@ fn trace_refuses_options_that_do_nothing() {
         s("-o"),
         rays.display().to_string(),
     ]);
+    let trace_with = |extra: &[&str]| {
+        let mut args = vec![
+            s("trace"),
+            rays.display().to_string(),
+            s("--scene"),
+            s("office"),
+        ];
+        args.extend(extra.iter().map(|x| s(x)));
+        args
+    };
     for (extra, needle) in [
         (
             &["-e", "bvh", "--levels", "4"][..],
@@ -210,13 +220,7 @@ fn trace_refuses_options_that_do_nothing() {
             "--descent applies with --object-hierarchy bvh",
         ),
     ] {
-        let mut args = vec![
-            s("trace"),
-            rays.display().to_string(),
-            s("--scene"),
-            s("office"),
-        ];
-        args.extend(extra.iter().map(|x| s(x)));
+        let args = trace_with(extra);
         let o = bin().args(&args).output().unwrap();
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
@@ -237,13 +241,6 @@ fn trace_refuses_options_that_do_nothing() {
         ],
         &["-e", "rah", "--branching", "4", "--levels", "0"],
     ] {
-        let mut args = vec![
-            s("trace"),
-            rays.display().to_string(),
-            s("--scene"),
-            s("office"),
-        ];
-        args.extend(extra.iter().map(|x| s(x)));
-        ok(&args);
+        ok(&trace_with(extra));
     }
 }

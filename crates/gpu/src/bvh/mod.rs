@@ -45,14 +45,7 @@ impl GpuBvh {
     /// Upload the scene and build its tree on the device. The device builds the LBVH and
     /// walks single rays only: another builder or path is refused, naming the option.
     pub fn new(gpu: Gpu, geo: &Geometry, cfg: BvhConfig) -> Result<GpuBvh, GpuError> {
-        if cfg.builder != ObjectBuilder::Lbvh {
-            return Err(OptionError::new(
-                "object_builder",
-                "sah",
-                "the GPU backend builds the LBVH only",
-            )
-            .into());
-        }
+        lbvh_only(cfg.builder)?;
         if cfg.path != RayPath::Single {
             return Err(OptionError::new(
                 "ray_path",
@@ -207,6 +200,20 @@ impl GpuBvh {
         ex.report(stats, &self.times);
         w.rec
     }
+}
+
+/// The device builds the LBVH only (`bvh`'s tree and the dual traversal's): another builder
+/// is refused, naming the option.
+pub(crate) fn lbvh_only(builder: ObjectBuilder) -> Result<(), GpuError> {
+    if builder == ObjectBuilder::Lbvh {
+        return Ok(());
+    }
+    Err(OptionError::new(
+        "object_builder",
+        "sah",
+        "the GPU backend builds the LBVH only",
+    )
+    .into())
 }
 
 impl Tracer for GpuBvh {

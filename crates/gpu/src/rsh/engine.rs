@@ -26,7 +26,7 @@ use crate::kernels::params::RecordsParams;
 use crate::kernels::{launch, DevSize, Exec, Kernels};
 use crate::rays::{records_to_hits, DeviceRays};
 use ::rsh::traverse::Counters;
-use ::rsh::{HashKind, Method, ObjectBuilder, ObjectHierarchy, RshConfig, Schedule};
+use ::rsh::{HashKind, Method, ObjectHierarchy, RshConfig, Schedule};
 use scene::Geometry;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -131,14 +131,7 @@ impl GpuRsh {
                 )
                 .into());
             }
-            if cfg.builder != ObjectBuilder::Lbvh {
-                return Err(OptionError::new(
-                    "object_builder",
-                    "sah",
-                    "the GPU backend builds the LBVH only",
-                )
-                .into());
-            }
+            crate::bvh::lbvh_only(cfg.builder)?;
         } else if cfg.method == Method::Crsh && cfg.hash != HashKind::Thesis {
             return Err(OptionError::new(
                 "hash",
