@@ -1,12 +1,12 @@
 //! CRSH and RAH as engines of [`trace::Tracer`]: one node type, one builder, one traversal;
 //! they differ only where the papers differ (leaf order, mesh culling, defaults).
 
-use crate::build::{build, Union};
-use crate::dual::{Descent, RaySide, Schedule};
-use crate::hash::{HashBits, HashKind};
+use crate::build::build;
+use crate::dual::{RaySide, Schedule};
+use crate::options::{Method, ObjectHierarchy, RshConfig};
 use crate::order::{leaf_order, Grouping};
-use crate::traverse::{unpack_uv, Counters, NodeTest, SceneData, Traversal};
-use accel::bvh::objects::{self, ObjectBuilder, ObjectTree};
+use crate::traverse::{unpack_uv, Counters, SceneData, Traversal};
+use accel::bvh::objects::{self, ObjectTree};
 use geom::tri::RayPre;
 use geom::tri8::RayLanes;
 use geom::{intersect, Aabb, Sphere, Vec3};
@@ -17,132 +17,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 use trace::OptionError;
 use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
-
-/// Which paper's method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Reis 2015: hashed, compressed, sorted rays; mesh-sphere culling at the top.
-    Crsh,
-    /// Roger et al. 2007: rays in screen order; no culling at the top.
-    Rah,
-}
-
-/// What the traversal pushes through the ray hierarchy.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ObjectHierarchy {
-    /// The thesis (§3.2.8): every triangle, culled at the top by the per-mesh spheres when
-    /// mesh culling is on.
-    MeshSpheres,
-    /// A BVH over the triangles, built per frame (`accel::bvh::objects`, the `bvh` engine's
-    /// tree), descended together with the ray hierarchy ([`crate::dual`]: the thesis's
-    /// future work, §5.1); the mesh spheres bound the meshes' subtrees when mesh culling is
-    /// on.
-    Bvh,
-}
-
-impl ObjectHierarchy {
-    /// Every value by its name (as options spell it).
-    pub const NAMES: [(&'static str, ObjectHierarchy); 2] = [
-        ("mesh-spheres", ObjectHierarchy::MeshSpheres),
-        ("bvh", ObjectHierarchy::Bvh),
-    ];
-}
-
-/// Configuration of CRSH or RAH (the thesis's parameters and ours).
-#[derive(Clone, Debug, PartialEq)]
-pub struct RshConfig {
-    /// Which paper's method.
-    pub method: Method,
-    /// Children per node (thesis: 8 or 16; RAH's pyramid: 4).
-    pub branching: u32,
-    /// Levels above the leaves (thesis: 2–4); 0 builds up to one root per ray kind.
-    pub levels: u32,
-    /// CRSH's hash (ignored by RAH).
-    pub hash: HashKind,
-    /// Bit budgets of the thesis hash.
-    pub hash_bits: HashBits,
-    /// Sphere and cone union formulas.
-    pub union: Union,
-    /// Node–triangle test.
-    pub node_test: NodeTest,
-    /// Test top nodes against per-mesh bounding spheres first.
-    pub mesh_culling: bool,
-    /// Most (node, triangle) pairs held in one buffer.
-    pub pair_budget: usize,
-    /// The object side of the traversal.
-    pub objects: ObjectHierarchy,
-    /// With [`ObjectHierarchy::Bvh`]: which node of a pair is expanded.
-    pub descent: Descent,
-    /// With [`ObjectHierarchy::Bvh`]: in which order the pairs are taken.
-    pub schedule: Schedule,
-    /// With [`ObjectHierarchy::Bvh`]: how the object tree is built.
-    pub builder: ObjectBuilder,
-}
-
-/// Default pair budget: 2^24 pairs (128 MiB for the two u32 arrays of one buffer).
-pub const DEFAULT_PAIR_BUDGET: usize = 1 << 24;
-
-/// The traversal's memory model: bytes per pair of the budget (node and triangle ids, the
-/// test's flag and its scan offset: 4 × u32) …
-pub const BYTES_PER_PAIR: u64 = 16;
-
-impl RshConfig {
-    /// … and the most the traversal holds: one buffer per level of the depth-first descent
-    /// plus the top level's candidates and the final tests' (`levels + 2` buffers of
-    /// `pair_budget` pairs).
-    pub fn pair_bytes(&self) -> u64 {
-        self.pair_budget as u64 * BYTES_PER_PAIR * (self.levels as u64 + 2)
-    }
-
-    /// The largest pair budget whose [`RshConfig::pair_bytes`] fit `bytes` (batching more,
-    /// never dropping a pair), at most the configured one; `None` below the minimum 1024.
-    pub fn budget_within(&self, bytes: u64) -> Option<usize> {
-        let per = BYTES_PER_PAIR * (self.levels as u64 + 2);
-        let fit = (bytes / per).min(self.pair_budget as u64) as usize;
-        (fit >= 1024).then_some(fit)
-    }
-}
-
-impl RshConfig {
-    /// CRSH's defaults: B = 8, D = 2, thesis hash, exact unions, RAH node test, mesh culling,
-    /// the dual traversal over the SAH object tree, depth first.
-    pub fn crsh() -> Self {
-        RshConfig {
-            method: Method::Crsh,
-            branching: 8,
-            levels: 2,
-            hash: HashKind::Thesis,
-            hash_bits: HashBits::default(),
-            union: Union::Exact,
-            node_test: NodeTest::Rah,
-            mesh_culling: true,
-            pair_budget: DEFAULT_PAIR_BUDGET,
-            objects: ObjectHierarchy::Bvh,
-            descent: Descent::Size,
-            schedule: Schedule::Depth,
-            builder: ObjectBuilder::Sah,
-        }
-    }
-
-    /// RAH's defaults: CRSH's without mesh culling (the leaf order is RAH's screen order).
-    pub fn rah() -> Self {
-        RshConfig {
-            method: Method::Rah,
-            mesh_culling: false,
-            ..Self::crsh()
-        }
-    }
-
-    /// The one check of a configuration (the CLI, the bindings, the benchmarks, the CPU and
-    /// GPU engines all call it): every option against its declaration
-    /// ([`crate::options::OPTIONS`]), and the hash's bit budgets.
-    pub fn validate(&self) -> Result<(), OptionError> {
-        trace::options::check_all(crate::options::OPTIONS, self)?;
-        self.hash_bits
-            .validate()
-            .map_err(|e| OptionError::new("hash_bits", self.hash_bits, e.to_string()))
-    }
-}
 
 /// Why a CRSH/RAH engine cannot be built.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]

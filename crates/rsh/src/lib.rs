@@ -22,6 +22,7 @@ pub mod traverse;
 pub use accel::bvh::ObjectBuilder;
 pub use build::Union;
 pub use dual::{Descent, Schedule};
-pub use engine::{Method, ObjectHierarchy, RshConfig, RshEngine, RshError};
+pub use engine::{RshEngine, RshError};
 pub use hash::{HashBits, HashBitsError, HashKind};
+pub use options::{Method, ObjectHierarchy, RshConfig};
 pub use traverse::NodeTest;

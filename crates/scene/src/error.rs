@@ -66,7 +66,7 @@ pub enum SceneError {
         /// The spec given.
         spec: String,
         /// What is wrong with it.
-        error: crate::generate::SpecError,
+        error: SpecError,
     },
     /// A shared real scene by name, with no scenes directory to find it in.
     #[error("scene '{name}' is {file} in the shared scenes, and there is no scenes directory: set RAYSPACE_SCENES or provide ../shared/scenes")]
@@ -103,4 +103,40 @@ impl From<&str> for Invalid {
     fn from(s: &str) -> Self {
         Invalid(s.to_string())
     }
+}
+
+/// Why a generator spec (`hairball:2M`) is malformed.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SpecError {
+    /// Not `GENERATOR:SIZE[:SEED]`.
+    #[error("expected {0}:SIZE[:SEED], e.g. {0}:2M or {0}:250k:7")]
+    Form(&'static str),
+    /// The size is not a count.
+    #[error(
+        "size '{size}' is not a count like 10000, 250k or 2M (expected {generator}:SIZE[:SEED])"
+    )]
+    Size {
+        /// The generator.
+        generator: &'static str,
+        /// The size given.
+        size: String,
+    },
+    /// The size is a count out of range.
+    #[error("size {triangles} is outside {min}..={max} triangles")]
+    Range {
+        /// The count given.
+        triangles: u64,
+        /// The smallest count a generator makes.
+        min: u64,
+        /// The largest.
+        max: u64,
+    },
+    /// The seed is not a whole number.
+    #[error("seed '{seed}' is not a whole number (expected {generator}:SIZE[:SEED])")]
+    Seed {
+        /// The generator.
+        generator: &'static str,
+        /// The seed given.
+        seed: String,
+    },
 }

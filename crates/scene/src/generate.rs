@@ -15,6 +15,7 @@
 //! spec gives the same triangles, bit for bit, on any number of threads: each object is
 //! generated from its own random stream (`Pcg32::new(seed, object)`) into its own slice.
 
+pub use crate::error::SpecError;
 use crate::model::{smooth_normals, Camera, Light, LoadReport, Material, Mesh, Scene};
 use crate::shapes::torus_knot;
 use geom::{Mat4, Pcg32, Vec3};
@@ -39,35 +40,6 @@ pub struct Spec {
     pub seed: u64,
 }
 
-/// Why a generator spec (`hairball:2M`) is malformed.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-pub enum SpecError {
-    /// Not `GENERATOR:SIZE[:SEED]`.
-    #[error("expected {0}:SIZE[:SEED], e.g. {0}:2M or {0}:250k:7")]
-    Form(&'static str),
-    /// The size is not a count.
-    #[error(
-        "size '{size}' is not a count like 10000, 250k or 2M (expected {generator}:SIZE[:SEED])"
-    )]
-    Size {
-        /// The generator.
-        generator: &'static str,
-        /// The size given.
-        size: String,
-    },
-    /// The size is a count out of range.
-    #[error("size {0} is outside {MIN_TRIANGLES}..={MAX_TRIANGLES} triangles")]
-    Range(u64),
-    /// The seed is not a whole number.
-    #[error("seed '{seed}' is not a whole number (expected {generator}:SIZE[:SEED])")]
-    Seed {
-        /// The generator.
-        generator: &'static str,
-        /// The seed given.
-        seed: String,
-    },
-}
-
 impl Spec {
     /// `spec` as a generator spec: `None` when it does not name a generator (so it may be a
     /// file or another scene), `Some(Err(why))` when it names one but the rest is wrong.
@@ -90,7 +62,11 @@ impl Spec {
             size: size.to_string(),
         })?;
         if !(MIN_TRIANGLES..=MAX_TRIANGLES).contains(&triangles) {
-            return Err(SpecError::Range(triangles));
+            return Err(SpecError::Range {
+                triangles,
+                min: MIN_TRIANGLES,
+                max: MAX_TRIANGLES,
+            });
         }
         let seed = match seed {
             None => 1,
