@@ -5,6 +5,13 @@ mod cli;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // Mesa's Vulkan drivers print two lines when XDG_RUNTIME_DIR is unset or not a folder;
+    // the GPU backend keeps nothing there, so the system's temporary folder serves. (Set
+    // before any other thread starts.)
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none_or(|d| !std::path::Path::new(&d).is_dir()) {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+    cli::signals::install();
     trace::memory::keep_freed_memory();
     match cli::run() {
         Ok(()) => ExitCode::SUCCESS,
@@ -12,7 +19,7 @@ fn main() -> ExitCode {
             // One line, naming the file/line/option at fault; usage errors exit with 2.
             // Library messages name options by keyword; the CLI spells them as its flags.
             let msg = cli::spell::flags_in(&format!("{e:#}"));
-            eprintln!("error: {}", msg.replace('\n', " "));
+            eprintln!("error: {}", cli::printable(&msg.replace('\n', " ")));
             if e.is::<cli::UsageError>() {
                 ExitCode::from(2)
             } else {

@@ -42,7 +42,16 @@ pub fn font() -> Result<()> {
             .chain(FONT_PATHS.iter().map(|s| s.to_string()))
             .collect();
         for p in &candidates {
-            if let Ok(bytes) = std::fs::read(p) {
+            // A font is a regular file of at most 64 MiB (a device or FIFO named by the
+            // environment is not read); one named by RAYSPACE_FONT that cannot be used is
+            // said, once, before the system's fonts are tried.
+            let read = read_font(p);
+            if let (Err(e), Some(named)) = (&read, &env) {
+                if named == p {
+                    eprintln!("warning: RAYSPACE_FONT={p}: {e}; trying the system's fonts");
+                }
+            }
+            if let Ok(bytes) = read {
                 let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
                 return plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
                     .map_err(|_| FontError::Unusable(p.clone()));
@@ -52,6 +61,25 @@ pub fn font() -> Result<()> {
     })
     .clone()
     .map_err(|e| anyhow!(e))
+}
+
+/// The bytes of the font file `p`: a regular file of at most 64 MiB.
+fn read_font(p: &str) -> std::io::Result<Vec<u8>> {
+    use std::io::Read as _;
+    const MAX: u64 = 64 << 20;
+    let bad = |m: &str| std::io::Error::new(std::io::ErrorKind::InvalidInput, m.to_string());
+    let m = std::fs::metadata(p)?;
+    if !m.is_file() {
+        return Err(bad("not a regular file"));
+    }
+    let mut bytes = Vec::new();
+    std::fs::File::open(p)?
+        .take(MAX + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX {
+        return Err(bad("more than 64 MiB"));
+    }
+    Ok(bytes)
 }
 
 /// One chart's data: `values[s][g]` is series `s` in group `g`.

@@ -3,11 +3,12 @@
 
 use super::args::{BenchBudgetArgs, BenchGpuArgs, BenchGridArgs, BenchRshArgs, BenchScaleArgs};
 use super::progress::step_bar;
-use super::{check_dir, check_out_dir};
+use super::{check_dir, check_out_dir, check_outputs};
 use anyhow::{Context, Result};
 use rayspace::bench::{self, provenance};
 use rayspace::engines::{self, Backend, Engine, OBVHS_VERSION};
 use scene::Geometry;
+use std::path::Path;
 use std::path::PathBuf;
 
 #[cfg(feature = "gpu")]
@@ -42,10 +43,25 @@ pub fn cmd_bench_gpu(_a: &BenchGpuArgs) -> Result<()> {
     anyhow::bail!("bench gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
 }
 
-pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
-    for p in [&a.out.json, &a.out.csv, &a.out.md].into_iter().flatten() {
-        check_out_dir("--json/--csv/--md", p)?;
+/// A benchmark's outputs: each writable, no two the same file.
+fn check_reports(outputs: &[(&str, &Option<std::path::PathBuf>)]) -> Result<()> {
+    let given: Vec<(&str, &Path)> = outputs
+        .iter()
+        .filter_map(|(o, p)| Some((*o, p.as_deref()?)))
+        .collect();
+    for &(opt, p) in &given {
+        super::check::writable(opt, p)?;
     }
+    check_outputs(&given, &[])?;
+    Ok(())
+}
+
+pub fn cmd_bench_rsh(a: &BenchRshArgs) -> Result<()> {
+    check_reports(&[
+        ("--json", &a.out.json),
+        ("--csv", &a.out.csv),
+        ("--md", &a.out.md),
+    ])?;
     let configs =
         bench::parse_configs(&a.configs).map_err(|e| anyhow::anyhow!("--configs: {e}"))?;
     let scenes = bench::scenes(
@@ -95,12 +111,12 @@ fn report_charts(charts: Result<Vec<PathBuf>>) {
 }
 
 pub fn cmd_bench_grid(a: &BenchGridArgs) -> Result<()> {
-    for p in [&a.out.json, &a.out.csv, &a.grids_csv, &a.out.md]
-        .into_iter()
-        .flatten()
-    {
-        check_out_dir("--json/--csv/--grids-csv/--md", p)?;
-    }
+    check_reports(&[
+        ("--json", &a.out.json),
+        ("--csv", &a.out.csv),
+        ("--grids-csv", &a.grids_csv),
+        ("--md", &a.out.md),
+    ])?;
     if let Some(d) = &a.out.charts {
         check_dir("--charts", d)?;
     }
@@ -224,9 +240,11 @@ pub fn cmd_bench_budget(a: &BenchBudgetArgs) -> Result<()> {
 }
 
 pub fn cmd_bench_scale(a: &BenchScaleArgs) -> Result<()> {
-    for p in [&a.out.json, &a.out.csv, &a.out.md].into_iter().flatten() {
-        check_out_dir("--json/--csv/--md", p)?;
-    }
+    check_reports(&[
+        ("--json", &a.out.json),
+        ("--csv", &a.out.csv),
+        ("--md", &a.out.md),
+    ])?;
     if let Some(d) = &a.out.charts {
         check_dir("--charts", d)?;
     }
@@ -277,16 +295,18 @@ pub fn cmd_bench_scale(a: &BenchScaleArgs) -> Result<()> {
         brute_max: a.brute_max,
     };
     let bar = step_bar(bench::scale::steps(&spec));
-    let tmp = std::env::temp_dir().join(format!("rayspace-scale-{}", std::process::id()));
+    // The peak renders' files, in a folder made exclusively (removed when dropped).
+    let tmp = render::output::TempFolder::new_in(&std::env::temp_dir(), "rayspace-scale-")
+        .context("bench scale: a temporary folder")?;
     let peak = |scene: &str, e: Engine| -> Result<bench::scale::Peaks> {
         if a.no_peak {
             return Ok(Default::default());
         }
-        peak_of_render(&tmp, scene, e, a.width, a.height)
+        peak_of_render(tmp.path(), scene, e, a.width, a.height)
     };
     let result = bench::scale::run(&spec, &peak, &|m| bar.step(m));
     bar.0.finish_and_clear();
-    let _ = std::fs::remove_dir_all(&tmp);
+    drop(tmp);
     let (rows, slopes) = result?;
     if let Some(d) = &a.out.charts {
         report_charts(bench::scale::charts(&spec, &rows, d));
@@ -324,7 +344,6 @@ fn peak_of_render(
     width: u32,
     height: u32,
 ) -> Result<bench::scale::Peaks> {
-    std::fs::create_dir_all(tmp).context("bench scale: a temporary folder")?;
     let stats = tmp.join("stats.json");
     let out = std::process::Command::new(std::env::current_exe()?)
         .args(["render", scene, "-e", e.name(), "-b", "0"])

@@ -27,8 +27,9 @@ pub fn engine_config(
 pub struct Outputs {
     /// The PNG, or with `--frames` the frame pattern (`%04d`).
     pub out: PathBuf,
-    /// With `--gif` alone: the temporary folder the frames go to (removed afterwards).
-    pub temporary: Option<PathBuf>,
+    /// With `--gif` alone: the temporary folder the frames go to, beside the GIF (removed
+    /// when dropped, or by the interrupt handler).
+    pub temporary: Option<render::output::TempFolder>,
 }
 
 /// The name the scene goes by before it is loaded: a built-in's or shared scene's name, a
@@ -108,8 +109,20 @@ pub fn render(a: &RenderArgs) -> Result<Outputs, UsageError> {
         (None, None) => (PathBuf::from(format!("{stem}.png")), None),
         (Some(o), Some(_)) => (o.clone(), None),
         (None, Some(_)) if anim.gif.is_some() => {
-            let dir = std::env::temp_dir().join(format!("rayspace-frames-{}", std::process::id()));
-            (dir.join("%04d.png"), Some(dir))
+            let gif = anim.gif.as_ref().expect("matched");
+            make_parent("--gif", gif).map_err(|e| UsageError(format!("{e:#}")))?;
+            let parent = match gif.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d,
+                _ => Path::new("."),
+            };
+            let dir =
+                render::output::TempFolder::new_in(parent, ".rayspace-frames-").map_err(|e| {
+                    UsageError(format!(
+                        "--gif {}: cannot make a folder for its frames beside it: {e}",
+                        gif.display()
+                    ))
+                })?;
+            (dir.path().join("%04d.png"), Some(dir))
         }
         (None, Some(_)) => (PathBuf::from(stem).join("%04d.png"), None),
     };
@@ -120,11 +133,29 @@ pub fn render(a: &RenderArgs) -> Result<Outputs, UsageError> {
     Ok(Outputs { out, temporary })
 }
 
-/// `pattern` with its `%0Nd` (or `%d`) replaced by `frame`.
+/// `pattern` with its `%0Nd` (or `%d`) replaced by `frame`: exactly one, in the file's
+/// name (a folder per frame, or two numbers in one name, would not be the frames asked for).
 pub fn frame_path(pattern: &Path, frame: u32) -> Result<PathBuf, UsageError> {
     let s = pattern.to_string_lossy();
     let bad = |m: String| UsageError(format!("--out {s}: {m}"));
-    let Some(i) = s.find('%') else {
+    let name = pattern
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    if pattern
+        .parent()
+        .is_some_and(|d| d.to_string_lossy().contains('%'))
+    {
+        return Err(bad(
+            "the frame number pattern must be in the file's name, not its folder".into(),
+        ));
+    }
+    if name.matches('%').count() > 1 {
+        return Err(bad(
+            "one frame number pattern (%04d) in the name, not several".into(),
+        ));
+    }
+    let Some(i) = s.rfind('%') else {
         return Err(bad(
             "with --frames the name needs a frame number pattern such as %04d".into(),
         ));
@@ -148,6 +179,14 @@ pub fn frame_path(pattern: &Path, frame: u32) -> Result<PathBuf, UsageError> {
         frame,
         &rest[d + 1..]
     )))
+}
+
+/// An output must be writable before any work: its folder exists (made by [`make_parent`]),
+/// it is not a directory or a special file, and a file can be created in its folder (a
+/// probe made and removed at once: a read-only or special file system, `/sys`, is found
+/// now, not after the render).
+pub fn writable(opt: &str, out: &Path) -> Result<(), UsageError> {
+    render::output::check_writable(out).map_err(|e| UsageError(format!("{opt} {e}")))
 }
 
 /// Make the folder an output goes into (`--out new/dir/x.png`), naming the option when

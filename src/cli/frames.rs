@@ -10,7 +10,6 @@ use anyhow::{bail, Context, Result};
 use rayspace::engines::Config;
 use rayspace::frames::{frame_with, FrameBuffers, FrameRow};
 use render::whitted::RenderOptions;
-use std::path::PathBuf;
 
 /// The per-frame pipeline: update transforms (and the meshes' culling spheres, by transform),
 /// rebuild the engine, render; build and trace times apart.
@@ -31,9 +30,6 @@ pub fn render_frames(
         Some(f) => (0..n).map(|i| anim.start + i as f32 / f).collect(),
         None => anim.frame_times(n),
     };
-    // Frames only wanted inside the GIF go to a temporary folder, removed at the end
-    // (also when a frame fails).
-    let _cleanup = outs.temporary.as_ref().map(|d| Temporary(d.clone()));
     let bar = step_bar(n as u64);
     let opts = RenderOptions {
         width: a.width,
@@ -120,15 +116,6 @@ pub fn render_frames(
         say!("wrote {}", p.display());
     }
     Ok(())
-}
-
-/// A folder removed when dropped (the frames of `--gif` alone).
-struct Temporary(PathBuf);
-
-impl Drop for Temporary {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
 }
 
 /// The GPU backend's frames: the device and engine made at the first frame.

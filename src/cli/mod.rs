@@ -21,6 +21,7 @@ mod frames;
 mod progress;
 mod render;
 mod report;
+pub mod signals;
 pub mod spell;
 mod trace;
 mod view;
@@ -74,6 +75,15 @@ pub fn run() -> Result<()> {
         Err(e) if !e.use_stderr() => e.exit(),
         Err(e) => return Err(UsageError(one_line(&e)).into()),
     };
+    // A scenes folder named by the environment that is not one is said, once.
+    if let Some(d) = std::env::var_os("RAYSPACE_SCENES") {
+        if !std::path::Path::new(&d).is_dir() {
+            eprintln!(
+                "warning: RAYSPACE_SCENES={}: not a folder; the shared scenes (sponza, kitchen, ...) are not available",
+                printable(&d.to_string_lossy())
+            );
+        }
+    }
     match cli.command {
         Some(Command::Render(a)) => render::cmd_render(&a),
         Some(Command::Rays(a)) => trace::cmd_rays(&a),
@@ -97,29 +107,79 @@ pub fn run() -> Result<()> {
 /// Load a scene, printing the loader's warnings (suspicious content loaded anyway, each
 /// naming file:line) as `warning:` lines on stderr.
 fn load_scene(spec: &str, opts: &scene::LoadOptions) -> Result<scene::Scene> {
-    let s = scene::load(spec, opts)?;
+    let mut s = scene::load(spec, opts)?;
     for w in &s.report.warnings {
-        eprintln!("warning: {}", spell::flags_in(&w.to_string()));
+        eprintln!("warning: {}", printable(&spell::flags_in(&w.to_string())));
     }
+    // The name comes from the file: every line that prints it prints it escaped.
+    s.name = printable(&s.name);
     Ok(s)
+}
+
+/// `s` with its control characters escaped (`\x1b`, `\t`), so that text that came from a
+/// file or the environment cannot move the cursor, clear the screen or retitle the
+/// terminal when it is printed.
+pub fn printable(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '\t' => out.push_str("\\t"),
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            c if c.is_control() => out.push_str(&format!("\\x{:02x}", c as u32)),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 fn check_out_dir(opt: &str, out: &std::path::Path) -> Result<()> {
     ::render::output::check_output(out).map_err(|e| anyhow::anyhow!("{opt} {e}"))
 }
 
-/// An output must not be one of the command's inputs (`render scene.obj --out scene.obj`
-/// would replace the scene).
-fn check_not_input(opt: &str, out: &std::path::Path, inputs: &[&std::path::Path]) -> Result<()> {
-    let Ok(o) = out.canonicalize() else {
-        return Ok(()); // not there yet: it cannot be an input
+/// The file a path names, for comparing paths: its folder resolved (links and `..`), then
+/// its name (an output need not exist yet; an existing output that is a link is replaced,
+/// not written through, so the link itself is the file).
+fn file_key(p: &std::path::Path) -> std::path::PathBuf {
+    let dir = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
     };
-    for i in inputs {
-        if i.canonicalize().is_ok_and(|i| i == o) {
-            bail!(
-                "{opt} {}: is an input of this command; refusing to overwrite it",
-                out.display()
-            );
+    let dir = dir
+        .canonicalize()
+        .unwrap_or_else(|_| std::path::absolute(&dir).unwrap_or(dir));
+    match p.file_name() {
+        Some(n) => dir.join(n),
+        None => dir,
+    }
+}
+
+/// No output may be another output of the same command (`--json x --csv x`: one would be
+/// lost) or a file the command reads (`inputs`: the scene file and everything it includes,
+/// ray files, ...): refused with one line naming both, a usage error.
+fn check_outputs(
+    outputs: &[(&str, &std::path::Path)],
+    inputs: &[&std::path::Path],
+) -> Result<(), UsageError> {
+    for (i, (a, pa)) in outputs.iter().enumerate() {
+        let ka = file_key(pa);
+        for (b, pb) in &outputs[..i] {
+            if file_key(pb) == ka {
+                return Err(UsageError(format!(
+                    "{b} and {a} name the same file {}: one would be lost; give each its own",
+                    pa.display()
+                )));
+            }
+        }
+        for input in inputs {
+            let read = input.canonicalize().unwrap_or_else(|_| file_key(input));
+            if read == ka || pa.canonicalize().is_ok_and(|c| c == read) {
+                return Err(UsageError(format!(
+                    "{a} {}: is an input of this command (it reads {}); refusing to overwrite it",
+                    pa.display(),
+                    input.display()
+                )));
+            }
         }
     }
     Ok(())

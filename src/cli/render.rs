@@ -5,7 +5,7 @@
 
 use super::args::{Backend, RenderArgs};
 use super::progress::progress_bar;
-use super::{check, check_memory, check_not_input, check_out_dir};
+use super::{check, check_memory, check_outputs, UsageError};
 use anyhow::{bail, Context, Result};
 use rayspace::engines::{self, Config};
 use render::whitted::{render, RenderOptions};
@@ -70,21 +70,26 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         Some(_) => check::frame_path(&outs.out, 0)?,
         None => outs.out.clone(),
     };
-    for (opt, p) in [
+    let outputs: Vec<(&str, &std::path::Path)> = [
         ("--out", Some(&first)),
         ("--stats", a.stats.as_ref()),
         ("--frame-csv", a.anim.frame_csv.as_ref()),
         ("--gif", a.anim.gif.as_ref()),
-    ] {
-        if let Some(p) = p {
-            check::make_parent(opt, p)?;
-            check_out_dir(opt, p)?;
-            check_not_input(opt, p, &[scene_file])?;
-        }
+    ]
+    .into_iter()
+    .filter_map(|(o, p)| Some((o, p?.as_path())))
+    .collect();
+    for &(opt, p) in &outputs {
+        check::make_parent(opt, p).map_err(|e| UsageError(format!("{e:#}")))?;
+        check::writable(opt, p)?;
     }
+    check_outputs(&outputs, &[scene_file])?;
     let load_opts = a.look.apply(a.load.options(a.max_memory));
     let t0 = Instant::now();
     let scene = super::load_scene(&a.scene, &load_opts)?;
+    // Nor any file the scene includes (an OBJ's material library, a TOML file's meshes).
+    let read: Vec<&std::path::Path> = scene.report.files.iter().map(|f| f.as_path()).collect();
+    check_outputs(&outputs, &read)?;
     let geo = Geometry::from_scene(&scene);
     let load_s = t0.elapsed().as_secs_f64();
     let render_bytes = render::whitted::render_bytes(a.width, a.height, scene.lights.len());

@@ -3,7 +3,7 @@
 //! `render::rayfile`'s; hagrid's headerless ray files are read too.
 
 use super::args::{Backend, RaysArgs, TraceArgs};
-use super::{check, check_memory, check_not_input, check_out_dir};
+use super::{check, check_memory, check_outputs, UsageError};
 use anyhow::{bail, Result};
 use rayspace::engines;
 use render::rayfile::RayFormat;
@@ -32,9 +32,12 @@ fn parse_viewpoint(s: &str) -> Result<scene::Camera> {
 }
 
 pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
-    check_out_dir("--out", &a.out)?;
-    check_not_input("--out", &a.out, &[std::path::Path::new(&a.scene)])?;
+    let outputs = [("--out", a.out.as_path())];
+    check::writable("--out", &a.out)?;
+    check_outputs(&outputs, &[std::path::Path::new(&a.scene)])?;
     let mut scene = super::load_scene(&a.scene, &a.load.options(a.max_memory))?;
+    let read: Vec<&std::path::Path> = scene.report.files.iter().map(|f| f.as_path()).collect();
+    check_outputs(&outputs, &read)?;
     if let Some(v) = &a.viewpoint {
         scene.camera = parse_viewpoint(v)?;
         scene
@@ -91,15 +94,16 @@ pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
 pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
     // The engine's options against its declarations, as `render` checks them.
     let cfg = check::engine_config(a.engine, Backend::Cpu, &a.options, false)?;
-    if let Some(o) = &a.out {
-        check_out_dir("--out", o)?;
-        check_not_input("--out", o, &[&a.rays, std::path::Path::new(&a.scene)])?;
+    let outputs: Vec<(&str, &std::path::Path)> =
+        [("--out", a.out.as_ref()), ("--json", a.json.as_ref())]
+            .into_iter()
+            .filter_map(|(o, p)| Some((o, p?.as_path())))
+            .collect();
+    for &(opt, p) in &outputs {
+        check::make_parent(opt, p).map_err(|e| UsageError(format!("{e:#}")))?;
+        check::writable(opt, p)?;
     }
-    if let Some(j) = &a.json {
-        check::make_parent("--json", j)?;
-        check_out_dir("--json", j)?;
-        check_not_input("--json", j, &[&a.rays, std::path::Path::new(&a.scene)])?;
-    }
+    check_outputs(&outputs, &[&a.rays, std::path::Path::new(&a.scene)])?;
     let file = render::rayfile::read_ray_file(&a.rays, trace::RayKind::Primary, a.format)
         .map_err(anyhow::Error::msg)?;
     if file.format == RayFormat::Hagrid && a.format.is_none() {
@@ -111,6 +115,8 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
     }
     let rays = file.rays;
     let scene = super::load_scene(&a.scene, &a.load.options(None))?;
+    let read: Vec<&std::path::Path> = scene.report.files.iter().map(|f| f.as_path()).collect();
+    check_outputs(&outputs, &read)?;
     let geo = Geometry::from_scene(&scene);
     if let Some(tag) = &file.scene {
         let here = render::rayfile::SceneTag::of(&scene.name, &geo);
@@ -118,7 +124,7 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
             eprintln!(
                 "warning: {} was made for scene '{}' (content hash {:016x}), not for {} ('{}', {:016x}): the rays may not mean what they did",
                 a.rays.display(),
-                tag.name,
+                super::printable(&tag.name),
                 tag.hash,
                 a.scene,
                 here.name,

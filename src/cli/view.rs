@@ -9,9 +9,14 @@ pub fn cmd_view(a: &ViewArgs) -> Result<()> {
     use rayspace::view::session::{self, Buffer, Session};
     use rayspace::view::window::{self, WindowOptions};
     if let Some(p) = &a.screenshot {
-        super::check_out_dir("--screenshot", p)?;
+        super::check::writable("--screenshot", p)?;
+        super::check_outputs(&[("--screenshot", p)], &[std::path::Path::new(&a.scene)])?;
     }
     let scene = super::load_scene(&a.scene, &a.look.apply(a.load.options(a.max_memory)))?;
+    if let Some(p) = &a.screenshot {
+        let read: Vec<&std::path::Path> = scene.report.files.iter().map(|f| f.as_path()).collect();
+        super::check_outputs(&[("--screenshot", p)], &read)?;
+    }
     let need = render::whitted::render_bytes(a.width, a.height, scene.lights.len());
     super::check_memory("a frame", "--width/--height", need, a.max_memory)?;
     let backend = match a.backend {

@@ -82,7 +82,7 @@ fn charts(h: &mut String, r: &Report, section: &str, alt: &str) {
 fn scenes(h: &mut String, r: &Report) {
     h.push_str("<h2 id=\"scenes\">Renders</h2>\n<p class=\"note\">Each scene rendered by every engine on the same rays (rasterized primaries, shadow rays, reflection and refraction generations). The difference image is |engine − reference| per channel × 8: all black when the engines agree, which ours must (CRSH, RAH and the grids return brute force's hits bit for bit); the peers (obvhs, Embree) agree within their stated tolerance, where a ray on an edge shared by two triangles may report the other one.</p>\n");
     for s in &r.scenes {
-        let id = slug(&s.name);
+        let id = &s.id;
         let _ = writeln!(
             h,
             "<h3 id=\"scene-{id}\">{} — {} triangles, {}×{}, {} bounces (reference: {})</h3>",

@@ -196,6 +196,9 @@ pub struct KindThumb {
 #[derive(Serialize, Clone, Debug)]
 pub struct SceneReport {
     pub name: String,
+    /// The scene's section id and image name prefix: its name's slug, made unique among the
+    /// report's scenes (two files of the same name in different folders get `-2`, `-3`).
+    pub id: String,
     pub source: String,
     pub triangles: u64,
     pub width: u32,
@@ -291,7 +294,12 @@ fn brute_affordable(geo: &Geometry, s: &Scene, side: u32, bounces: u32) -> bool 
     rays * geo.len() as u64 <= 4_000_000_000
 }
 
-fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<SceneReport> {
+fn render_scene(
+    spec: &Spec,
+    name: &str,
+    progress: &dyn Fn(&str),
+    unique: impl Fn(&str) -> String,
+) -> Result<SceneReport> {
     let dir = &spec.out;
     progress(&format!("{name}: loading"));
     let s = scene::load(name, &LoadOptions::default())?;
@@ -308,7 +316,7 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
             trace::memory::gib(limit)
         );
     }
-    let slug = charts::slug(&s.name);
+    let slug = unique(&charts::slug(&s.name));
     let opts = RenderOptions {
         width: spec.side,
         height: spec.side,
@@ -420,6 +428,7 @@ fn render_scene(spec: &Spec, name: &str, progress: &dyn Fn(&str)) -> Result<Scen
     }
     Ok(SceneReport {
         name: s.name.clone(),
+        id: slug.clone(),
         source: name.to_string(),
         triangles: geo.len() as u64,
         width: spec.side,
@@ -671,9 +680,22 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
         let d = spec.out.join(sub);
         std::fs::create_dir_all(&d).with_context(|| format!("`out`={}", d.display()))?;
     }
-    let mut scenes = Vec::new();
+    let mut scenes: Vec<SceneReport> = Vec::new();
     for name in &spec.scenes {
-        scenes.push(render_scene(spec, name, progress)?);
+        let s = render_scene(spec, name, progress, |slug| {
+            let taken = |id: &str| scenes.iter().any(|x| x.id == id);
+            (1..)
+                .map(|k| {
+                    if k == 1 {
+                        slug.to_string()
+                    } else {
+                        format!("{slug}-{k}")
+                    }
+                })
+                .find(|id| !taken(id))
+                .expect("some suffix is free")
+        })?;
+        scenes.push(s);
     }
     let configs = vec![(8, 2), (8, 3), (8, 4), (16, 2), (16, 3), (16, 4)];
     let (rsh, _) = bench::rsh::run(

@@ -605,10 +605,24 @@ impl ApplicationHandler for App {
     }
 }
 
+/// A windowing error's message without the source location winit puts before it (`os error
+/// at /…/cargo/registry/…/mod.rs:765: neither …`): a path inside a dependency tells a user
+/// nothing.
+fn without_location(msg: &str) -> &str {
+    let msg = msg.trim_end_matches('.');
+    match msg.strip_prefix("os error at ") {
+        Some(rest) => rest.find(": ").map_or(rest, |i| &rest[i + 2..]),
+        None => msg,
+    }
+}
+
 /// Open the window and run until it is closed (or the screenshot is written).
 pub fn run(session: Session, opts: WindowOptions) -> Result<()> {
     let el = EventLoop::new().map_err(|e| {
-        anyhow!("view: cannot reach a display ({e}); set DISPLAY or WAYLAND_DISPLAY, or run under xvfb-run")
+        anyhow!(
+            "view: cannot reach a display ({}); set DISPLAY or WAYLAND_DISPLAY, or run under xvfb-run",
+            without_location(&e.to_string())
+        )
     })?;
     let overlay = opts.overlay;
     let mut app = App {

@@ -139,7 +139,7 @@ def test_numbers_match_the_json(page):
     checked = 0
     for s in data["scenes"]:
         for r in s["renders"]:
-            base = f"render-{slug(s['name'])}-{slug(r['engine'])}"
+            base = f"render-{s['id']}-{slug(r['engine'])}"
             assert text(base + "-tests") == str(r["total_tests"])
             assert text(base + "-differing") == str(r["differing_pixels"])
             checked += 2

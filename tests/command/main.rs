@@ -7,6 +7,7 @@ mod common;
 mod engines;
 mod first_hour;
 mod gpu;
+mod hostile;
 mod paths;
 mod rays;
 mod readme;

@@ -78,7 +78,7 @@ fn quick_report_is_complete_and_its_renders_agree() {
         }
         let id = format!(
             "render-{}-{}-tests",
-            slug(s["name"].as_str().unwrap()),
+            s["id"].as_str().unwrap(),
             slug(r["engine"].as_str().unwrap())
         );
         assert_eq!(cell(&html, &id), r["total_tests"].to_string());

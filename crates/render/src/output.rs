@@ -5,7 +5,6 @@
 use geom::Vec3;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Why an output file was not written. Every variant names the file.
 #[derive(Debug, thiserror::Error)]
@@ -112,6 +111,22 @@ pub fn check_output(path: &Path) -> Result<(), OutputError> {
     }
 }
 
+/// [`check_output`], and a file can be made in the folder: a probe, created exclusively and
+/// removed at once, so that a read-only or special file system (`/sys`, a full disk's
+/// quota) is found before any work rather than when the output is written.
+pub fn check_writable(path: &Path) -> Result<(), OutputError> {
+    check_output(path)?;
+    tempfile::Builder::new()
+        .prefix(".rayspace-")
+        .suffix(".probe")
+        .tempfile_in(parent_dir(path))
+        .map(drop)
+        .map_err(|error| OutputError::Io {
+            path: path.to_path_buf(),
+            error,
+        })
+}
+
 fn parent_dir(path: &Path) -> PathBuf {
     match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -120,31 +135,149 @@ fn parent_dir(path: &Path) -> PathBuf {
 }
 
 /// Write `bytes` to `path` atomically: a temporary file in the same directory, written,
-/// flushed to the disk, then renamed over `path`. On any failure (disk full, no permission)
-/// the temporary is removed, an existing `path` is left as it was, and the error names the
-/// path.
+/// flushed to the disk, then renamed over `path`. The temporary is created exclusively under
+/// an unpredictable name (`O_CREAT | O_EXCL`, by `tempfile`), so a file or symbolic link
+/// planted under a name that could be guessed redirects nothing, and a long output name
+/// still fits (the temporary's name is short); it takes the permissions of the file it
+/// replaces, or the ones a new file gets (0666 less the umask). A symbolic link at `path`
+/// is replaced, never written through. On any failure (disk full, no permission, a file-size
+/// limit) the temporary is removed, an existing `path` is left as it was, and the error
+/// names the path. While it exists the temporary is held for [`remove_temporaries`].
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    static SEQ: AtomicU64 = AtomicU64::new(0);
     check_output(path)?;
-    let name = path.file_name().expect("checked").to_string_lossy();
-    let tmp = parent_dir(path).join(format!(
-        ".{name}.{}-{}.tmp",
-        std::process::id(),
-        SEQ.fetch_add(1, Ordering::Relaxed)
-    ));
+    let io = |error| OutputError::Io {
+        path: path.to_path_buf(),
+        error,
+    };
+    if STOPPING.load(std::sync::atomic::Ordering::SeqCst) {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::Interrupted,
+            "the command is being interrupted",
+        )));
+    }
+    let tmp = tempfile::Builder::new()
+        .prefix(".rayspace-")
+        .suffix(".tmp")
+        .tempfile_in(parent_dir(path))
+        .map_err(io)?;
+    let held = Held::new(tmp.path());
+    let mode = match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_file() => m.permissions(),
+        _ => new_file_permissions(),
+    };
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
+        let mut f = tmp.as_file();
         f.write_all(bytes)?;
+        f.set_permissions(mode)?;
         f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        tmp.persist(path).map(|_| ()).map_err(|e| e.error)
     })();
-    result.map_err(|error| {
-        let _ = std::fs::remove_file(&tmp);
-        OutputError::Io {
-            path: path.to_path_buf(),
-            error,
+    drop(held);
+    result.map_err(io)
+}
+
+/// The permissions a newly created file gets: 0666 less the process's umask (read from
+/// `/proc/self/status`; 022 where it cannot be).
+fn new_file_permissions() -> std::fs::Permissions {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt as _;
+        let umask = std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| {
+                let l = s.lines().find(|l| l.starts_with("Umask:"))?;
+                u32::from_str_radix(l["Umask:".len()..].trim(), 8).ok()
+            })
+            .unwrap_or(0o022);
+        std::fs::Permissions::from_mode(0o666 & !umask)
+    }
+    #[cfg(not(unix))]
+    {
+        std::fs::metadata(".")
+            .map(|m| m.permissions())
+            .unwrap_or_else(|_| unreachable!("the working directory has metadata"))
+    }
+}
+
+/// Temporary files and folders that exist only while a command runs: removed by
+/// [`remove_temporaries`] when the command is interrupted (the command line's signal
+/// handler calls it), so that an interrupt leaves none behind.
+static TEMPORARIES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// A temporary file or folder held for [`remove_temporaries`] while this lives.
+pub struct Held(PathBuf);
+
+impl Held {
+    /// Hold `path`.
+    pub fn new(path: &Path) -> Held {
+        if let Ok(mut t) = TEMPORARIES.lock() {
+            t.push(path.to_path_buf());
         }
-    })
+        Held(path.to_path_buf())
+    }
+}
+
+impl Drop for Held {
+    fn drop(&mut self) {
+        if let Ok(mut t) = TEMPORARIES.lock() {
+            if let Some(i) = t.iter().rposition(|p| *p == self.0) {
+                t.swap_remove(i);
+            }
+        }
+    }
+}
+
+/// A temporary folder, made exclusively under an unpredictable name (`mkdtemp`, by
+/// `tempfile`), held for [`remove_temporaries`] and removed with everything in it when
+/// dropped.
+pub struct TempFolder {
+    dir: tempfile::TempDir,
+    _held: Held,
+}
+
+impl TempFolder {
+    /// A new folder in `parent` whose name starts with `prefix`.
+    pub fn new_in(parent: &Path, prefix: &str) -> std::io::Result<TempFolder> {
+        let dir = tempfile::Builder::new().prefix(prefix).tempdir_in(parent)?;
+        let held = Held::new(dir.path());
+        Ok(TempFolder { dir, _held: held })
+    }
+
+    /// Its path.
+    pub fn path(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
+/// Set once the command is being interrupted: no output is written any more, so that the
+/// temporaries [`remove_temporaries`] removes are not made again behind it.
+static STOPPING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Remove every temporary file and folder held now (an interrupted command's), after which
+/// no output is written; returns how many were removed. A folder that another thread is
+/// still writing into is tried again for a while (its writes stop at their next file).
+pub fn remove_temporaries() -> usize {
+    STOPPING.store(true, std::sync::atomic::Ordering::SeqCst);
+    let held = match TEMPORARIES.lock() {
+        Ok(mut t) => std::mem::take(&mut *t),
+        Err(_) => return 0,
+    };
+    let remove = |p: &Path| match std::fs::symlink_metadata(p) {
+        Ok(m) if m.is_dir() => std::fs::remove_dir_all(p).is_ok(),
+        Ok(_) => std::fs::remove_file(p).is_ok(),
+        Err(_) => true,
+    };
+    held.iter()
+        .filter(|p| {
+            (0..50).any(|_| {
+                let done = remove(p);
+                if !done {
+                    std::thread::sleep(std::time::Duration::from_millis(10));
+                }
+                done
+            })
+        })
+        .count()
 }
 
 /// The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to [0, 1].
@@ -285,6 +418,30 @@ mod tests {
         // No temporary is left behind.
         let left: Vec<_> = std::fs::read_dir(&d).unwrap().collect();
         assert_eq!(left.len(), 1);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt as _;
+            // A replaced file keeps its permissions.
+            std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o600)).unwrap();
+            write_atomic(&p, b"private").unwrap();
+            let mode = std::fs::metadata(&p).unwrap().permissions().mode();
+            assert_eq!(mode & 0o777, 0o600);
+            // A symbolic link planted at the output is replaced, its target untouched; a
+            // 250-byte name fits.
+            let target = d.join("target.txt");
+            std::fs::write(&target, b"keep").unwrap();
+            let link = d.join("link.png");
+            std::os::unix::fs::symlink(&target, &link).unwrap();
+            write_atomic(&link, b"img").unwrap();
+            assert_eq!(std::fs::read(&target).unwrap(), b"keep");
+            assert!(!std::fs::symlink_metadata(&link).unwrap().is_symlink());
+            let long = d.join(format!("{}.png", "n".repeat(246)));
+            write_atomic(&long, b"x").unwrap();
+            std::fs::remove_file(&long).unwrap();
+            std::fs::remove_file(&link).unwrap();
+            std::fs::remove_file(&target).unwrap();
+            write_atomic(&p, b"new contents").unwrap();
+        }
         // Special files and directories are refused, naming the path.
         let e = write_atomic(Path::new("/dev/null"), b"x")
             .unwrap_err()

@@ -86,6 +86,9 @@ pub struct Sandbox {
     roots: Vec<PathBuf>,
     allow_outside: bool,
     max_triangles: u64,
+    /// Every file admitted so far, shared by the clones of one load: what the load read
+    /// besides its top-level file ([`Sandbox::files`]).
+    admitted: std::sync::Arc<std::sync::Mutex<Vec<PathBuf>>>,
 }
 
 impl Sandbox {
@@ -105,7 +108,15 @@ impl Sandbox {
             roots,
             allow_outside,
             max_triangles: u64::MAX,
+            admitted: Default::default(),
         }
+    }
+
+    /// The files referenced by the scene that this load admitted (read or about to be), in
+    /// the order it admitted them: with the top-level file, everything a command reads of
+    /// the scene, which none of its outputs may be.
+    pub fn files(&self) -> Vec<PathBuf> {
+        self.admitted.lock().map(|v| v.clone()).unwrap_or_default()
     }
 
     /// The same sandbox with a budget of `n` triangles for the whole load.
@@ -159,6 +170,9 @@ impl Sandbox {
         name: &str,
         joined: PathBuf,
     ) -> Result<PathBuf, SceneError> {
+        if let Ok(mut v) = self.admitted.lock() {
+            v.push(joined.clone());
+        }
         if self.allow_outside {
             return Ok(joined);
         }

@@ -207,6 +207,10 @@ fn finish(
 ) -> Result<(), SceneError> {
     scene.validate()?;
     sb.admit_triangles(path, None, scene.triangle_count() as u64)?;
+    if path.is_file() {
+        scene.report.files.push(path.to_path_buf());
+    }
+    scene.report.files.extend(sb.files());
     if opts.fill.unwrap_or(scene.report.automatic_lights) {
         autocam::apply_fill(scene);
     }

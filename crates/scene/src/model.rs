@@ -297,6 +297,9 @@ pub struct LoadReport {
     /// Suspicious content that was loaded anyway, each naming `file:line` (the CLI prints
     /// them as `warning:` lines).
     pub warnings: Vec<String>,
+    /// Every file the load read: the scene file and what it references (material
+    /// libraries, buffers, meshes, includes). A command's outputs may be none of them.
+    pub files: Vec<PathBuf>,
 }
 
 /// A scene's identity, for what is kept from one use of its meshes to the next
@@ -507,11 +510,23 @@ impl Scene {
         }
         let c = &self.camera;
         let f = c.target - c.eye;
-        if !(finite3(c.eye) && finite3(c.target) && finite3(c.up))
+        // The view's direction and basis must be finite too: an eye and a target far apart
+        // (±3e38) overflow their difference, and every ray would be NaN.
+        let basis_finite = || {
+            let (r, u, w) = c.basis();
+            finite3(r) && finite3(u) && finite3(w)
+        };
+        let finite = finite3(c.eye)
+            && finite3(c.target)
+            && finite3(c.up)
+            && finite3(f)
+            && f.length().is_finite();
+        if !finite
             || f.length() <= 0.0
             || f.cross(c.up).length() <= 1e-6 * f.length() * c.up.length()
+            || !basis_finite()
         {
-            return Err(SceneError::invalid(&path, "camera: eye, target and up must be finite, eye ≠ target, up not parallel to the view"));
+            return Err(SceneError::invalid(&path, "camera: eye, target and up must be finite, eye ≠ target at a representable distance, up not parallel to the view"));
         }
         if !(c.vfov > 0.0 && c.vfov < 180.0) {
             return Err(SceneError::invalid(
