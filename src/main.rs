@@ -4,6 +4,10 @@ mod cli;
 
 use std::process::ExitCode;
 
+/// An allocation the system refuses ends the command with one line and status 1.
+#[global_allocator]
+static ALLOCATOR: cli::oom::Guarded = cli::oom::Guarded;
+
 fn main() -> ExitCode {
     // Mesa's Vulkan drivers print two lines when XDG_RUNTIME_DIR is unset or not a folder;
     // the GPU backend keeps nothing there, so the system's temporary folder serves. (Set

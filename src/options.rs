@@ -39,12 +39,19 @@ impl LoadArgs {
     /// in MiB where the command has it): a scene whose model alone would exceed it stops
     /// while it loads.
     pub fn options(&self, max_mib: Option<u64>) -> scene::LoadOptions {
+        self.within(::trace::memory::limit(max_mib), 0)
+    }
+
+    /// The loader's options for a process that may take `bytes` more, each triangle costing
+    /// the scene's memory and `extra` more (the engine built over it): a scene too large for
+    /// the work stops while it loads, and no file larger than `bytes` is read.
+    pub fn within(&self, bytes: u64, extra: u64) -> scene::LoadOptions {
         scene::LoadOptions {
             split: self.meshes,
             allow_outside_paths: self.allow_outside_paths,
             ..Default::default()
         }
-        .for_memory(::trace::memory::limit(max_mib))
+        .for_process(bytes, extra)
     }
 }
 

@@ -39,10 +39,8 @@ pub(crate) fn render_frame<'py>(
         None => None,
     };
     let s = frame.as_ref().unwrap_or(scene);
-    let adapted = fit(
-        &mut cfg,
-        render_memory(width, height, s.scene.lights.len())?,
-    )?;
+    let left = render_memory(width, height, s.scene.lights.len())?;
+    let adapted = fit(&mut cfg, engine, s.geo.len(), left)?;
     let (sc, geo, load_seconds) = (s.scene.clone(), s.geo.clone(), s.load_seconds);
     let ropts = render::whitted::RenderOptions {
         width,
@@ -123,10 +121,8 @@ pub(crate) fn frame<'py>(
             scene.scene.name
         )));
     }
-    fit(
-        &mut cfg,
-        render_memory(width, height, scene.scene.lights.len())?,
-    )?;
+    let left = render_memory(width, height, scene.scene.lights.len())?;
+    fit(&mut cfg, engine, scene.geo.len(), left)?;
     let sc = scene.scene.clone();
     let ropts = render::whitted::RenderOptions {
         width,
@@ -179,8 +175,8 @@ pub(crate) fn check_image(width: u32, height: u32, bounces: u32) -> PyResult<()>
     Ok(())
 }
 
-/// The memory a render needs, checked against the limit; returns what it leaves for the
-/// engine's structure (the grid checks its model against it).
+/// The memory a render needs, checked against the limit; returns what it and the process's
+/// present memory leave for the engine's structure (its model is checked against it).
 fn render_memory(width: u32, height: u32, lights: usize) -> PyResult<u64> {
     let need = render::whitted::render_bytes(width, height, lights);
     let limit = trace::memory::limit(None);
@@ -191,19 +187,24 @@ fn render_memory(width: u32, height: u32, lights: usize) -> PyResult<u64> {
             trace::memory::gib(limit)
         )));
     }
-    Ok(limit - need)
+    // What the process holds now (the interpreter, the scene) is not the engine's either.
+    let held = trace::memory::current_rss().unwrap_or(0);
+    Ok(limit.saturating_sub(need + held))
 }
 
-/// `cfg` fitted to the `bytes` the render leaves, as `render` fits it (the grid's build
-/// checks its model against them; CRSH and RAH lower their pair budget): what it changed,
-/// as `--stats`'s `engine_adapted` object.
-fn fit(cfg: &mut engines::Config, bytes: u64) -> PyResult<serde_json::Value> {
-    let changes = cfg.fit_memory(bytes).ok_or_else(|| {
-        err(format!(
-            "pair_budget: even 1024 pairs need more than the {} the memory limit leaves after the render",
-            trace::memory::gib(bytes)
-        ))
-    })?;
+/// `cfg` of `engine` over `triangles` fitted to the `bytes` the render leaves, as `render`
+/// fits it (the build's model must fit; the grid's build checks its own against them; CRSH
+/// and RAH lower their pair budget): what it changed, as `--stats`'s `engine_adapted`
+/// object.
+fn fit(
+    cfg: &mut engines::Config,
+    engine: engines::Engine,
+    triangles: usize,
+    bytes: u64,
+) -> PyResult<serde_json::Value> {
+    let changes = cfg
+        .fit_memory(engine, triangles as u64, bytes)
+        .map_err(err)?;
     let mut out = serde_json::Map::new();
     for (name, asked, used) in changes {
         out.insert(

@@ -403,6 +403,9 @@ pub struct TraceArgs {
     /// else hagrid's headerless rays, with a notice).
     #[arg(long, value_enum)]
     pub format: Option<render::rayfile::RayFormat>,
+    /// Most memory the command may use, in MiB (default: 80 % of this machine's memory).
+    #[arg(long = "max-memory", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_memory: Option<u64>,
 }
 
 #[derive(Args, Clone)]

@@ -18,6 +18,7 @@ mod bench;
 mod check;
 mod engines;
 mod frames;
+pub mod oom;
 mod progress;
 mod render;
 mod report;
@@ -205,6 +206,21 @@ fn check_memory(what: &str, opts: &str, need: u64, max_mib: Option<u64>) -> Resu
         bail!(
             "{opts}: {what} needs about {}, more than the {} allowed (--max-memory, default 80 % of this machine's memory); lower {opts} or raise --max-memory",
             gib(need),
+            gib(limit)
+        );
+    }
+    Ok(())
+}
+
+/// The program and what it holds already (`held` bytes: its code, the rays read, the
+/// render's buffers) must leave room under the limit for any scene at all.
+fn check_held(held: u64, max_mib: Option<u64>) -> Result<()> {
+    let limit = memory_limit(max_mib);
+    if held >= limit {
+        let gib = ::trace::memory::gib;
+        bail!(
+            "--max-memory: the program and its buffers take {} before the scene loads, more than the {} allowed; raise --max-memory",
+            gib(held),
             gib(limit)
         );
     }

@@ -84,7 +84,22 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         check::writable(opt, p)?;
     }
     check_outputs(&outputs, &[scene_file])?;
-    let load_opts = a.look.apply(a.load.options(a.max_memory));
+    // The whole process's memory model (issue 69: the limit bounds the peak): what the
+    // process holds now, the render's buffers, and per triangle the scene and the engine's
+    // build; a scene too large for it stops while it loads.
+    let limit = super::memory_limit(a.max_memory);
+    let gpu = a.backend == Backend::Gpu;
+    let per_triangle = if gpu {
+        0 // the engine's structure lives on the device
+    } else {
+        engines::config::build_bytes_per_triangle(a.engine, &cfg)
+    };
+    let held = trace::memory::current_rss().unwrap_or(0);
+    let one_light = render::whitted::render_bytes(a.width, a.height, 1);
+    check_memory("the render", "--width/--height", one_light, a.max_memory)?;
+    super::check_held(held + one_light, a.max_memory)?;
+    let budget = limit.saturating_sub(held + one_light);
+    let load_opts = a.look.apply(a.load.within(budget, per_triangle));
     let t0 = Instant::now();
     let scene = super::load_scene(&a.scene, &load_opts)?;
     // Nor any file the scene includes (an OBJ's material library, a TOML file's meshes).
@@ -94,26 +109,22 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     let load_s = t0.elapsed().as_secs_f64();
     let render_bytes = render::whitted::render_bytes(a.width, a.height, scene.lights.len());
     check_memory("the render", "--width/--height", render_bytes, a.max_memory)?;
-    // The engine's structure gets what the render leaves (the grid checks its model level
-    // by level against it; CRSH/RAH lower their pair budget to fit: more, smaller batches,
-    // no pair dropped).
-    let left = super::memory_limit(a.max_memory).saturating_sub(render_bytes);
+    // The engine's build gets what the scene (as the process holds it now) and the render
+    // leave: its model must fit (refused before anything is built), the grid checks its own
+    // level by level against it, CRSH/RAH lower their pair budget to fit (more, smaller
+    // batches, no pair dropped).
+    let held = trace::memory::current_rss().unwrap_or(held);
+    let left = limit.saturating_sub(held + render_bytes);
     let mut adapted = BTreeMap::new();
-    match cfg.fit_memory(left) {
-        Some(changes) => {
-            for (name, asked, used) in changes {
-                say!(
-                    "{} lowered from {asked} to {used} to fit --max-memory ({} left after the render)",
-                    super::args::EngineFlags::flag(name),
-                    trace::memory::gib(left)
-                );
-                adapted.insert(name.replace('_', "-"), Adapted { asked, used });
-            }
+    if !gpu {
+        for (name, asked, used) in cfg.fit_memory(a.engine, geo.len() as u64, left)? {
+            say!(
+                "{} lowered from {asked} to {used} to fit --max-memory ({} left after the scene, the render and the build)",
+                super::args::EngineFlags::flag(name),
+                trace::memory::gib(left)
+            );
+            adapted.insert(name.replace('_', "-"), Adapted { asked, used });
         }
-        None => bail!(
-            "--pair-budget: even 1024 pairs need more than the {} --max-memory leaves after the render; raise --max-memory or lower --width/--height",
-            trace::memory::gib(left)
-        ),
     }
     let r = scene.report.clone();
     say!(

@@ -93,7 +93,7 @@ pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
 
 pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
     // The engine's options against its declarations, as `render` checks them.
-    let cfg = check::engine_config(a.engine, Backend::Cpu, &a.options, false)?;
+    let mut cfg = check::engine_config(a.engine, Backend::Cpu, &a.options, false)?;
     let outputs: Vec<(&str, &std::path::Path)> =
         [("--out", a.out.as_ref()), ("--json", a.json.as_ref())]
             .into_iter()
@@ -114,10 +114,27 @@ pub fn cmd_trace(a: &TraceArgs) -> Result<()> {
         );
     }
     let rays = file.rays;
-    let scene = super::load_scene(&a.scene, &a.load.options(None))?;
+    // The process's memory model: what it holds now (the rays and their hits), and per
+    // triangle the scene and the engine's build; a scene too large stops while it loads.
+    let limit = super::memory_limit(a.max_memory);
+    let hits_bytes = rays.len() as u64 * std::mem::size_of::<trace::Hit>() as u64;
+    let held = trace::memory::current_rss().unwrap_or(0) + hits_bytes;
+    super::check_held(held, a.max_memory)?;
+    let per_triangle = engines::config::build_bytes_per_triangle(a.engine, &cfg);
+    let load = a.load.within(limit.saturating_sub(held), per_triangle);
+    let scene = super::load_scene(&a.scene, &load)?;
     let read: Vec<&std::path::Path> = scene.report.files.iter().map(|f| f.as_path()).collect();
     check_outputs(&outputs, &read)?;
     let geo = Geometry::from_scene(&scene);
+    let held = trace::memory::current_rss().unwrap_or(held) + hits_bytes;
+    for (name, asked, used) in
+        cfg.fit_memory(a.engine, geo.len() as u64, limit.saturating_sub(held))?
+    {
+        say!(
+            "{} lowered from {asked} to {used} to fit --max-memory",
+            super::args::EngineFlags::flag(name)
+        );
+    }
     if let Some(tag) = &file.scene {
         let here = render::rayfile::SceneTag::of(&scene.name, &geo);
         if tag.hash != 0 && tag.hash != here.hash {

@@ -401,29 +401,79 @@ impl Config {
         }
     }
 
-    /// Fit the configuration to `bytes` of memory (what the memory limit leaves after the
-    /// render): the grid's build checks its model against it; CRSH and RAH lower their pair
-    /// budget until its model fits (more, smaller batches; no pair dropped). Returns what
-    /// was changed to fit, as (option, asked, now); `None` where not even the smallest
-    /// budget fits.
-    pub fn fit_memory(&mut self, bytes: u64) -> Option<Vec<(&'static str, Value, Value)>> {
+    /// Fit the configuration to `bytes` of memory, what the memory limit leaves once the
+    /// scene is loaded and the render's buffers counted, for `engine` built over
+    /// `triangles`: its build's model ([`build_bytes`]) must fit, else the typed
+    /// [`EngineError::Memory`] refuses it before anything is allocated; the grid's build
+    /// checks its own model against what is left; CRSH and RAH lower their pair budget
+    /// until its model fits what the build leaves (more, smaller batches; no pair dropped).
+    /// Returns what was changed to fit, as (option, asked, now).
+    pub fn fit_memory(
+        &mut self,
+        engine: Engine,
+        triangles: u64,
+        bytes: u64,
+    ) -> Result<Vec<(&'static str, Value, Value)>, EngineError> {
+        let build = build_bytes(engine, self, triangles);
+        if build > bytes {
+            return Err(EngineError::Memory {
+                engine: engine.name(),
+                triangles,
+                need: build,
+                left: bytes,
+            });
+        }
+        let left = bytes - build;
         match self {
             Config::Grid(c) => {
                 c.max_bytes = bytes;
-                Some(Vec::new())
+                Ok(Vec::new())
             }
-            Config::Rsh(c) if c.pair_bytes() > bytes => {
-                let b = c.budget_within(bytes)?;
+            Config::Rsh(c) if c.pair_bytes() > left => {
+                let b = c.budget_within(left).ok_or(EngineError::Memory {
+                    engine: engine.name(),
+                    triangles,
+                    need: build + c.pair_bytes_of(1024),
+                    left: bytes,
+                })?;
                 let was = c.pair_budget;
                 c.pair_budget = b;
-                Some(vec![(
+                Ok(vec![(
                     "pair_budget",
                     Value::Int(was as i64),
                     Value::Int(b as i64),
                 )])
             }
-            _ => Some(Vec::new()),
+            _ => Ok(Vec::new()),
         }
+    }
+}
+
+/// The memory model of `engine`'s build over `triangles` triangles with configuration
+/// `cfg`: the resident bytes it adds at its peak, each engine's own model (the least the
+/// grid's takes: its build checks the rest itself).
+pub fn build_bytes(engine: Engine, cfg: &Config, triangles: u64) -> u64 {
+    triangles.saturating_mul(build_bytes_per_triangle(engine, cfg))
+}
+
+/// [`build_bytes`] per triangle.
+pub fn build_bytes_per_triangle(engine: Engine, cfg: &Config) -> u64 {
+    match (engine, cfg) {
+        (Engine::Bvh, _) => accel::bvh::BUILD_BYTES_PER_TRIANGLE,
+        (Engine::Crsh | Engine::Rah, Config::Rsh(c)) => rsh::engine::build_bytes_per_triangle(c),
+        (Engine::Crsh | Engine::Rah, _) => {
+            rsh::engine::build_bytes_per_triangle(&RshConfig::crsh())
+        }
+        (Engine::Grid | Engine::Grid2l, Config::Grid(c)) => {
+            accel::grid::build_bytes_per_triangle(c)
+        }
+        (Engine::Grid | Engine::Grid2l, _) => {
+            accel::grid::build_bytes_per_triangle(&accel::grid::GridConfig::two_level())
+        }
+        (Engine::Brute, _) => accel::brute::BUILD_BYTES_PER_TRIANGLE,
+        (Engine::ObvhsCwbvh, _) => accel::peers::CWBVH_BUILD_BYTES_PER_TRIANGLE,
+        (Engine::ObvhsBvh2, _) => accel::peers::BVH2_BUILD_BYTES_PER_TRIANGLE,
+        (Engine::Embree | Engine::EmbreeStream, _) => accel::peers::EMBREE_BUILD_BYTES_PER_TRIANGLE,
     }
 }
 

@@ -85,6 +85,19 @@ pub enum EngineError {
         /// The engine.
         engine: &'static str,
     },
+    /// The engine's build would need more memory than the limit leaves (checked before
+    /// anything is allocated).
+    #[error("`engine`={engine} over {triangles} triangles needs about {} for its build, more than the {} the memory limit (`max_memory`) leaves after the scene and the render; raise it, lower the size, or take a lighter engine (`engine`=bvh)", trace::memory::gib(*need), trace::memory::gib(*left))]
+    Memory {
+        /// The engine.
+        engine: &'static str,
+        /// Its triangles.
+        triangles: u64,
+        /// The bytes its model needs.
+        need: u64,
+        /// The bytes left for it.
+        left: u64,
+    },
     /// A grid engine refused its options, its input or its size.
     #[error("`engine` {engine}: {error}")]
     Grid {

@@ -143,13 +143,25 @@ fn bad_files() {
     );
     // A directory where a file is expected.
     fails(&["render", d.to_str().unwrap(), "--out", o], &[]);
-    // A small file that expands past the memory limit stops while it loads (1 MiB:
-    // 10,922 triangles of scene model; 20 spheres are about 20,000).
-    let spheres: String = (0..20).map(|i| format!("s {i} 0 0 0.5\n")).collect();
+    // A small file that expands past the memory limit stops while it loads (24 MiB, less
+    // what the program holds, at about 470 bytes a triangle with the default engine's
+    // build: some 25,000 triangles; 100 spheres are about 100,000).
+    let spheres: String = (0..100).map(|i| format!("s {i} 0 0 0.5\n")).collect();
     let p = write(&d, "spheres.aff", &spheres);
     fails(
-        &["render", &p, "--out", o, "--max-memory", "1"],
-        &["spheres.aff:", "10922 triangles", "--max-memory"],
+        &[
+            "render",
+            &p,
+            "--out",
+            o,
+            "-W",
+            "16",
+            "-H",
+            "16",
+            "--max-memory",
+            "24",
+        ],
+        &["spheres.aff:", "load budget", "--max-memory"],
     );
 }
 

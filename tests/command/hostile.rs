@@ -275,3 +275,97 @@ fn report_scenes_that_share_a_file_name_stay_apart() {
         assert!(out.join(format!("img/{id}-grid.png")).exists(), "{id}");
     }
 }
+
+/// The memory limit bounds the whole process: with every engine, a render under
+/// `--max-memory` either peaks within it (10 % allowed) or is refused before allocating,
+/// with one line and status 1; a limit from `ulimit -v` is kept the same way, and an
+/// allocation the system refuses anyway ends with one line too, never an abort or a panic.
+#[test]
+fn memory_limits_bound_every_engine() {
+    let d = tmp("hostile-memory");
+    let engines = [
+        "bvh",
+        "crsh",
+        "rah",
+        "grid",
+        "grid2l",
+        "obvhs-cwbvh",
+        "obvhs-bvh2",
+        "brute",
+    ];
+    let limit_mib = 120u64;
+    let (mut ran, mut refused) = (0, 0);
+    for e in engines {
+        let json = d.join(format!("{e}.json"));
+        let out = bin()
+            .args(words(&format!(
+                "render hairball:120k -b 0 -W 32 -H 32 -e {e} --max-memory {limit_mib} --out {} --stats {}",
+                d.join(format!("{e}.png")).display(),
+                json.display()
+            )))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !err.contains("panicked") && !err.contains("memory allocation"),
+            "{e}: {err}"
+        );
+        if out.status.success() {
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+            let peak = v["peak_rss_bytes"].as_u64().unwrap();
+            assert!(
+                peak <= limit_mib * (1 << 20) * 11 / 10,
+                "{e}: peak {peak} over --max-memory {limit_mib} MiB"
+            );
+            ran += 1;
+        } else {
+            assert_eq!(out.status.code(), Some(1), "{e}: {err}");
+            assert!(err.contains("--max-memory"), "{e}: {err}");
+            assert_eq!(err.trim().lines().count(), 1, "{e}: {err}");
+            refused += 1;
+        }
+    }
+    assert!(ran > 0 && refused > 0, "{ran} ran, {refused} refused");
+    // Far too large for the limit: refused while the scene is made, at once.
+    let t0 = std::time::Instant::now();
+    fails(
+        &words(&format!(
+            "render hairball:2M -b 0 -W 64 -H 64 --max-memory 200 --out {}",
+            d.join("x.png").display()
+        )),
+        &["--max-memory", "triangles"],
+    );
+    assert!(t0.elapsed().as_secs() < 10, "refused before generating");
+    #[cfg(unix)]
+    {
+        let exe = env!("CARGO_BIN_EXE_rayspace");
+        for (vm, cmd) in [
+            (700_000, "render hairball:2M -b 0 -W 64 -H 64"),
+            (
+                700_000,
+                "render hairball:2M -b 0 -W 64 -H 64 -e obvhs-cwbvh",
+            ),
+            // So little that the render's own allocations fail.
+            (30_000, "render cornell -W 64 -H 64"),
+        ] {
+            let out = std::process::Command::new("bash")
+                .arg("-c")
+                .arg(format!(
+                    "ulimit -v {vm}; exec {exe} {cmd} --out {}",
+                    d.join("u.png").display()
+                ))
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "ulimit -v {vm} {cmd}: {err}");
+            let lines: Vec<&str> = err.trim().lines().collect();
+            assert_eq!(lines.len(), 1, "ulimit -v {vm} {cmd}: {err}");
+            assert!(
+                lines[0].starts_with("error: ") && !err.contains("panicked"),
+                "{err}"
+            );
+        }
+    }
+    assert!(temporaries(&d).is_empty());
+}

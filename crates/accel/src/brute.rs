@@ -5,6 +5,11 @@ use geom::{intersect, Vec3};
 use scene::Geometry;
 use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
+/// The memory model of the engine's build: the resident bytes it adds per triangle at its
+/// peak (its copy of the triangles), over the measured 37–40 (`bench/results/2026-12-07-2core/
+/// memory.txt`), checked against the memory limit before it is built.
+pub const BUILD_BYTES_PER_TRIANGLE: u64 = 48;
+
 /// Triangles in one flat array; nothing else.
 pub struct BruteForce {
     tris: Vec<[Vec3; 3]>,

@@ -18,6 +18,18 @@ use std::time::Instant;
 use trace::OptionError;
 use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
+/// The memory model of the engine's build: resident bytes added per triangle at its peak,
+/// with the object tree (the tree with the dual traversal's records: measured 357–358 on
+/// hairball and city scenes, `bench/results/2026-12-07-2core/memory.txt`) and with the mesh
+/// spheres (the triangles and their spheres: 53–56), checked against the memory limit before
+/// the build; the pair buffers of the traversal are `RshConfig::pair_bytes`'s.
+pub fn build_bytes_per_triangle(cfg: &RshConfig) -> u64 {
+    match cfg.objects {
+        ObjectHierarchy::Bvh => 400,
+        ObjectHierarchy::MeshSpheres => 64,
+    }
+}
+
 /// Why a CRSH/RAH engine cannot be built.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum RshError {

@@ -88,6 +88,11 @@ impl RshConfig {
         self.pair_budget as u64 * BYTES_PER_PAIR * (self.levels as u64 + 2)
     }
 
+    /// [`RshConfig::pair_bytes`] with a budget of `budget` pairs.
+    pub fn pair_bytes_of(&self, budget: usize) -> u64 {
+        budget as u64 * BYTES_PER_PAIR * (self.levels as u64 + 2)
+    }
+
     /// The largest pair budget whose [`RshConfig::pair_bytes`] fit `bytes` (batching more,
     /// never dropping a pair), at most the configured one; `None` below the minimum 1024.
     pub fn budget_within(&self, bytes: u64) -> Option<usize> {

@@ -128,7 +128,7 @@ fn import_buffers(
                     percent_decode(uri).ok_or_else(|| bad(i, format!("malformed URI '{uri}'")))?
                 };
                 let p = sb.resolve(path, &format!("buffer {i} uri"), &name)?;
-                crate::io::read_file(&p)?
+                sb.read_file(&p)?
             }
             source => {
                 gltf::buffer::Data::from_source_and_blob(source, None, &mut blob)
@@ -229,7 +229,7 @@ pub fn load_gltf_scene_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene,
     // Read through the bounded reader and parse from memory: `Gltf::open` trusts a GLB
     // header's length and allocates it (a 3 GB request from a 100-byte file, found by
     // fuzzing); `from_slice` checks lengths against the bytes there are.
-    let bytes = crate::io::read_file(path)?;
+    let bytes = sb.read_file(path)?;
     precheck(&bytes).map_err(|e| bad(format!("glTF: {e}")))?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice(&bytes).map_err(|e| bad(format!("glTF: {e}")))?;

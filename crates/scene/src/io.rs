@@ -62,7 +62,11 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>, SceneError> {
 /// The UTF-8 text of the regular file `path`, without a leading byte-order mark (editors
 /// on Windows write one; it is not part of the first line).
 pub fn read_text(path: &Path) -> Result<String, SceneError> {
-    let bytes = read_file(path)?;
+    text_of(path, read_file(path)?)
+}
+
+/// `bytes` of `path` as UTF-8 text without a leading byte-order mark.
+fn text_of(path: &Path, bytes: Vec<u8>) -> Result<String, SceneError> {
     let mut s = String::from_utf8(bytes).map_err(|e| SceneError::Io {
         path: path.to_path_buf(),
         cause: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
@@ -86,6 +90,10 @@ pub struct Sandbox {
     roots: Vec<PathBuf>,
     allow_outside: bool,
     max_triangles: u64,
+    /// What the triangle budget counts per triangle (for its message).
+    bytes_per_triangle: u64,
+    /// The most bytes of one file the load may hold in memory ([`Sandbox::read_file`]).
+    max_file_bytes: u64,
     /// Every file admitted so far, shared by the clones of one load: what the load read
     /// besides its top-level file ([`Sandbox::files`]).
     admitted: std::sync::Arc<std::sync::Mutex<Vec<PathBuf>>>,
@@ -108,6 +116,8 @@ impl Sandbox {
             roots,
             allow_outside,
             max_triangles: u64::MAX,
+            bytes_per_triangle: crate::BYTES_PER_TRIANGLE,
+            max_file_bytes: MAX_FILE_BYTES,
             admitted: Default::default(),
         }
     }
@@ -119,9 +129,40 @@ impl Sandbox {
         self.admitted.lock().map(|v| v.clone()).unwrap_or_default()
     }
 
-    /// The same sandbox with a budget of `n` triangles for the whole load.
-    pub fn with_max_triangles(mut self, n: u64) -> Sandbox {
+    /// The same sandbox holding at most `n` bytes of one file in memory (at most
+    /// [`MAX_FILE_BYTES`]): the memory limit's share for reading.
+    pub fn with_max_file_bytes(mut self, n: u64) -> Sandbox {
+        self.max_file_bytes = n.min(MAX_FILE_BYTES);
+        self
+    }
+
+    /// The bytes of the regular file `path` ([`read_file`]), refused before it is read
+    /// when it is larger than this load may hold in memory.
+    pub fn read_file(&self, path: &Path) -> Result<Vec<u8>, SceneError> {
+        let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+        if len > self.max_file_bytes {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "{len} bytes is more than the {} the memory limit (`max_memory`) lets one file take",
+                    self.max_file_bytes
+                ),
+            ));
+        }
+        read_file(path)
+    }
+
+    /// [`Sandbox::read_file`] as UTF-8 text, as [`read_text`] reads it.
+    pub fn read_text(&self, path: &Path) -> Result<String, SceneError> {
+        let bytes = self.read_file(path)?;
+        text_of(path, bytes)
+    }
+
+    /// The same sandbox with a budget of `n` triangles for the whole load, each counted as
+    /// `bytes` (for the message).
+    pub fn with_max_triangles(mut self, n: u64, bytes: u64) -> Sandbox {
         self.max_triangles = n;
+        self.bytes_per_triangle = bytes;
         self
     }
 
@@ -137,10 +178,9 @@ impl Sandbox {
             return Ok(());
         }
         let msg = format!(
-            "the scene grows past {} triangles, its load budget (about {} bytes each; \
-             the budget comes from `max_memory`)",
-            self.max_triangles,
-            crate::BYTES_PER_TRIANGLE
+            "the scene grows past {} triangles, its load budget (about {} bytes each with \
+             the work done over it; the budget comes from `max_memory`)",
+            self.max_triangles, self.bytes_per_triangle
         );
         Err(match line {
             Some(line) => SceneError::Parse {

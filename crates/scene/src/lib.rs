@@ -77,6 +77,12 @@ pub struct LoadOptions {
     /// [`io::Sandbox::admit_triangles`]). No limit by default; [`LoadOptions::for_memory`]
     /// derives one from a memory budget.
     pub max_triangles: u64,
+    /// Most bytes of one file the load may read into memory (at most
+    /// [`io::MAX_FILE_BYTES`]; [`LoadOptions::for_process`] sets it from a memory budget).
+    pub max_file_bytes: u64,
+    /// What the budget counts per triangle, for messages ([`BYTES_PER_TRIANGLE`], or the
+    /// whole process's share with [`LoadOptions::for_process`]).
+    pub bytes_per_triangle: u64,
     /// The ambient fill ([`autocam::apply_fill`]): `None` gives it to scenes whose lights
     /// are automatic ([`LoadReport::automatic_lights`]) and to no other; `Some` forces it
     /// on or off.
@@ -91,6 +97,8 @@ impl Default for LoadOptions {
             split: MeshSplit::default(),
             allow_outside_paths: false,
             max_triangles: u64::MAX,
+            max_file_bytes: io::MAX_FILE_BYTES,
+            bytes_per_triangle: BYTES_PER_TRIANGLE,
             fill: None,
             exposure: 0.0,
         }
@@ -102,11 +110,29 @@ impl Default for LoadOptions {
 /// the mesh's share of its bookkeeping (8).
 pub const BYTES_PER_TRIANGLE: u64 = 96;
 
+/// What a loaded scene holds in memory per triangle, with the flattened [`Geometry`] made
+/// from it: above the measured 130–232 bytes (city and hairball scenes,
+/// `bench/results/2026-12-07-2core/memory.txt`), for whole-process memory models.
+pub const RESIDENT_BYTES_PER_TRIANGLE: u64 = 240;
+
 impl LoadOptions {
     /// The triangle budget that fits `bytes` of scene model.
     pub fn for_memory(self, bytes: u64) -> LoadOptions {
         LoadOptions {
             max_triangles: bytes / BYTES_PER_TRIANGLE,
+            ..self
+        }
+    }
+
+    /// The triangle budget that fits `bytes` of a whole process whose every triangle costs
+    /// [`RESIDENT_BYTES_PER_TRIANGLE`] for the scene and `extra` more (the engine built over
+    /// it): a scene too large for the work stops while it loads, before its memory is
+    /// allocated.
+    pub fn for_process(self, bytes: u64, extra: u64) -> LoadOptions {
+        LoadOptions {
+            max_triangles: bytes / (RESIDENT_BYTES_PER_TRIANGLE + extra),
+            max_file_bytes: bytes.min(io::MAX_FILE_BYTES),
+            bytes_per_triangle: RESIDENT_BYTES_PER_TRIANGLE + extra,
             ..self
         }
     }
@@ -189,7 +215,8 @@ fn load_shared(name: &str, what: Shared, opts: &LoadOptions) -> Result<Scene, Sc
         Shared::SceneFile(path, text) => {
             let path = Path::new(path);
             let sb = io::Sandbox::for_scene(path, opts.allow_outside_paths)
-                .with_max_triangles(opts.max_triangles);
+                .with_max_triangles(opts.max_triangles, opts.bytes_per_triangle)
+                .with_max_file_bytes(opts.max_file_bytes);
             let mut scene = scenefile::load_scene_text_in(text, path, &sb)?;
             finish(&mut scene, path, &sb, opts)?;
             Ok(scene)
@@ -226,7 +253,8 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     let sb = io::Sandbox::for_scene(path, opts.allow_outside_paths)
-        .with_max_triangles(opts.max_triangles);
+        .with_max_triangles(opts.max_triangles, opts.bytes_per_triangle)
+        .with_max_file_bytes(opts.max_file_bytes);
     let mut scene = match ext.as_deref() {
         Some("obj") => obj::load_obj_scene_in(path, opts.split, &sb)?,
         Some("gltf") | Some("glb") => gltf_load::load_gltf_scene_in(path, &sb)?,

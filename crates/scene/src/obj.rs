@@ -205,7 +205,7 @@ pub fn load_obj_meshes(
     report: &mut LoadReport,
     sb: &crate::io::Sandbox,
 ) -> Result<(Vec<Mesh>, Vec<Material>), SceneError> {
-    let text = crate::io::read_text(path)?;
+    let text = sb.read_text(path)?;
     // Large files are checked and parsed in parallel (`objfast`, the same result); small
     // ones by `validate_obj` and tobj.
     let parallel = text.len() >= crate::objfast::PARALLEL_BYTES;
@@ -236,7 +236,7 @@ pub fn load_obj_meshes(
         if !seen.borrow_mut().insert(full.clone()) {
             return Ok((Vec::new(), Default::default()));
         }
-        let r = match crate::io::read_text(&full) {
+        let r = match sb.read_text(&full) {
             Ok(t) => match check_mtl_colours(&t, &full) {
                 Ok(()) => tobj::load_mtl_buf(&mut t.as_bytes()),
                 Err(e) => {

@@ -175,7 +175,7 @@ pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
 /// [`load_scene_file`] with the files it references confined to `sb`.
 pub fn load_scene_file_in(path: &Path, sb: &crate::io::Sandbox) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
-    let text = crate::io::read_text(path)?;
+    let text = sb.read_text(path)?;
     parse_scene_file(&text, path, sb, t0)
 }
 

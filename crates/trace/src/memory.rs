@@ -2,9 +2,10 @@
 //! (the render's: `render::whitted::render_bytes`; the irregular grid's:
 //! `accel::grid::GridConfig::max_bytes`; CRSH's pair budget).
 //!
-//! The default is 80 % of the smaller of the machine's physical memory and the process's
-//! address-space limit (`ulimit -v`), so that a request the machine cannot hold is refused
-//! with an error naming the option instead of ending in an out-of-memory abort.
+//! The default is 80 % of the smallest of the machine's physical memory, the process's
+//! address-space limit (`ulimit -v`) and its control group's limit, so that a request the
+//! machine cannot hold is refused with an error naming the option instead of ending in an
+//! out-of-memory abort.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -77,8 +78,9 @@ pub fn release_tail<T: Copy>(v: &mut Vec<T>, len: usize) {
     }
 }
 
-/// 80 % of min(physical memory, address-space limit), in bytes (`u64::MAX` where neither
-/// is known).
+/// 80 % of the smallest of the machine's physical memory, the process's address-space limit
+/// (`ulimit -v`) and its control group's memory limit (a container's: cgroup v2
+/// `memory.max`, v1 `memory.limit_in_bytes`), in bytes (`u64::MAX` where none is known).
 pub fn default_limit() -> u64 {
     let kib = |text: &str, key: &str| -> Option<u64> {
         let l = text.lines().find(|l| l.starts_with(key))?;
@@ -100,12 +102,49 @@ pub fn default_limit() -> u64 {
                 .ok()
         })
         .unwrap_or(u64::MAX);
-    let m = total.min(rlimit);
+    let m = total.min(rlimit).min(cgroup_limit());
     if m == u64::MAX {
         m
     } else {
         m / 5 * 4
     }
+}
+
+/// The memory limit of the process's control group, in bytes (`u64::MAX` where there is
+/// none or it cannot be read): cgroup v2's `memory.max` of the group `/proc/self/cgroup`
+/// names (under `/sys/fs/cgroup`), else cgroup v1's `memory.limit_in_bytes`.
+pub fn cgroup_limit() -> u64 {
+    let read = |p: &str| -> Option<u64> {
+        let t = std::fs::read_to_string(p).ok()?;
+        t.trim().parse::<u64>().ok()
+    };
+    // v2: "0::/path" in /proc/self/cgroup.
+    let group = std::fs::read_to_string("/proc/self/cgroup")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find_map(|l| l.strip_prefix("0::").map(|p| p.trim().to_string()))
+        })
+        .unwrap_or_default();
+    let mut candidates = Vec::new();
+    if !group.is_empty() && group != "/" {
+        candidates.push(format!("/sys/fs/cgroup{group}/memory.max"));
+    }
+    candidates.push("/sys/fs/cgroup/memory.max".into());
+    candidates.push("/sys/fs/cgroup/memory/memory.limit_in_bytes".into());
+    candidates
+        .iter()
+        .filter_map(|p| read(p))
+        // v1 reports "no limit" as a huge page-rounded number.
+        .filter(|&b| b < 1 << 60)
+        .min()
+        .unwrap_or(u64::MAX)
+}
+
+/// The resident memory the process holds now, in bytes (`VmRSS`; `None` where the system
+/// does not say): what a whole-process memory model starts from once the scene is loaded.
+pub fn current_rss() -> Option<u64> {
+    status_bytes("VmRSS:")
 }
 
 /// `--max-memory` in MiB when given, else [`default_limit`].

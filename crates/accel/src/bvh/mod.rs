@@ -118,6 +118,13 @@ pub const OPTIONS: &[Spec<BvhConfig>] = &[
     },
 ];
 
+/// The memory model of the engine's build: the resident bytes it adds per triangle at its
+/// peak (the tree, its 8-wide nodes and triangle blocks, the builders' scratch), above the
+/// measured 199–205 of both builders on hairball and city scenes
+/// (`bench/results/2026-12-07-2core/memory.txt`), checked against the memory limit before
+/// the build.
+pub const BUILD_BYTES_PER_TRIANGLE: u64 = 230;
+
 /// Why a `bvh` engine cannot be built.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum BvhError {

@@ -665,6 +665,22 @@ pub(crate) fn cell_records(lo: &[[u32; 3]], hi: &[[u32; 3]], ref_first: &[u32]) 
         .collect()
 }
 
+/// The memory model of the grid's build: the resident bytes it adds per triangle at its
+/// peak, checked against the memory limit before the build starts. It is the most measured
+/// (`bench/results/2026-12-07-2core/memory.txt`, and 891 and 1,069 in a second run): a
+/// hairball, the grid paper's worst case (about 20 references per triangle), takes 864–891
+/// bytes with merging and 973–1,069 without (`grid2l`); a city of compact triangles takes
+/// 402 and 430, so for such scenes the model is twice what they need. The build's level-by-level caps ([`GridConfig::max_bytes`])
+/// count references and octree nodes only, not the merge's and the expansion's state, so
+/// they alone would not keep the limit.
+pub fn build_bytes_per_triangle(cfg: &GridConfig) -> u64 {
+    if cfg.merge {
+        950
+    } else {
+        1150
+    }
+}
+
 /// The irregular grid (or two-level grid) as a tracing engine.
 pub struct GridEngine {
     /// The grid.

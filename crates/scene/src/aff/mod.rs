@@ -201,7 +201,7 @@ impl Parser {
             ));
         }
         // Some BART files carry Latin-1 bytes in comments; the syntax itself is ASCII.
-        let bytes = crate::io::read_file(path)?;
+        let bytes = self.sb.read_file(path)?;
         let src = String::from_utf8_lossy(&bytes);
         self.files += 1;
         self.include_stack.push(path.to_path_buf());
