@@ -361,3 +361,17 @@ pub fn human(v: f64) -> String {
     let s = s.trim_end_matches('0').trim_end_matches('.');
     format!("{s}{suffix}")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A font named by the environment is read only as a regular file of bounded size: a
+    /// device (which would read forever) is refused.
+    #[test]
+    fn fonts_are_regular_files() {
+        let e = read_font("/dev/zero").unwrap_err().to_string();
+        assert!(e.contains("not a regular file"), "{e}");
+        assert!(read_font("/no/such/font.ttf").is_err());
+    }
+}

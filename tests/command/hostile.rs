@@ -369,3 +369,52 @@ fn memory_limits_bound_every_engine() {
     }
     assert!(temporaries(&d).is_empty());
 }
+
+/// Paths from the environment: a scenes folder that is not one is said once (the built-in
+/// scenes still render); the viewer without a display and the GPU backend without a
+/// runtime folder print no dependency's paths or driver noise.
+#[test]
+fn the_environment_is_checked_and_said_once() {
+    let d = tmp("hostile-env");
+    let file = d.join("not-a-folder");
+    std::fs::write(&file, "x").unwrap();
+    let out = bin()
+        .args(words(&format!(
+            "render cornell -W 8 -H 8 -b 0 --out {}",
+            d.join("c.png").display()
+        )))
+        .env("RAYSPACE_SCENES", &file)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert_eq!(err.matches("RAYSPACE_SCENES").count(), 1, "{err}");
+    assert!(err.contains("not a folder"), "{err}");
+    let out = bin()
+        .args(words(&format!(
+            "view cornell --screenshot {}",
+            d.join("v.png").display()
+        )))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("cannot reach a display"), "{err}");
+    assert!(!err.contains("registry") && !err.contains(".rs:"), "{err}");
+    let out = bin()
+        .args(words(&format!(
+            "render cornell -W 8 -H 8 -b 0 --backend gpu --out {}",
+            d.join("g.png").display()
+        )))
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    if out.status.success() {
+        assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
+    } else {
+        testkit::skip("gpu", format!("no GPU backend here: {err}"));
+    }
+}
