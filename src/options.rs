@@ -61,9 +61,10 @@ pub struct LookArgs {
     /// Grey ambient fill [default: on where the lights are automatic]
     #[arg(long, value_name = "on|off", value_parser = on_off(), hide_possible_values = true, help_heading = "Look")]
     pub fill: Option<bool>,
-    /// Exposure in stops, -16..=16: every light and emission times 2^EV
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "EV", value_parser = exposure(), help_heading = "Look")]
-    pub exposure: f32,
+    /// Exposure in stops, -16..=16: every light and emission times 2^EV [default: 0; the
+    /// named scenes' own]
+    #[arg(long, allow_negative_numbers = true, value_name = "EV", value_parser = exposure(), help_heading = "Look")]
+    pub exposure: Option<f32>,
 }
 
 /// `--exposure`: a finite number of stops in -16..=16.
@@ -75,11 +76,13 @@ fn exposure() -> impl clap::builder::TypedValueParser<Value = f32> {
 }
 
 impl LookArgs {
-    /// `o` with the fill and exposure asked for.
-    pub fn apply(&self, o: scene::LoadOptions) -> scene::LoadOptions {
+    /// `o` with the fill and exposure asked for, for viewing scene `spec`: a named shared
+    /// scene takes its own look ([`scene::named_look`]) where none is asked for.
+    pub fn apply(&self, spec: &str, o: scene::LoadOptions) -> scene::LoadOptions {
+        let named = scene::named_look(spec);
         scene::LoadOptions {
-            fill: self.fill,
-            exposure: self.exposure,
+            fill: self.fill.or(named.map(|n| n.0)),
+            exposure: self.exposure.or(named.map(|n| n.1)).unwrap_or(0.0),
             ..o
         }
     }

@@ -210,13 +210,15 @@ def render(
     time: Optional[float] = None,
     dynamic: bool = False,
     spp: int = 1,
+    viewpoint: Optional[Any] = None,
     **options: Any,
 ) -> Tuple[_np.ndarray, Dict[str, Any]]:
     """``rayspace render``: an ``(height, width, 3) uint8`` sRGB image and the ``--stats``
     dictionary. ``time`` renders the animation at that time; ``dynamic=True`` takes the
     engine options a frame of ``--frames`` takes (the grid's single expansion pass);
-    ``spp`` samples per pixel antialias it (``--spp``)."""
-    img, stats = _rayspace.render(scene, engine, width, height, bounces, time, dynamic, spp, **options)
+    ``spp`` samples per pixel antialias it (``--spp``); ``viewpoint`` is ``--viewpoint``'s
+    camera, ``"EX,EY,EZ,TX,TY,TZ[,FOV]"`` or six or seven numbers."""
+    img, stats = _rayspace.render(scene, engine, width, height, bounces, time, dynamic, spp, viewpoint, **options)
     return img, _json.loads(stats)
 
 

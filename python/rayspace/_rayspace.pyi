@@ -17,7 +17,7 @@ class Scene:
         meshes: str = "groups",
         allow_outside_paths: bool = False,
         fill: Optional[bool] = None,
-        exposure: float = 0.0,
+        exposure: Optional[float] = None,
     ) -> Scene: ...
     @property
     def name(self) -> str: ...
@@ -97,6 +97,7 @@ def render(
     time: Optional[float] = None,
     dynamic: bool = False,
     spp: int = 1,
+    viewpoint: Optional[Any] = None,
     **options: Any,
 ) -> Tuple[npt.NDArray[np.uint8], str]: ...
 def frame(

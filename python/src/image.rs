@@ -12,7 +12,7 @@ use std::time::Instant;
 
 /// `rayspace render`'s image and `--stats` JSON (as a string) for one frame.
 #[pyfunction(name = "render")]
-#[pyo3(signature = (scene, engine = None, width = 512, height = 512, bounces = 3, time = None, dynamic = false, spp = 1, **options))]
+#[pyo3(signature = (scene, engine = None, width = 512, height = 512, bounces = 3, time = None, dynamic = false, spp = 1, viewpoint = None, **options))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_frame<'py>(
     py: Python<'py>,
@@ -24,6 +24,7 @@ pub(crate) fn render_frame<'py>(
     time: Option<f32>,
     dynamic: bool,
     spp: u32,
+    viewpoint: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyArray3<u8>>, String)> {
     let (engine, mut cfg) = parse_engine(engine, options, dynamic)?;
@@ -41,7 +42,29 @@ pub(crate) fn render_frame<'py>(
     let s = frame.as_ref().unwrap_or(scene);
     let left = render_memory(width, height, s.scene.lights.len())?;
     let adapted = fit(&mut cfg, engine, s.geo.len(), left)?;
-    let (sc, geo, load_seconds) = (s.scene.clone(), s.geo.clone(), s.load_seconds);
+    let (mut sc, geo, load_seconds) = (s.scene.clone(), s.geo.clone(), s.load_seconds);
+    if let Some(v) = viewpoint {
+        // As `--viewpoint`: a string "EX,EY,EZ,TX,TY,TZ[,FOV]" or 6 or 7 numbers.
+        let text = match v.extract::<String>() {
+            Ok(t) => t,
+            Err(_) => v
+                .extract::<Vec<f64>>()
+                .map_err(|_| {
+                    pyo3::exceptions::PyTypeError::new_err(
+                        "viewpoint: expected a string EX,EY,EZ,TX,TY,TZ[,FOV] or 6 or 7 numbers",
+                    )
+                })?
+                .iter()
+                .map(|x| x.to_string())
+                .collect::<Vec<_>>()
+                .join(","),
+        };
+        let cam = scene::Camera::from_viewpoint(&text)
+            .map_err(|e| err(format!("viewpoint={e}")))?;
+        std::sync::Arc::make_mut(&mut sc)
+            .set_camera(cam)
+            .map_err(|e| err(format!("viewpoint={text}: {e}")))?;
+    }
     let ropts = render::whitted::RenderOptions {
         width,
         height,

@@ -89,15 +89,19 @@ impl Scene {
     /// .gltf/.glb, .toml, BART .aff), as the command line does (`meshes`: `--meshes`,
     /// `allow_outside_paths`: `--allow-outside-paths`).
     #[staticmethod]
-    #[pyo3(signature = (spec, meshes = "groups", allow_outside_paths = false, fill = None, exposure = 0.0))]
+    #[pyo3(signature = (spec, meshes = "groups", allow_outside_paths = false, fill = None, exposure = None))]
     fn load(
         py: Python<'_>,
         spec: &str,
         meshes: &str,
         allow_outside_paths: bool,
         fill: Option<bool>,
-        exposure: f32,
+        exposure: Option<f32>,
     ) -> PyResult<Scene> {
+        // A named shared scene takes its own look where none is asked for, as `render`.
+        let named = scene::named_look(spec);
+        let fill = fill.or(named.map(|n| n.0));
+        let exposure = exposure.or(named.map(|n| n.1)).unwrap_or(0.0);
         let split = trace::by_name(meshes, "meshes", &scene::MeshSplit::NAMES)
             .map_err(|e| err(format!("meshes='{meshes}': {e}")))?;
         if !(exposure.is_finite() && (-16.0..=16.0).contains(&exposure)) {

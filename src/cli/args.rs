@@ -89,6 +89,13 @@ pub struct ViewArgs {
     pub height: u32,
     #[arg(long, default_value_t = 3, value_parser = bounces())]
     pub bounces: u32,
+    /// Camera: EX,EY,EZ,TX,TY,TZ[,FOV] (eye, target, vertical field of view in degrees).
+    #[arg(
+        long,
+        value_name = "EX,EY,EZ,TX,TY,TZ[,FOV]",
+        allow_hyphen_values = true
+    )]
+    pub viewpoint: Option<String>,
     /// Start at this time of an animated scene.
     #[arg(long)]
     pub time: Option<f32>,
@@ -358,8 +365,12 @@ pub struct RaysArgs {
     /// Length of ambient-occlusion rays (default: 10 % of the scene's box diagonal).
     #[arg(long = "ao-distance", allow_negative_numbers = true)]
     pub ao_distance: Option<f32>,
-    /// Camera override: EX,EY,EZ,TX,TY,TZ[,FOV] (eye, target, vertical field of view in degrees).
-    #[arg(long)]
+    /// Camera: EX,EY,EZ,TX,TY,TZ[,FOV] (eye, target, vertical field of view in degrees)
+    #[arg(
+        long,
+        value_name = "EX,EY,EZ,TX,TY,TZ[,FOV]",
+        allow_hyphen_values = true
+    )]
     pub viewpoint: Option<String>,
     #[command(flatten)]
     pub load: LoadArgs,
@@ -423,6 +434,14 @@ pub struct RenderArgs {
     /// Whitted depth: reflection/refraction generations
     #[arg(short = 'b', long, default_value_t = 3, value_parser = bounces(), help_heading = "Image")]
     pub bounces: u32,
+    /// Camera: eye, target, vertical field of view in degrees [default: the scene's]
+    #[arg(
+        long,
+        value_name = "EX,EY,EZ,TX,TY,TZ[,FOV]",
+        allow_hyphen_values = true,
+        help_heading = "Image"
+    )]
+    pub viewpoint: Option<String>,
     /// Samples per pixel, jittered views averaged (1: the pixel centres)
     #[arg(short = 's', long, default_value_t = 1, value_parser = spp(), help_heading = "Image")]
     pub spp: u32,

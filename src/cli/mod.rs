@@ -108,7 +108,15 @@ pub fn run() -> Result<()> {
 /// Load a scene, printing the loader's warnings (suspicious content loaded anyway, each
 /// naming file:line) as `warning:` lines on stderr.
 fn load_scene(spec: &str, opts: &scene::LoadOptions) -> Result<scene::Scene> {
-    let mut s = scene::load(spec, opts)?;
+    let mut s = scene::load(spec, opts).map_err(|e| -> anyhow::Error {
+        // A bare name that names no scene is a usage error (with the nearest name); a
+        // path to a missing file stays an error of the file (status 1).
+        let bare = !spec.contains(['/', '\\']) && std::path::Path::new(spec).extension().is_none();
+        match e {
+            scene::SceneError::UnknownScene { .. } if bare => UsageError(e.to_string()).into(),
+            e => e.into(),
+        }
+    })?;
     for w in &s.report.warnings {
         eprintln!("warning: {}", printable(&spell::flags_in(&w.to_string())));
     }
@@ -210,6 +218,17 @@ fn check_memory(what: &str, opts: &str, need: u64, max_mib: Option<u64>) -> Resu
         );
     }
     Ok(())
+}
+
+/// `--viewpoint EX,EY,EZ,TX,TY,TZ[,FOV]`: the scene seen from there at every time (an
+/// animation's camera track no longer moves it); a viewpoint that makes no usable view (NaN
+/// or overflowing rays) is refused, naming the option.
+fn set_viewpoint(scene: &mut scene::Scene, v: &str) -> Result<()> {
+    let cam =
+        scene::Camera::from_viewpoint(v).map_err(|e| UsageError(format!("--viewpoint {e}")))?;
+    scene
+        .set_camera(cam)
+        .map_err(|e| anyhow::anyhow!("--viewpoint {v}: {e}"))
 }
 
 /// The program and what it holds already (`held` bytes: its code, the rays read, the

@@ -99,9 +99,12 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     check_memory("the render", "--width/--height", one_light, a.max_memory)?;
     super::check_held(held + one_light, a.max_memory)?;
     let budget = limit.saturating_sub(held + one_light);
-    let load_opts = a.look.apply(a.load.within(budget, per_triangle));
+    let load_opts = a.look.apply(&a.scene, a.load.within(budget, per_triangle));
     let t0 = Instant::now();
-    let scene = super::load_scene(&a.scene, &load_opts)?;
+    let mut scene = super::load_scene(&a.scene, &load_opts)?;
+    if let Some(v) = &a.viewpoint {
+        super::set_viewpoint(&mut scene, v)?;
+    }
     // Nor any file the scene includes (an OBJ's material library, a TOML file's meshes).
     let read: Vec<&std::path::Path> = scene.report.files.iter().map(|f| f.as_path()).collect();
     check_outputs(&outputs, &read)?;

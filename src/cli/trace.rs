@@ -11,26 +11,6 @@ use scene::Geometry;
 use serde::Serialize;
 use std::time::Instant;
 
-/// `EX,EY,EZ,TX,TY,TZ[,FOV]` as a camera.
-fn parse_viewpoint(s: &str) -> Result<scene::Camera> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| {
-            anyhow::anyhow!("--viewpoint '{s}': expected numbers EX,EY,EZ,TX,TY,TZ[,FOV]")
-        })?;
-    if !(v.len() == 6 || v.len() == 7) || v.iter().any(|x| !x.is_finite()) {
-        bail!("--viewpoint '{s}': expected 6 or 7 finite numbers EX,EY,EZ,TX,TY,TZ[,FOV]");
-    }
-    Ok(scene::Camera {
-        eye: geom::Vec3::new(v[0], v[1], v[2]),
-        target: geom::Vec3::new(v[3], v[4], v[5]),
-        up: geom::Vec3::Y,
-        vfov: v.get(6).copied().unwrap_or(45.0),
-    })
-}
-
 pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
     let outputs = [("--out", a.out.as_path())];
     check::writable("--out", &a.out)?;
@@ -39,10 +19,7 @@ pub fn cmd_rays(a: &RaysArgs) -> Result<()> {
     let read: Vec<&std::path::Path> = scene.report.files.iter().map(|f| f.as_path()).collect();
     check_outputs(&outputs, &read)?;
     if let Some(v) = &a.viewpoint {
-        scene.camera = parse_viewpoint(v)?;
-        scene
-            .validate()
-            .map_err(|e| anyhow::anyhow!("--viewpoint: {e}"))?;
+        super::set_viewpoint(&mut scene, v)?;
     }
     if let Some(d) = a.ao_distance {
         if !(d.is_finite() && d > 0.0) {

@@ -12,7 +12,13 @@ pub fn cmd_view(a: &ViewArgs) -> Result<()> {
         super::check::writable("--screenshot", p)?;
         super::check_outputs(&[("--screenshot", p)], &[std::path::Path::new(&a.scene)])?;
     }
-    let scene = super::load_scene(&a.scene, &a.look.apply(a.load.options(a.max_memory)))?;
+    let mut scene = super::load_scene(
+        &a.scene,
+        &a.look.apply(&a.scene, a.load.options(a.max_memory)),
+    )?;
+    if let Some(v) = &a.viewpoint {
+        super::set_viewpoint(&mut scene, v)?;
+    }
     if let Some(p) = &a.screenshot {
         let read: Vec<&std::path::Path> = scene.report.files.iter().map(|f| f.as_path()).collect();
         super::check_outputs(&[("--screenshot", p)], &read)?;

@@ -8,6 +8,7 @@ mod engines;
 mod first_hour;
 mod gpu;
 mod hostile;
+mod looks;
 mod paths;
 mod rays;
 mod readme;

@@ -48,17 +48,14 @@ pub enum SceneError {
         /// Why, when known (e.g. every triangle degenerate).
         detail: String,
     },
-    /// Neither a file nor a built-in scene.
-    #[error("unknown scene '{name}': not a file and not a built-in scene ({builtins}), a generated scene ({generators}) or a shared scene ({shared})")]
+    /// Neither a file nor a built-in scene. The message lists the names that are known
+    /// ([`crate::builtin::NAMES`], [`crate::generate::NAMES`], [`crate::SHARED`]).
+    #[error("unknown scene '{name}': not a file and not a built-in scene ({}), a generated scene ({}) or a shared scene ({}){}", crate::builtin::NAMES.join(", "), crate::generate::NAMES.map(|g| format!("{g}:SIZE")).join(", "), crate::SHARED.map(|s| s.0).join(", "), suggestion.map(|s| format!("; did you mean '{s}'?")).unwrap_or_default())]
     UnknownScene {
         /// The name given.
         name: String,
-        /// The built-in scenes' names.
-        builtins: String,
-        /// The generators' forms ([`crate::generate::NAMES`]).
-        generators: String,
-        /// The shared real scenes' names ([`crate::SHARED`]).
-        shared: String,
+        /// The scene name nearest to it, where one is near (a typo).
+        suggestion: Option<&'static str>,
     },
     /// A generated scene's spec (`hairball:2M`) that names a generator but is malformed.
     #[error("scene '{spec}': {error}")]
@@ -103,6 +100,14 @@ impl From<&str> for Invalid {
     fn from(s: &str) -> Self {
         Invalid(s.to_string())
     }
+}
+
+/// Why a viewpoint (`EX,EY,EZ,TX,TY,TZ[,FOV]`) was refused.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ViewpointError {
+    /// Not 6 or 7 comma-separated finite numbers.
+    #[error("'{0}': expected 6 or 7 finite numbers EX,EY,EZ,TX,TY,TZ[,FOV] (eye, target, vertical field of view in degrees)")]
+    Form(String),
 }
 
 /// Why a generator spec (`hairball:2M`) is malformed.

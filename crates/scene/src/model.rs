@@ -161,6 +161,27 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// The camera of a viewpoint `EX,EY,EZ,TX,TY,TZ[,FOV]`: eye, target and vertical field
+    /// of view in degrees (default 45), up along +y; whether it makes a usable view is
+    /// [`Scene::set_camera`]'s check.
+    pub fn from_viewpoint(s: &str) -> Result<Camera, crate::error::ViewpointError> {
+        let bad = || crate::error::ViewpointError::Form(s.to_string());
+        let v: Vec<f32> = s
+            .split(',')
+            .map(|x| x.trim().parse::<f32>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| bad())?;
+        if !(v.len() == 6 || v.len() == 7) || v.iter().any(|x| !x.is_finite()) {
+            return Err(bad());
+        }
+        Ok(Camera {
+            eye: Vec3::new(v[0], v[1], v[2]),
+            target: Vec3::new(v[3], v[4], v[5]),
+            up: Vec3::Y,
+            vfov: v.get(6).copied().unwrap_or(45.0),
+        })
+    }
+
     /// Orthonormal basis (right, up, forward) of the view.
     pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
         let f = (self.target - self.eye).normalize();
@@ -597,6 +618,21 @@ impl Scene {
         });
         s.camera = self.camera_at(t);
         s
+    }
+
+    /// Look through `camera` from now on, at every time (an animation's camera track no
+    /// longer moves it), as a scene file's `[camera]` would; refused, with the scene as it
+    /// was, when it makes no usable view (see [`Scene::validate`]).
+    pub fn set_camera(&mut self, camera: Camera) -> Result<(), SceneError> {
+        let before = std::mem::replace(&mut self.camera, camera);
+        if let Err(e) = self.validate() {
+            self.camera = before;
+            return Err(e);
+        }
+        if let Some(a) = &mut self.animation {
+            a.camera = None;
+        }
+        Ok(())
     }
 
     /// The camera at time `t` (the animation's camera track, if any).
