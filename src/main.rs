@@ -19,6 +19,14 @@ fn main() -> ExitCode {
     trace::memory::keep_freed_memory();
     match cli::run() {
         Ok(()) => ExitCode::SUCCESS,
+        Err(_) if render::output::stopping() => {
+            // An interrupt is ending the command (its handler removes the temporaries, says
+            // so and exits with 128 + the signal): an output refused because of it is not
+            // another error to report.
+            loop {
+                std::thread::park();
+            }
+        }
         Err(e) => {
             // One line, naming the file/line/option at fault; usage errors exit with 2.
             // Library messages name options by keyword; the CLI spells them as its flags.

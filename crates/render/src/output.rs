@@ -253,6 +253,12 @@ impl TempFolder {
 /// temporaries [`remove_temporaries`] removes are not made again behind it.
 static STOPPING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
+/// Whether the command is being interrupted ([`remove_temporaries`] has run): whoever
+/// ends it (the signal's handler) says so and sets the exit status.
+pub fn stopping() -> bool {
+    STOPPING.load(std::sync::atomic::Ordering::SeqCst)
+}
+
 /// Remove every temporary file and folder held now (an interrupted command's), after which
 /// no output is written; returns how many were removed. A folder that another thread is
 /// still writing into is tried again for a while (its writes stop at their next file).
