@@ -1,15 +1,11 @@
-//! One frame of a dynamic scene (the papers' use case: CRSH §3.2.2 updates the mesh spheres
-//! by transform, the irregular grid is rebuilt every frame, §5.3): update, rebuild, render,
-//! with build and trace times apart, and the frame's `--frame-csv` record. The command
-//! line's `render --frames` and the bindings' distributed frames both render through
-//! [`frame`], so their images and records agree by construction; `--backend gpu` renders
-//! through [`gpu_frame`] with the same record.
+//! A frame's record (`--frame-csv`: update, build and render times, the render's counts and
+//! the engine's phases) and the buffers a sequence of frames keeps. Frames themselves are
+//! made by the runner ([`crate::runner::Runner`]), the one place every front end makes them.
 
-use crate::engines::{self, Config, Engine, EngineError};
-use render::whitted::{RenderOptions, Rendered};
+use crate::engines;
+use render::whitted::Rendered;
 use scene::Geometry;
 use serde::Serialize;
-use std::time::Instant;
 use trace::Phase;
 
 /// One frame's record for `--frame-csv`.
@@ -79,74 +75,20 @@ impl FrameRow {
 /// and the renderer's ([`render::cpu::FrameArena`]), refilled in place each frame.
 #[derive(Default)]
 pub struct FrameBuffers {
-    geo: Geometry,
-    arena: render::cpu::FrameArena,
-}
-
-/// The scene at time `t` as a frame renders it (camera, lights, materials; the meshes'
-/// triangles are `geo`'s, refilled in place: transforms and the meshes' culling spheres
-/// updated), with the seconds it took.
-fn update(scene: &scene::Scene, t: f32, geo: &mut Geometry) -> (scene::Scene, f64) {
-    let t0 = Instant::now();
-    let s = scene.frame_at(t);
-    geo.refill_at(scene, t);
-    (s, t0.elapsed().as_secs_f64())
-}
-
-/// Frame `index` of `scene` at time `t`: update the transforms, rebuild `engine` with its
-/// configuration `cfg` ([`engines::config::config`] of a frame), render.
-pub fn frame(
-    scene: &scene::Scene,
-    t: f32,
-    index: u32,
-    engine: Engine,
-    cfg: &Config,
-    opts: &RenderOptions,
-) -> Result<(Rendered, FrameRow), EngineError> {
-    frame_with(
-        &mut FrameBuffers::default(),
-        scene,
-        t,
-        index,
-        engine,
-        cfg,
-        opts,
-    )
-}
-
-/// [`frame`] with the buffers of the frames before it (`render --frames` keeps one
-/// [`FrameBuffers`] for the whole sequence, so a steady frame allocates almost nothing).
-pub fn frame_with(
-    buffers: &mut FrameBuffers,
-    scene: &scene::Scene,
-    t: f32,
-    index: u32,
-    engine: Engine,
-    cfg: &Config,
-    opts: &RenderOptions,
-) -> Result<(Rendered, FrameRow), EngineError> {
-    let (s, update_s) = update(scene, t, &mut buffers.geo);
-    let geo = &buffers.geo;
-    let t1 = Instant::now();
-    let tracer = engines::build(engine, cfg, geo)?.tracer;
-    let build_s = t1.elapsed().as_secs_f64();
-    let t2 = Instant::now();
-    let arena = std::mem::take(&mut buffers.arena);
-    let mut backend = render::cpu::CpuBackend::new(&s, geo, tracer.as_ref()).with_arena(arena);
-    let mut out = render::whitted::run(&mut backend, &s, geo, opts, &());
-    buffers.arena = backend.into_arena();
-    // A frame of a sequence is its image and record: its G-buffer goes back to the
-    // buffers for the next frame's rasterization.
-    buffers.arena.keep_gbuffer(std::mem::take(&mut out.gbuffer));
-    let trace_s = t2.elapsed().as_secs_f64();
-    let row = FrameRow::of(index, t, geo, [update_s, build_s, trace_s], &out);
-    Ok((out, row))
+    pub(crate) geo: Geometry,
+    pub(crate) arena: render::cpu::FrameArena,
 }
 
 impl FrameRow {
     /// The record of frame `index` at time `t`: seconds of update, build and render, and the
     /// render's counts and engine phases.
-    fn of(index: u32, t: f32, geo: &Geometry, secs: [f64; 3], out: &Rendered) -> FrameRow {
+    pub(crate) fn of(
+        index: u32,
+        t: f32,
+        geo: &Geometry,
+        secs: [f64; 3],
+        out: &Rendered,
+    ) -> FrameRow {
         FrameRow {
             frame: index,
             time: t,
@@ -165,25 +107,4 @@ impl FrameRow {
             shading_ms: out.stats.shading_ms,
         }
     }
-}
-
-/// Frame `index` of `scene` at time `t` on the GPU backend: update the transforms, rebuild
-/// `gf`'s engine on its device (one upload of the frame's geometry; the grid's every pass
-/// as kernels), render. The record has the CPU's columns; the engine phases are GPU time.
-#[cfg(feature = "gpu")]
-pub fn gpu_frame(
-    gf: &mut crate::gpu_frame::GpuFrame,
-    scene: &scene::Scene,
-    t: f32,
-    index: u32,
-    opts: &RenderOptions,
-) -> anyhow::Result<(Rendered, FrameRow)> {
-    let mut geo = Geometry::default();
-    let (s, update_s) = update(scene, t, &mut geo);
-    let build_s = gf.rebuild(&s, &geo)?;
-    let t2 = Instant::now();
-    let (out, _) = gf.render(&s, &geo, opts, &(), build_s)?;
-    let trace_s = t2.elapsed().as_secs_f64();
-    let row = FrameRow::of(index, t, &geo, [update_s, build_s, trace_s], &out);
-    Ok((out, row))
 }

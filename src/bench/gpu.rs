@@ -283,7 +283,8 @@ fn frames_section(
     rah: bool,
 ) -> Result<String> {
     use crate::engines::{self, Backend, Engine};
-    use render::whitted::{render, RenderOptions};
+    use crate::runner::Runner;
+    use render::whitted::RenderOptions;
     let rgb = |out: &render::whitted::Rendered| -> Vec<[u8; 3]> {
         out.rgb8().chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
     };
@@ -306,10 +307,13 @@ fn frames_section(
             spp: 1,
         };
         for &engine in &list {
-            let cpu_frame = || -> Result<(f64, Vec<[u8; 3]>)> {
+            // Whole frames as every front end makes them (the runner): on the CPU the
+            // engine built anew each frame, on the GPU rebuilt on the device it has.
+            let mut cpu = Runner::new(engine, engines::Config::of(engine), Backend::Cpu)
+                .with_geometry(geo.clone());
+            let mut cpu_frame = || -> Result<(f64, Vec<[u8; 3]>)> {
                 let t0 = Instant::now();
-                let tracer = engines::build(engine, &engines::Config::of(engine), geo)?.tracer;
-                let out = render(s, geo, tracer.as_ref(), &opts, &());
+                let out = cpu.frame(s, None, 0, &opts, &())?.rendered;
                 let t = t0.elapsed().as_secs_f64();
                 Ok((t, rgb(&out)))
             };
@@ -317,14 +321,15 @@ fn frames_section(
             let (c1, img) = cpu_frame()?;
             let c2 = cpu_frame()?.0;
             let gcfg = engines::config::defaults(engine, Backend::Gpu, false);
-            let mut gf = crate::gpu_frame::GpuFrame::new(engine, &gcfg, s, geo, |e| {
-                eprintln!("error: bench gpu: the device failed ({e}); a smaller image may fit");
-                std::process::exit(1);
-            })?;
+            let mut gpu = Runner::new(engine, gcfg, Backend::Gpu)
+                .with_geometry(geo.clone())
+                .on_device_error(|e| {
+                    eprintln!("error: bench gpu: the device failed ({e}); a smaller image may fit");
+                    std::process::exit(1);
+                });
             let mut gpu_frame = || -> Result<(f64, Vec<[u8; 3]>, u64, String)> {
                 let t0 = Instant::now();
-                let b = gf.rebuild(s, geo)?;
-                let (out, _) = gf.render(s, geo, &opts, &(), b)?;
+                let out = gpu.frame(s, None, 0, &opts, &())?.rendered;
                 let t = t0.elapsed().as_secs_f64();
                 Ok((
                     t,

@@ -17,9 +17,8 @@ pub mod grid;
 pub mod rsh;
 pub mod scale;
 
-use accel::oracle::Recorder;
 use anyhow::Result;
-use render::whitted::{render, RenderOptions};
+use render::whitted::RenderOptions;
 use scene::{Geometry, LoadOptions};
 use trace::Hit;
 
@@ -84,17 +83,22 @@ pub type Recorded = (
 pub fn record(name: &str, width: u32, height: u32, bounces: u32) -> Result<Recorded> {
     let s = scene::load(name, &LoadOptions::default())?;
     let geo = Geometry::from_scene(&s);
-    let base = ::rsh::RshEngine::new(&geo, ::rsh::RshConfig::crsh()).map_err(anyhow::Error::msg)?;
-    let rec = Recorder::new(&base);
     let opts = RenderOptions {
         width,
         height,
         bounces,
         spp: 1,
     };
-    render(&s, &geo, &rec, &opts, &());
-    let batches = rec.into_batches();
-    Ok((s, geo, batches))
+    // The frame as every front end makes it (the runner), recording CRSH's batches.
+    let f = crate::runner::Runner::new(
+        crate::engines::Engine::Crsh,
+        crate::engines::Config::Rsh(::rsh::RshConfig::crsh()),
+        crate::engines::Backend::Cpu,
+    )
+    .record(true)
+    .with_geometry(geo.clone())
+    .frame(&s, None, 0, &opts, &())?;
+    Ok((s, geo, f.batches))
 }
 
 /// The scenes of a benchmark: `--scenes a,b,...` as given (at least one name), or the

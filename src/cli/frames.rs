@@ -3,19 +3,19 @@
 //! every frame, §5.3): update, rebuild, render, with build and trace times apart, the frames
 //! as PNGs, per-frame CSV and an animated GIF.
 
-use super::args::{Backend, RenderArgs};
+use super::args::RenderArgs;
 use super::check::{frame_path, Outputs};
 use super::progress::step_bar;
 use anyhow::{bail, Context, Result};
-use rayspace::engines::Config;
-use rayspace::frames::{frame_with, FrameBuffers, FrameRow};
+use rayspace::frames::FrameRow;
+use rayspace::runner::Runner;
 use render::whitted::RenderOptions;
 
 /// The per-frame pipeline: update transforms (and the meshes' culling spheres, by transform),
 /// rebuild the engine, render; build and trace times apart.
 pub fn render_frames(
     a: &RenderArgs,
-    cfg: &Config,
+    mut runner: Runner,
     scene: &scene::Scene,
     n: u32,
     outs: &Outputs,
@@ -40,18 +40,12 @@ pub fn render_frames(
     let mut rows = Vec::new();
     let mut stats = Vec::new();
     let mut gif_frames = Vec::new();
-    // The GPU backend keeps one device, its compiled kernels and its engine across frames
-    // and rebuilds the engine per frame.
-    let mut gpu = GpuFrames::default();
-    // The CPU's frames keep their geometry and render buffers from one frame to the next.
-    let mut buffers = FrameBuffers::default();
+    // The runner keeps the geometry's and the renderer's buffers from one frame to the
+    // next, and on the GPU one device, its kernels and its engine, rebuilt per frame.
     for (i, &t) in times.iter().enumerate() {
         bar.step(&format!("frame {i} (t = {t:.3})"));
-        let (out, row) = if a.backend == Backend::Gpu {
-            gpu.frame(a, cfg, scene, t, i as u32, &opts)?
-        } else {
-            frame_with(&mut buffers, scene, t, i as u32, a.engine, cfg, &opts)?
-        };
+        let f = runner.frame(scene, Some(t), i as u32, &opts, &())?;
+        let (out, row) = (f.rendered, f.row);
         let path = frame_path(&outs.out, i as u32)?;
         render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &path)
             .map_err(anyhow::Error::msg)
@@ -116,56 +110,4 @@ pub fn render_frames(
         say!("wrote {}", p.display());
     }
     Ok(())
-}
-
-/// The GPU backend's frames: the device and engine made at the first frame.
-#[derive(Default)]
-struct GpuFrames {
-    #[cfg(feature = "gpu")]
-    frame: Option<rayspace::gpu_frame::GpuFrame>,
-}
-
-impl GpuFrames {
-    #[cfg(feature = "gpu")]
-    fn frame(
-        &mut self,
-        a: &RenderArgs,
-        cfg: &Config,
-        scene: &scene::Scene,
-        t: f32,
-        index: u32,
-        opts: &RenderOptions,
-    ) -> Result<(render::whitted::Rendered, FrameRow)> {
-        if self.frame.is_none() {
-            let s = scene.at_time(t);
-            let geo = scene::Geometry::from_scene(&s);
-            self.frame = Some(rayspace::gpu_frame::GpuFrame::new(
-                a.engine,
-                cfg,
-                &s,
-                &geo,
-                |e| {
-                    eprintln!(
-                        "error: --backend gpu: the device failed ({e}); lower --width/--height"
-                    );
-                    std::process::exit(1);
-                },
-            )?);
-        }
-        let gf = self.frame.as_mut().expect("made above");
-        rayspace::frames::gpu_frame(gf, scene, t, index, opts)
-    }
-
-    #[cfg(not(feature = "gpu"))]
-    fn frame(
-        &mut self,
-        _a: &RenderArgs,
-        _cfg: &Config,
-        _scene: &scene::Scene,
-        _t: f32,
-        _index: u32,
-        _opts: &RenderOptions,
-    ) -> Result<(render::whitted::Rendered, FrameRow)> {
-        bail!("--backend gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
-    }
 }

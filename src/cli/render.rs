@@ -7,8 +7,9 @@ use super::args::{Backend, RenderArgs};
 use super::progress::progress_bar;
 use super::{check, check_memory, check_outputs, UsageError};
 use anyhow::{bail, Context, Result};
-use rayspace::engines::{self, Config};
-use render::whitted::{render, RenderOptions};
+use rayspace::engines;
+use rayspace::runner::Runner;
+use render::whitted::RenderOptions;
 use scene::Geometry;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -61,7 +62,7 @@ struct Adapted {
 pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     // Options first, in one place, before anything is loaded (usage errors, exit 2): the
     // engine's against its declarations, then the mode's and the outputs'.
-    let mut cfg = check::engine_config(a.engine, a.backend, &a.options, a.anim.frames.is_some())?;
+    let cfg = check::engine_config(a.engine, a.backend, &a.options, a.anim.frames.is_some())?;
     let outs = check::render(a)?;
     // Every output is checked before the work: its folder made, none an input, none
     // unwritable.
@@ -115,27 +116,40 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     // The engine's build gets what the scene (as the process holds it now) and the render
     // leave: its model must fit (refused before anything is built), the grid checks its own
     // level by level against it, CRSH/RAH lower their pair budget to fit (more, smaller
-    // batches, no pair dropped).
+    // batches, no pair dropped). The runner makes the frame, as it makes every front end's.
     let held = trace::memory::current_rss().unwrap_or(held);
     let left = limit.saturating_sub(held + render_bytes);
+    let mut runner = Runner::new(a.engine, cfg.clone(), a.backend)
+        .watch_build_memory(!gpu && a.anim.frames.is_none())
+        .on_device_error(|e| {
+            eprintln!("error: --backend gpu: the device failed ({e}); lower --width/--height");
+            std::process::exit(1);
+        });
     let mut adapted = BTreeMap::new();
-    if !gpu {
-        for (name, asked, used) in cfg.fit_memory(a.engine, geo.len() as u64, left)? {
-            say!(
-                "{} lowered from {asked} to {used} to fit --max-memory ({} left after the scene, the render and the build)",
-                super::args::EngineFlags::flag(name),
-                trace::memory::gib(left)
-            );
-            adapted.insert(name.replace('_', "-"), Adapted { asked, used });
-        }
+    for (name, asked, used) in runner.fit_memory(geo.len() as u64, left)? {
+        say!(
+            "{} lowered from {asked} to {used} to fit --max-memory ({} left after the scene, the render and the build)",
+            super::args::EngineFlags::flag(name),
+            trace::memory::gib(left)
+        );
+        adapted.insert(
+            name.replace('_', "-"),
+            Adapted {
+                asked: asked.clone(),
+                used: used.clone(),
+            },
+        );
     }
+    let cfg = runner.config().clone();
+    // The runner keeps the geometry, brought to each frame's time in place.
+    let mut runner = runner.with_geometry(geo);
     let r = scene.report.clone();
     say!(
         "loaded {} in {:.2} s: {} triangles, {} meshes, {} materials, {} lights{}{}",
         scene.name,
         load_s,
-        geo.len(),
-        geo.mesh_count(),
+        scene.triangle_count(),
+        scene.meshes.len(),
         scene.materials.len(),
         scene.lights.len(),
         if r.degenerate_skipped > 0 {
@@ -150,51 +164,29 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         },
     );
     if let Some(n) = a.anim.frames {
-        return super::frames::render_frames(a, &cfg, &scene, n, &outs);
+        return super::frames::render_frames(a, runner, &scene, n, &outs);
     }
-    let (scene, geo) = match a.anim.time {
-        Some(t) => {
-            if scene.animation.is_none() {
-                bail!("--time: {} is not animated", scene.name);
-            }
-            let s = scene.at_time(t);
-            let g = Geometry::from_scene(&s);
-            (s, g)
-        }
-        None => (scene, geo),
-    };
+    if a.anim.time.is_some() && scene.animation.is_none() {
+        bail!("--time: {} is not animated", scene.name);
+    }
     let ropts = RenderOptions {
         width: a.width,
         height: a.height,
         bounces: a.bounces,
         spp: a.spp,
     };
-    // Started before the build's clock (it reads and writes /proc).
-    let watch = if a.backend == Backend::Gpu {
-        None
-    } else {
-        trace::memory::PeakWatch::start()
-    };
-    let t1 = Instant::now();
-    let mut structure = None;
-    let mut build_peak = None;
-    let (out, gpu_phases, gpu_timer) = if a.backend == Backend::Gpu {
-        render_on_gpu(a, &cfg, &scene, &geo, &ropts, t1)?
-    } else {
-        let built = engines::build(a.engine, &cfg, &geo)?;
-        build_peak = watch.and_then(|w| w.added());
-        if let Some(r) = &built.report {
-            say!("{r}");
-        }
-        let engine = built.tracer;
-        let build_s = t1.elapsed().as_secs_f64();
-        let bar = progress_bar();
-        let mut out = render(&scene, &geo, engine.as_ref(), &ropts, &bar);
-        bar.0.finish_and_clear();
-        out.stats.put_build(build_s, engine.build_passes());
-        structure = engine.structure_bytes();
-        (out, Vec::new(), "")
-    };
+    let bar = progress_bar();
+    let frame = runner.frame(&scene, a.anim.time, 0, &ropts, &bar)?;
+    bar.0.finish_and_clear();
+    if let Some((describe, _)) = runner.gpu_describe() {
+        say!("GPU: {describe}");
+    }
+    if let Some(r) = &frame.build_report {
+        say!("{r}");
+    }
+    let out = frame.rendered;
+    let (gpu_phases, gpu_timer) = (frame.gpu_phases, runner.gpu_describe().map_or("", |d| d.1));
+    let (structure, build_peak) = (frame.structure_bytes, frame.build_peak);
     render::output::write_rgb8_png(&out.rgb8(), a.width, a.height, &outs.out)
         .map_err(anyhow::Error::msg)
         .context("--out")?;
@@ -226,44 +218,4 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         say!("wrote {}", p.display());
     }
     Ok(())
-}
-
-/// The rendered image (engine build phases first), GPU seconds per phase and how they were timed.
-type GpuRender = (render::whitted::Rendered, Vec<(String, f64)>, &'static str);
-
-/// `render --backend gpu`: one frame on the wgpu backend (`rayspace::gpu_frame`): the
-/// G-buffer from the GPU's render pipeline, CRSH/RAH or the grid (built and traversed by
-/// kernels), the ray generations, the shading and the pixel accumulation on the device.
-#[cfg(feature = "gpu")]
-fn render_on_gpu(
-    a: &RenderArgs,
-    cfg: &Config,
-    scene: &scene::Scene,
-    geo: &Geometry,
-    opts: &RenderOptions,
-    t1: Instant,
-) -> Result<GpuRender> {
-    // Outputs are written atomically after the render, so ending here leaves none behind.
-    let f = rayspace::gpu_frame::GpuFrame::new(a.engine, cfg, scene, geo, |e| {
-        eprintln!("error: --backend gpu: the device failed ({e}); lower --width/--height");
-        std::process::exit(1);
-    })?;
-    say!("GPU: {}", f.describe);
-    let build_s = t1.elapsed().as_secs_f64();
-    let bar = progress_bar();
-    let (out, phases) = f.render(scene, geo, opts, &bar, build_s)?;
-    bar.0.finish_and_clear();
-    Ok((out, phases, f.timer))
-}
-
-#[cfg(not(feature = "gpu"))]
-fn render_on_gpu(
-    _a: &RenderArgs,
-    _cfg: &Config,
-    _scene: &scene::Scene,
-    _geo: &Geometry,
-    _opts: &RenderOptions,
-    _t1: Instant,
-) -> Result<GpuRender> {
-    bail!("--backend gpu: this build has no GPU backend; build with `cargo build --release --features gpu`")
 }

@@ -13,10 +13,10 @@ pub mod html;
 pub mod published;
 
 use crate::bench::{self, charts};
-use crate::engines::{self, Config, Engine};
-use accel::oracle::Recorder;
+use crate::engines::{Backend, Config, Engine};
+use crate::runner::Runner;
 use anyhow::{anyhow, Context, Result};
-use render::whitted::{render, RenderOptions};
+use render::whitted::RenderOptions;
 use scene::{Geometry, LoadOptions, Scene};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -342,13 +342,13 @@ fn render_scene(
     let mut ray_kinds = Vec::new();
     for &e in &list {
         progress(&format!("{}: {}", s.name, e.name()));
-        let t0 = Instant::now();
-        let built = engines::build(e, &Config::of(e), &geo)?;
-        let build_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let rec = Recorder::new(built.tracer.as_ref());
-        let t0 = Instant::now();
-        let out = render(&s, &geo, &rec, &opts, &());
-        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+        // The frame as every front end makes it, recording the engine's batches.
+        let f = Runner::new(e, Config::of(e), Backend::Cpu)
+            .record(true)
+            .with_geometry(geo.clone())
+            .frame(&s, None, 0, &opts, &())?;
+        let (build_ms, render_ms) = (f.row.build_ms, f.row.render_ms);
+        let out = f.rendered;
         let rgb = render::output::to_rgb8(&out.pixels, spec.side, spec.side).into_raw();
         let image = png(
             dir,
@@ -357,7 +357,7 @@ fn render_scene(
             spec.side,
             spec.side,
         )?;
-        let batches = rec.into_batches();
+        let batches = f.batches;
         let (mut diff_image, mut differing, mut max_d) = (None, 0u64, 0u8);
         if e == reference {
             ref_rgb = rgb.clone();
@@ -443,22 +443,23 @@ fn render_scene(
 
 /// One frame (build + render) of `engine` on `s` at `side`².
 fn frame_point(s: &Scene, geo: &Geometry, e: Engine, side: u32) -> Result<ScalePoint> {
-    let t0 = Instant::now();
-    let built = engines::build(e, &Config::of(e), geo)?;
-    let build_seconds = t0.elapsed().as_secs_f64();
-    let out = render(
-        s,
-        geo,
-        built.tracer.as_ref(),
-        &RenderOptions {
-            width: side,
-            height: side,
-            bounces: 1,
-            spp: 1,
-        },
-        &(),
-    );
-    let frame_seconds = t0.elapsed().as_secs_f64();
+    let f = Runner::new(e, Config::of(e), Backend::Cpu)
+        .with_geometry(geo.clone())
+        .frame(
+            s,
+            None,
+            0,
+            &RenderOptions {
+                width: side,
+                height: side,
+                bounces: 1,
+                spp: 1,
+            },
+            &(),
+        )?;
+    let build_seconds = f.row.build_ms / 1e3;
+    let frame_seconds = (f.row.update_ms + f.row.build_ms + f.row.render_ms) / 1e3;
+    let out = f.rendered;
     Ok(ScalePoint {
         engine: e.name().to_string(),
         scene: s.name.clone(),

@@ -5,11 +5,12 @@
 //! same view.
 
 use crate::engines::{self, Config, Engine};
+use crate::runner::Runner;
 use accel::oracle::Recorder;
 use anyhow::{anyhow, Result};
 use geom::{Vec3, NO_HIT};
-use render::whitted::{render, RenderOptions, Rendered};
-use scene::{Camera, Geometry, Scene};
+use render::whitted::{render, RenderOptions};
+use scene::{Camera, Scene};
 use std::time::Instant;
 use trace::{Hit, RayBatch, RayKind, TraceMode, TraceStats, Tracer};
 
@@ -53,12 +54,8 @@ impl Buffer {
     }
 }
 
-/// Where the traced rays run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Backend {
-    Cpu,
-    Gpu,
-}
+/// Where the traced rays run (the registry's backends).
+pub use crate::engines::Backend;
 
 /// An orbit camera: the scene's own until the user moves it (so an untouched view is the
 /// scene camera bit for bit, as `render` uses it).
@@ -110,24 +107,11 @@ pub struct FrameInfo {
     pub note: Option<String>,
 }
 
-/// A frame's recorded batches (for the per-ray buffers) and GPU phase times.
-type Recorded = Vec<(RayBatch, TraceMode)>;
-type Phases = Vec<(String, f64)>;
-
-enum Built {
-    Cpu(Box<dyn Tracer + Send>),
-    #[cfg(feature = "gpu")]
-    Gpu(Box<crate::gpu_frame::GpuFrame>),
-}
-
 /// The viewer's state.
 pub struct Session {
     base: Scene,
-    /// The scene at `time`; its camera is set to [`Session::camera`] before each frame.
-    scene: Scene,
     /// The scene's own camera at `time` (the view until the user moves it).
     scene_camera: Camera,
-    geo: Geometry,
     pub engine: Engine,
     pub backend: Backend,
     pub bounces: u32,
@@ -139,12 +123,10 @@ pub struct Session {
     pub time: f32,
     pub playing: bool,
     pub orbit: Orbit,
-    /// The CPU renderer's buffers, kept from one frame to the next.
-    arena: render::cpu::FrameArena,
-    built: Option<(Engine, Backend, Built)>,
-    /// The geometry moved since the engine was built (a GPU engine is rebuilt on its device
-    /// at the next frame rather than made anew with a new device).
-    moved: bool,
+    /// The frames of the engine and backend shown (the runner every front end makes its
+    /// frames with): it keeps the renderer's buffers, and rebuilds its engine (a GPU
+    /// engine on its device) when the time moves.
+    runner: Option<Runner>,
     /// A grid for the tests heat map of engines whose tests are not per ray.
     aux_grid: Option<Box<dyn Tracer + Send>>,
     pub last: FrameInfo,
@@ -183,18 +165,11 @@ impl Session {
             (Some(a), t) => t.unwrap_or(a.start).clamp(a.start, a.end),
             (None, _) => 0.0,
         };
-        let scene = if base.animation.is_some() {
-            base.at_time(t)
-        } else {
-            base.clone()
-        };
-        let geo = Geometry::from_scene(&scene);
-        let orbit = Orbit::from_camera(&scene.camera);
+        let scene_camera = base.camera_at(t);
+        let orbit = Orbit::from_camera(&scene_camera);
         Ok(Session {
             base,
-            scene_camera: scene.camera.clone(),
-            scene,
-            geo,
+            scene_camera,
             engine,
             backend,
             bounces,
@@ -205,20 +180,23 @@ impl Session {
             time: t,
             playing: false,
             orbit,
-            arena: Default::default(),
-            built: None,
-            moved: false,
+            runner: None,
             aux_grid: None,
             last: FrameInfo::default(),
         })
     }
 
     pub fn scene_name(&self) -> &str {
-        &self.scene.name
+        &self.base.name
     }
 
     pub fn triangles(&self) -> usize {
-        self.geo.len()
+        self.base.triangle_count()
+    }
+
+    /// The animation time of the frame (None: a still scene, as it stands).
+    fn at(&self) -> Option<f32> {
+        self.base.animation.is_some().then_some(self.time)
     }
 
     pub fn animated(&self) -> bool {
@@ -311,16 +289,9 @@ impl Session {
         };
         if t != self.time {
             self.time = t;
-            self.scene = self.base.at_time(t);
-            self.scene_camera = self.scene.camera.clone();
-            self.geo = Geometry::from_scene(&self.scene);
-            // Rebuilt every frame of a dynamic scene, as the papers do: a CPU engine anew, a
-            // GPU engine on the device it has (kernels compiled once).
-            match &self.built {
-                #[cfg(feature = "gpu")]
-                Some((_, _, Built::Gpu(_))) => self.moved = true,
-                _ => self.built = None,
-            }
+            self.scene_camera = self.base.camera_at(t);
+            // The runner rebuilds its engine at the next frame, as the papers rebuild every
+            // frame of a dynamic scene (a GPU engine on the device it has).
             self.aux_grid = None;
             if !self.orbit.moved {
                 self.orbit = Orbit::from_camera(&self.scene_camera);
@@ -328,39 +299,23 @@ impl Session {
         }
     }
 
-    fn build(&mut self) -> Result<f64> {
-        #[allow(unused_variables)] // without the GPU backend nothing is rebuilt in place
-        let moved = std::mem::take(&mut self.moved);
-        if let Some((e, b, built)) = &mut self.built {
-            if *e == self.engine && *b == self.backend {
-                return match built {
-                    #[cfg(feature = "gpu")]
-                    Built::Gpu(g) if moved => g.rebuild(&self.scene, &self.geo),
-                    _ => Ok(0.0),
-                };
-            }
-        }
-        let t0 = Instant::now();
-        let built = match self.backend {
-            Backend::Cpu => {
-                Built::Cpu(engines::build(self.engine, &Config::of(self.engine), &self.geo)?.tracer)
-            }
-            #[cfg(feature = "gpu")]
-            Backend::Gpu => Built::Gpu(Box::new(crate::gpu_frame::GpuFrame::new(
-                self.engine,
-                &engines::config::defaults(self.engine, engines::Backend::Gpu, false),
-                &self.scene,
-                &self.geo,
-                |e| {
+    /// The runner of the engine and backend shown (made anew when either changes).
+    fn runner(&mut self) -> &mut Runner {
+        let same = self
+            .runner
+            .as_ref()
+            .is_some_and(|r| r.engine() == self.engine && r.backend() == self.backend);
+        if !same {
+            self.runner = None; // the last engine (and device) freed first
+            let cfg = engines::config::defaults(self.engine, self.backend, false);
+            self.runner = Some(
+                Runner::new(self.engine, cfg, self.backend).on_device_error(|e| {
                     eprintln!("error: the GPU device failed ({e})");
                     std::process::exit(1);
-                },
-            )?)),
-            #[cfg(not(feature = "gpu"))]
-            Backend::Gpu => anyhow::bail!("`backend`=gpu: this build has no GPU backend"),
-        };
-        self.built = Some((self.engine, self.backend, built));
-        Ok(t0.elapsed().as_secs_f64())
+                }),
+            );
+        }
+        self.runner.as_mut().expect("made above")
     }
 
     /// Render the current view at 1/`scale` resolution, upscaled to `width × height`
@@ -368,11 +323,7 @@ impl Session {
     pub fn frame(&mut self, scale: u32) -> Result<Vec<u8>> {
         let t0 = Instant::now();
         let scale = scale.clamp(1, 16);
-        let build_seconds = self.build()?;
         let (w, h) = ((self.width / scale).max(1), (self.height / scale).max(1));
-        // The view's camera goes into the scene itself: cloning the scene (its meshes)
-        // every frame would copy the whole model.
-        self.scene.camera = self.camera();
         let opts = RenderOptions {
             width: w,
             height: h,
@@ -381,51 +332,33 @@ impl Session {
         };
         let record = matches!(self.buffer, Buffer::Kinds | Buffer::Tests);
         let mut note = None;
-        let (out, batches, phases): (Rendered, Recorded, Phases) =
-            match &self.built.as_ref().ok_or_else(|| anyhow!("no engine"))?.2 {
-                Built::Cpu(t) => {
-                    if record {
-                        let rec = Recorder::new(t.as_ref());
-                        let out = render(&self.scene, &self.geo, &rec, &opts, &());
-                        let b = rec.into_batches().into_iter().map(|x| (x.0, x.1)).collect();
-                        (out, b, Vec::new())
-                    } else {
-                        // The renderer's buffers are kept from frame to frame.
-                        let arena = std::mem::take(&mut self.arena);
-                        let mut backend =
-                            render::cpu::CpuBackend::new(&self.scene, &self.geo, t.as_ref())
-                                .with_arena(arena);
-                        let out =
-                            render::whitted::run(&mut backend, &self.scene, &self.geo, &opts, &());
-                        self.arena = backend.into_arena();
-                        (out, Vec::new(), Vec::new())
-                    }
-                }
-                #[cfg(feature = "gpu")]
-                Built::Gpu(g) => {
-                    // The normals view needs the G-buffer on the host: the frame reads it
-                    // back too; every other view brings back only the image.
-                    let (out, phases) = if self.buffer == Buffer::Normals {
-                        g.render_with_gbuffer(&self.scene, &self.geo, &opts, &(), build_seconds)?
-                    } else {
-                        g.render(&self.scene, &self.geo, &opts, &(), build_seconds)?
-                    };
-                    if record {
-                        note = Some(
-                            "ray kinds and tests per pixel are drawn from the CPU backend's rays"
-                                .into(),
-                        );
-                    }
-                    (out, Vec::new(), phases)
-                }
-            };
+        let (camera, at, buffer, backend) = (self.camera(), self.at(), self.buffer, self.backend);
+        self.runner();
+        let (base, runner) = (&self.base, self.runner.as_mut().expect("made"));
+        runner.set_camera(Some(camera.clone()));
+        // The per-ray views record the engine's batches (the CPU's); the normals view
+        // keeps the G-buffer (on the GPU, read back with the image).
+        runner.set_record(record);
+        runner.set_keep_gbuffer(buffer == Buffer::Normals);
+        let f = runner.render(base, at, 0, &opts, &())?;
+        let build_seconds = f.row.build_ms / 1e3;
+        let (out, phases) = (f.rendered, f.gpu_phases);
+        let batches: Vec<(RayBatch, TraceMode)> =
+            f.batches.into_iter().map(|x| (x.0, x.1)).collect();
+        if record && backend == Backend::Gpu {
+            note =
+                Some("ray kinds and tests per pixel are drawn from the CPU backend's rays".into());
+        }
         // On the GPU backend the per-ray views come from the same frame on the CPU (same
         // rays: the GPU's hits equal the CPU's).
         let batches = if record && batches.is_empty() {
             self.aux_grid()?;
             let grid = self.aux_grid.as_deref().expect("built above") as &dyn Tracer;
             let rec = Recorder::new(grid);
-            render(&self.scene, &self.geo, &rec, &opts, &());
+            let mut view = self.base.frame_at(self.time);
+            view.camera = camera;
+            let geo = self.runner.as_ref().expect("made").geometry();
+            render(&view, geo, &rec, &opts, &());
             rec.into_batches().into_iter().map(|x| (x.0, x.1)).collect()
         } else {
             batches
@@ -485,11 +418,10 @@ impl Session {
                 let tracer: &dyn Tracer = if per_ray {
                     self.aux_grid.as_deref().expect("built above") as &dyn Tracer
                 } else {
-                    match &self.built.as_ref().ok_or_else(|| anyhow!("no engine"))?.2 {
-                        Built::Cpu(t) => t.as_ref(),
-                        #[cfg(feature = "gpu")]
-                        Built::Gpu(_) => unreachable!("per_ray is set on the GPU backend"),
-                    }
+                    self.runner
+                        .as_ref()
+                        .and_then(|r| r.tracer())
+                        .ok_or_else(|| anyhow!("no engine"))?
                 };
                 let counts = tests_per_pixel(tracer, &batches, npix);
                 render::output::heat_rgb8(&counts)
@@ -506,7 +438,7 @@ impl Session {
             rays,
             total_tests: total,
             percent_of_brute_force: 100.0 * total as f64
-                / (rays as f64 * self.geo.len() as f64).max(1.0),
+                / (rays as f64 * self.base.triangle_count() as f64).max(1.0),
             phases: if phases.is_empty() {
                 st.trace
                     .phases
@@ -524,8 +456,13 @@ impl Session {
     /// Build the grid that draws per-ray views for engines without per-ray counts.
     fn aux_grid(&mut self) -> Result<()> {
         if self.aux_grid.is_none() {
+            let geo = self
+                .runner
+                .as_ref()
+                .ok_or_else(|| anyhow!("no frame yet"))?
+                .geometry();
             self.aux_grid =
-                Some(engines::build(Engine::Grid, &Config::of(Engine::Grid), &self.geo)?.tracer);
+                Some(engines::build(Engine::Grid, &Config::of(Engine::Grid), geo)?.tracer);
         }
         Ok(())
     }
@@ -536,8 +473,8 @@ impl Session {
         let mut v = vec![
             format!(
                 "{} — {} triangles — {} on the {} — {} bounces — {}",
-                self.scene.name,
-                self.geo.len(),
+                self.base.name,
+                self.base.triangle_count(),
                 self.engine.name(),
                 self.backend.name(),
                 self.bounces,

@@ -5,6 +5,7 @@ mod bench;
 mod cli;
 mod common;
 mod engines;
+mod examples;
 mod first_hour;
 mod gpu;
 mod hostile;

@@ -6,14 +6,22 @@ use accel::peers::{BvhKind, ObvhsEngine};
 use scene::Geometry;
 use trace::{Hit, RayBatch, TraceMode, TraceStats, Tracer};
 
-/// Both grids, CRSH and RAH over `geo`.
+/// `bvh` (both builders, packets and single rays), both grids, CRSH and RAH over `geo`.
 pub fn ours(geo: &Geometry) -> Vec<Box<dyn Tracer>> {
+    use accel::bvh::{ObjectBuilder, RayPath};
     let mut v: Vec<Box<dyn Tracer>> = vec![
         Box::new(accel::GridEngine::new(geo, &accel::GridConfig::default()).unwrap()),
         Box::new(accel::GridEngine::new(geo, &accel::GridConfig::two_level()).unwrap()),
     ];
     for cfg in [rsh::RshConfig::crsh(), rsh::RshConfig::rah()] {
         v.push(Box::new(rsh::RshEngine::new(geo, cfg).unwrap()));
+    }
+    for (builder, path) in [
+        (ObjectBuilder::Sah, RayPath::Packets),
+        (ObjectBuilder::Lbvh, RayPath::Single),
+    ] {
+        let cfg = accel::BvhConfig { builder, path };
+        v.push(Box::new(accel::BvhEngine::new(geo, cfg).unwrap()));
     }
     v
 }

@@ -48,6 +48,9 @@ pub enum SceneError {
         /// Why, when known (e.g. every triangle degenerate).
         detail: String,
     },
+    /// Arrays that make no scene ([`crate::arrays`]).
+    #[error(transparent)]
+    Arrays(#[from] crate::arrays::ArrayError),
     /// Neither a file nor a built-in scene. The message lists the names that are known
     /// ([`crate::builtin::NAMES`], [`crate::generate::NAMES`], [`crate::SHARED`]).
     #[error("unknown scene '{name}': not a file and not a built-in scene ({}), a generated scene ({}) or a shared scene ({}){}", crate::builtin::NAMES.join(", "), crate::generate::NAMES.map(|g| format!("{g}:SIZE")).join(", "), crate::SHARED.map(|s| s.0).join(", "), suggestion.map(|s| format!("; did you mean '{s}'?")).unwrap_or_default())]

@@ -79,6 +79,13 @@ impl Geometry {
         g
     }
 
+    /// [`Geometry::from_scene`] written into these buffers (a scene as it stands, each mesh
+    /// placed by its own transform; what did not move since the last fill of this scene is
+    /// left as it was).
+    pub fn refill(&mut self, scene: &Scene) {
+        self.fill(scene, |m| (scene.meshes[m].transform, None));
+    }
+
     /// The world-space triangles of animated `scene` at time `t` — bit for bit
     /// `from_scene(&scene.at_time(t))` — written into these buffers (a frame of an
     /// animation: kept from the last frame, so no allocation and no fresh pages), without

@@ -10,6 +10,7 @@
 
 pub mod aff;
 pub mod anim;
+pub mod arrays;
 pub mod autocam;
 pub mod builtin;
 pub mod error;
@@ -23,6 +24,7 @@ pub mod objfast;
 pub mod scenefile;
 pub mod shapes;
 
+pub use arrays::{ArrayError, SceneBuilder};
 pub use error::{Invalid, SceneError, SpecError, ViewpointError};
 pub use geometry::Geometry;
 pub use model::{Camera, Light, LoadReport, Material, Mesh, Scene, SceneId};

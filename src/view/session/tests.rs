@@ -14,7 +14,7 @@ fn a_full_frame_is_the_render() {
     let mut s = session(Engine::Grid);
     let rgb = s.frame(1).unwrap();
     let scene = scene::builtin::cornell();
-    let geo = Geometry::from_scene(&scene);
+    let geo = scene::Geometry::from_scene(&scene);
     let t = engines::build(Engine::Grid, &Config::of(Engine::Grid), &geo).unwrap();
     let out = render(
         &scene,
@@ -172,9 +172,11 @@ keys = [
         match made {
             Err(e) => testkit::skip("gpu", e.to_string()),
             Ok((mut g, a)) => {
-                let frame_box = |g: &Session| match &g.built {
-                    Some((_, _, Built::Gpu(f))) => &**f as *const _ as usize,
-                    _ => panic!("a GPU frame is built"),
+                let frame_box = |g: &Session| {
+                    g.runner
+                        .as_ref()
+                        .and_then(|r| r.gpu_frame_address())
+                        .expect("a GPU frame is built")
                 };
                 let first = frame_box(&g);
                 g.set_time(1.0);
