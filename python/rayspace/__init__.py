@@ -165,6 +165,8 @@ class Engine:
         tmin: Optional[ArrayLike] = None,
         tmax: Optional[ArrayLike] = None,
         any_hit: bool = False,
+        points: bool = False,
+        normals: bool = False,
     ) -> Dict[str, _np.ndarray]:
         """Trace rays: ``(N, 3)`` origins and directions, optional bounds, each a scalar or
         ``(N,)`` (default 0 and inf). Any real dtype and any strides are taken (converted to
@@ -172,10 +174,23 @@ class Engine:
         raises ``ValueError`` (:class:`Error`), non-numbers ``TypeError``. Returns
         ``{"t", "triangle", "u", "v"}`` arrays; a
         closest-hit record is brute force's bit for bit (smallest t, ties to the smallest
-        triangle), an any-hit record is some hit in range. ``engine.trace(**rays(scene))``
-        works as is."""
+        triangle), an any-hit record is some hit in range. ``points=True`` adds ``"point"``,
+        the ``(N, 3)`` world-space hit points, ``normals=True`` ``"normal"``, the unit
+        shading normals (NaN rows for misses). ``engine.trace(**rays(scene))`` works as is.
+        After :meth:`Scene.update`, tracing raises :class:`Error` until :meth:`rebuild`."""
         o, d, lo, hi = _rays(origins, directions, tmin, tmax)
-        return self._engine.trace(o, d, lo, hi, bool(any_hit))
+        return self._engine.trace(o, d, lo, hi, bool(any_hit), bool(points), bool(normals))
+
+    def rebuild(self) -> None:
+        """Bring the engine to its scene as it is now (after :meth:`Scene.update`): the
+        engine is built again over the scene's current triangles. Until then, tracing after
+        an update raises :class:`Error` rather than answering for the old triangles."""
+        self._engine.rebuild()
+
+    @property
+    def current(self) -> bool:
+        """Whether the engine was built for its scene as it is now."""
+        return self._engine.current
 
     def counters(self) -> Dict[str, Any]:
         """The last trace's counters: rays, hits, ray_tri_tests, node_tri_tests,

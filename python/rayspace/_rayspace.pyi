@@ -19,6 +19,21 @@ class Scene:
         fill: Optional[bool] = None,
         exposure: Optional[float] = None,
     ) -> Scene: ...
+    @staticmethod
+    def from_arrays(
+        vertices: npt.ArrayLike,
+        faces: npt.ArrayLike,
+        transform: Optional[npt.ArrayLike] = None,
+        name: str = "arrays",
+    ) -> Scene: ...
+    @staticmethod
+    def from_meshes(meshes: Any, name: str = "arrays") -> Scene: ...
+    def update(
+        self,
+        vertices: Optional[npt.ArrayLike] = None,
+        transform: Optional[npt.ArrayLike] = None,
+        mesh: int = 0,
+    ) -> None: ...
     @property
     def name(self) -> str: ...
     @property
@@ -58,7 +73,12 @@ class Engine:
         tmin: Optional[npt.NDArray[np.float32]] = None,
         tmax: Optional[npt.NDArray[np.float32]] = None,
         any_hit: bool = False,
+        points: bool = False,
+        normals: bool = False,
     ) -> Dict[str, np.ndarray]: ...
+    def rebuild(self) -> None: ...
+    @property
+    def current(self) -> bool: ...
     def counters(self) -> Dict[str, Any]: ...
 
 def rays(

@@ -7,8 +7,8 @@ use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rayspace::engines;
+use rayspace::runner::Runner;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// `rayspace render`'s image and `--stats` JSON (as a string) for one frame.
 #[pyfunction(name = "render")]
@@ -27,7 +27,7 @@ pub(crate) fn render_frame<'py>(
     viewpoint: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyArray3<u8>>, String)> {
-    let (engine, mut cfg) = parse_engine(engine, options, dynamic)?;
+    let (engine, cfg) = parse_engine(engine, options, dynamic)?;
     check_image(width, height, bounces)?;
     if !(1..=render::whitted::MAX_SPP).contains(&spp) {
         return Err(err(format!(
@@ -35,14 +35,26 @@ pub(crate) fn render_frame<'py>(
             render::whitted::MAX_SPP
         )));
     }
-    let frame = match time {
-        Some(t) => Some(scene.at_time(py, t)?),
-        None => None,
+    if let Some(t) = time {
+        if !t.is_finite() {
+            return Err(err(format!("time={t}: not a finite time")));
+        }
+        if scene.model().animation.is_none() {
+            return Err(err(format!(
+                "time={t}: {} is not animated",
+                scene.model().name
+            )));
+        }
+    }
+    let (mut sc, geo, load_seconds) = scene.state();
+    let ropts = render::whitted::RenderOptions {
+        width,
+        height,
+        bounces,
+        spp,
     };
-    let s = frame.as_ref().unwrap_or(scene);
-    let left = render_memory(width, height, s.scene.lights.len())?;
-    let adapted = fit(&mut cfg, engine, s.geo.len(), left)?;
-    let (mut sc, geo, load_seconds) = (s.scene.clone(), s.geo.clone(), s.load_seconds);
+    let left = rayspace::runner::memory_left(trace::memory::limit(None), &ropts, sc.lights.len())
+        .map_err(err)?;
     if let Some(v) = viewpoint {
         // As `--viewpoint`: a string "EX,EY,EZ,TX,TY,TZ[,FOV]" or 6 or 7 numbers.
         let text = match v.extract::<String>() {
@@ -59,28 +71,23 @@ pub(crate) fn render_frame<'py>(
                 .collect::<Vec<_>>()
                 .join(","),
         };
-        let cam = scene::Camera::from_viewpoint(&text)
-            .map_err(|e| err(format!("viewpoint={e}")))?;
+        let cam =
+            scene::Camera::from_viewpoint(&text).map_err(|e| err(format!("viewpoint={e}")))?;
         std::sync::Arc::make_mut(&mut sc)
             .set_camera(cam)
             .map_err(|e| err(format!("viewpoint={text}: {e}")))?;
     }
-    let ropts = render::whitted::RenderOptions {
-        width,
-        height,
-        bounces,
-        spp,
-    };
     let (rgb, stats) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
-        // What the build adds at its peak, as `render --stats` measures it (started before
-        // the build's clock: it reads and writes /proc).
-        let watch = trace::memory::PeakWatch::start();
-        let t1 = Instant::now();
-        let tracer = engines::build(engine, &cfg, &geo).map_err(err)?.tracer;
-        let build_s = t1.elapsed().as_secs_f64();
-        let build_peak = watch.and_then(|w| w.added());
-        let mut out = render::whitted::render(&sc, &geo, tracer.as_ref(), &ropts, &());
-        out.stats.put_build(build_s, tracer.build_passes());
+        // The frame as `render` makes it: the runner fits the engine to the memory limit,
+        // builds it (measuring what the build adds at its peak) and renders.
+        let mut runner = Runner::new(engine, cfg, engines::Backend::Cpu)
+            .watch_build_memory(true)
+            .with_geometry((*geo).clone());
+        let adapted = adapted_json(runner.fit_memory(geo.len() as u64, left).map_err(err)?);
+        let cfg = runner.config().clone();
+        drop(geo);
+        let f = runner.frame(&sc, time, 0, &ropts, &()).map_err(err)?;
+        let out = &f.rendered;
         let rgb = render::output::to_rgb8(&out.pixels, width, height).into_raw();
         let mut v = serde_json::to_value(&out.stats).map_err(err)?;
         v["load_seconds"] = load_seconds.into();
@@ -99,13 +106,13 @@ pub(crate) fn render_frame<'py>(
         }
         // The structure's bytes, the process's peak memory and the build's, as `render
         // --stats` has them.
-        if let Some(b) = tracer.structure_bytes() {
+        if let Some(b) = f.structure_bytes {
             v["structure_bytes"] = b.into();
         }
         if let Some(b) = trace::memory::peak_rss() {
             v["peak_rss_bytes"] = b.into();
         }
-        if let Some(b) = build_peak {
+        if let Some(b) = f.build_peak {
             v["build_peak_bytes"] = b.into();
         }
         Ok((rgb, v.to_string()))
@@ -133,46 +140,56 @@ pub(crate) fn frame<'py>(
     bounces: u32,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyBytes>, String)> {
-    let (engine, mut cfg) = parse_engine(engine, options, true)?;
+    let (engine, cfg) = parse_engine(engine, options, true)?;
     check_image(width, height, bounces)?;
     if !t.is_finite() {
         return Err(err(format!("t={t}: not a finite time")));
     }
-    if scene.scene.animation.is_none() {
+    let (sc, geo, _) = scene.state();
+    if sc.animation.is_none() {
         return Err(err(format!(
             "frames: {} is not animated (BART .aff files and TOML scenes with keyframes are)",
-            scene.scene.name
+            sc.name
         )));
     }
-    let left = render_memory(width, height, scene.scene.lights.len())?;
-    fit(&mut cfg, engine, scene.geo.len(), left)?;
-    let sc = scene.scene.clone();
     let ropts = render::whitted::RenderOptions {
         width,
         height,
         bounces,
         spp: 1,
     };
+    let left = rayspace::runner::memory_left(trace::memory::limit(None), &ropts, sc.lights.len())
+        .map_err(err)?;
+    let triangles = geo.len() as u64;
+    drop(geo);
     let (png, line) = py.detach(move || -> PyResult<(Vec<u8>, String)> {
-        // A worker renders its frames one after another on its thread: the geometry's and
-        // the renderer's buffers are kept from one frame to the next, as `--frames` keeps
-        // them.
-        let (out, row) = FRAME_BUFFERS
-            .with(|b| {
-                let mut b = b.borrow_mut();
-                rayspace::frames::frame_with(&mut b, &sc, t, index, engine, &cfg, &ropts)
+        // A worker renders its frames one after another on its thread: its runner keeps
+        // the geometry's and the renderer's buffers from one frame to the next, as
+        // `--frames` keeps them.
+        let f = RUNNER
+            .with(|r| -> Result<rayspace::Frame, rayspace::FrameError> {
+                let mut r = r.borrow_mut();
+                let same = r
+                    .as_ref()
+                    .is_some_and(|r| r.engine() == engine && r.asked() == &cfg);
+                if !same {
+                    *r = Some(Runner::new(engine, cfg.clone(), engines::Backend::Cpu));
+                }
+                let r = r.as_mut().expect("made above");
+                r.fit_memory(triangles, left)?;
+                r.frame(&sc, Some(t), index, &ropts, &())
             })
             .map_err(err)?;
-        let png = render::output::png_bytes(&out.pixels, width, height).map_err(err)?;
-        Ok((png, row.csv_line()))
+        let png = render::output::png_bytes(&f.rendered.pixels, width, height).map_err(err)?;
+        Ok((png, f.row.csv_line()))
     })?;
     Ok((PyBytes::new(py, &png), line))
 }
 
 thread_local! {
-    /// The buffers of the frames rendered on this thread ([`rayspace::frames::FrameBuffers`]).
-    static FRAME_BUFFERS: std::cell::RefCell<rayspace::frames::FrameBuffers> =
-        std::cell::RefCell::new(Default::default());
+    /// The runner of the frames rendered on this thread (the last engine and options asked
+    /// for), with its buffers.
+    static RUNNER: std::cell::RefCell<Option<Runner>> = const { std::cell::RefCell::new(None) };
 }
 
 /// The `--frame-csv` header line.
@@ -198,36 +215,9 @@ pub(crate) fn check_image(width: u32, height: u32, bounces: u32) -> PyResult<()>
     Ok(())
 }
 
-/// The memory a render needs, checked against the limit; returns what it and the process's
-/// present memory leave for the engine's structure (its model is checked against it).
-fn render_memory(width: u32, height: u32, lights: usize) -> PyResult<u64> {
-    let need = render::whitted::render_bytes(width, height, lights);
-    let limit = trace::memory::limit(None);
-    if need > limit {
-        return Err(err(format!(
-            "width/height: the render needs {}, more than the {} limit",
-            trace::memory::gib(need),
-            trace::memory::gib(limit)
-        )));
-    }
-    // What the process holds now (the interpreter, the scene) is not the engine's either.
-    let held = trace::memory::current_rss().unwrap_or(0);
-    Ok(limit.saturating_sub(need + held))
-}
-
-/// `cfg` of `engine` over `triangles` fitted to the `bytes` the render leaves, as `render`
-/// fits it (the build's model must fit; the grid's build checks its own against them; CRSH
-/// and RAH lower their pair budget): what it changed, as `--stats`'s `engine_adapted`
-/// object.
-fn fit(
-    cfg: &mut engines::Config,
-    engine: engines::Engine,
-    triangles: usize,
-    bytes: u64,
-) -> PyResult<serde_json::Value> {
-    let changes = cfg
-        .fit_memory(engine, triangles as u64, bytes)
-        .map_err(err)?;
+/// What the runner lowered to fit the memory limit, as `--stats`'s `engine_adapted`
+/// object (option → {"asked", "used"}).
+fn adapted_json(changes: &[rayspace::runner::Adapted]) -> serde_json::Value {
     let mut out = serde_json::Map::new();
     for (name, asked, used) in changes {
         out.insert(
@@ -235,7 +225,7 @@ fn fit(
             serde_json::json!({ "asked": asked, "used": used }),
         );
     }
-    Ok(serde_json::Value::Object(out))
+    serde_json::Value::Object(out)
 }
 
 /// PNG bytes of an H×W×3 uint8 image, encoded as the command line encodes its images.
