@@ -50,7 +50,7 @@ pub fn page(r: &Report) -> String {
     let mut h = String::new();
     let _ = write!(
         h,
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>rayspace report</title><link rel=\"icon\" href=\"data:,\"><style>{STYLE}</style></head><body>\n<h1>rayspace report{}</h1>\n<p id=\"provenance\">{}</p>\n<p class=\"note\">Made by <code>rayspace report{}</code> in {:.1} s. Every number here is in <a href=\"report.json\">report.json</a>. Published figures are shaded; ratios are ours ÷ published.</p>\n<nav><a href=\"#scenes\">Renders</a><a href=\"#thesis\">CRSH thesis, chapter 4</a><a href=\"#grid\">Irregular grids, Tables 1–5</a><a href=\"#scaling\">Scaling</a><a href=\"#generated\">Generated scenes</a></nav>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>rayspace report</title><link rel=\"icon\" href=\"data:,\"><style>{STYLE}</style></head><body>\n<h1>rayspace report{}</h1>\n<p id=\"provenance\">{}</p>\n<p class=\"note\">Made by <code>rayspace report{}</code> in {:.1} s. Every number here is in <a href=\"report.json\">report.json</a>. Published figures are shaded; ratios are ours ÷ published.</p>\n<nav><a href=\"#scenes\">Renders</a><a href=\"#thesis\">CRSH thesis, chapter 4</a><a href=\"#pays\">When a ray hierarchy pays</a><a href=\"#grid\">Irregular grids, Tables 1–5</a><a href=\"#scaling\">Scaling</a><a href=\"#generated\">Generated scenes</a></nav>\n",
         if r.quick { " (quick)" } else { "" },
         esc(&r.provenance),
         if r.quick { " --quick" } else { "" },
@@ -61,6 +61,7 @@ pub fn page(r: &Report) -> String {
     }
     scenes(&mut h, r);
     thesis(&mut h, r);
+    super::ray_hierarchy::html(&mut h, &r.ray_hierarchy, r.side);
     grid(&mut h, r);
     scaling(&mut h, r);
     generated(&mut h, r);

@@ -11,6 +11,7 @@
 
 pub mod html;
 pub mod published;
+pub mod ray_hierarchy;
 
 use crate::bench::{self, charts};
 use crate::engines::{Backend, Config, Engine};
@@ -252,6 +253,8 @@ pub struct Report {
     pub side: u32,
     pub scenes: Vec<SceneReport>,
     pub rsh: Vec<bench::rsh::Row>,
+    /// "When does a ray-space hierarchy pay?" ([`ray_hierarchy`]).
+    pub ray_hierarchy: ray_hierarchy::RayHierarchy,
     pub grid_perf: Vec<bench::grid::PerfRow>,
     pub grid_builds: Vec<bench::grid::GridRow>,
     pub scaling: Scaling,
@@ -709,6 +712,14 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
         },
         progress,
     )?;
+    let ray_hierarchy = ray_hierarchy::run(
+        &spec.rsh_scenes,
+        spec.side,
+        spec.bounces,
+        if spec.quick { 1 } else { 2 },
+        &rsh,
+        progress,
+    )?;
     let grid = bench::grid::run(
         &bench::grid::Spec {
             scenes: spec.grid_scenes.clone(),
@@ -730,6 +741,7 @@ pub fn run(spec: &Spec, progress: &dyn Fn(&str)) -> Result<Report> {
         side: spec.side,
         scenes,
         rsh,
+        ray_hierarchy,
         grid_perf: grid.perf,
         grid_builds: grid.grids,
         scaling,

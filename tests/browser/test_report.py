@@ -147,6 +147,17 @@ def test_numbers_match_the_json(page):
         id_ = f"rsh-{slug(r['scene'])}-{r['engine']}-{r['objects']}-{r['branching']}-{r['levels']}-pct"
         assert abs(float(text(id_)) - r["percent_of_brute_force"]) <= 0.0005 + 1e-9, id_
         checked += 1
+    # When a ray hierarchy pays: every scene's shadow rays by CRSH, RAH and bvh, hits
+    # brute force's.
+    pays = data["ray_hierarchy"]["rows"]
+    assert {(r["kind"], r["engine"]) for r in pays} >= {("shadow", e) for e in ("crsh", "rah", "bvh")}
+    for r in pays:
+        id_ = f"pays-{slug(r['scene'])}-{r['kind']}-{r['engine']}"
+        assert text(id_ + "-tests") == str(r["tests"]), id_
+        assert abs(float(text(id_ + "-ns")) - r["ns_per_ray"]) <= 0.05 + 1e-9, id_
+        assert r["wrong"] == 0 and r["rays"] > 0
+        checked += 2
+    assert all(c["crsh_tests"] > 0 and c["rah_tests"] > 0 for c in data["ray_hierarchy"]["claim"])
     for x in data["scaling"]["slopes"]:
         id_ = f"slope-{x['axis']}-{x['measure']}-{slug(x['engine'])}"
         assert abs(float(text(id_)) - x["slope"]) <= 0.005 + 1e-9, id_
