@@ -14,85 +14,10 @@
 //! keeps them.
 
 use crate::autocam;
+use crate::error::ArrayError;
 use crate::model::{smooth_normals, Camera, Light, LoadReport, Material, Mesh, Scene, SceneId};
 use crate::SceneError;
 use geom::{Mat4, Vec3};
-
-/// Why arrays were refused (each names the row or mesh at fault).
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum ArrayError {
-    /// A scene needs at least one face.
-    #[error("no faces: a scene needs at least one triangle")]
-    NoFaces,
-    /// A face names a vertex that is not there.
-    #[error("face {row}: vertex index {index} is out of range ({vertices} vertices)")]
-    Index {
-        /// The face's row.
-        row: usize,
-        /// The index given.
-        index: u32,
-        /// The vertices there are.
-        vertices: usize,
-    },
-    /// A vertex coordinate is NaN or infinite.
-    #[error("vertex {row} is not finite: {value}")]
-    NotFinite {
-        /// The vertex's row.
-        row: usize,
-        /// Its value.
-        value: Vec3,
-    },
-    /// More faces than triangle ids hold (2^31), or more vertices than indices (2^32).
-    #[error("{count} {what}: more than the {max} a scene holds")]
-    TooMany {
-        /// "faces" or "vertices".
-        what: &'static str,
-        /// How many were given.
-        count: usize,
-        /// The most there may be.
-        max: usize,
-    },
-    /// No mesh of that index.
-    #[error("mesh {mesh}: no such mesh (the scene has {meshes})")]
-    NoMesh {
-        /// The index given.
-        mesh: usize,
-        /// The scene's meshes.
-        meshes: usize,
-    },
-    /// New positions for a mesh must be as many as its vertices (its faces stay).
-    #[error("mesh {mesh}: {given} vertices given, the mesh has {has}")]
-    VertexCount {
-        /// The mesh.
-        mesh: usize,
-        /// Vertices given.
-        given: usize,
-        /// Vertices the mesh has.
-        has: usize,
-    },
-    /// No material of that index.
-    #[error("material {material}: no such material (the scene has {materials})")]
-    NoMaterial {
-        /// The index given.
-        material: u32,
-        /// The scene's materials.
-        materials: usize,
-    },
-    /// A transform that is not finite or not invertible.
-    #[error("mesh {mesh}: the transform is not finite or not invertible")]
-    Transform {
-        /// The mesh.
-        mesh: usize,
-    },
-    /// The part of a mesh asked to change is moved by the scene's animation.
-    #[error("mesh {mesh}: its {what} come from the scene's animation")]
-    Animated {
-        /// The mesh.
-        mesh: usize,
-        /// "vertices" or "transform".
-        what: &'static str,
-    },
-}
 
 /// The most faces a scene holds (triangle ids are 31-bit, as [`Scene::validate`] says).
 const MAX_FACES: usize = u32::MAX as usize / 2;

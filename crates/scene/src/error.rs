@@ -50,15 +50,18 @@ pub enum SceneError {
     },
     /// Arrays that make no scene ([`crate::arrays`]).
     #[error(transparent)]
-    Arrays(#[from] crate::arrays::ArrayError),
-    /// Neither a file nor a built-in scene. The message lists the names that are known
-    /// ([`crate::builtin::NAMES`], [`crate::generate::NAMES`], [`crate::SHARED`]).
-    #[error("unknown scene '{name}': not a file and not a built-in scene ({}), a generated scene ({}) or a shared scene ({}){}", crate::builtin::NAMES.join(", "), crate::generate::NAMES.map(|g| format!("{g}:SIZE")).join(", "), crate::SHARED.map(|s| s.0).join(", "), suggestion.map(|s| format!("; did you mean '{s}'?")).unwrap_or_default())]
+    Arrays(#[from] ArrayError),
+    /// Neither a file nor a built-in scene.
+    #[error("unknown scene '{name}': not a file and not {known}{}", suggestion.map(|s| format!("; did you mean '{s}'?")).unwrap_or_default())]
     UnknownScene {
         /// The name given.
         name: String,
         /// The scene name nearest to it, where one is near (a typo).
         suggestion: Option<&'static str>,
+        /// The names that are known: the built-in scenes ([`crate::builtin::NAMES`]), the
+        /// generators' forms ([`crate::generate::NAMES`]) and the shared real scenes
+        /// ([`crate::SHARED`]).
+        known: String,
     },
     /// A generated scene's spec (`hairball:2M`) that names a generator but is malformed.
     #[error("scene '{spec}': {error}")]
@@ -146,5 +149,81 @@ pub enum SpecError {
         generator: &'static str,
         /// The seed given.
         seed: String,
+    },
+}
+
+/// Why arrays were refused (each names the row or mesh at fault).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ArrayError {
+    /// A scene needs at least one face.
+    #[error("no faces: a scene needs at least one triangle")]
+    NoFaces,
+    /// A face names a vertex that is not there.
+    #[error("face {row}: vertex index {index} is out of range ({vertices} vertices)")]
+    Index {
+        /// The face's row.
+        row: usize,
+        /// The index given.
+        index: u32,
+        /// The vertices there are.
+        vertices: usize,
+    },
+    /// A vertex coordinate is NaN or infinite.
+    #[error("vertex {row} is not finite: {value}")]
+    NotFinite {
+        /// The vertex's row.
+        row: usize,
+        /// Its value.
+        value: geom::Vec3,
+    },
+    /// More faces than triangle ids hold (2^31), or more vertices than indices (2^32).
+    #[error("{count} {what}: more than the {max} a scene holds")]
+    TooMany {
+        /// "faces" or "vertices".
+        what: &'static str,
+        /// How many were given.
+        count: usize,
+        /// The most there may be.
+        max: usize,
+    },
+    /// No mesh of that index.
+    #[error("mesh {mesh}: no such mesh (the scene has {meshes})")]
+    NoMesh {
+        /// The index given.
+        mesh: usize,
+        /// The scene's meshes.
+        meshes: usize,
+    },
+    /// New positions for a mesh must be as many as its vertices (its faces stay).
+    #[error("mesh {mesh}: {given} vertices given, the mesh has {has}")]
+    VertexCount {
+        /// The mesh.
+        mesh: usize,
+        /// Vertices given.
+        given: usize,
+        /// Vertices the mesh has.
+        has: usize,
+    },
+    /// No material of that index.
+    #[error("material {material}: no such material (the scene has {materials})")]
+    NoMaterial {
+        /// The index given.
+        material: u32,
+        /// The scene's materials.
+        materials: usize,
+    },
+    /// A transform that is not finite or not invertible.
+    #[error("mesh {mesh}: the transform is not finite or not invertible")]
+    Transform {
+        /// The mesh.
+        mesh: usize,
+    },
+    /// The part of a mesh asked to change is moved by the scene's animation.
+    #[error("mesh {mesh}: its {what} come from the scene's animation")]
+    Animated {
+        /// The mesh.
+        mesh: usize,
+        /// "vertices" or "transform".
+        what: &'static str,
     },
 }

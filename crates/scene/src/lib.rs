@@ -24,8 +24,8 @@ pub mod objfast;
 pub mod scenefile;
 pub mod shapes;
 
-pub use arrays::{ArrayError, SceneBuilder};
-pub use error::{Invalid, SceneError, SpecError, ViewpointError};
+pub use arrays::SceneBuilder;
+pub use error::{ArrayError, Invalid, SceneError, SpecError, ViewpointError};
 pub use geometry::Geometry;
 pub use model::{Camera, Light, LoadReport, Material, Mesh, Scene, SceneId};
 
@@ -338,6 +338,12 @@ pub fn load(spec: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
                 return Err(SceneError::UnknownScene {
                     name: spec.to_string(),
                     suggestion: suggest(spec),
+                    known: format!(
+                        "a built-in scene ({}), a generated scene ({}) or a shared scene ({})",
+                        builtin::NAMES.join(", "),
+                        generate::NAMES.map(|g| format!("{g}:SIZE")).join(", "),
+                        SHARED.map(|s| s.0).join(", ")
+                    ),
                 })
             }
         },
